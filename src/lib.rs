@@ -1,0 +1,47 @@
+//! # raysched
+//!
+//! A research harness that answers, with measurements, *at what granularity should parallel
+//! ray-tracing work be handed out, and by whom?*
+//!
+//! - [`scene`]: TOML scenes, validated into an immutable, `Sync` [`scene::Scene`].
+//! - [`tracer`]: the [`tracer::Tracer`] seam (closest hit + occlusion): `bvh` (obvhs CWBVH),
+//!   `brute` (reference), `embree` (feature `embree`).
+//! - [`render`]: the path tracer and [`render::render_item`], a pure function of
+//!   (scene, tracer, item, seed), so every scheduler produces bit-identical images.
+//!
+//! ```
+//! use raysched::{render, scene, tracer::AnyTracer};
+//! let text = r#"
+//! [camera]
+//! origin = [0, 0, 4]
+//! target = [0, 0, 0]
+//! up = [0, 1, 0]
+//! fov_deg = 40
+//! width = 8
+//! height = 8
+//! [render]
+//! spp = 4
+//! [materials.white]
+//! type = "diffuse"
+//! reflectance = [0.8, 0.8, 0.8]
+//! [[shapes]]
+//! type = "sphere"
+//! material = "white"
+//! [[lights]]
+//! type = "environment"
+//! radiance = [1, 1, 1]
+//! "#;
+//! let scene = scene::load_scene_str(text, "doc", std::path::Path::new("."), "doc",
+//!     &Default::default()).unwrap();
+//! let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+//! let (image, counters) = render::render_serial(&scene, &tracer);
+//! assert_eq!(image.data.len(), 64);
+//! assert!(counters.rays > 0);
+//! ```
+
+pub mod cli;
+pub mod geometry;
+pub mod render;
+pub mod rng;
+pub mod scene;
+pub mod tracer;

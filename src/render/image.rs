@@ -1,0 +1,139 @@
+//! Linear f32 RGB images: EXR or PFM (the data) chosen by extension, plus an sRGB PNG preview.
+
+use super::WorkItem;
+use crate::scene::Fnv64;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// Row 0 is the top row.
+    pub data: Vec<[f32; 3]>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{path}: unsupported image extension (use .exr or .pfm)")]
+    Extension { path: String },
+    #[error("{path}: {msg}")]
+    Io { path: String, msg: String },
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            data: vec![[0.0; 3]; width as usize * height as usize],
+        }
+    }
+
+    /// Write an item's pixels (in the item's order) into the image.
+    pub fn put(&mut self, item: &WorkItem, pixels: &[[f32; 3]]) {
+        for (idx, px) in item.pixels(self.width).zip(pixels) {
+            self.data[idx as usize] = *px;
+        }
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        self.data[(y * self.width + x) as usize]
+    }
+
+    /// FNV-1a over the exact f32 bits: equal hashes mean bit-identical images.
+    pub fn hash(&self) -> u64 {
+        let mut h = Fnv64::default();
+        h.write(&self.width.to_le_bytes());
+        h.write(&self.height.to_le_bytes());
+        for p in &self.data {
+            for c in p {
+                h.write(&c.to_bits().to_le_bytes());
+            }
+        }
+        h.finish()
+    }
+
+    /// Write the data file (`.exr` or `.pfm`) and an sRGB `.png` preview beside it; returns the
+    /// preview's path. Nothing is written if the extension is not supported.
+    pub fn save_with_preview(&self, path: &Path) -> Result<PathBuf, ImageError> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let io = |e: &dyn std::fmt::Display| ImageError::Io {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        };
+        match ext.as_str() {
+            "exr" => self.save_exr(path).map_err(|e| io(&e))?,
+            "pfm" => std::fs::write(path, self.pfm_bytes()).map_err(|e| io(&e))?,
+            _ => {
+                return Err(ImageError::Extension {
+                    path: path.display().to_string(),
+                })
+            }
+        }
+        let png = path.with_extension("png");
+        self.save_png(&png).map_err(|e| ImageError::Io {
+            path: png.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        Ok(png)
+    }
+
+    fn save_exr(&self, path: &Path) -> image::ImageResult<()> {
+        let flat: Vec<f32> = self.data.iter().flatten().copied().collect();
+        let img = image::Rgb32FImage::from_raw(self.width, self.height, flat)
+            .expect("buffer length matches width·height·3");
+        img.save_with_format(path, image::ImageFormat::OpenExr)
+    }
+
+    /// Portable float map: little-endian, rows stored bottom to top.
+    pub fn pfm_bytes(&self) -> Vec<u8> {
+        let mut out = format!("PF\n{} {}\n-1.0\n", self.width, self.height).into_bytes();
+        for y in (0..self.height).rev() {
+            for x in 0..self.width {
+                for c in self.get(x, y) {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+        }
+        out
+    }
+
+    /// sRGB-encoded, clamped 8-bit preview.
+    pub fn save_png(&self, path: &Path) -> image::ImageResult<()> {
+        let bytes: Vec<u8> = self
+            .data
+            .iter()
+            .flatten()
+            .map(|&v| (srgb_encode(v) * 255.0 + 0.5) as u8)
+            .collect();
+        image::RgbImage::from_raw(self.width, self.height, bytes)
+            .expect("buffer length matches width·height·3")
+            .save_with_format(path, image::ImageFormat::Png)
+    }
+
+    /// Read an EXR written by [`Image::save_with_preview`] (or any RGB EXR).
+    pub fn load_exr(path: &Path) -> Result<Self, ImageError> {
+        let img = image::open(path).map_err(|e| ImageError::Io {
+            path: path.display().to_string(),
+            msg: e.to_string(),
+        })?;
+        let rgb = img.to_rgb32f();
+        Ok(Self {
+            width: rgb.width(),
+            height: rgb.height(),
+            data: rgb.pixels().map(|p| p.0).collect(),
+        })
+    }
+}
+
+pub fn srgb_encode(v: f32) -> f32 {
+    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}

@@ -1,0 +1,326 @@
+//! Unidirectional path tracer: next-event estimation and BSDF sampling combined by multiple
+//! importance sampling (power heuristic), unbiased Russian roulette from segment 5 on.
+//!
+//! `max_depth` counts path *segments*; the segment that reaches an emitter, or the shadow
+//! connection, counts (REFERENCE_SCENES.md): 1 = emitters seen directly, 2 = plus direct light.
+
+use crate::geometry::{basis, gamma, offset_ray_origin, Hit, Ray};
+use crate::rng::Sampler;
+use crate::scene::{Light, Material, Scene, NO_LIGHT};
+use crate::tracer::Tracer;
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Segments before Russian roulette may end a path.
+const RR_START: u32 = 5;
+/// Shadow rays stop this fraction short of the (offset) light point, as pbrt's ShadowEpsilon.
+const SHADOW_EPSILON: f32 = 1e-4;
+
+/// Where a ray hit, in the form shading needs.
+pub struct Interaction {
+    pub p: Vec3,
+    pub p_err: Vec3,
+    /// Geometric normal: triangle winding, or sphere outward (inward when flipped).
+    pub n: Vec3,
+    pub material: u32,
+    pub light: u32,
+}
+
+pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
+    let g = &scene.geometry;
+    let info = g.info[hit.prim as usize];
+    let ns = g.spheres.len() as u32;
+    let (p, p_err, n) = if hit.prim < ns {
+        let (p, err, n) = g.spheres[hit.prim as usize].point(ray, hit.t);
+        (p, err, if info.flip { -n } else { n })
+    } else {
+        let tri = &g.triangles[(hit.prim - ns) as usize];
+        let (p, err) = tri.point(hit.b1, hit.b2);
+        (p, err, tri.normal())
+    };
+    Interaction {
+        p,
+        p_err,
+        n,
+        material: info.material,
+        light: info.light,
+    }
+}
+
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2.is_infinite() {
+        1.0
+    } else {
+        a2 / (a2 + b2)
+    }
+}
+
+fn cosine_hemisphere(n: Vec3, u: (f32, f32)) -> Vec3 {
+    let r = u.0.sqrt();
+    let phi = 2.0 * PI * u.1;
+    let (t, b) = basis(n);
+    let z = (1.0 - u.0).max(0.0).sqrt();
+    (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
+}
+
+fn uniform_sphere(u: (f32, f32)) -> Vec3 {
+    let z = 1.0 - 2.0 * u.0;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.1;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Unpolarised Fresnel reflectance of a smooth dielectric; `eta` = n_transmitted / n_incident.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_par = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_par * r_par + r_perp * r_perp)
+}
+
+/// A point sampled on an area light, with its facing normal and error bound.
+struct LightPoint {
+    p: Vec3,
+    err: Vec3,
+    n: Vec3,
+}
+
+fn sample_area(scene: &Scene, prims: &[u32], cdf: &[f32], area: f32, u: f32, v: (f32, f32)) -> LightPoint {
+    let g = &scene.geometry;
+    let target = u * area;
+    let k = cdf.partition_point(|&c| c <= target).min(prims.len() - 1);
+    let prim = prims[k];
+    let ns = g.spheres.len() as u32;
+    if prim < ns {
+        let s = &g.spheres[prim as usize];
+        let dir = uniform_sphere(v);
+        let p = s.center + dir * s.radius;
+        let n = if g.info[prim as usize].flip { -dir } else { dir };
+        LightPoint {
+            p,
+            err: (dir * s.radius).abs() * gamma(5) + s.center.abs() * gamma(2),
+            n,
+        }
+    } else {
+        let tri = &g.triangles[(prim - ns) as usize];
+        let su = v.0.sqrt();
+        let (b1, b2) = (1.0 - su, v.1 * su);
+        let (p, err) = tri.point(b1, b2);
+        LightPoint {
+            p,
+            err,
+            n: tri.normal(),
+        }
+    }
+}
+
+/// Light-selection probability times the solid-angle density of hitting area light `light`
+/// at distance `dist` with cosine `cos_l` at the light.
+fn area_pdf(scene: &Scene, light: u32, dist: f32, cos_l: f32) -> f32 {
+    match &scene.lights[light as usize] {
+        Light::Area { area, .. } => dist * dist / (cos_l * area * scene.lights.len() as f32),
+        _ => 0.0,
+    }
+}
+
+/// Next-event estimation at a diffuse vertex: radiance arriving through one light sample,
+/// MIS-weighted against cosine BSDF sampling. `f` is the BSDF value (albedo/π).
+fn direct<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    it: &Interaction,
+    f: Vec3,
+    s: &mut Sampler,
+    rays: &mut u64,
+) -> Vec3 {
+    let n_lights = scene.lights.len();
+    let pick = s.next();
+    let u = s.next2();
+    let u3 = s.next();
+    let idx = ((pick * n_lights as f32) as usize).min(n_lights - 1);
+    let sel = 1.0 / n_lights as f32;
+    match &scene.lights[idx] {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let o = offset_ray_origin(it.p, it.p_err, it.n, *position - it.p);
+            let d = *position - o;
+            let dist2 = d.length_squared();
+            let wi = d / dist2.sqrt();
+            let cos = it.n.dot(wi);
+            if cos <= 0.0 {
+                return Vec3::ZERO;
+            }
+            *rays += 1;
+            if tracer.occluded(&Ray::new(o, d), 1.0 - SHADOW_EPSILON) {
+                return Vec3::ZERO;
+            }
+            f * *intensity * (cos / (dist2 * sel))
+        }
+        Light::Area {
+            prims,
+            cdf,
+            area,
+            radiance,
+        } => {
+            let lp = sample_area(scene, prims, cdf, *area, u3, u);
+            let to = lp.p - it.p;
+            let dist = to.length();
+            if dist == 0.0 {
+                return Vec3::ZERO;
+            }
+            let wi = to / dist;
+            let cos = it.n.dot(wi);
+            let cos_l = -lp.n.dot(wi);
+            if cos <= 0.0 || cos_l <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let light_pdf = sel * dist * dist / (cos_l * area);
+            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
+            let target = offset_ray_origin(lp.p, lp.err, lp.n, -wi);
+            *rays += 1;
+            if tracer.occluded(&Ray::new(o, target - o), 1.0 - SHADOW_EPSILON) {
+                return Vec3::ZERO;
+            }
+            let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
+            f * *radiance * (cos * w / light_pdf)
+        }
+        Light::Environment { radiance } => {
+            let wi = uniform_sphere(u);
+            let cos = it.n.dot(wi);
+            if cos <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let light_pdf = sel / (4.0 * PI);
+            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
+            *rays += 1;
+            if tracer.occluded(&Ray::new(o, wi), f32::INFINITY) {
+                return Vec3::ZERO;
+            }
+            let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
+            f * *radiance * (cos * w / light_pdf)
+        }
+    }
+}
+
+/// Radiance along a camera ray. `rays` counts every tracer query (closest-hit and shadow).
+pub fn radiance<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    mut ray: Ray,
+    s: &mut Sampler,
+    rays: &mut u64,
+) -> Vec3 {
+    let max_depth = if scene.settings.max_depth < 0 {
+        u32::MAX
+    } else {
+        scene.settings.max_depth as u32
+    };
+    let has_lights = !scene.lights.is_empty();
+    let env = scene.environment_radiance();
+    let env_pdf = 1.0 / (4.0 * PI * scene.lights.len().max(1) as f32);
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut depth = 1u32; // the segment `ray` is about to trace
+    let mut specular = true; // camera rays and specular bounces take emission unweighted
+    let mut bsdf_pdf = 0.0f32;
+    loop {
+        *rays += 1;
+        let Some(hit) = tracer.intersect(&ray, f32::INFINITY) else {
+            if scene.environment.is_some() {
+                let w = if specular {
+                    1.0
+                } else {
+                    power_heuristic(bsdf_pdf, env_pdf)
+                };
+                l += beta * env * w;
+            }
+            break;
+        };
+        let it = interaction(scene, &ray, &hit);
+        let front = ray.d.dot(it.n) < 0.0;
+        if it.light != NO_LIGHT && front {
+            if let Light::Area { radiance, .. } = &scene.lights[it.light as usize] {
+                let w = if specular {
+                    1.0
+                } else {
+                    let dist = hit.t * ray.d.length();
+                    let cos_l = -ray.d.normalize().dot(it.n);
+                    power_heuristic(bsdf_pdf, area_pdf(scene, it.light, dist, cos_l))
+                };
+                l += beta * *radiance * w;
+            }
+        }
+        if depth >= max_depth {
+            break;
+        }
+        let wo = -ray.d.normalize();
+        let next_dir = match scene.materials[it.material as usize] {
+            Material::Diffuse { reflectance } => {
+                if !front {
+                    break; // one-sided: black from behind
+                }
+                let albedo = reflectance.eval(it.p, scene.origin);
+                let f = albedo * FRAC_1_PI;
+                if has_lights {
+                    l += beta * direct(scene, tracer, &it, f, s, rays);
+                }
+                let wi = cosine_hemisphere(it.n, s.next2());
+                bsdf_pdf = it.n.dot(wi).max(0.0) * FRAC_1_PI;
+                if bsdf_pdf == 0.0 {
+                    break;
+                }
+                beta *= albedo; // f·cos/pdf
+                specular = false;
+                wi
+            }
+            Material::Mirror { reflectance } => {
+                if !front {
+                    break;
+                }
+                beta *= reflectance;
+                specular = true;
+                it.n * (2.0 * wo.dot(it.n)) - wo
+            }
+            Material::Dielectric { ior } => {
+                let cos_o = wo.dot(it.n);
+                let (nf, eta, cos_i) = if cos_o > 0.0 {
+                    (it.n, ior, cos_o)
+                } else {
+                    (-it.n, 1.0 / ior, -cos_o)
+                };
+                let fr = fresnel_dielectric(cos_i, eta);
+                specular = true;
+                if s.next() < fr {
+                    nf * (2.0 * cos_i) - wo
+                } else {
+                    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+                    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+                    // Radiance is scaled by 1/η² crossing into the denser medium.
+                    beta /= eta * eta;
+                    (-wo / eta + nf * (cos_i / eta - cos_t)).normalize()
+                }
+            }
+        };
+        depth += 1;
+        if depth > RR_START {
+            let m = beta.max_element();
+            if m < 1.0 {
+                let q = (1.0 - m).max(0.0);
+                if s.next() < q {
+                    break;
+                }
+                beta /= 1.0 - q;
+            }
+        }
+        ray = Ray::new(offset_ray_origin(it.p, it.p_err, it.n, next_dir), next_dir);
+    }
+    l
+}

@@ -1,0 +1,170 @@
+//! `render_item`: the pure function every scheduler and compute source calls.
+//!
+//! A pixel's value depends only on (scene, tracer, pixel, seed): each sample draws from a
+//! counter-based [`Sampler`] keyed by (seed, pixel, sample), and samples are summed in a fixed
+//! order. Who renders a pixel, when, and with which other pixels never changes its bits.
+
+pub mod image;
+pub mod integrator;
+
+pub use image::Image;
+
+use crate::rng::Sampler;
+use crate::scene::Scene;
+use crate::tracer::Tracer;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+
+/// A set of pixels handed out as one unit of work.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Region {
+    /// An axis-aligned block: one pixel (1×1), a tile, a band of rows, or the whole frame.
+    Rect { x: u32, y: u32, w: u32, h: u32 },
+    /// Any set of pixel indices (`y·width + x`), in the order they are rendered.
+    Pixels(Vec<u32>),
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct WorkItem {
+    pub id: u32,
+    pub region: Region,
+}
+
+impl WorkItem {
+    pub fn rect(id: u32, x: u32, y: u32, w: u32, h: u32) -> Self {
+        Self {
+            id,
+            region: Region::Rect { x, y, w, h },
+        }
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        match &self.region {
+            Region::Rect { w, h, .. } => *w as usize * *h as usize,
+            Region::Pixels(p) => p.len(),
+        }
+    }
+
+    /// Pixel indices (`y·width + x`) in render order.
+    pub fn pixels(&self, width: u32) -> Box<dyn Iterator<Item = u32> + '_> {
+        match &self.region {
+            Region::Rect { x, y, w, h } => {
+                let (x, y, w) = (*x, *y, *w);
+                Box::new((y..y + h).flat_map(move |row| (x..x + w).map(move |c| row * width + c)))
+            }
+            Region::Pixels(p) => Box::new(p.iter().copied()),
+        }
+    }
+}
+
+/// The result of rendering one item: pixels in the item's order plus counters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TileResult {
+    pub item: u32,
+    pub pixels: Vec<[f32; 3]>,
+    /// Tracer queries (closest-hit and occlusion).
+    pub rays: u64,
+    /// Samples whose radiance came out NaN or infinite; they are dropped, never averaged in.
+    pub nonfinite: u64,
+}
+
+/// Sum of the radiance samples `samples` of every pixel of `item` (f64 sums, fixed order).
+pub fn render_sums<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    item: &WorkItem,
+    samples: Range<u32>,
+) -> (Vec<[f64; 3]>, u64, u64) {
+    let width = scene.width();
+    let seed = scene.settings.seed;
+    let mut rays = 0u64;
+    let mut nonfinite = 0u64;
+    let sums = item
+        .pixels(width)
+        .map(|idx| {
+            let (px, py) = (idx % width, idx / width);
+            let mut sum = [0.0f64; 3];
+            for sample in samples.clone() {
+                let mut s = Sampler::new(seed, idx as u64, sample as u64);
+                let (jx, jy) = s.next2();
+                let ray = scene.camera.pixel_ray(px, py, jx, jy);
+                let l: Vec3 = integrator::radiance(scene, tracer, ray, &mut s, &mut rays);
+                if l.is_finite() {
+                    for c in 0..3 {
+                        sum[c] += l[c] as f64;
+                    }
+                } else {
+                    nonfinite += 1;
+                }
+            }
+            sum
+        })
+        .collect();
+    (sums, rays, nonfinite)
+}
+
+/// Render every pixel of `item` with the scene's sample count: the pure per-item function.
+pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
+    let spp = scene.settings.spp;
+    let (sums, rays, nonfinite) = render_sums(scene, tracer, item, 0..spp);
+    let inv = 1.0 / spp as f64;
+    TileResult {
+        item: item.id,
+        pixels: sums
+            .into_iter()
+            .map(|s| [(s[0] * inv) as f32, (s[1] * inv) as f32, (s[2] * inv) as f32])
+            .collect(),
+        rays,
+        nonfinite,
+    }
+}
+
+/// Counters of a whole-image render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderCounters {
+    pub rays: u64,
+    pub nonfinite: u64,
+}
+
+/// Serial reference render: one item per row, on the calling thread.
+pub fn render_serial<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> (Image, RenderCounters) {
+    let mut image = Image::new(scene.width(), scene.height());
+    let mut counters = RenderCounters::default();
+    for y in 0..scene.height() {
+        let item = WorkItem::rect(y, 0, y, scene.width(), 1);
+        let r = render_item(scene, tracer, &item);
+        counters.rays += r.rays;
+        counters.nonfinite += r.nonfinite;
+        image.put(&item, &r.pixels);
+    }
+    (image, counters)
+}
+
+/// Row-parallel render on a rayon pool of `threads` workers (the `render` command's default).
+pub fn render_parallel<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    threads: usize,
+) -> Result<(Image, RenderCounters), rayon::ThreadPoolBuildError> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let results: Vec<(WorkItem, TileResult)> = pool.install(|| {
+        (0..scene.height())
+            .into_par_iter()
+            .map(|y| {
+                let item = WorkItem::rect(y, 0, y, scene.width(), 1);
+                let r = render_item(scene, tracer, &item);
+                (item, r)
+            })
+            .collect()
+    });
+    let mut image = Image::new(scene.width(), scene.height());
+    let mut counters = RenderCounters::default();
+    for (item, r) in &results {
+        counters.rays += r.rays;
+        counters.nonfinite += r.nonfinite;
+        image.put(item, &r.pixels);
+    }
+    Ok((image, counters))
+}

@@ -1,0 +1,251 @@
+//! The immutable, validated scene every tracer and scheduler shares by reference.
+//!
+//! Loading has two stages (ripgrep's raw → validated pattern): [`format`] is the TOML as written,
+//! [`load`] checks every field and builds a [`Scene`] in *render space*: world coordinates
+//! minus the camera origin, computed in f64 and only then rounded to f32. A scene placed at 1e8
+//! therefore renders exactly like the same scene at the origin (pbrt-v4's camera-world space).
+
+pub mod camera;
+pub mod format;
+pub mod generators;
+pub mod load;
+
+pub use camera::Camera;
+pub use format::{SceneFile, SceneOverrides};
+pub use load::{load_scene, load_scene_str, SceneError};
+
+use crate::geometry::{Hit, Ray, Sphere, Triangle};
+use glam::{DVec3, Vec3};
+
+/// `light` of a primitive that emits nothing.
+pub const NO_LIGHT: u32 = u32::MAX;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Texture {
+    Constant(Vec3),
+    /// `even` where ⌊x/size⌋ + ⌊y/size⌋ is even, in world coordinates.
+    Checker { even: Vec3, odd: Vec3, size: f64 },
+}
+
+impl Texture {
+    /// `p` is in render space; `origin` turns it back into world space (in f64).
+    #[inline]
+    pub fn eval(&self, p: Vec3, origin: DVec3) -> Vec3 {
+        match *self {
+            Texture::Constant(c) => c,
+            Texture::Checker { even, odd, size } => {
+                let w = p.as_dvec3() + origin;
+                let k = (w.x / size).floor() as i64 + (w.y / size).floor() as i64;
+                if k.rem_euclid(2) == 0 {
+                    even
+                } else {
+                    odd
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    /// Lambertian, one-sided: black when seen from behind its normal.
+    Diffuse { reflectance: Texture },
+    /// Perfect specular reflection, one-sided like diffuse.
+    Mirror { reflectance: Vec3 },
+    /// Smooth dielectric (two-sided), interior index `ior`, exterior 1.
+    Dielectric { ior: f32 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Isotropic point light, intensity in W/sr.
+    Point { position: Vec3, intensity: Vec3 },
+    /// An emitting shape: its primitives, their area CDF and its radiance (front side only).
+    Area {
+        prims: Vec<u32>,
+        cdf: Vec<f32>,
+        area: f32,
+        radiance: Vec3,
+    },
+    /// Constant radiance from every direction at infinity.
+    Environment { radiance: Vec3 },
+}
+
+/// Per-primitive data the renderer needs after a hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrimInfo {
+    pub material: u32,
+    /// Index into `Scene::lights` when the primitive emits, else [`NO_LIGHT`].
+    pub light: u32,
+    /// Spheres only: normals point inwards.
+    pub flip: bool,
+}
+
+/// Geometry in render space. Primitive id `p` is sphere `p` when `p < spheres.len()`, else
+/// triangle `p − spheres.len()`; every tracer reports hits with these ids.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    pub spheres: Vec<Sphere>,
+    pub triangles: Vec<Triangle>,
+    pub info: Vec<PrimInfo>,
+}
+
+impl Geometry {
+    pub fn len(&self) -> usize {
+        self.spheres.len() + self.triangles.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Intersect one primitive by id: the single routine every tracer uses for a leaf test.
+    #[inline(always)]
+    pub fn intersect_prim(&self, prim: u32, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let ns = self.spheres.len() as u32;
+        if prim < ns {
+            self.spheres[prim as usize]
+                .intersect(ray, t_max)
+                .map(|t| Hit { t, prim, b1: 0.0, b2: 0.0 })
+        } else {
+            self.triangles[(prim - ns) as usize]
+                .intersect(ray, t_max)
+                .map(|(t, b1, b2)| Hit { t, prim, b1, b2 })
+        }
+    }
+    /// Axis-aligned bounds of one primitive.
+    pub fn prim_bounds(&self, prim: u32) -> (Vec3, Vec3) {
+        let ns = self.spheres.len() as u32;
+        if prim < ns {
+            self.spheres[prim as usize].bounds()
+        } else {
+            self.triangles[(prim - ns) as usize].bounds()
+        }
+    }
+}
+
+/// The sampling and transport settings of a render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub spp: u32,
+    /// Path segments counted as in REFERENCE_SCENES.md; −1 = unlimited.
+    pub max_depth: i32,
+    pub seed: u64,
+}
+
+/// What a scene needs; the renderer and tracer build nothing for what it does not.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Features {
+    pub triangles: bool,
+    pub spheres: bool,
+    pub area_lights: bool,
+    pub point_lights: bool,
+    pub environment: bool,
+    pub refraction: bool,
+    pub mirrors: bool,
+    pub textures: bool,
+}
+
+impl Features {
+    pub const NAMES: [&'static str; 8] = [
+        "triangles",
+        "spheres",
+        "area_lights",
+        "point_lights",
+        "environment",
+        "refraction",
+        "mirrors",
+        "textures",
+    ];
+    fn flags(&self) -> [bool; 8] {
+        [
+            self.triangles,
+            self.spheres,
+            self.area_lights,
+            self.point_lights,
+            self.environment,
+            self.refraction,
+            self.mirrors,
+            self.textures,
+        ]
+    }
+    /// Shadow rays are needed only when there is a light to connect to and a diffuse surface.
+    pub fn shadow_rays(&self) -> bool {
+        self.area_lights || self.point_lights || self.environment
+    }
+    /// Names of the features the scene uses (`used = true`) or leaves out.
+    pub fn names(&self, used: bool) -> Vec<&'static str> {
+        Self::NAMES
+            .iter()
+            .zip(self.flags())
+            .filter(|(_, f)| *f == used)
+            .map(|(n, _)| *n)
+            .collect()
+    }
+}
+
+/// Counts made while loading (what was dropped, what was built).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadStats {
+    /// Zero-area triangles skipped at load: they can never be hit and would give NaN normals.
+    pub degenerate_triangles: u64,
+}
+
+/// A loaded scene: immutable after [`load_scene`], `Sync`, shared by `&`/`Arc` across workers.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    /// FNV-1a of the canonical scene text (after overrides) and every mesh file it reads.
+    pub hash: u64,
+    /// World position of the render-space origin (the camera position).
+    pub origin: DVec3,
+    pub camera: Camera,
+    pub settings: RenderSettings,
+    pub materials: Vec<Material>,
+    pub geometry: Geometry,
+    pub lights: Vec<Light>,
+    /// Index of the environment light in `lights`, if any.
+    pub environment: Option<u32>,
+    pub features: Features,
+    pub load_stats: LoadStats,
+}
+
+impl Scene {
+    pub fn width(&self) -> u32 {
+        self.camera.width
+    }
+    pub fn height(&self) -> u32 {
+        self.camera.height
+    }
+    pub fn pixel_count(&self) -> usize {
+        self.camera.width as usize * self.camera.height as usize
+    }
+    /// Radiance of the environment in direction-independent form (zero without one).
+    pub fn environment_radiance(&self) -> Vec3 {
+        match self.environment.map(|i| &self.lights[i as usize]) {
+            Some(Light::Environment { radiance }) => *radiance,
+            _ => Vec3::ZERO,
+        }
+    }
+}
+
+/// FNV-1a, 64 bit: stable across Rust versions (unlike `DefaultHasher`), for scene and image
+/// hashes written to CSV files.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv64(pub u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    pub fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 ^= *b as u64;
+            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}

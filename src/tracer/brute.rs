@@ -1,0 +1,37 @@
+//! Brute force: every primitive for every ray. Only a reference for testing the others.
+
+use super::Tracer;
+use crate::geometry::{Hit, Ray};
+use crate::scene::Geometry;
+
+pub struct BruteTracer {
+    geometry: Geometry,
+}
+
+impl BruteTracer {
+    pub fn new(geometry: &Geometry) -> Self {
+        Self {
+            geometry: geometry.clone(),
+        }
+    }
+}
+
+impl Tracer for BruteTracer {
+    fn id(&self) -> &'static str {
+        "brute"
+    }
+    fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut t_max = t_max;
+        for p in 0..self.geometry.len() as u32 {
+            if let Some(h) = self.geometry.intersect_prim(p, ray, t_max) {
+                t_max = h.t;
+                best = Some(h);
+            }
+        }
+        best
+    }
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        (0..self.geometry.len() as u32).any(|p| self.geometry.intersect_prim(p, ray, t_max).is_some())
+    }
+}
