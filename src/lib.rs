@@ -44,4 +44,5 @@ pub mod geometry;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod sched;
 pub mod tracer;

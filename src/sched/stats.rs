@@ -1,0 +1,83 @@
+//! `RunStats`: the same measurements for every scheduler, so runs compare column by column.
+
+use serde::{Deserialize, Serialize};
+
+/// What one worker (compute source) did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorkerStats {
+    /// Time spent inside `render_item`.
+    pub busy_s: f64,
+    /// Wall time of the run minus busy time.
+    pub idle_s: f64,
+    pub items: u64,
+    pub pixels: u64,
+    pub rays: u64,
+}
+
+/// What the master thread did (absent for schedulers without one).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MasterStats {
+    /// Time spent handing out items and collecting results (bookkeeping).
+    pub dispatch_s: f64,
+    /// Time spent waiting for results (spinning, yielding or blocked).
+    pub wait_s: f64,
+    pub iterations: u64,
+}
+
+/// One span of a timeline: `worker` rendered `item` from `start_ns` to `end_ns` after the run
+/// started. The master's spans use `worker = u32::MAX`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Span {
+    pub worker: u32,
+    pub item: u32,
+    pub start_ns: u64,
+    pub end_ns: u64,
+}
+
+pub const MASTER_LANE: u32 = u32::MAX;
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunStats {
+    pub wall_s: f64,
+    pub workers: Vec<WorkerStats>,
+    pub master: Option<MasterStats>,
+    /// Items in the decomposition of the image.
+    pub items: u64,
+    /// Hand-outs, re-issues included.
+    pub issued: u64,
+    /// Hand-outs of an item that was already handed out.
+    pub reissued: u64,
+    /// Results that arrived for an item already done (counted and discarded).
+    pub duplicates: u64,
+    /// Serialised bytes of items sent plus results returned.
+    pub bytes: u64,
+    pub rays: u64,
+    /// Samples that came out NaN/Inf (dropped, never written).
+    pub nonfinite: u64,
+    /// Sources lost during the run (panicked, killed).
+    pub lost_sources: u64,
+    pub timeline: Option<Vec<Span>>,
+}
+
+impl RunStats {
+    /// max busy / mean busy over workers (1 = perfectly balanced).
+    pub fn imbalance(&self) -> f64 {
+        let busy: Vec<f64> = self.workers.iter().map(|w| w.busy_s).collect();
+        let mean = busy.iter().sum::<f64>() / busy.len().max(1) as f64;
+        let max = busy.iter().cloned().fold(0.0, f64::max);
+        if mean > 0.0 {
+            max / mean
+        } else {
+            1.0
+        }
+    }
+    pub fn busy_s(&self) -> f64 {
+        self.workers.iter().map(|w| w.busy_s).sum()
+    }
+    pub fn idle_s(&self) -> f64 {
+        self.workers.iter().map(|w| w.idle_s).sum()
+    }
+    pub fn dispatch_s(&self) -> f64 {
+        self.master.as_ref().map_or(0.0, |m| m.dispatch_s)
+    }
+}
