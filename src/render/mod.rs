@@ -69,27 +69,39 @@ pub struct TileResult {
     pub nonfinite: u64,
 }
 
+/// One radiance sample of pixel `idx` (`y·width + x`): jittered camera ray, then a path.
+/// Its value depends only on (scene, tracer, pixel, sample, seed).
+#[inline]
+pub fn sample_pixel<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    idx: u32,
+    sample: u32,
+    rays: &mut u64,
+) -> Vec3 {
+    let width = scene.width();
+    let mut s = Sampler::new(scene.settings.seed, idx as u64, sample as u64);
+    let (jx, jy) = s.next2();
+    let ray = scene.camera.pixel_ray(idx % width, idx / width, jx, jy);
+    integrator::radiance(scene, tracer, ray, &mut s, rays)
+}
+
 /// Sum of the radiance samples `samples` of every pixel of `item` (f64 sums, fixed order).
+/// Non-finite samples are dropped and counted.
 pub fn render_sums<T: Tracer + ?Sized>(
     scene: &Scene,
     tracer: &T,
     item: &WorkItem,
     samples: Range<u32>,
 ) -> (Vec<[f64; 3]>, u64, u64) {
-    let width = scene.width();
-    let seed = scene.settings.seed;
     let mut rays = 0u64;
     let mut nonfinite = 0u64;
     let sums = item
-        .pixels(width)
+        .pixels(scene.width())
         .map(|idx| {
-            let (px, py) = (idx % width, idx / width);
             let mut sum = [0.0f64; 3];
             for sample in samples.clone() {
-                let mut s = Sampler::new(seed, idx as u64, sample as u64);
-                let (jx, jy) = s.next2();
-                let ray = scene.camera.pixel_ray(px, py, jx, jy);
-                let l: Vec3 = integrator::radiance(scene, tracer, ray, &mut s, &mut rays);
+                let l = sample_pixel(scene, tracer, idx, sample, &mut rays);
                 if l.is_finite() {
                     for c in 0..3 {
                         sum[c] += l[c] as f64;
