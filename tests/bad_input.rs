@@ -1,0 +1,124 @@
+//! Bad scenes and flags: a one-line error naming the file and the field, exit code 2, no panic,
+//! no output file written.
+
+use std::path::Path;
+use std::process::Command;
+
+const GOOD: &str = r#"
+[camera]
+origin = [0, 0, 4]
+target = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 40
+width = 8
+height = 8
+
+[render]
+spp = 1
+
+[materials.white]
+type = "diffuse"
+reflectance = [0.8, 0.8, 0.8]
+
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+
+[[shapes]]
+type = "sphere"
+material = "white"
+radius = 1
+
+[[shapes]]
+type = "mesh"
+material = "glass"
+path = "tri.obj"
+"#;
+
+const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+fn run(dir: &Path, scene_text: &str, extra: &[&str]) -> (i32, String, bool) {
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, scene_text).unwrap();
+    let out = dir.join("out.exr");
+    let _ = std::fs::remove_file(&out);
+    let output = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .arg("--threads")
+        .arg("1")
+        .args(extra)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    (output.status.code().unwrap_or(-1), stderr, out.exists())
+}
+
+#[test]
+fn the_good_scene_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
+    let (code, stderr, written) = run(dir.path(), GOOD, &[]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(written);
+    assert!(dir.path().join("out.png").exists());
+}
+
+#[test]
+fn each_bad_scene_is_a_one_line_error_naming_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
+    let cases: &[(&str, String, &str)] = &[
+        ("malformed toml", GOOD.replace("fov_deg = 40", "fov_deg = = 40"), "scene.toml:6:"),
+        ("unknown field", GOOD.replace("spp = 1", "spp = 1\nsamples = 4"), "unknown field `samples`"),
+        ("missing obj", GOOD.replace("tri.obj", "nope.obj"), "shapes[1].path"),
+        ("nan", GOOD.replace("radius = 1", "radius = nan"), "shapes[0].radius"),
+        ("inf", GOOD.replace("origin = [0, 0, 4]", "origin = [0, 0, inf]"), "camera.origin"),
+        ("width 0", GOOD.replace("width = 8", "width = 0"), "camera.width"),
+        ("height 0", GOOD.replace("height = 8", "height = 0"), "camera.height"),
+        ("fov 0", GOOD.replace("fov_deg = 40", "fov_deg = 0"), "camera.fov_deg"),
+        ("fov 180", GOOD.replace("fov_deg = 40", "fov_deg = 180"), "camera.fov_deg"),
+        ("radius 0", GOOD.replace("radius = 1", "radius = 0"), "shapes[0].radius"),
+        ("radius < 0", GOOD.replace("radius = 1", "radius = -2"), "shapes[0].radius"),
+        ("ior 0", GOOD.replace("ior = 1.5", "ior = 0"), "materials.glass.ior"),
+        ("target = origin", GOOD.replace("target = [0, 0, 0]", "target = [0, 0, 4]"), "camera.target"),
+        ("up parallel", GOOD.replace("up = [0, 1, 0]", "up = [0, 0, -3]"), "camera.up"),
+        ("unknown material", GOOD.replace("material = \"white\"", "material = \"chalk\""), "shapes[0].material"),
+        ("spp 0", GOOD.replace("spp = 1", "spp = 0"), "render.spp"),
+        ("scale 0", GOOD.replace("radius = 1", "radius = 1\ntransform = [{ scale = 0 }]"), "shapes[0].transform"),
+        ("field of another shape type", GOOD.replace("path = \"tri.obj\"", "path = \"tri.obj\"\nradius = 2"), "shapes[1].radius"),
+    ];
+    for (what, text, needle) in cases {
+        let (code, stderr, written) = run(dir.path(), text, &[]);
+        assert_eq!(code, 2, "{what}: exit code, stderr: {stderr}");
+        assert!(!written, "{what}: an output file was written");
+        assert!(stderr.contains("scene.toml"), "{what}: file not named: {stderr}");
+        assert!(stderr.contains(needle), "{what}: '{needle}' not in: {stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{what}: not one line: {stderr}");
+        assert!(!stderr.contains("panicked"), "{what}: panicked");
+    }
+}
+
+#[test]
+fn bad_flags_exit_2_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
+    for (flags, needle) in [
+        (vec!["--spp", "0"], "--spp"),
+        (vec!["--tracer", "optix"], "unknown tracer"),
+    ] {
+        let (code, stderr, written) = run(dir.path(), GOOD, &flags);
+        assert_eq!(code, 2, "{flags:?}: {stderr}");
+        assert!(!written);
+        assert!(stderr.contains(needle), "{flags:?}: {stderr}");
+    }
+    let missing = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .args(["render", "/nonexistent/scene.toml", "-o"])
+        .arg(dir.path().join("x.exr"))
+        .output()
+        .unwrap();
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/scene.toml"));
+}
