@@ -19,7 +19,9 @@ fn cornell_ms_per_spp(c: &mut Criterion) {
     let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
     let mut g = c.benchmark_group("cornell_128_depth8");
     g.sample_size(20);
-    g.bench_function("bvh_1spp_1thread", |b| b.iter(|| render_serial(&scene, &tracer)));
+    g.bench_function("bvh_1spp_1thread", |b| {
+        b.iter(|| render_serial(&scene, &tracer))
+    });
     g.finish();
 }
 

@@ -4,10 +4,10 @@
 mod common;
 
 use common::{estimate, load};
+use glam::Vec3;
 use raysched::geometry::Sphere;
 use raysched::scene::SceneOverrides;
 use raysched::tracer::AnyTracer;
-use glam::Vec3;
 
 fn overrides(max_depth: i32, width: u32) -> SceneOverrides {
     SceneOverrides {
@@ -29,10 +29,12 @@ fn furnace_pixels(scene: &raysched::scene::Scene, covered: bool) -> Vec<u32> {
     (0..w * h)
         .filter(|&i| {
             let (x, y) = (i % w, i / w);
-            [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)].iter().all(|&(dx, dy)| {
-                let ray = scene.camera.pixel_ray(x, y, dx, dy);
-                sphere.intersect(&ray, f32::INFINITY).is_some() == covered
-            })
+            [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .iter()
+                .all(|&(dx, dy)| {
+                    let ray = scene.camera.pixel_ray(x, y, dx, dy);
+                    sphere.intersect(&ray, f32::INFINITY).is_some() == covered
+                })
         })
         .collect()
 }
@@ -63,7 +65,10 @@ fn interior_emitting_sphere_follows_the_geometric_series() {
         for d in [1, 2, 3, 8, -1] {
             let text = std::fs::read_to_string(common::scene_path("interior_sphere.toml"))
                 .unwrap()
-                .replace("reflectance = [0.5, 0.5, 0.5]", &format!("reflectance = [{a}, {a}, {a}]"));
+                .replace(
+                    "reflectance = [0.5, 0.5, 0.5]",
+                    &format!("reflectance = [{a}, {a}, {a}]"),
+                );
             let o = overrides(d, 8);
             let scene = raysched::scene::load_scene_str(
                 &text,
@@ -112,7 +117,8 @@ fn point_light_over_plane_centre_pixel_matches_the_integral() {
     // ≈ 0.398: (ρ/π)·I/h² at the axis.
     assert!((expected - 0.5 / std::f64::consts::PI * 10.0 / 4.0).abs() < 0.01);
     for c in 0..3 {
-        estimate(&scene, &tracer, &[centre], 4096, c).assert_within_3se(expected, "point_plane centre");
+        estimate(&scene, &tracer, &[centre], 4096, c)
+            .assert_within_3se(expected, "point_plane centre");
     }
 }
 
@@ -144,10 +150,19 @@ fn cornell_box_is_lit_and_coloured_as_specified() {
     let left = Vec3::from(img.get(1, 16));
     let right = Vec3::from(img.get(30, 16));
     assert!(left.x > 2.0 * left.y, "left wall should be red: {left}");
-    assert!(right.y > 2.0 * right.x, "right wall should be green: {right}");
+    assert!(
+        right.y > 2.0 * right.x,
+        "right wall should be green: {right}"
+    );
     // The light (y = 0.99, z ∈ [−0.18, 0.20]) projects to v ∈ [0.125, 0.160]: rows 4–5 of 32.
     let top = Vec3::from(img.get(16, 4)).max(Vec3::from(img.get(16, 5)));
-    assert!(top.x > 5.0, "light should be visible at the top centre: {top}");
+    assert!(
+        top.x > 5.0,
+        "light should be visible at the top centre: {top}"
+    );
     let above = Vec3::from(img.get(16, 2));
-    assert!(above.x < 2.0, "ceiling above the light should be dim: {above}");
+    assert!(
+        above.x < 2.0,
+        "ceiling above the light should be dim: {above}"
+    );
 }

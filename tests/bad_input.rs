@@ -71,32 +71,110 @@ fn each_bad_scene_is_a_one_line_error_naming_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
     let cases: &[(&str, String, &str)] = &[
-        ("malformed toml", GOOD.replace("fov_deg = 40", "fov_deg = = 40"), "scene.toml:6:"),
-        ("unknown field", GOOD.replace("spp = 1", "spp = 1\nsamples = 4"), "unknown field `samples`"),
-        ("missing obj", GOOD.replace("tri.obj", "nope.obj"), "shapes[1].path"),
-        ("nan", GOOD.replace("radius = 1", "radius = nan"), "shapes[0].radius"),
-        ("inf", GOOD.replace("origin = [0, 0, 4]", "origin = [0, 0, inf]"), "camera.origin"),
-        ("width 0", GOOD.replace("width = 8", "width = 0"), "camera.width"),
-        ("height 0", GOOD.replace("height = 8", "height = 0"), "camera.height"),
-        ("fov 0", GOOD.replace("fov_deg = 40", "fov_deg = 0"), "camera.fov_deg"),
-        ("fov 180", GOOD.replace("fov_deg = 40", "fov_deg = 180"), "camera.fov_deg"),
-        ("radius 0", GOOD.replace("radius = 1", "radius = 0"), "shapes[0].radius"),
-        ("radius < 0", GOOD.replace("radius = 1", "radius = -2"), "shapes[0].radius"),
-        ("ior 0", GOOD.replace("ior = 1.5", "ior = 0"), "materials.glass.ior"),
-        ("target = origin", GOOD.replace("target = [0, 0, 0]", "target = [0, 0, 4]"), "camera.target"),
-        ("up parallel", GOOD.replace("up = [0, 1, 0]", "up = [0, 0, -3]"), "camera.up"),
-        ("unknown material", GOOD.replace("material = \"white\"", "material = \"chalk\""), "shapes[0].material"),
+        (
+            "malformed toml",
+            GOOD.replace("fov_deg = 40", "fov_deg = = 40"),
+            "scene.toml:6:",
+        ),
+        (
+            "unknown field",
+            GOOD.replace("spp = 1", "spp = 1\nsamples = 4"),
+            "unknown field `samples`",
+        ),
+        (
+            "missing obj",
+            GOOD.replace("tri.obj", "nope.obj"),
+            "shapes[1].path",
+        ),
+        (
+            "nan",
+            GOOD.replace("radius = 1", "radius = nan"),
+            "shapes[0].radius",
+        ),
+        (
+            "inf",
+            GOOD.replace("origin = [0, 0, 4]", "origin = [0, 0, inf]"),
+            "camera.origin",
+        ),
+        (
+            "width 0",
+            GOOD.replace("width = 8", "width = 0"),
+            "camera.width",
+        ),
+        (
+            "height 0",
+            GOOD.replace("height = 8", "height = 0"),
+            "camera.height",
+        ),
+        (
+            "fov 0",
+            GOOD.replace("fov_deg = 40", "fov_deg = 0"),
+            "camera.fov_deg",
+        ),
+        (
+            "fov 180",
+            GOOD.replace("fov_deg = 40", "fov_deg = 180"),
+            "camera.fov_deg",
+        ),
+        (
+            "radius 0",
+            GOOD.replace("radius = 1", "radius = 0"),
+            "shapes[0].radius",
+        ),
+        (
+            "radius < 0",
+            GOOD.replace("radius = 1", "radius = -2"),
+            "shapes[0].radius",
+        ),
+        (
+            "ior 0",
+            GOOD.replace("ior = 1.5", "ior = 0"),
+            "materials.glass.ior",
+        ),
+        (
+            "target = origin",
+            GOOD.replace("target = [0, 0, 0]", "target = [0, 0, 4]"),
+            "camera.target",
+        ),
+        (
+            "up parallel",
+            GOOD.replace("up = [0, 1, 0]", "up = [0, 0, -3]"),
+            "camera.up",
+        ),
+        (
+            "unknown material",
+            GOOD.replace("material = \"white\"", "material = \"chalk\""),
+            "shapes[0].material",
+        ),
         ("spp 0", GOOD.replace("spp = 1", "spp = 0"), "render.spp"),
-        ("scale 0", GOOD.replace("radius = 1", "radius = 1\ntransform = [{ scale = 0 }]"), "shapes[0].transform"),
-        ("field of another shape type", GOOD.replace("path = \"tri.obj\"", "path = \"tri.obj\"\nradius = 2"), "shapes[1].radius"),
+        (
+            "scale 0",
+            GOOD.replace("radius = 1", "radius = 1\ntransform = [{ scale = 0 }]"),
+            "shapes[0].transform",
+        ),
+        (
+            "field of another shape type",
+            GOOD.replace("path = \"tri.obj\"", "path = \"tri.obj\"\nradius = 2"),
+            "shapes[1].radius",
+        ),
     ];
     for (what, text, needle) in cases {
         let (code, stderr, written) = run(dir.path(), text, &[]);
         assert_eq!(code, 2, "{what}: exit code, stderr: {stderr}");
         assert!(!written, "{what}: an output file was written");
-        assert!(stderr.contains("scene.toml"), "{what}: file not named: {stderr}");
-        assert!(stderr.contains(needle), "{what}: '{needle}' not in: {stderr}");
-        assert_eq!(stderr.trim_end().lines().count(), 1, "{what}: not one line: {stderr}");
+        assert!(
+            stderr.contains("scene.toml"),
+            "{what}: file not named: {stderr}"
+        );
+        assert!(
+            stderr.contains(needle),
+            "{what}: '{needle}' not in: {stderr}"
+        );
+        assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "{what}: not one line: {stderr}"
+        );
         assert!(!stderr.contains("panicked"), "{what}: panicked");
     }
 }

@@ -65,10 +65,18 @@ fn shuffled_pixel_subsets_on_threads_are_bit_identical_to_the_serial_render() {
                 image.put(&item, &r.pixels);
             }
         }
-        assert_eq!(image.hash(), reference.hash(), "{name}: shuffled subsets differ");
+        assert_eq!(
+            image.hash(),
+            reference.hash(),
+            "{name}: shuffled subsets differ"
+        );
         assert!(image.data == reference.data);
         let (parallel, _) = render_parallel(&scene, &*tracer, 2).unwrap();
-        assert_eq!(parallel.hash(), reference.hash(), "{name}: parallel render differs");
+        assert_eq!(
+            parallel.hash(),
+            reference.hash(),
+            "{name}: parallel render differs"
+        );
     }
 }
 
@@ -86,5 +94,8 @@ fn a_different_seed_gives_a_different_image() {
     let b = common::load("cornell_box.toml", o(2));
     let ta = AnyTracer::build("bvh", &a, 1).unwrap();
     let tb = AnyTracer::build("bvh", &b, 1).unwrap();
-    assert_ne!(render_serial(&a, &ta).0.hash(), render_serial(&b, &tb).0.hash());
+    assert_ne!(
+        render_serial(&a, &ta).0.hash(),
+        render_serial(&b, &tb).0.hash()
+    );
 }

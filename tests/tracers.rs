@@ -26,7 +26,8 @@ fn random_scene(seed: u64) -> Scene {
         );
     }
     for _ in 0..3 {
-        text += &format!(
+        text +=
+            &format!(
             "[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\ncenter = [{}, {}, {}]\nradius = {}\n",
             r() * 6.0 - 3.0, r() * 6.0 - 3.0, r() * 6.0 - 3.0, 0.1 + r()
         );
@@ -52,10 +53,22 @@ fn assert_agree(scene: &Scene, bvh: &BvhTracer, brute: &BruteTracer, ray: &Ray, 
     match (a, b) {
         (None, None) => {}
         (Some(a), Some(b)) => {
-            assert!((a.t - b.t).abs() <= 1e-5 * b.t.abs(), "{what}: t {} vs {}", a.t, b.t);
+            assert!(
+                (a.t - b.t).abs() <= 1e-5 * b.t.abs(),
+                "{what}: t {} vs {}",
+                a.t,
+                b.t
+            );
             if a.prim != b.prim {
-                let other = scene.geometry.intersect_prim(a.prim, ray, f32::INFINITY).unwrap();
-                assert_eq!(other.t, b.t, "{what}: prim {} vs {} is not a tie", a.prim, b.prim);
+                let other = scene
+                    .geometry
+                    .intersect_prim(a.prim, ray, f32::INFINITY)
+                    .unwrap();
+                assert_eq!(
+                    other.t, b.t,
+                    "{what}: prim {} vs {} is not a tie",
+                    a.prim, b.prim
+                );
             }
         }
         _ => panic!("{what}: bvh {a:?} vs brute {b:?}"),
@@ -67,7 +80,10 @@ fn assert_agree(scene: &Scene, bvh: &BvhTracer, brute: &BruteTracer, ray: &Ray, 
     );
     if let Some(b) = b {
         // Nothing before the closest hit.
-        assert!(!bvh.occluded(ray, b.t * 0.999), "{what}: occluded before the closest hit");
+        assert!(
+            !bvh.occluded(ray, b.t * 0.999),
+            "{what}: occluded before the closest hit"
+        );
     }
 }
 
@@ -82,7 +98,9 @@ fn bvh_matches_brute_force_on_random_scenes() {
         let mut s = Sampler::new(seed, 1, 1);
         for i in 0..1500 {
             // Origins anywhere in a box around the scene (often inside cubes and spheres).
-            let o = Vec3::new(s.next(), s.next(), s.next()) * 10.0 - Vec3::splat(5.0) - scene.origin.as_vec3();
+            let o = Vec3::new(s.next(), s.next(), s.next()) * 10.0
+                - Vec3::splat(5.0)
+                - scene.origin.as_vec3();
             let ray = Ray::new(o, random_dir(&mut s));
             assert_agree(&scene, &bvh, &brute, &ray, &format!("seed {seed} ray {i}"));
             hits += brute.intersect(&ray, f32::INFINITY).is_some() as u32;
@@ -117,7 +135,13 @@ fn grazing_rays_and_rays_along_box_edges_agree() {
         let y = [-1.0f32, 1.0, -1.01][i % 3] + (s.next() - 0.5) * 1e-3;
         let o = Vec3::new(-4.0, y, (s.next() - 0.5) * 2.2) + off;
         let d = Vec3::new(1.0, (s.next() - 0.5) * 1e-3, (s.next() - 0.5) * 0.1).normalize();
-        assert_agree(&scene, &bvh, &brute, &Ray::new(o, d), &format!("grazing {i}"));
+        assert_agree(
+            &scene,
+            &bvh,
+            &brute,
+            &Ray::new(o, d),
+            &format!("grazing {i}"),
+        );
     }
 }
 

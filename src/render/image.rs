@@ -130,10 +130,71 @@ impl Image {
 }
 
 pub fn srgb_encode(v: f32) -> f32 {
-    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     if v <= 0.003_130_8 {
         12.92 * v
     } else {
         1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient() -> Image {
+        let mut img = Image::new(5, 3);
+        for (i, p) in img.data.iter_mut().enumerate() {
+            *p = [i as f32 * 0.25, 1.0 / (i as f32 + 1.0), 3.5];
+        }
+        img
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact_and_png_preview_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.exr");
+        let img = gradient();
+        let png = img.save_with_preview(&path).unwrap();
+        assert!(png.exists());
+        assert_eq!(Image::load_exr(&path).unwrap(), img);
+    }
+
+    #[test]
+    fn pfm_stores_rows_bottom_up_little_endian() {
+        let img = gradient();
+        let bytes = img.pfm_bytes();
+        let header = b"PF\n5 3\n-1.0\n";
+        assert_eq!(&bytes[..header.len()], header);
+        let first = f32::from_le_bytes(bytes[header.len()..header.len() + 4].try_into().unwrap());
+        assert_eq!(
+            first,
+            img.get(0, 2)[0],
+            "first stored pixel is the bottom-left one"
+        );
+        assert_eq!(bytes.len(), header.len() + 5 * 3 * 12);
+    }
+
+    #[test]
+    fn unsupported_extension_writes_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.jpg");
+        assert!(matches!(
+            gradient().save_with_preview(&path),
+            Err(ImageError::Extension { .. })
+        ));
+        assert!(!path.exists() && !dir.path().join("x.png").exists());
+    }
+
+    #[test]
+    fn srgb_preview_encoding_clamps_and_handles_nan() {
+        assert_eq!(srgb_encode(-1.0), 0.0);
+        assert!((srgb_encode(2.0) - 1.0).abs() < 1e-6);
+        assert_eq!(srgb_encode(f32::NAN), 0.0);
+        assert!((srgb_encode(0.5) - 0.7354).abs() < 1e-3);
     }
 }

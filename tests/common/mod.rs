@@ -7,7 +7,9 @@ use raysched::tracer::Tracer;
 use std::path::{Path, PathBuf};
 
 pub fn scene_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
 }
 
 pub fn load(name: &str, overrides: SceneOverrides) -> Scene {
@@ -15,8 +17,14 @@ pub fn load(name: &str, overrides: SceneOverrides) -> Scene {
 }
 
 pub fn load_str(text: &str) -> Scene {
-    load_scene_str(text, "test", Path::new("."), "test", &SceneOverrides::default())
-        .unwrap_or_else(|e| panic!("{e}"))
+    load_scene_str(
+        text,
+        "test",
+        Path::new("."),
+        "test",
+        &SceneOverrides::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Mean and standard error of the mean of channel `c` over every sample of every pixel given.
@@ -44,7 +52,13 @@ impl Estimate {
     }
 }
 
-pub fn estimate<T: Tracer>(scene: &Scene, tracer: &T, pixels: &[u32], spp: u32, c: usize) -> Estimate {
+pub fn estimate<T: Tracer>(
+    scene: &Scene,
+    tracer: &T,
+    pixels: &[u32],
+    spp: u32,
+    c: usize,
+) -> Estimate {
     let (mut sum, mut sum2, mut n, mut bad) = (0.0f64, 0.0f64, 0usize, 0usize);
     let mut rays = 0;
     for &p in pixels {
