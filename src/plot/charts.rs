@@ -47,11 +47,18 @@ macro_rules! both {
 
 /// A stable colour per scheduler kind (serial and unknown ids get black).
 fn colour(kind: &str) -> RGBColor {
+    // Okabe–Ito colours: distinguishable with colour-blindness and readable on white.
+    const C: [RGBColor; 7] = [
+        RGBColor(213, 94, 0),
+        RGBColor(0, 114, 178),
+        RGBColor(0, 158, 115),
+        RGBColor(204, 121, 167),
+        RGBColor(86, 180, 233),
+        RGBColor(230, 159, 0),
+        RGBColor(120, 120, 120),
+    ];
     match SchedulerKind::ALL.iter().position(|k| k.id() == kind) {
-        Some(i) => {
-            let c = Palette99::pick(i).to_rgba();
-            RGBColor(c.0, c.1, c.2)
-        }
+        Some(i) => C[i % C.len()],
         None => BLACK,
     }
 }
@@ -159,9 +166,9 @@ fn line_chart<DB: DrawingBackend>(
     }
     for (i, (name, pts)) in data.iter().enumerate() {
         let mut c = colour(kind_of(name));
-        if c == BLACK {
-            let p = Palette99::pick(i).to_rgba();
-            c = RGBColor(p.0, p.1, p.2);
+        if c == BLACK || data.iter().filter(|(n, _)| kind_of(n) == kind_of(name)).count() > 1 {
+            // Several lines of one kind (the buffer plot): tell them apart by index.
+            c = colour(SchedulerKind::ALL[i % SchedulerKind::ALL.len()].id());
         }
         chart
             .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
@@ -227,7 +234,7 @@ fn overhead_chart<DB: DrawingBackend>(
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((0..n as i32).into_segmented(), 0.0..top.max(1e-9))
+        .build_cartesian_2d((0..(n as i32 - 1).max(0)).into_segmented(), 0.0..top.max(1e-9))
         .map_err(e)?;
     let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
     let fmt = |v: &SegmentValue<i32>| match v {
