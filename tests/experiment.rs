@@ -45,7 +45,11 @@ chunk = "rows:1"
 }
 
 fn run(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(BIN).args(args).current_dir(cwd).output().unwrap()
+    Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
 }
 
 #[test]
@@ -53,12 +57,28 @@ fn bad_configs_exit_2_naming_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
     let good = std::fs::read_to_string(write_tiny(dir.path(), 1)).unwrap();
     let cases = [
-        ("kind = \"static\"\nchunk = \"rows:1\"", "kind = \"static\"\nchunk = \"rows:1\"\nbuffer = 4", "schedulers[1].buffer"),
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"static\"\nchunk = \"rows:1\"\nbuffer = 4",
+            "schedulers[1].buffer",
+        ),
         ("repetitions = 1", "repetitions = 0", "repetitions"),
         ("workers = [1, 2]", "workers = [0, 2]", "workers"),
-        ("chunk = [\"1\", \"4\"]", "chunk = [\"1\", \"0\"]", "schedulers[0].chunk"),
-        ("kind = \"master\"", "kind = \"fastest\"", "schedulers[0].kind"),
-        ("name = \"tiny\"", "name = \"tiny\"\ntracers = [\"embree\"]", "tracers[0]"),
+        (
+            "chunk = [\"1\", \"4\"]",
+            "chunk = [\"1\", \"0\"]",
+            "schedulers[0].chunk",
+        ),
+        (
+            "kind = \"master\"",
+            "kind = \"fastest\"",
+            "schedulers[0].kind",
+        ),
+        (
+            "name = \"tiny\"",
+            "name = \"tiny\"\ntracers = [\"embree\"]",
+            "tracers[0]",
+        ),
         ("width = 16", "width = 0", "scenes[0]"),
         ("width = 16", "widht = 16", "line"),
     ];
@@ -66,13 +86,19 @@ fn bad_configs_exit_2_naming_file_and_field() {
         assert!(good.contains(from), "{from}");
         let p = dir.path().join("bad.toml");
         std::fs::write(&p, good.replacen(from, to, 1)).unwrap();
-        let out = run(&["run", p.to_str().unwrap(), "--quiet", "--out", "res"], dir.path());
+        let out = run(
+            &["run", p.to_str().unwrap(), "--quiet", "--out", "res"],
+            dir.path(),
+        );
         let err = String::from_utf8_lossy(&out.stderr);
         if to.contains("embree") && cfg!(feature = "embree") {
             continue;
         }
         assert_eq!(out.status.code(), Some(2), "{to}: {err}");
-        assert!(err.contains("bad.toml: ") && err.contains(field), "{to}: {err}");
+        assert!(
+            err.contains("bad.toml: ") && err.contains(field),
+            "{to}: {err}"
+        );
         // Validation happens before anything is measured.
         assert!(!dir.path().join("res/tiny/runs.csv").exists(), "{to}");
     }
@@ -89,7 +115,10 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
     let csv = dir.path().join("res/tiny/runs.csv");
     // xorshift seeded from the clock: different kill points on every test run.
     let mut x = Instant::now().elapsed().as_nanos() as u64 | 1;
-    x ^= std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_nanos() as u64;
+    x ^= std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
     let mut rnd = move |n: u64| {
         x ^= x << 13;
         x ^= x >> 7;
@@ -120,16 +149,27 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
             let (rows, _) = read_runs(&csv).unwrap();
             let mut seen = HashMap::new();
             for r in &rows {
-                assert!(seen.insert((r.config.clone(), r.repetition), ()).is_none(), "duplicate after kill {kills}");
+                assert!(
+                    seen.insert((r.config.clone(), r.repetition), ()).is_none(),
+                    "duplicate after kill {kills}"
+                );
             }
         }
     }
     let out = run(&args, dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let bytes = std::fs::read(&csv).unwrap();
     assert_eq!(bytes.last(), Some(&b'\n'), "no partial last line");
     let (rows, valid) = read_runs(&csv).unwrap();
-    assert_eq!(valid as usize, bytes.len(), "every byte belongs to a whole row");
+    assert_eq!(
+        valid as usize,
+        bytes.len(),
+        "every byte belongs to a whole row"
+    );
     // 2 scenes × (serial + master 2 chunks × 2 buffers × 2 worker counts + static × 2).
     let configs = 2 * (1 + 8 + 2);
     let mut count: HashMap<(String, u32), usize> = HashMap::new();
@@ -137,8 +177,15 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
         *count.entry((r.config.clone(), r.repetition)).or_default() += 1;
         assert!(r.identical, "{} rep {}", r.label, r.repetition);
     }
-    assert_eq!(count.len(), configs * reps as usize, "kills: {kills}, finished early: {finished}");
-    assert!(count.values().all(|&c| c == 1), "a (config, repetition) appears twice");
+    assert_eq!(
+        count.len(),
+        configs * reps as usize,
+        "kills: {kills}, finished early: {finished}"
+    );
+    assert!(
+        count.values().all(|&c| c == 1),
+        "a (config, repetition) appears twice"
+    );
     assert!(kills > 0 || finished, "the test never killed anything");
 
     // Re-running measures nothing new.
@@ -152,7 +199,11 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
     let out = run(&args, dir.path());
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--fresh"));
-    std::fs::write(&exp, text.replace(&format!("repetitions = {reps}"), "repetitions = 1")).unwrap();
+    std::fs::write(
+        &exp,
+        text.replace(&format!("repetitions = {reps}"), "repetitions = 1"),
+    )
+    .unwrap();
     let mut fresh = args.to_vec();
     fresh.push("--fresh");
     assert!(run(&fresh, dir.path()).status.success());
@@ -163,36 +214,69 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
 fn plot_regenerates_everything_from_the_csv() {
     let dir = tempfile::tempdir().unwrap();
     let exp = write_tiny(dir.path(), 2);
-    let out = run(&["run", exp.to_str().unwrap(), "--quiet", "--out", "res"], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let res = dir.path().join("res/tiny");
     for f in ["meta.toml", "summary.csv", "report.md"] {
         assert!(res.join(f).exists(), "{f}");
     }
-    let imgs: Vec<_> = std::fs::read_dir(res.join("images")).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let imgs: Vec<_> = std::fs::read_dir(res.join("images"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(imgs.len(), 4, "EXR + PNG per serial baseline: {imgs:?}");
     std::fs::remove_dir_all(res.join("plots")).unwrap();
     std::fs::remove_file(res.join("report.md")).unwrap();
     let out = run(&["plot", res.to_str().unwrap()], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let plots: Vec<String> = std::fs::read_dir(res.join("plots"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    for prefix in ["speedup_vs_workers_", "granularity_", "buffer_", "overhead_", "gantt_"] {
+    for prefix in [
+        "speedup_vs_workers_",
+        "granularity_",
+        "buffer_",
+        "overhead_",
+        "gantt_",
+    ] {
         for ext in ["png", "svg"] {
             assert!(
-                plots.iter().any(|p| p.starts_with(prefix) && p.ends_with(ext)),
+                plots
+                    .iter()
+                    .any(|p| p.starts_with(prefix) && p.ends_with(ext)),
                 "{prefix}*.{ext} in {plots:?}"
             );
         }
     }
-    let png = plots.iter().find(|p| p.starts_with("granularity_") && p.ends_with("png")).unwrap();
+    let png = plots
+        .iter()
+        .find(|p| p.starts_with("granularity_") && p.ends_with("png"))
+        .unwrap();
     let img = image::open(res.join("plots").join(png)).unwrap();
     assert!(img.width() >= 800 && img.height() >= 500);
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
     assert!(report.contains("per-ray master"), "{report}");
-    assert!(report.contains("![") && report.contains("plots/granularity_"), "{report}");
+    assert!(
+        report.contains("![") && report.contains("plots/granularity_"),
+        "{report}"
+    );
     // A results folder without runs.csv is bad input.
-    assert_eq!(run(&["plot", dir.path().to_str().unwrap()], dir.path()).status.code(), Some(2));
+    assert_eq!(
+        run(&["plot", dir.path().to_str().unwrap()], dir.path())
+            .status
+            .code(),
+        Some(2)
+    );
 }

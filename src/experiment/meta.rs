@@ -66,7 +66,11 @@ pub fn machine() -> Machine {
     let cpuinfo = read("/proc/cpuinfo");
     let cpu_model = cpuinfo
         .lines()
-        .find_map(|l| l.strip_prefix("model name").and_then(|r| r.split_once(':')).map(|(_, v)| v.trim().to_string()))
+        .find_map(|l| {
+            l.strip_prefix("model name")
+                .and_then(|r| r.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
         .unwrap_or_else(|| "unknown".into());
     let memory_gib = read("/proc/meminfo")
         .lines()
@@ -114,7 +118,8 @@ pub fn now_utc() -> String {
 
 pub fn collect(plan: &ExperimentPlan) -> Meta {
     let git = cmd("git", &["rev-parse", "HEAD"]).map(|h| {
-        let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+        let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"])
+            .is_some_and(|s| !s.is_empty());
         if dirty {
             h + "-dirty"
         } else {
@@ -170,6 +175,9 @@ mod tests {
     fn utc_timestamp_is_well_formed() {
         let t = super::now_utc();
         assert_eq!(t.len(), 20, "{t}");
-        assert!(t.starts_with("20") && t.ends_with('Z') && &t[10..11] == "T", "{t}");
+        assert!(
+            t.starts_with("20") && t.ends_with('Z') && &t[10..11] == "T",
+            "{t}"
+        );
     }
 }

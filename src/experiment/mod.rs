@@ -23,12 +23,17 @@ use std::path::{Path, PathBuf};
 pub fn finish(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let runs = dir.join("runs.csv");
     if !runs.exists() {
-        return Err(format!("{}: not found (is {} an experiment results folder?)", runs.display(), dir.display()));
+        return Err(format!(
+            "{}: not found (is {} an experiment results folder?)",
+            runs.display(),
+            dir.display()
+        ));
     }
     let (rows, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
     let sums = summary::summarize(&rows);
     let summary_path = dir.join("summary.csv");
-    summary::write_summary(&summary_path, &sums).map_err(|e| format!("{}: {e}", summary_path.display()))?;
+    summary::write_summary(&summary_path, &sums)
+        .map_err(|e| format!("{}: {e}", summary_path.display()))?;
     let figs = crate::plot::draw_all(dir, &sums)?;
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()

@@ -85,10 +85,13 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         field: field.to_string(),
         msg,
     };
-    let bytes = std::fs::read(path).map_err(|e| err("", format!("cannot read experiment file: {e}")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| err("", format!("cannot read experiment file: {e}")))?;
     let text = String::from_utf8(bytes.clone()).map_err(|_| err("", "not UTF-8 text".into()))?;
     let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
         err(
             &line.map(|l| format!("line {l}")).unwrap_or_default(),
             e.message().to_string(),
@@ -102,8 +105,16 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "experiment".into()),
     };
-    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c)) || name.starts_with('.') {
-        return Err(err("name", format!("'{name}': use letters, digits, '-', '_' or '.' (it names the results folder)")));
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        || name.starts_with('.')
+    {
+        return Err(err(
+            "name",
+            format!("'{name}': use letters, digits, '-', '_' or '.' (it names the results folder)"),
+        ));
     }
     if file.repetitions == 0 {
         return Err(err("repetitions", "must be ≥ 1 (got 0)".into()));
@@ -116,16 +127,24 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         check_tracer_id(t).map_err(|e| err(&format!("tracers[{i}]"), e.to_string()))?;
     }
     if file.scenes.is_empty() {
-        return Err(err("scenes", "must list at least one scene ([[scenes]] path = …)".into()));
+        return Err(err(
+            "scenes",
+            "must list at least one scene ([[scenes]] path = …)".into(),
+        ));
     }
     if file.schedulers.is_empty() {
-        return Err(err("schedulers", "must list at least one scheduler ([[schedulers]] kind = …)".into()));
+        return Err(err(
+            "schedulers",
+            "must list at least one scheduler ([[schedulers]] kind = …)".into(),
+        ));
     }
     // Expand every scheduler grid before the (slow) scene loading, so a typo fails fast.
     let mut grids = Vec::new();
     for (i, s) in file.schedulers.iter().enumerate() {
         let field = |f: &str| format!("schedulers[{i}].{f}");
-        grids.push(expand_scheduler(s, &workers, file.timeline).map_err(|(f, m)| err(&field(&f), m))?);
+        grids.push(
+            expand_scheduler(s, &workers, file.timeline).map_err(|(f, m)| err(&field(&f), m))?,
+        );
     }
     let max_workers = workers.iter().copied().max().unwrap_or(1);
 
@@ -134,7 +153,8 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         let p = base.join(&s.path);
         let overrides = s.overrides();
         let t0 = Instant::now();
-        let scene = load_scene(&p, &overrides).map_err(|e| err(&format!("scenes[{i}]"), e.to_string()))?;
+        let scene =
+            load_scene(&p, &overrides).map_err(|e| err(&format!("scenes[{i}]"), e.to_string()))?;
         scenes.push(PlannedScene {
             file: s.path.clone(),
             overrides,
@@ -206,7 +226,9 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
     let word = |s: &str| -> Result<i64, String> {
         match s.trim() {
             "max" => Ok(max),
-            t => t.parse::<i64>().map_err(|_| format!("'{s}': expected a number or \"max\"")),
+            t => t
+                .parse::<i64>()
+                .map_err(|_| format!("'{s}': expected a number or \"max\"")),
         }
     };
     let mut out: Vec<i64> = match w {
@@ -219,9 +241,9 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
             })
             .collect::<Result<_, _>>()?,
         WorkersSpec::Range(r) => {
-            let (a, b) = r
-                .split_once("..")
-                .ok_or_else(|| format!("'{r}': expected a list, a number or a range \"A..B\" (B may be max)"))?;
+            let (a, b) = r.split_once("..").ok_or_else(|| {
+                format!("'{r}': expected a list, a number or a range \"A..B\" (B may be max)")
+            })?;
             let (a, b) = (word(a)?, word(b.trim_start_matches('='))?);
             if a > b {
                 return Err(format!("'{r}': empty range ({a} > {b})"));
@@ -240,7 +262,11 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
     Ok(out.into_iter().map(|n| n as usize).collect())
 }
 
-fn axis<T: Clone>(v: &Option<OneOrMany<T>>, default: T, name: &str) -> Result<Vec<T>, (String, String)> {
+fn axis<T: Clone>(
+    v: &Option<OneOrMany<T>>,
+    default: T,
+    name: &str,
+) -> Result<Vec<T>, (String, String)> {
     match v {
         None => Ok(vec![default]),
         Some(v) => {
@@ -260,7 +286,10 @@ fn positive(vals: Vec<i64>, name: &str) -> Result<Vec<usize>, (String, String)> 
             if (1..=1 << 20).contains(&v) {
                 Ok(v as usize)
             } else {
-                Err((name.to_string(), format!("must be between 1 and 1048576 (got {v})")))
+                Err((
+                    name.to_string(),
+                    format!("must be between 1 and 1048576 (got {v})"),
+                ))
             }
         })
         .collect()
@@ -276,7 +305,10 @@ fn expand_scheduler(
     let kind = SchedulerKind::from_id(&s.kind).map_err(|e| ("kind".to_string(), e.msg))?;
     let not_for = |field: &str, present: bool, who: &str| -> Result<(), (String, String)> {
         if present {
-            Err((field.to_string(), format!("'{}' has no {field} (only {who})", kind.id())))
+            Err((
+                field.to_string(),
+                format!("'{}' has no {field} (only {who})", kind.id()),
+            ))
         } else {
             Ok(())
         }
@@ -286,14 +318,26 @@ fn expand_scheduler(
         not_for("requeue", s.requeue.is_some(), "master re-queues")?;
         not_for("wait", s.wait.is_some(), "master waits")?;
     }
-    let grabs = matches!(kind, SchedulerKind::SelfScheduling | SchedulerKind::Guided | SchedulerKind::WorkStealing);
+    let grabs = matches!(
+        kind,
+        SchedulerKind::SelfScheduling | SchedulerKind::Guided | SchedulerKind::WorkStealing
+    );
     if !grabs {
-        not_for("grab", s.grab.is_some(), "self_scheduling, guided and work_stealing grab")?;
+        not_for(
+            "grab",
+            s.grab.is_some(),
+            "self_scheduling, guided and work_stealing grab",
+        )?;
     }
     if kind != SchedulerKind::Guided {
         not_for("guided_k", s.guided_k.is_some(), "guided has one")?;
     }
-    let chunk = s.chunk.as_ref().ok_or_else(|| ("chunk".to_string(), "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string()))?;
+    let chunk = s.chunk.as_ref().ok_or_else(|| {
+        (
+            "chunk".to_string(),
+            "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string(),
+        )
+    })?;
     let chunks = axis(&Some(chunk.clone()), String::new(), "chunk")?
         .iter()
         .map(|c| Chunk::parse(c).map_err(|e| ("chunk".to_string(), e.msg)))
@@ -313,7 +357,10 @@ fn expand_scheduler(
         .map(|w| Wait::from_id(w).map_err(|e| ("wait".to_string(), e.msg)))
         .collect::<Result<Vec<_>, _>>()?;
     let grab_vals = positive(axis(&s.grab, defaults.grab as i64, "grab")?, "grab")?;
-    let ks = positive(axis(&s.guided_k, defaults.guided_k as i64, "guided_k")?, "guided_k")?;
+    let ks = positive(
+        axis(&s.guided_k, defaults.guided_k as i64, "guided_k")?,
+        "guided_k",
+    )?;
     let mut out = Vec::new();
     for &chunk in &chunks {
         for &order in &orders {

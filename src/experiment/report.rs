@@ -13,10 +13,26 @@ fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
 /// The comparison sentence for one group at its largest worker count, if it has a per-ray
 /// master (master with 1-pixel items) and some other configuration.
 pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
-    let max_w = sums.iter().filter(|s| s.row.scheduler != "serial").map(|s| s.row.workers).max()?;
-    let at: Vec<&Summary> = sums.iter().copied().filter(|s| s.row.workers == max_w && s.row.scheduler != "serial").collect();
-    let per_ray = best_by(at.iter().copied().filter(|s| s.row.scheduler == "master" && s.row.chunk_px == Some(1)))?;
-    let best = best_by(at.iter().copied().filter(|s| s.row.config != per_ray.row.config))?;
+    let max_w = sums
+        .iter()
+        .filter(|s| s.row.scheduler != "serial")
+        .map(|s| s.row.workers)
+        .max()?;
+    let at: Vec<&Summary> = sums
+        .iter()
+        .copied()
+        .filter(|s| s.row.workers == max_w && s.row.scheduler != "serial")
+        .collect();
+    let per_ray = best_by(
+        at.iter()
+            .copied()
+            .filter(|s| s.row.scheduler == "master" && s.row.chunk_px == Some(1)),
+    )?;
+    let best = best_by(
+        at.iter()
+            .copied()
+            .filter(|s| s.row.config != per_ray.row.config),
+    )?;
     let ratio = per_ray.wall_median / best.wall_median;
     let verdict = if ratio >= 1.0 {
         format!("{ratio:.2}× faster than")
@@ -31,7 +47,9 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
 
 pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usize) -> String {
     let mut md = String::new();
-    let name = sums.first().map_or("experiment", |s| s.row.experiment.as_str());
+    let name = sums
+        .first()
+        .map_or("experiment", |s| s.row.experiment.as_str());
     let _ = writeln!(md, "# Experiment `{name}`\n");
     let mismatched: Vec<&Summary> = sums.iter().filter(|s| !s.identical).collect();
     if !mismatched.is_empty() {
@@ -44,8 +62,20 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
     }
     let _ = writeln!(md, "## What ran\n");
     if let Some(m) = meta {
-        let _ = writeln!(md, "- Experiment file: `{}` (hash `{}`)", m.experiment_file, m.experiment_hash);
-        let _ = writeln!(md, "- Started {}{}", m.started, m.resumed.as_ref().map(|r| format!(", last resumed {r}")).unwrap_or_default());
+        let _ = writeln!(
+            md,
+            "- Experiment file: `{}` (hash `{}`)",
+            m.experiment_file, m.experiment_hash
+        );
+        let _ = writeln!(
+            md,
+            "- Started {}{}",
+            m.started,
+            m.resumed
+                .as_ref()
+                .map(|r| format!(", last resumed {r}"))
+                .unwrap_or_default()
+        );
     }
     let groups: Vec<String> = {
         let mut g: Vec<String> = Vec::new();
@@ -56,14 +86,30 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         }
         g
     };
-    let _ = writeln!(md, "- {} configurations, {runs} timed runs, over: {}", sums.len(), groups.join("; "));
+    let _ = writeln!(
+        md,
+        "- {} configurations, {runs} timed runs, over: {}",
+        sums.len(),
+        groups.join("; ")
+    );
     let _ = writeln!(md, "- Speedup = t_serial / t (serial = one thread, no scheduler, same scene, tracer and settings); every image is compared bit for bit with the serial one.\n");
     if let Some(m) = meta {
         let c = &m.machine;
         let _ = writeln!(md, "## Machine\n");
-        let _ = writeln!(md, "- CPU: {} ({} logical cores available), {:.1} GiB memory", c.cpu_model, c.cores, c.memory_gib);
+        let _ = writeln!(
+            md,
+            "- CPU: {} ({} logical cores available), {:.1} GiB memory",
+            c.cpu_model, c.cores, c.memory_gib
+        );
         let _ = writeln!(md, "- OS: {} (kernel {}, {})", c.os, c.kernel, c.arch);
-        let _ = writeln!(md, "- raysched {} at `{}`, {}, features: [{}]\n", m.raysched_version, m.git_commit, m.rustc, m.features.join(", "));
+        let _ = writeln!(
+            md,
+            "- raysched {} at `{}`, {}, features: [{}]\n",
+            m.raysched_version,
+            m.git_commit,
+            m.rustc,
+            m.features.join(", ")
+        );
     }
     let _ = writeln!(md, "## Result\n");
     let mut any = false;
@@ -75,7 +121,10 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         }
     }
     if !any {
-        let _ = writeln!(md, "(No per-ray master configuration in this experiment, so no per-ray comparison.)\n");
+        let _ = writeln!(
+            md,
+            "(No per-ray master configuration in this experiment, so no per-ray comparison.)\n"
+        );
     }
     let _ = writeln!(md, "## Best configuration per scheduler\n");
     for g in &groups {
@@ -102,14 +151,25 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             let _ = writeln!(
                 md,
                 "| {k} | `{}` | {} | {:.4} | {:.4} – {:.4} | {:.2}× | {:.0} % | {} |",
-                b.row.label, b.row.workers, b.wall_median, b.wall_ci95.0, b.wall_ci95.1, b.speedup_median, b.efficiency_median * 100.0, b.n
+                b.row.label,
+                b.row.workers,
+                b.wall_median,
+                b.wall_ci95.0,
+                b.wall_ci95.1,
+                b.speedup_median,
+                b.efficiency_median * 100.0,
+                b.n
             );
         }
         let _ = writeln!(md);
     }
     let _ = writeln!(md, "## Plots\n");
     for f in figs {
-        let _ = writeln!(md, "### {}\n\n![{}]({})\n\n{}\n", f.title, f.title, f.file, f.caption);
+        let _ = writeln!(
+            md,
+            "### {}\n\n![{}]({})\n\n{}\n",
+            f.title, f.title, f.file, f.caption
+        );
     }
     let _ = writeln!(md, "Data: `runs.csv` (one row per run), `summary.csv` (per configuration), `meta.toml` (machine and build). Regenerate plots and this report with `raysched plot <this folder>`.");
     md

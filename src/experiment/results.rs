@@ -76,7 +76,12 @@ impl RunRow {
         w.serialize(Self::example()).expect("serialise example row");
         let bytes = w.into_inner().expect("flush to Vec");
         let text = String::from_utf8(bytes).expect("utf8");
-        text.lines().next().unwrap_or("").split(',').map(str::to_string).collect()
+        text.lines()
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .map(str::to_string)
+            .collect()
     }
     fn example() -> Self {
         Self {
@@ -184,7 +189,9 @@ impl RunRow {
             self.height.to_string(),
             self.spp.to_string(),
             self.max_depth.to_string(),
-            self.generator_count.map(|g| g.to_string()).unwrap_or_default(),
+            self.generator_count
+                .map(|g| g.to_string())
+                .unwrap_or_default(),
             self.tracer.clone(),
             self.scheduler.clone(),
             o(&self.chunk),
@@ -201,7 +208,9 @@ impl RunRow {
 
     /// One CSV line, newline included.
     pub fn to_line(&self) -> Vec<u8> {
-        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(vec![]);
+        let mut w = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(vec![]);
         w.serialize(self).expect("a RunRow always serialises");
         w.into_inner().expect("flush to Vec")
     }
@@ -280,7 +289,11 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
             Some(row) => rows.push(row),
             // A complete-looking last line with the wrong columns is a torn write too.
             None if is_last => break,
-            None => return Err(format!("line {line_no} is not a valid row; rerun with --fresh")),
+            None => {
+                return Err(format!(
+                    "line {line_no} is not a valid row; rerun with --fresh"
+                ))
+            }
         }
         valid = end as u64;
         start = end;
@@ -325,7 +338,10 @@ impl RunsFile {
             .map_err(io(path))?;
         file.set_len(valid).map_err(io(path))?;
         drop(file);
-        file = OpenOptions::new().append(true).open(path).map_err(io(path))?;
+        file = OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(io(path))?;
         if valid == 0 {
             let mut h = RunRow::header().join(",").into_bytes();
             h.push(b'\n');
@@ -348,7 +364,9 @@ impl RunsFile {
 
     /// Append one row: one `write_all` of the whole line, then flush.
     pub fn append(&mut self, row: &RunRow) -> Result<(), ResultsError> {
-        self.file.write_all(&row.to_line()).map_err(io(&self.path))?;
+        self.file
+            .write_all(&row.to_line())
+            .map_err(io(&self.path))?;
         self.file.flush().map_err(io(&self.path))?;
         self.done.insert((row.config.clone(), row.repetition));
         Ok(())

@@ -128,7 +128,8 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
     let (mut runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;
 
     // Resume: old rows must belong to this plan's scenes as they are now.
-    let by_id: HashMap<&str, &RunConfig> = plan.configs.iter().map(|c| (c.id.as_str(), c)).collect();
+    let by_id: HashMap<&str, &RunConfig> =
+        plan.configs.iter().map(|c| (c.id.as_str(), c)).collect();
     let mut serial: HashMap<usize, SerialInfo> = HashMap::new();
     for r in &old_rows {
         let Some(c) = by_id.get(r.config.as_str()) else {
@@ -161,7 +162,9 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
         .configs
         .iter()
         .map(|c| {
-            let reps = (0..plan.repetitions).filter(|&k| !runs.is_done(&c.id, k)).collect();
+            let reps = (0..plan.repetitions)
+                .filter(|&k| !runs.is_done(&c.id, k))
+                .collect();
             (c, reps)
         })
         .filter(|(_, reps): &(_, Vec<u32>)| !reps.is_empty())
@@ -186,7 +189,9 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
     for (c, reps) in pending {
         let b = &plan.baselines[c.baseline];
         let ps = plan.scene_of(c);
-        let label = c.spec.as_ref().map_or("serial".to_string(), |s| format!("{} ×{}", s.label(), s.workers));
+        let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
+            format!("{} ×{}", s.label(), s.workers)
+        });
         bar.set_message(format!("{} · {} · {label}", ps.scene.name, b.tracer_id));
         for _ in 0..plan.warmup {
             measure(plan, c, false)?;
@@ -205,7 +210,11 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
                 None => {
                     if rep == 0 {
                         // The image goes first: a row on disk implies its image is too.
-                        let stem = dir.join("images").join(format!("serial_{}_{}", slug(&ps.scene.name), c.id));
+                        let stem = dir.join("images").join(format!(
+                            "serial_{}_{}",
+                            slug(&ps.scene.name),
+                            c.id
+                        ));
                         image
                             .save_with_preview(&stem.with_extension("exr"))
                             .map_err(|e| io_err(&stem, e))?;
@@ -255,7 +264,11 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
 
 /// One timed run. Only the render is inside the timed section (scenes and tracers were built by
 /// the plan).
-fn measure(plan: &ExperimentPlan, c: &RunConfig, timeline: bool) -> Result<(Image, RunStats), RunError> {
+fn measure(
+    plan: &ExperimentPlan,
+    c: &RunConfig,
+    timeline: bool,
+) -> Result<(Image, RunStats), RunError> {
     let b = &plan.baselines[c.baseline];
     let scene = &plan.scene_of(c).scene;
     match &c.spec {
@@ -312,7 +325,13 @@ fn fill_stats(row: &mut RunRow, s: &RunStats) {
 pub fn slug(s: &str) -> String {
     let mut out: String = s
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '.' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     while out.contains("__") {
         out = out.replace("__", "_");

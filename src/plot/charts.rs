@@ -75,7 +75,9 @@ fn series(
 ) -> Series {
     let mut out: Series = Vec::new();
     for s in sums {
-        let (Some(k), Some(xv)) = (key(s), x(s)) else { continue };
+        let (Some(k), Some(xv)) = (key(s), x(s)) else {
+            continue;
+        };
         let yv = y(s);
         if !yv.is_finite() {
             continue;
@@ -101,7 +103,9 @@ fn series(
 
 fn range(series: &Series, f: impl Fn(&(f64, f64)) -> f64) -> (f64, f64) {
     let v = series.iter().flat_map(|(_, l)| l.iter().map(&f));
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
     if lo.is_finite() {
         (lo, hi)
     } else {
@@ -166,7 +170,13 @@ fn line_chart<DB: DrawingBackend>(
     }
     for (i, (name, pts)) in data.iter().enumerate() {
         let mut c = colour(kind_of(name));
-        if c == BLACK || data.iter().filter(|(n, _)| kind_of(n) == kind_of(name)).count() > 1 {
+        if c == BLACK
+            || data
+                .iter()
+                .filter(|(n, _)| kind_of(n) == kind_of(name))
+                .count()
+                > 1
+        {
             // Several lines of one kind (the buffer plot): tell them apart by index.
             c = colour(SchedulerKind::ALL[i % SchedulerKind::ALL.len()].id());
         }
@@ -221,8 +231,18 @@ fn overhead_chart<DB: DrawingBackend>(
     bars: &[(String, [f64; 4])],
     serial_s: f64,
 ) -> R {
-    let parts = ["work (Σ busy)", "idle: imbalance", "idle: other", "dispatch (master)"];
-    let cols = [RGBColor(90, 140, 200), RGBColor(230, 150, 60), RGBColor(200, 200, 200), RGBColor(200, 70, 70)];
+    let parts = [
+        "work (Σ busy)",
+        "idle: imbalance",
+        "idle: other",
+        "dispatch (master)",
+    ];
+    let cols = [
+        RGBColor(90, 140, 200),
+        RGBColor(230, 150, 60),
+        RGBColor(200, 200, 200),
+        RGBColor(200, 70, 70),
+    ];
     let top = bars
         .iter()
         .map(|(_, v)| v.iter().sum::<f64>())
@@ -234,7 +254,10 @@ fn overhead_chart<DB: DrawingBackend>(
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((0..(n as i32 - 1).max(0)).into_segmented(), 0.0..top.max(1e-9))
+        .build_cartesian_2d(
+            (0..(n as i32 - 1).max(0)).into_segmented(),
+            0.0..top.max(1e-9),
+        )
         .map_err(e)?;
     let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
     let fmt = |v: &SegmentValue<i32>| match v {
@@ -256,7 +279,10 @@ fn overhead_chart<DB: DrawingBackend>(
         let rects = bars.iter().enumerate().map(move |(i, (_, v))| {
             let y0: f64 = v[..p].iter().sum();
             let mut r = Rectangle::new(
-                [(SegmentValue::Exact(i as i32), y0), (SegmentValue::Exact(i as i32 + 1), y0 + v[p])],
+                [
+                    (SegmentValue::Exact(i as i32), y0),
+                    (SegmentValue::Exact(i as i32 + 1), y0 + v[p]),
+                ],
                 c.filled(),
             );
             r.set_margin(0, 0, 12, 12);
@@ -270,7 +296,10 @@ fn overhead_chart<DB: DrawingBackend>(
     }
     chart
         .draw_series(LineSeries::new(
-            vec![(SegmentValue::Exact(0), serial_s), (SegmentValue::Exact(n as i32), serial_s)],
+            vec![
+                (SegmentValue::Exact(0), serial_s),
+                (SegmentValue::Exact(n as i32), serial_s),
+            ],
             BLACK.stroke_width(2),
         ))
         .map_err(e)?
@@ -289,7 +318,8 @@ fn overhead_chart<DB: DrawingBackend>(
 
 /// (worker, item, start_ns, end_ns) rows of a timeline file.
 fn read_timeline(path: &Path) -> Result<Vec<(u32, u32, u64, u64)>, String> {
-    let mut rdr = csv::Reader::from_path(path).map_err(|err| format!("{}: {err}", path.display()))?;
+    let mut rdr =
+        csv::Reader::from_path(path).map_err(|err| format!("{}: {err}", path.display()))?;
     rdr.deserialize()
         .map(|r| r.map_err(|err| format!("{}: {err}", path.display())))
         .collect()
@@ -300,7 +330,12 @@ fn gantt_chart<DB: DrawingBackend>(
     title: &str,
     spans: &[(u32, u32, u64, u64)],
 ) -> R {
-    let workers = spans.iter().filter(|s| s.0 != MASTER_LANE).map(|s| s.0 + 1).max().unwrap_or(1);
+    let workers = spans
+        .iter()
+        .filter(|s| s.0 != MASTER_LANE)
+        .map(|s| s.0 + 1)
+        .max()
+        .unwrap_or(1);
     let has_master = spans.iter().any(|s| s.0 == MASTER_LANE);
     let lanes = workers + u32::from(has_master);
     let lane = |w: u32| if w == MASTER_LANE { workers } else { w } as f64;
@@ -336,7 +371,10 @@ fn gantt_chart<DB: DrawingBackend>(
         .draw_series(spans.iter().map(|&(w, item, s, t)| {
             let c = Palette99::pick(item as usize % 20);
             let y = lane(w);
-            Rectangle::new([(s as f64 / 1e6, y - 0.38), (t as f64 / 1e6, y + 0.38)], c.filled())
+            Rectangle::new(
+                [(s as f64 / 1e6, y - 0.38), (t as f64 / 1e6, y + 0.38)],
+                c.filled(),
+            )
         }))
         .map_err(e)?;
     Ok(())
@@ -359,60 +397,114 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
     };
     for g in &groups {
         let gs = slug(g);
-        let all: Vec<&Summary> = sums.iter().filter(|s| &s.group() == g && s.row.scheduler != "serial").collect();
+        let all: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.scheduler != "serial")
+            .collect();
         if all.is_empty() {
             continue;
         }
         let max_w = all.iter().map(|s| s.row.workers).max().unwrap_or(1);
-        let at_max: Vec<&Summary> = all.iter().copied().filter(|s| s.row.workers == max_w).collect();
+        let at_max: Vec<&Summary> = all
+            .iter()
+            .copied()
+            .filter(|s| s.row.workers == max_w)
+            .collect();
         let kind = |s: &Summary| Some(s.row.scheduler.clone());
         let higher = |a: f64, b: f64| a > b;
         let lower = |a: f64, b: f64| a < b;
 
-        let workers: std::collections::BTreeSet<usize> = all.iter().map(|s| s.row.workers).collect();
+        let workers: std::collections::BTreeSet<usize> =
+            all.iter().map(|s| s.row.workers).collect();
         if workers.len() > 1 {
-            let data = series(&all, kind, |s| Some(s.row.workers as f64), |s| s.speedup_median, higher);
+            let data = series(
+                &all,
+                kind,
+                |s| Some(s.row.workers as f64),
+                |s| s.speedup_median,
+                higher,
+            );
             let stem = plots.join(format!("speedup_vs_workers_{gs}"));
             let title = format!("Speedup vs workers — {g}");
-            both!(stem, SIZE, one_chart(&title, "worker threads", "speedup (t_serial / t)", &data, false, true));
+            both!(
+                stem,
+                SIZE,
+                one_chart(
+                    &title,
+                    "worker threads",
+                    "speedup (t_serial / t)",
+                    &data,
+                    false,
+                    true
+                )
+            );
             figs.push(Figure {
                 file: rel(&stem),
                 title,
                 caption: "Median speedup of each scheduler's best configuration per worker count; the black line is ideal linear speedup, and the gap below it is overhead.".into(),
             });
         }
-        let chunks: std::collections::BTreeSet<u64> = at_max.iter().filter_map(|s| s.row.chunk_px).collect();
+        let chunks: std::collections::BTreeSet<u64> =
+            at_max.iter().filter_map(|s| s.row.chunk_px).collect();
         if chunks.len() > 1 {
             let lx = |s: &Summary| s.row.chunk_px.map(|c| (c as f64).log2());
             let wall = series(&at_max, kind, lx, |s| s.wall_median, lower);
             let speed = series(&at_max, kind, lx, |s| s.speedup_median, higher);
             let stem = plots.join(format!("granularity_{gs}"));
             let title = format!("Granularity, {max_w} workers — {g}");
-            both!(stem, (900, 820), two_charts(
-                (&format!("Wall time vs chunk size, {max_w} workers — {g}"), "Speedup vs chunk size"),
-                "pixels per work item (log₂ scale)",
-                ("median wall time (s)", &wall),
-                ("speedup (t_serial / t)", &speed)
-            ));
+            both!(
+                stem,
+                (900, 820),
+                two_charts(
+                    (
+                        &format!("Wall time vs chunk size, {max_w} workers — {g}"),
+                        "Speedup vs chunk size"
+                    ),
+                    "pixels per work item (log₂ scale)",
+                    ("median wall time (s)", &wall),
+                    ("speedup (t_serial / t)", &speed)
+                )
+            );
             figs.push(Figure {
                 file: rel(&stem),
                 title,
                 caption: "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve.".into(),
             });
         }
-        let master: Vec<&Summary> = at_max.iter().copied().filter(|s| s.row.buffer.is_some()).collect();
-        let buffers: std::collections::BTreeSet<usize> = master.iter().filter_map(|s| s.row.buffer).collect();
+        let master: Vec<&Summary> = at_max
+            .iter()
+            .copied()
+            .filter(|s| s.row.buffer.is_some())
+            .collect();
+        let buffers: std::collections::BTreeSet<usize> =
+            master.iter().filter_map(|s| s.row.buffer).collect();
         if buffers.len() > 1 {
             let data = series(
                 &master,
-                |s| Some(format!("master chunk={}", s.row.chunk.clone().unwrap_or_default())),
+                |s| {
+                    Some(format!(
+                        "master chunk={}",
+                        s.row.chunk.clone().unwrap_or_default()
+                    ))
+                },
                 |s| s.row.buffer.map(|b| (b as f64).log2()),
                 |s| s.speedup_median,
                 higher,
             );
             let stem = plots.join(format!("buffer_{gs}"));
             let title = format!("Master: speedup vs buffer size, {max_w} workers — {g}");
-            both!(stem, SIZE, one_chart(&title, "items outstanding per worker, B (log₂ scale)", "speedup (t_serial / t)", &data, true, false));
+            both!(
+                stem,
+                SIZE,
+                one_chart(
+                    &title,
+                    "items outstanding per worker, B (log₂ scale)",
+                    "speedup (t_serial / t)",
+                    &data,
+                    true,
+                    false
+                )
+            );
             figs.push(Figure {
                 file: rel(&stem),
                 title,
@@ -435,7 +527,12 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
                 let other_idle = (s.idle_s_median - s.imbalance_s_median).max(0.0);
                 (
                     s.row.scheduler.clone(),
-                    [s.work_s_median, s.imbalance_s_median.min(s.idle_s_median), other_idle, s.dispatch_s_median],
+                    [
+                        s.work_s_median,
+                        s.imbalance_s_median.min(s.idle_s_median),
+                        other_idle,
+                        s.dispatch_s_median,
+                    ],
                 )
             })
             .collect();
@@ -448,7 +545,8 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             caption: "Total height = workers × wall time (+ the master's dispatch time on its own thread). Everything above the black serial line is overhead.".into(),
         });
         // Gantt: each kind's best run, plus the per-ray master if there is one.
-        let mut picks: Vec<(String, &Summary)> = best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
+        let mut picks: Vec<(String, &Summary)> =
+            best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
         if let Some(pr) = at_max
             .iter()
             .filter(|s| s.row.buffer.is_some() && s.row.chunk_px == Some(1))
