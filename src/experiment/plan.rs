@@ -254,7 +254,7 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
     if out.is_empty() {
         return Err("must list at least one worker count".into());
     }
-    if let Some(bad) = out.iter().find(|&&n| n < 1 || n > 4096) {
+    if let Some(bad) = out.iter().find(|&&n| !(1..=4096).contains(&n)) {
         return Err(format!("must be between 1 and 4096 (got {bad})"));
     }
     out.sort_unstable();
