@@ -24,6 +24,32 @@ pub struct Cli {
 pub enum Command {
     /// Render one scene and write OUT (.exr or .pfm, linear) plus an sRGB .png preview beside it.
     Render(RenderArgs),
+    /// Run an experiment (experiments/*.toml): runs.csv, summary.csv, plots and report.md under
+    /// OUT/<experiment>/. Resumes where a previous run stopped.
+    Run(RunArgs),
+    /// Regenerate summary.csv, every plot and report.md of a results folder from its CSV files.
+    Plot(PlotArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// Experiment file (TOML), see experiments/.
+    pub experiment: PathBuf,
+    /// Discard earlier results of this experiment and start over.
+    #[arg(long)]
+    pub fresh: bool,
+    /// No progress bar (for scripts).
+    #[arg(long)]
+    pub quiet: bool,
+    /// Results root; the experiment writes to OUT/<experiment name>/.
+    #[arg(long, default_value = "results")]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct PlotArgs {
+    /// A results folder, e.g. results/quick.
+    pub dir: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -84,7 +110,47 @@ pub fn main() -> ExitCode {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Render(args) => render(args),
+        Command::Run(args) => run_experiment(args),
+        Command::Plot(args) => {
+            let written = crate::experiment::finish(&args.dir)
+                .map_err(|e| CliError::input(anyhow::anyhow!(e)))?;
+            println!("wrote {} files under {}", written.len(), args.dir.display());
+            Ok(())
+        }
     }
+}
+
+fn run_experiment(args: RunArgs) -> Result<(), CliError> {
+    use crate::experiment::{self, RunError, RunOptions};
+    let plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
+    let opts = RunOptions {
+        out: args.out,
+        fresh: args.fresh,
+        quiet: args.quiet,
+    };
+    let outcome = experiment::run_experiment(&plan, &opts).map_err(|e| match e {
+        RunError::Refused(_) => CliError::input(e),
+        _ => CliError::runtime(e),
+    })?;
+    let written = experiment::finish(&outcome.dir).map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
+    if !args.quiet {
+        println!(
+            "{}: {} runs measured, {} already done; wrote {} files (report: {})",
+            plan.name,
+            outcome.measured,
+            outcome.skipped,
+            written.len(),
+            outcome.dir.join("report.md").display()
+        );
+    }
+    if outcome.mismatches > 0 {
+        return Err(CliError::runtime(anyhow::anyhow!(
+            "{} run(s) produced an image different from the serial baseline (identical=false in {})",
+            outcome.mismatches,
+            outcome.dir.join("runs.csv").display()
+        )));
+    }
+    Ok(())
 }
 
 fn render(args: RenderArgs) -> Result<(), CliError> {

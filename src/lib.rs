@@ -40,7 +40,9 @@
 //! ```
 
 pub mod cli;
+pub mod experiment;
 pub mod geometry;
+pub mod plot;
 pub mod render;
 pub mod rng;
 pub mod scene;

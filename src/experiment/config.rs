@@ -1,0 +1,133 @@
+//! Stage one: the raw experiment file (`experiments/*.toml`), exactly as written.
+//!
+//! ```toml
+//! name = "quick"                  # optional, defaults to the file stem
+//! description = "…"
+//! repetitions = 3                 # timed runs per configuration
+//! warmup = 1                      # untimed runs before them
+//! workers = [1, 2]                # or "1..max", or [1, 2, "max"]
+//! tracers = ["bvh"]
+//! timeline = true                 # record a Gantt timeline on repetition 0
+//!
+//! [[scenes]]
+//! path = "../scenes/simple.toml"  # relative to this file
+//! width = 64                      # any field of SceneOverrides
+//!
+//! [[schedulers]]
+//! kind = "master"
+//! chunk = ["1", "8", "frame"]     # every grid field takes a value or a list
+//! buffer = [1, 2, 16]
+//! ```
+
+use crate::scene::SceneOverrides;
+use serde::Deserialize;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentFile {
+    pub name: Option<String>,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default = "one")]
+    pub repetitions: u32,
+    #[serde(default)]
+    pub warmup: u32,
+    pub workers: WorkersSpec,
+    #[serde(default = "default_tracers")]
+    pub tracers: Vec<String>,
+    #[serde(default = "yes")]
+    pub timeline: bool,
+    pub scenes: Vec<SceneEntry>,
+    pub schedulers: Vec<SchedulerEntry>,
+}
+
+fn one() -> u32 {
+    1
+}
+fn yes() -> bool {
+    true
+}
+fn default_tracers() -> Vec<String> {
+    vec!["bvh".into()]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneEntry {
+    pub path: String,
+    // Spelled out rather than `#[serde(flatten)]`: serde cannot combine flatten with
+    // deny_unknown_fields, and a misspelt override must be an error.
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<i32>,
+    pub seed: Option<u64>,
+    pub generator_count: Option<u64>,
+}
+
+impl SceneEntry {
+    pub fn overrides(&self) -> SceneOverrides {
+        SceneOverrides {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            generator_count: self.generator_count,
+        }
+    }
+}
+
+/// A worker count: a number or `"max"` (this machine's available parallelism).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum WorkerCount {
+    N(i64),
+    Word(String),
+}
+
+/// `[1, 2, "max"]`, a single number, or a range string `"1..max"` / `"1..8"` (inclusive).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum WorkersSpec {
+    One(i64),
+    List(Vec<WorkerCount>),
+    Range(String),
+}
+
+/// A grid axis: one value or a list of values.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum OneOrMany<T> {
+    One(T),
+    Many(Vec<T>),
+}
+
+impl<T: Clone> OneOrMany<T> {
+    pub fn values(&self) -> Vec<T> {
+        match self {
+            Self::One(v) => vec![v.clone()],
+            Self::Many(v) => v.clone(),
+        }
+    }
+}
+
+/// One scheduler and its parameter grid. Fields a kind does not have are errors, so the
+/// cartesian product holds no meaningless combination (`static` has no buffer).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SchedulerEntry {
+    pub kind: String,
+    pub chunk: Option<OneOrMany<String>>,
+    pub order: Option<OneOrMany<String>>,
+    /// master only
+    pub buffer: Option<OneOrMany<i64>>,
+    /// master only
+    pub requeue: Option<OneOrMany<String>>,
+    /// master only
+    pub wait: Option<OneOrMany<String>>,
+    /// self_scheduling, guided, work_stealing
+    pub grab: Option<OneOrMany<i64>>,
+    /// guided only
+    pub guided_k: Option<OneOrMany<i64>>,
+}

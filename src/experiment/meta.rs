@@ -1,0 +1,183 @@
+//! `meta.toml`: the machine and build a run was measured on, and the experiment file's hash
+//! (a changed file is refused on resume unless `--fresh`).
+
+use super::plan::ExperimentPlan;
+use serde::{Deserialize, Serialize};
+use std::process::Command;
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Meta {
+    pub experiment: String,
+    pub experiment_file: String,
+    /// FNV-1a of the experiment file's bytes.
+    pub experiment_hash: String,
+    /// UTC, when runs.csv was started.
+    pub started: String,
+    /// UTC, the latest resume (absent if never resumed).
+    pub resumed: Option<String>,
+    pub raysched_version: String,
+    /// `git rev-parse HEAD` in the working directory, `-dirty` if it had local changes.
+    pub git_commit: String,
+    /// `rustc -V` on PATH at run time.
+    pub rustc: String,
+    pub features: Vec<String>,
+    pub machine: Machine,
+    /// Plan stage, never timed with a run.
+    pub scenes: Vec<SceneMeta>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Machine {
+    pub cpu_model: String,
+    /// Logical CPUs this process may use (std::thread::available_parallelism).
+    pub cores: usize,
+    pub memory_gib: f64,
+    pub os: String,
+    pub kernel: String,
+    pub arch: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SceneMeta {
+    pub file: String,
+    pub name: String,
+    pub hash: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub primitives: usize,
+    pub load_s: f64,
+    /// (tracer, build seconds)
+    pub tracers: Vec<(String, f64)>,
+}
+
+fn cmd(program: &str, args: &[&str]) -> Option<String> {
+    let out = Command::new(program).args(args).output().ok()?;
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+fn read(path: &str) -> String {
+    std::fs::read_to_string(path).unwrap_or_default()
+}
+
+pub fn machine() -> Machine {
+    let cpuinfo = read("/proc/cpuinfo");
+    let cpu_model = cpuinfo
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("model name")
+                .and_then(|r| r.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into());
+    let memory_gib = read("/proc/meminfo")
+        .lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(0.0, |kb| (kb / 1024.0 / 1024.0 * 10.0).round() / 10.0);
+    let os = read("/etc/os-release")
+        .lines()
+        .find_map(|l| l.strip_prefix("PRETTY_NAME="))
+        .map(|v| v.trim_matches('"').to_string())
+        .unwrap_or_else(|| std::env::consts::OS.to_string());
+    Machine {
+        cpu_model,
+        cores: crate::cli::default_threads(),
+        memory_gib,
+        os,
+        kernel: read("/proc/sys/kernel/osrelease").trim().to_string(),
+        arch: std::env::consts::ARCH.to_string(),
+    }
+}
+
+/// UTC date and time, `YYYY-MM-DDTHH:MM:SSZ` (no date crate needed for one timestamp).
+pub fn now_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs() as i64);
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Howard Hinnant's civil_from_days.
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+pub fn collect(plan: &ExperimentPlan) -> Meta {
+    let git = cmd("git", &["rev-parse", "HEAD"]).map(|h| {
+        let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"])
+            .is_some_and(|s| !s.is_empty());
+        if dirty {
+            h + "-dirty"
+        } else {
+            h
+        }
+    });
+    let mut features = vec![];
+    if cfg!(feature = "embree") {
+        features.push("embree".to_string());
+    }
+    if cfg!(feature = "mpi") {
+        features.push("mpi".to_string());
+    }
+    let scenes = plan
+        .scenes
+        .iter()
+        .enumerate()
+        .map(|(i, s)| SceneMeta {
+            file: s.file.clone(),
+            name: s.scene.name.clone(),
+            hash: super::plan::hex(s.scene.hash),
+            width: s.scene.width(),
+            height: s.scene.height(),
+            spp: s.scene.settings.spp,
+            primitives: s.scene.geometry.len(),
+            load_s: s.load_s,
+            tracers: plan
+                .baselines
+                .iter()
+                .filter(|b| b.scene == i)
+                .map(|b| (b.tracer_id.clone(), b.build_s))
+                .collect(),
+        })
+        .collect();
+    Meta {
+        experiment: plan.name.clone(),
+        experiment_file: plan.file.display().to_string(),
+        experiment_hash: plan.file_hash.clone(),
+        started: now_utc(),
+        resumed: None,
+        raysched_version: env!("CARGO_PKG_VERSION").to_string(),
+        git_commit: git.unwrap_or_else(|| "unknown".into()),
+        rustc: cmd("rustc", &["-V"]).unwrap_or_else(|| "unknown".into()),
+        features,
+        machine: machine(),
+        scenes,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn utc_timestamp_is_well_formed() {
+        let t = super::now_utc();
+        assert_eq!(t.len(), 20, "{t}");
+        assert!(
+            t.starts_with("20") && t.ends_with('Z') && &t[10..11] == "T",
+            "{t}"
+        );
+    }
+}

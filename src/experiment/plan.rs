@@ -1,0 +1,396 @@
+//! Stage two: the validated plan. Every scene is loaded, every tracer built, every id resolved
+//! and every value range-checked here, before any timing starts; errors name the experiment
+//! file and the field (`experiments/x.toml: schedulers[1].buffer: …`).
+
+use super::config::{ExperimentFile, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec};
+use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
+use crate::sched::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, Wait};
+use crate::tracer::{check_tracer_id, AnyTracer};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A bad experiment file: `file: field: message`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path}: {field}{}{msg}", if field.is_empty() { "" } else { ": " })]
+pub struct ConfigError {
+    pub path: String,
+    pub field: String,
+    pub msg: String,
+}
+
+/// A scene loaded with its overrides (the load time is recorded, never timed with a run).
+pub struct PlannedScene {
+    /// The path as written in the experiment file.
+    pub file: String,
+    pub overrides: SceneOverrides,
+    pub scene: Arc<Scene>,
+    pub load_s: f64,
+}
+
+/// One (scene, tracer) pair: the unit a serial baseline is measured for.
+pub struct Baseline {
+    pub scene: usize,
+    pub tracer_id: String,
+    pub tracer: Arc<AnyTracer>,
+    pub build_s: f64,
+}
+
+/// One configuration to time `repetitions` times.
+#[derive(Clone, Debug)]
+pub struct RunConfig {
+    /// Stable id (16 hex digits) of every config column: the resume key with the repetition.
+    pub id: String,
+    pub baseline: usize,
+    /// `None` = the serial baseline (one thread, no scheduler).
+    pub spec: Option<SchedulerSpec>,
+}
+
+pub struct ExperimentPlan {
+    pub name: String,
+    pub description: String,
+    pub file: PathBuf,
+    /// FNV-1a of the experiment file's bytes, 16 hex digits.
+    pub file_hash: String,
+    pub repetitions: u32,
+    pub warmup: u32,
+    pub timeline: bool,
+    pub scenes: Vec<PlannedScene>,
+    pub baselines: Vec<Baseline>,
+    /// Serial baselines first, so a scheduler run always finds its baseline measured.
+    pub configs: Vec<RunConfig>,
+}
+
+impl ExperimentPlan {
+    pub fn scene_of(&self, c: &RunConfig) -> &PlannedScene {
+        &self.scenes[self.baselines[c.baseline].scene]
+    }
+}
+
+pub fn hex(v: u64) -> String {
+    format!("{v:016x}")
+}
+
+pub fn fnv(bytes: &[u8]) -> u64 {
+    let mut h = Fnv64::default();
+    h.write(bytes);
+    h.finish()
+}
+
+/// Parse and validate an experiment file, load its scenes and build its tracers.
+pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
+    let display = path.display().to_string();
+    let err = |field: &str, msg: String| ConfigError {
+        path: display.clone(),
+        field: field.to_string(),
+        msg,
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| err("", format!("cannot read experiment file: {e}")))?;
+    let text = String::from_utf8(bytes.clone()).map_err(|_| err("", "not UTF-8 text".into()))?;
+    let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        err(
+            &line.map(|l| format!("line {l}")).unwrap_or_default(),
+            e.message().to_string(),
+        )
+    })?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let name = match &file.name {
+        Some(n) => n.clone(),
+        None => path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment".into()),
+    };
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        || name.starts_with('.')
+    {
+        return Err(err(
+            "name",
+            format!("'{name}': use letters, digits, '-', '_' or '.' (it names the results folder)"),
+        ));
+    }
+    if file.repetitions == 0 {
+        return Err(err("repetitions", "must be ≥ 1 (got 0)".into()));
+    }
+    let workers = expand_workers(&file.workers).map_err(|m| err("workers", m))?;
+    if file.tracers.is_empty() {
+        return Err(err("tracers", "must name at least one tracer".into()));
+    }
+    for (i, t) in file.tracers.iter().enumerate() {
+        check_tracer_id(t).map_err(|e| err(&format!("tracers[{i}]"), e.to_string()))?;
+    }
+    if file.scenes.is_empty() {
+        return Err(err(
+            "scenes",
+            "must list at least one scene ([[scenes]] path = …)".into(),
+        ));
+    }
+    if file.schedulers.is_empty() {
+        return Err(err(
+            "schedulers",
+            "must list at least one scheduler ([[schedulers]] kind = …)".into(),
+        ));
+    }
+    // Expand every scheduler grid before the (slow) scene loading, so a typo fails fast.
+    let mut grids = Vec::new();
+    for (i, s) in file.schedulers.iter().enumerate() {
+        let field = |f: &str| format!("schedulers[{i}].{f}");
+        grids.push(
+            expand_scheduler(s, &workers, file.timeline).map_err(|(f, m)| err(&field(&f), m))?,
+        );
+    }
+    let max_workers = workers.iter().copied().max().unwrap_or(1);
+
+    let mut scenes = Vec::new();
+    for (i, s) in file.scenes.iter().enumerate() {
+        let p = base.join(&s.path);
+        let overrides = s.overrides();
+        let t0 = Instant::now();
+        let scene =
+            load_scene(&p, &overrides).map_err(|e| err(&format!("scenes[{i}]"), e.to_string()))?;
+        scenes.push(PlannedScene {
+            file: s.path.clone(),
+            overrides,
+            scene: Arc::new(scene),
+            load_s: t0.elapsed().as_secs_f64(),
+        });
+    }
+    let mut baselines = Vec::new();
+    for (si, sc) in scenes.iter().enumerate() {
+        for (ti, t) in file.tracers.iter().enumerate() {
+            let t0 = Instant::now();
+            let tracer = AnyTracer::build(t, &sc.scene, max_workers)
+                .map_err(|e| err(&format!("tracers[{ti}]"), format!("scene {}: {e}", sc.file)))?;
+            baselines.push(Baseline {
+                scene: si,
+                tracer_id: t.clone(),
+                tracer: Arc::new(tracer),
+                build_s: t0.elapsed().as_secs_f64(),
+            });
+        }
+    }
+
+    let mut configs = Vec::new();
+    for (bi, _) in baselines.iter().enumerate() {
+        configs.push(RunConfig {
+            id: String::new(),
+            baseline: bi,
+            spec: None,
+        });
+    }
+    for (bi, _) in baselines.iter().enumerate() {
+        for grid in &grids {
+            for spec in grid {
+                configs.push(RunConfig {
+                    id: String::new(),
+                    baseline: bi,
+                    spec: Some(spec.clone()),
+                });
+            }
+        }
+    }
+    let mut plan = ExperimentPlan {
+        name,
+        description: file.description.clone(),
+        file: path.to_path_buf(),
+        file_hash: hex(fnv(&bytes)),
+        repetitions: file.repetitions,
+        warmup: file.warmup,
+        timeline: file.timeline,
+        scenes,
+        baselines,
+        configs,
+    };
+    let mut seen = std::collections::HashSet::new();
+    let mut unique = Vec::new();
+    for mut c in std::mem::take(&mut plan.configs) {
+        c.id = super::results::config_id(&plan, &c);
+        // The same configuration listed twice (overlapping grids) is timed once.
+        if seen.insert(c.id.clone()) {
+            unique.push(c);
+        }
+    }
+    plan.configs = unique;
+    Ok(plan)
+}
+
+fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
+    let max = crate::cli::default_threads() as i64;
+    let word = |s: &str| -> Result<i64, String> {
+        match s.trim() {
+            "max" => Ok(max),
+            t => t
+                .parse::<i64>()
+                .map_err(|_| format!("'{s}': expected a number or \"max\"")),
+        }
+    };
+    let mut out: Vec<i64> = match w {
+        WorkersSpec::One(n) => vec![*n],
+        WorkersSpec::List(l) => l
+            .iter()
+            .map(|c| match c {
+                WorkerCount::N(n) => Ok(*n),
+                WorkerCount::Word(s) => word(s),
+            })
+            .collect::<Result<_, _>>()?,
+        WorkersSpec::Range(r) => {
+            let (a, b) = r.split_once("..").ok_or_else(|| {
+                format!("'{r}': expected a list, a number or a range \"A..B\" (B may be max)")
+            })?;
+            let (a, b) = (word(a)?, word(b.trim_start_matches('='))?);
+            if a > b {
+                return Err(format!("'{r}': empty range ({a} > {b})"));
+            }
+            (a..=b).collect()
+        }
+    };
+    if out.is_empty() {
+        return Err("must list at least one worker count".into());
+    }
+    if let Some(bad) = out.iter().find(|&&n| !(1..=4096).contains(&n)) {
+        return Err(format!("must be between 1 and 4096 (got {bad})"));
+    }
+    out.sort_unstable();
+    out.dedup();
+    Ok(out.into_iter().map(|n| n as usize).collect())
+}
+
+fn axis<T: Clone>(
+    v: &Option<OneOrMany<T>>,
+    default: T,
+    name: &str,
+) -> Result<Vec<T>, (String, String)> {
+    match v {
+        None => Ok(vec![default]),
+        Some(v) => {
+            let vals = v.values();
+            if vals.is_empty() {
+                Err((name.to_string(), "must not be an empty list".into()))
+            } else {
+                Ok(vals)
+            }
+        }
+    }
+}
+
+fn positive(vals: Vec<i64>, name: &str) -> Result<Vec<usize>, (String, String)> {
+    vals.into_iter()
+        .map(|v| {
+            if (1..=1 << 20).contains(&v) {
+                Ok(v as usize)
+            } else {
+                Err((
+                    name.to_string(),
+                    format!("must be between 1 and 1048576 (got {v})"),
+                ))
+            }
+        })
+        .collect()
+}
+
+/// The cartesian product of one scheduler's grid and the worker counts. Parameters the kind
+/// does not have are rejected rather than multiplied in.
+fn expand_scheduler(
+    s: &SchedulerEntry,
+    workers: &[usize],
+    timeline: bool,
+) -> Result<Vec<SchedulerSpec>, (String, String)> {
+    let kind = SchedulerKind::from_id(&s.kind).map_err(|e| ("kind".to_string(), e.msg))?;
+    let not_for = |field: &str, present: bool, who: &str| -> Result<(), (String, String)> {
+        if present {
+            Err((
+                field.to_string(),
+                format!("'{}' has no {field} (only {who})", kind.id()),
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    if !kind.has_master() {
+        not_for("buffer", s.buffer.is_some(), "master has one")?;
+        not_for("requeue", s.requeue.is_some(), "master re-queues")?;
+        not_for("wait", s.wait.is_some(), "master waits")?;
+    }
+    let grabs = matches!(
+        kind,
+        SchedulerKind::SelfScheduling | SchedulerKind::Guided | SchedulerKind::WorkStealing
+    );
+    if !grabs {
+        not_for(
+            "grab",
+            s.grab.is_some(),
+            "self_scheduling, guided and work_stealing grab",
+        )?;
+    }
+    if kind != SchedulerKind::Guided {
+        not_for("guided_k", s.guided_k.is_some(), "guided has one")?;
+    }
+    let chunk = s.chunk.as_ref().ok_or_else(|| {
+        (
+            "chunk".to_string(),
+            "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string(),
+        )
+    })?;
+    let chunks = axis(&Some(chunk.clone()), String::new(), "chunk")?
+        .iter()
+        .map(|c| Chunk::parse(c).map_err(|e| ("chunk".to_string(), e.msg)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let orders = axis(&s.order, "scanline".into(), "order")?
+        .iter()
+        .map(|o| Order::from_id(o).map_err(|e| ("order".to_string(), e.msg)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let defaults = SchedulerSpec::new(kind, Chunk::Frame, 1);
+    let buffers = positive(axis(&s.buffer, defaults.buffer as i64, "buffer")?, "buffer")?;
+    let requeues = axis(&s.requeue, defaults.requeue.to_string(), "requeue")?
+        .iter()
+        .map(|r| Requeue::parse(r).map_err(|e| ("requeue".to_string(), e.msg)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let waits = axis(&s.wait, defaults.wait.id().to_string(), "wait")?
+        .iter()
+        .map(|w| Wait::from_id(w).map_err(|e| ("wait".to_string(), e.msg)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let grab_vals = positive(axis(&s.grab, defaults.grab as i64, "grab")?, "grab")?;
+    let ks = positive(
+        axis(&s.guided_k, defaults.guided_k as i64, "guided_k")?,
+        "guided_k",
+    )?;
+    let mut out = Vec::new();
+    for &chunk in &chunks {
+        for &order in &orders {
+            for &buffer in &buffers {
+                for &requeue in &requeues {
+                    for &wait in &waits {
+                        for &grab in &grab_vals {
+                            for &guided_k in &ks {
+                                for &w in workers {
+                                    let spec = SchedulerSpec {
+                                        kind,
+                                        chunk,
+                                        order,
+                                        workers: w,
+                                        buffer,
+                                        requeue,
+                                        wait,
+                                        grab,
+                                        guided_k,
+                                        timeline,
+                                    };
+                                    spec.validate().map_err(|e| (e.field.clone(), e.msg))?;
+                                    out.push(spec);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,444 @@
+//! `runs.csv`: long format, one row per timed run, appended and resumable.
+//!
+//! Crash safety: each row is serialised first and written with a single `write_all` of the whole
+//! line, then flushed, on a file opened for appending. A kill at any moment can therefore leave at
+//! most one trailing partial line; [`RunsFile::open`] drops a last line that lacks its newline or
+//! has the wrong column count, and truncates the file to the last good row.
+
+use super::plan::{fnv, hex, ExperimentPlan, RunConfig};
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// One timed run. Column order is the file's column order; `None` is an empty cell
+/// (a parameter the scheduler does not have).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunRow {
+    pub experiment: String,
+    pub config: String,
+    pub scene: String,
+    pub scene_file: String,
+    pub scene_hash: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_depth: i32,
+    pub generator_count: Option<u64>,
+    pub tracer: String,
+    /// Scheduler id, or `serial` for the baseline.
+    pub scheduler: String,
+    pub label: String,
+    pub chunk: Option<String>,
+    /// Pixels per item (the x axis of the granularity plots).
+    pub chunk_px: Option<u64>,
+    pub order: Option<String>,
+    pub buffer: Option<usize>,
+    pub requeue: Option<String>,
+    pub wait: Option<String>,
+    pub grab: Option<usize>,
+    pub guided_k: Option<usize>,
+    pub workers: usize,
+    pub repetition: u32,
+    pub wall_s: f64,
+    /// Median wall time of the serial baseline this run is compared with.
+    pub serial_s: f64,
+    pub speedup: f64,
+    pub efficiency: f64,
+    /// workers · wall − serial.
+    pub overhead_s: f64,
+    /// Σ worker busy time.
+    pub work_s: f64,
+    /// Master time spent handing out and collecting (on its own thread).
+    pub dispatch_s: f64,
+    /// Σ worker idle time.
+    pub idle_s: f64,
+    /// max busy / mean busy (1 = balanced).
+    pub imbalance: f64,
+    /// The part of idle caused by uneven work: Σ (max busy − busy).
+    pub imbalance_s: f64,
+    pub items: u64,
+    pub issued: u64,
+    pub reissued: u64,
+    pub duplicates: u64,
+    pub bytes: u64,
+    pub rays: u64,
+    pub nonfinite: u64,
+    pub image_hash: String,
+    pub identical: bool,
+}
+
+impl RunRow {
+    /// The column names, in order (from serde, so they never drift from the struct).
+    pub fn header() -> Vec<String> {
+        let mut w = csv::Writer::from_writer(vec![]);
+        w.serialize(Self::example()).expect("serialise example row");
+        let bytes = w.into_inner().expect("flush to Vec");
+        let text = String::from_utf8(bytes).expect("utf8");
+        text.lines()
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .map(str::to_string)
+            .collect()
+    }
+    fn example() -> Self {
+        Self {
+            experiment: String::new(),
+            config: String::new(),
+            scene: String::new(),
+            scene_file: String::new(),
+            scene_hash: String::new(),
+            width: 0,
+            height: 0,
+            spp: 0,
+            max_depth: 0,
+            generator_count: None,
+            tracer: String::new(),
+            scheduler: String::new(),
+            label: String::new(),
+            chunk: None,
+            chunk_px: None,
+            order: None,
+            buffer: None,
+            requeue: None,
+            wait: None,
+            grab: None,
+            guided_k: None,
+            workers: 0,
+            repetition: 0,
+            wall_s: 0.0,
+            serial_s: 0.0,
+            speedup: 0.0,
+            efficiency: 0.0,
+            overhead_s: 0.0,
+            work_s: 0.0,
+            dispatch_s: 0.0,
+            idle_s: 0.0,
+            imbalance: 0.0,
+            imbalance_s: 0.0,
+            items: 0,
+            issued: 0,
+            reissued: 0,
+            duplicates: 0,
+            bytes: 0,
+            rays: 0,
+            nonfinite: 0,
+            image_hash: String::new(),
+            identical: false,
+        }
+    }
+
+    /// A row with every config column of `c` filled and every measurement zero.
+    pub fn for_config(plan: &ExperimentPlan, c: &RunConfig) -> Self {
+        let ps = plan.scene_of(c);
+        let sc = &ps.scene;
+        let b = &plan.baselines[c.baseline];
+        let mut r = Self::example();
+        r.experiment = plan.name.clone();
+        r.config = c.id.clone();
+        r.scene = sc.name.clone();
+        r.scene_file = ps.file.clone();
+        r.scene_hash = hex(sc.hash);
+        r.width = sc.width();
+        r.height = sc.height();
+        r.spp = sc.settings.spp;
+        r.max_depth = sc.settings.max_depth;
+        r.generator_count = ps.overrides.generator_count;
+        r.tracer = b.tracer_id.clone();
+        match &c.spec {
+            None => {
+                r.scheduler = "serial".into();
+                r.label = "serial".into();
+                r.workers = 1;
+            }
+            Some(s) => {
+                let master = s.kind.has_master();
+                let grabs = matches!(
+                    s.kind,
+                    crate::sched::SchedulerKind::SelfScheduling
+                        | crate::sched::SchedulerKind::Guided
+                        | crate::sched::SchedulerKind::WorkStealing
+                );
+                r.scheduler = s.kind.id().into();
+                r.label = s.label();
+                r.chunk = Some(s.chunk.to_string());
+                r.chunk_px = Some(s.chunk.pixels(sc.width(), sc.height()));
+                r.order = Some(s.order.id().into());
+                r.buffer = master.then_some(s.buffer);
+                r.requeue = master.then(|| s.requeue.to_string());
+                r.wait = master.then(|| s.wait.id().to_string());
+                r.grab = grabs.then_some(s.grab);
+                r.guided_k = (s.kind == crate::sched::SchedulerKind::Guided).then_some(s.guided_k);
+                r.workers = s.workers;
+            }
+        }
+        r
+    }
+
+    /// The config columns joined: what the config id hashes (the scene hash is checked
+    /// separately, so an edited scene file is refused rather than silently re-keyed).
+    fn config_key(&self) -> String {
+        let o = |v: &Option<String>| v.clone().unwrap_or_default();
+        let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
+        [
+            self.scene_file.clone(),
+            self.scene.clone(),
+            self.width.to_string(),
+            self.height.to_string(),
+            self.spp.to_string(),
+            self.max_depth.to_string(),
+            self.generator_count
+                .map(|g| g.to_string())
+                .unwrap_or_default(),
+            self.tracer.clone(),
+            self.scheduler.clone(),
+            o(&self.chunk),
+            o(&self.order),
+            n(self.buffer),
+            o(&self.requeue),
+            o(&self.wait),
+            n(self.grab),
+            n(self.guided_k),
+            self.workers.to_string(),
+        ]
+        .join("|")
+    }
+
+    /// One CSV line, newline included.
+    pub fn to_line(&self) -> Vec<u8> {
+        let mut w = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(vec![]);
+        w.serialize(self).expect("a RunRow always serialises");
+        w.into_inner().expect("flush to Vec")
+    }
+}
+
+/// The stable id of a configuration: FNV-1a of its config columns.
+pub fn config_id(plan: &ExperimentPlan, c: &RunConfig) -> String {
+    hex(fnv(RunRow::for_config(plan, c).config_key().as_bytes()))
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ResultsError {
+    #[error("{path}: {msg}")]
+    Corrupt { path: String, msg: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> ResultsError + '_ {
+    move |source| ResultsError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// Rows of a runs.csv read leniently: a trailing partial line (a killed run) is ignored.
+/// Returns the rows and the byte length of the valid prefix.
+pub fn read_runs(path: &Path) -> Result<(Vec<RunRow>, u64), ResultsError> {
+    let bytes = std::fs::read(path).map_err(io(path))?;
+    parse_runs(&bytes).map_err(|msg| ResultsError::Corrupt {
+        path: path.display().to_string(),
+        msg,
+    })
+}
+
+/// Parse runs.csv bytes; see [`read_runs`]. A missing or partial header gives no rows and length 0.
+pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
+    let header = RunRow::header().join(",");
+    let Some(h_end) = bytes.iter().position(|&b| b == b'\n') else {
+        return Ok((vec![], 0));
+    };
+    if bytes[..h_end] != *header.as_bytes() {
+        return Err(format!(
+            "the header is not this version's columns (expected '{header}'); rerun with --fresh"
+        ));
+    }
+    let ncols = RunRow::header().len();
+    let mut rows = Vec::new();
+    let mut valid = h_end as u64 + 1;
+    let mut start = h_end + 1;
+    let mut line_no = 1;
+    while start < bytes.len() {
+        line_no += 1;
+        // No newline: the tail of a killed write. Dropped.
+        let Some(len) = bytes[start..].iter().position(|&b| b == b'\n') else {
+            break;
+        };
+        let line = &bytes[start..start + len];
+        let end = start + len + 1;
+        let is_last = end >= bytes.len();
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .from_reader(line);
+        let parsed = rdr.records().next().and_then(|r| r.ok()).and_then(|rec| {
+            if rec.len() != ncols {
+                return None;
+            }
+            rec.deserialize::<RunRow>(None).ok()
+        });
+        match parsed {
+            Some(row) => rows.push(row),
+            // A complete-looking last line with the wrong columns is a torn write too.
+            None if is_last => break,
+            None => {
+                return Err(format!(
+                    "line {line_no} is not a valid row; rerun with --fresh"
+                ))
+            }
+        }
+        valid = end as u64;
+        start = end;
+    }
+    Ok((rows, valid))
+}
+
+/// runs.csv opened for appending, with the (config, repetition) pairs already in it.
+pub struct RunsFile {
+    pub path: PathBuf,
+    file: File,
+    done: HashSet<(String, u32)>,
+}
+
+impl RunsFile {
+    /// Open (or create) `path`. With `fresh` any old content is discarded; otherwise a trailing
+    /// partial row is dropped and the rest kept. Returns the file and the rows already in it.
+    pub fn open(path: &Path, fresh: bool) -> Result<(Self, Vec<RunRow>), ResultsError> {
+        let (rows, valid) = if fresh || !path.exists() {
+            (vec![], 0)
+        } else {
+            read_runs(path)?
+        };
+        let mut done = HashSet::new();
+        for r in &rows {
+            if !done.insert((r.config.clone(), r.repetition)) {
+                return Err(ResultsError::Corrupt {
+                    path: path.display().to_string(),
+                    msg: format!(
+                        "config {} repetition {} appears twice; rerun with --fresh",
+                        r.config, r.repetition
+                    ),
+                });
+            }
+        }
+        let mut file = OpenOptions::new()
+            .create(true)
+            .read(true)
+            .write(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io(path))?;
+        file.set_len(valid).map_err(io(path))?;
+        drop(file);
+        file = OpenOptions::new()
+            .append(true)
+            .open(path)
+            .map_err(io(path))?;
+        if valid == 0 {
+            let mut h = RunRow::header().join(",").into_bytes();
+            h.push(b'\n');
+            file.write_all(&h).map_err(io(path))?;
+            file.flush().map_err(io(path))?;
+        }
+        Ok((
+            Self {
+                path: path.to_path_buf(),
+                file,
+                done,
+            },
+            rows,
+        ))
+    }
+
+    pub fn is_done(&self, config: &str, repetition: u32) -> bool {
+        self.done.contains(&(config.to_string(), repetition))
+    }
+
+    /// Append one row: one `write_all` of the whole line, then flush.
+    pub fn append(&mut self, row: &RunRow) -> Result<(), ResultsError> {
+        self.file
+            .write_all(&row.to_line())
+            .map_err(io(&self.path))?;
+        self.file.flush().map_err(io(&self.path))?;
+        self.done.insert((row.config.clone(), row.repetition));
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(config: &str, rep: u32) -> RunRow {
+        let mut r = RunRow::example();
+        r.config = config.into();
+        r.repetition = rep;
+        r.scheduler = "master".into();
+        r.label = "master chunk=1 B=2".into();
+        r.chunk = Some("1".into());
+        r.wall_s = 0.25;
+        r
+    }
+
+    #[test]
+    fn rows_round_trip_and_torn_tails_are_dropped() {
+        let mut bytes = RunRow::header().join(",").into_bytes();
+        bytes.push(b'\n');
+        bytes.extend(row("a", 0).to_line());
+        bytes.extend(row("a", 1).to_line());
+        let whole = bytes.len() as u64;
+        let (rows, valid) = parse_runs(&bytes).unwrap();
+        assert_eq!(rows, vec![row("a", 0), row("a", 1)]);
+        assert_eq!(valid, whole);
+        // Every possible cut of a third line leaves exactly the two whole rows.
+        let third = row("b", 0).to_line();
+        for cut in 0..third.len() {
+            let mut b = bytes.clone();
+            b.extend_from_slice(&third[..cut]);
+            let (rows, valid) = parse_runs(&b).unwrap();
+            assert_eq!(rows.len(), 2, "cut at {cut}");
+            assert_eq!(valid, whole, "cut at {cut}");
+        }
+        // A last line that ends in a newline but has too few columns is dropped too.
+        let mut b = bytes.clone();
+        b.extend_from_slice(b"x,y\n");
+        assert_eq!(parse_runs(&b).unwrap().1, whole);
+        // ... but the same damage in the middle is corruption, not a torn write.
+        let mut b = bytes.clone();
+        b.extend_from_slice(b"x,y\n");
+        b.extend(row("c", 0).to_line());
+        assert!(parse_runs(&b).unwrap_err().contains("line 4"));
+    }
+
+    #[test]
+    fn open_truncates_the_partial_row_and_appends_after_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("runs.csv");
+        {
+            let (mut f, rows) = RunsFile::open(&p, false).unwrap();
+            assert!(rows.is_empty());
+            f.append(&row("a", 0)).unwrap();
+        }
+        let line = row("a", 1).to_line();
+        let mut tail = std::fs::OpenOptions::new().append(true).open(&p).unwrap();
+        tail.write_all(&line[..line.len() / 2]).unwrap();
+        drop(tail);
+        let (mut f, rows) = RunsFile::open(&p, false).unwrap();
+        assert_eq!(rows, vec![row("a", 0)]);
+        assert!(f.is_done("a", 0) && !f.is_done("a", 1));
+        f.append(&row("a", 1)).unwrap();
+        let (rows, _) = read_runs(&p).unwrap();
+        assert_eq!(rows, vec![row("a", 0), row("a", 1)]);
+        let (_, rows) = RunsFile::open(&p, true).unwrap();
+        assert!(rows.is_empty());
+        assert_eq!(read_runs(&p).unwrap().0, vec![]);
+    }
+}

@@ -1,0 +1,340 @@
+//! The measurement loop: serial baselines first, then every configuration × repetition not yet
+//! in `runs.csv`, each row appended whole as soon as it is measured.
+
+use super::meta::{self, Meta};
+use super::plan::{hex, ExperimentPlan, RunConfig};
+use super::results::{ResultsError, RunRow, RunsFile};
+use super::summary::median;
+use crate::render::{render_serial, Image};
+use crate::sched::{run_scheduler, RunStats, SchedError, WorkerStats};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub struct RunOptions {
+    /// Results root; the experiment writes to `out/<name>/`.
+    pub out: PathBuf,
+    pub fresh: bool,
+    pub quiet: bool,
+}
+
+#[derive(Debug)]
+pub struct RunOutcome {
+    pub dir: PathBuf,
+    pub measured: usize,
+    pub skipped: usize,
+    /// Rows (old and new) whose image differs from the serial baseline's.
+    pub mismatches: usize,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Refusals that `--fresh` fixes (changed experiment file, edited scene, foreign CSV).
+    #[error("{0}")]
+    Refused(String),
+    #[error(transparent)]
+    Results(#[from] ResultsError),
+    #[error("{config}: {source}")]
+    Sched {
+        config: String,
+        #[source]
+        source: SchedError,
+    },
+    #[error("{path}: {msg}")]
+    Io { path: String, msg: String },
+}
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
+    RunError::Io {
+        path: path.display().to_string(),
+        msg: e.to_string(),
+    }
+}
+
+/// Write via a temporary file and a rename, so a kill never leaves a half-written file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunError> {
+    let tmp = path.with_extension("tmp");
+    let mut f = std::fs::File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| io_err(&tmp, e))?;
+    drop(f);
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
+}
+
+pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
+    dir.join("timelines").join(format!("{config}.csv"))
+}
+
+/// Check (or start) `meta.toml`: an existing one must carry this experiment file's hash.
+fn prepare_meta(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), RunError> {
+    let path = dir.join("meta.toml");
+    let runs = dir.join("runs.csv");
+    let mut meta = meta::collect(plan);
+    if !fresh && runs.exists() {
+        let old: Option<Meta> = std::fs::read_to_string(&path)
+            .ok()
+            .and_then(|t| toml::from_str(&t).ok());
+        match old {
+            None => {
+                return Err(RunError::Refused(format!(
+                    "{}: missing or unreadable beside {}; rerun with --fresh to start over",
+                    path.display(),
+                    runs.display()
+                )))
+            }
+            Some(old) if old.experiment_hash != plan.file_hash => {
+                return Err(RunError::Refused(format!(
+                    "{}: changed since {} was started (hash {} → {}); rerun with --fresh to start over",
+                    plan.file.display(),
+                    runs.display(),
+                    old.experiment_hash,
+                    plan.file_hash
+                )))
+            }
+            Some(old) => {
+                meta.started = old.started;
+                meta.resumed = Some(meta::now_utc());
+            }
+        }
+    }
+    let text = toml::to_string(&meta).map_err(|e| io_err(&path, e))?;
+    write_atomic(&path, text.as_bytes())
+}
+
+/// What the serial baseline of one (scene, tracer) measured so far.
+#[derive(Default)]
+struct SerialInfo {
+    walls: Vec<f64>,
+    hash: Option<String>,
+}
+
+pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    let dir = opts.out.join(&plan.name);
+    std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err(&dir, e))?;
+    if plan.timeline {
+        std::fs::create_dir_all(dir.join("timelines")).map_err(|e| io_err(&dir, e))?;
+    }
+    if opts.fresh {
+        // Old timelines and plots would otherwise outlive the rows they came from.
+        for sub in ["timelines", "plots"] {
+            let _ = std::fs::remove_dir_all(dir.join(sub));
+        }
+        if plan.timeline {
+            std::fs::create_dir_all(dir.join("timelines")).map_err(|e| io_err(&dir, e))?;
+        }
+    }
+    prepare_meta(plan, &dir, opts.fresh)?;
+    let (mut runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;
+
+    // Resume: old rows must belong to this plan's scenes as they are now.
+    let by_id: HashMap<&str, &RunConfig> =
+        plan.configs.iter().map(|c| (c.id.as_str(), c)).collect();
+    let mut serial: HashMap<usize, SerialInfo> = HashMap::new();
+    for r in &old_rows {
+        let Some(c) = by_id.get(r.config.as_str()) else {
+            return Err(RunError::Refused(format!(
+                "{}: row for config {} is not in this experiment; rerun with --fresh",
+                runs.path.display(),
+                r.config
+            )));
+        };
+        let now = hex(plan.scene_of(c).scene.hash);
+        if r.scene_hash != now {
+            return Err(RunError::Refused(format!(
+                "{}: scene {} changed since these rows were measured (hash {} → {now}); rerun with --fresh",
+                runs.path.display(),
+                r.scene_file,
+                r.scene_hash
+            )));
+        }
+        if c.spec.is_none() {
+            let s = serial.entry(c.baseline).or_default();
+            s.walls.push(r.wall_s);
+            if r.repetition == 0 {
+                s.hash = Some(r.image_hash.clone());
+            }
+        }
+    }
+    let mut mismatches = old_rows.iter().filter(|r| !r.identical).count();
+
+    let pending: Vec<(&RunConfig, Vec<u32>)> = plan
+        .configs
+        .iter()
+        .map(|c| {
+            let reps = (0..plan.repetitions)
+                .filter(|&k| !runs.is_done(&c.id, k))
+                .collect();
+            (c, reps)
+        })
+        .filter(|(_, reps): &(_, Vec<u32>)| !reps.is_empty())
+        .collect();
+    let total: u64 = pending
+        .iter()
+        .map(|(_, reps)| (plan.warmup as usize + reps.len()) as u64)
+        .sum();
+    let skipped = plan.configs.len() * plan.repetitions as usize
+        - pending.iter().map(|(_, r)| r.len()).sum::<usize>();
+    let bar = if opts.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::new(total);
+        b.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} runs, ETA {eta} · {msg}")
+                .expect("valid template"),
+        );
+        b
+    };
+    let mut measured = 0;
+    for (c, reps) in pending {
+        let b = &plan.baselines[c.baseline];
+        let ps = plan.scene_of(c);
+        let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
+            format!("{} ×{}", s.label(), s.workers)
+        });
+        bar.set_message(format!("{} · {} · {label}", ps.scene.name, b.tracer_id));
+        for _ in 0..plan.warmup {
+            measure(plan, c, false)?;
+            bar.inc(1);
+        }
+        for rep in reps {
+            let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
+            let (image, stats) = measure(plan, c, want_timeline)?;
+            let hash = hex(image.hash());
+            let mut row = RunRow::for_config(plan, c);
+            row.repetition = rep;
+            fill_stats(&mut row, &stats);
+            row.image_hash = hash.clone();
+            let info = serial.entry(c.baseline).or_default();
+            match &c.spec {
+                None => {
+                    if rep == 0 {
+                        // The image goes first: a row on disk implies its image is too.
+                        let stem = dir.join("images").join(format!(
+                            "serial_{}_{}",
+                            slug(&ps.scene.name),
+                            c.id
+                        ));
+                        image
+                            .save_with_preview(&stem.with_extension("exr"))
+                            .map_err(|e| io_err(&stem, e))?;
+                        info.hash = Some(hash.clone());
+                    }
+                    info.walls.push(stats.wall_s);
+                    row.serial_s = stats.wall_s;
+                }
+                Some(_) => row.serial_s = median(&info.walls),
+            }
+            row.identical = info.hash.as_deref() == Some(hash.as_str());
+            let w = row.workers as f64;
+            row.speedup = row.serial_s / row.wall_s;
+            row.efficiency = row.speedup / w;
+            row.overhead_s = w * row.wall_s - row.serial_s;
+            if let Some(t) = &stats.timeline {
+                let mut text = String::from("worker,item,start_ns,end_ns\n");
+                for s in t {
+                    text += &format!("{},{},{},{}\n", s.worker, s.item, s.start_ns, s.end_ns);
+                }
+                write_atomic(&timeline_path(&dir, &c.id), text.as_bytes())?;
+            }
+            if !row.identical {
+                mismatches += 1;
+                bar.suspend(|| {
+                    eprintln!(
+                        "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {}",
+                        row.label,
+                        row.image_hash,
+                        info.hash.as_deref().unwrap_or("?")
+                    )
+                });
+            }
+            runs.append(&row)?;
+            measured += 1;
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    Ok(RunOutcome {
+        dir,
+        measured,
+        skipped,
+        mismatches,
+    })
+}
+
+/// One timed run. Only the render is inside the timed section (scenes and tracers were built by
+/// the plan).
+fn measure(
+    plan: &ExperimentPlan,
+    c: &RunConfig,
+    timeline: bool,
+) -> Result<(Image, RunStats), RunError> {
+    let b = &plan.baselines[c.baseline];
+    let scene = &plan.scene_of(c).scene;
+    match &c.spec {
+        None => {
+            let t0 = Instant::now();
+            let (image, counters) = render_serial(scene.as_ref(), b.tracer.as_ref());
+            let wall_s = t0.elapsed().as_secs_f64();
+            let stats = RunStats {
+                wall_s,
+                workers: vec![WorkerStats {
+                    busy_s: wall_s,
+                    idle_s: 0.0,
+                    items: scene.height() as u64,
+                    pixels: scene.pixel_count() as u64,
+                    rays: counters.rays,
+                }],
+                items: scene.height() as u64,
+                issued: scene.height() as u64,
+                rays: counters.rays,
+                nonfinite: counters.nonfinite,
+                ..Default::default()
+            };
+            Ok((image, stats))
+        }
+        Some(spec) => {
+            let mut spec = spec.clone();
+            spec.timeline = timeline;
+            run_scheduler(&spec, scene, &b.tracer).map_err(|source| RunError::Sched {
+                config: format!("{} {}", c.id, spec.label()),
+                source,
+            })
+        }
+    }
+}
+
+fn fill_stats(row: &mut RunRow, s: &RunStats) {
+    row.wall_s = s.wall_s;
+    row.work_s = s.busy_s();
+    row.dispatch_s = s.dispatch_s();
+    row.idle_s = s.idle_s();
+    row.imbalance = s.imbalance();
+    let max_busy = s.workers.iter().map(|w| w.busy_s).fold(0.0, f64::max);
+    row.imbalance_s = s.workers.iter().map(|w| max_busy - w.busy_s).sum();
+    row.items = s.items;
+    row.issued = s.issued;
+    row.reissued = s.reissued;
+    row.duplicates = s.duplicates;
+    row.bytes = s.bytes;
+    row.rays = s.rays;
+    row.nonfinite = s.nonfinite;
+}
+
+/// A file-name-safe form of a label.
+pub fn slug(s: &str) -> String {
+    let mut out: String = s
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    while out.contains("__") {
+        out = out.replace("__", "_");
+    }
+    out.trim_matches('_').to_string()
+}

@@ -1,0 +1,232 @@
+//! `summary.csv`: per configuration, the median, min, max and a 95 % confidence interval of the
+//! mean wall time, plus median speedup and overhead parts. Always recomputed from `runs.csv`.
+
+use super::results::RunRow;
+use std::path::Path;
+
+/// Statistics of one configuration's repetitions.
+#[derive(Clone, Debug)]
+pub struct Summary {
+    /// The first row of the configuration (its config columns).
+    pub row: RunRow,
+    pub n: usize,
+    pub wall_median: f64,
+    pub wall_min: f64,
+    pub wall_max: f64,
+    pub wall_mean: f64,
+    /// Student-t 95 % interval of the mean (equal to the mean when n = 1).
+    pub wall_ci95: (f64, f64),
+    pub speedup_median: f64,
+    pub speedup_min: f64,
+    pub speedup_max: f64,
+    pub efficiency_median: f64,
+    pub overhead_s_median: f64,
+    pub work_s_median: f64,
+    pub dispatch_s_median: f64,
+    pub idle_s_median: f64,
+    pub imbalance_s_median: f64,
+    pub imbalance_median: f64,
+    pub identical: bool,
+}
+
+impl Summary {
+    /// Scene + render settings + tracer: what a plot or a report table is about.
+    pub fn group(&self) -> String {
+        group_of(&self.row)
+    }
+}
+
+pub fn group_of(r: &RunRow) -> String {
+    let mut g = format!("{} {}×{} {} spp", r.scene, r.width, r.height, r.spp);
+    if let Some(n) = r.generator_count {
+        g += &format!(" {n} prims");
+    }
+    g + &format!(" {}", r.tracer)
+}
+
+pub fn median(v: &[f64]) -> f64 {
+    let mut s: Vec<f64> = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// Two-sided 97.5 % Student-t quantile for `df` degrees of freedom.
+fn t975(df: usize) -> f64 {
+    const T: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    if df == 0 {
+        f64::NAN
+    } else {
+        T.get(df - 1).copied().unwrap_or(1.96)
+    }
+}
+
+pub fn ci95(v: &[f64]) -> (f64, f64) {
+    let n = v.len();
+    let mean = v.iter().sum::<f64>() / n as f64;
+    if n < 2 {
+        return (mean, mean);
+    }
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let h = t975(n - 1) * (var / n as f64).sqrt();
+    (mean - h, mean + h)
+}
+
+/// One summary per configuration, in the order configurations first appear.
+pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
+    let mut order: Vec<&str> = Vec::new();
+    let mut groups: std::collections::HashMap<&str, Vec<&RunRow>> = Default::default();
+    for r in rows {
+        groups
+            .entry(&r.config)
+            .or_insert_with(|| {
+                order.push(&r.config);
+                vec![]
+            })
+            .push(r);
+    }
+    order
+        .into_iter()
+        .map(|c| {
+            let rs = &groups[c];
+            let col = |f: fn(&RunRow) -> f64| rs.iter().map(|r| f(r)).collect::<Vec<f64>>();
+            let wall = col(|r| r.wall_s);
+            let speed = col(|r| r.speedup);
+            Summary {
+                row: rs[0].clone(),
+                n: rs.len(),
+                wall_median: median(&wall),
+                wall_min: wall.iter().cloned().fold(f64::INFINITY, f64::min),
+                wall_max: wall.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+                wall_mean: wall.iter().sum::<f64>() / wall.len() as f64,
+                wall_ci95: ci95(&wall),
+                speedup_median: median(&speed),
+                speedup_min: speed.iter().cloned().fold(f64::INFINITY, f64::min),
+                speedup_max: speed.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+                efficiency_median: median(&col(|r| r.efficiency)),
+                overhead_s_median: median(&col(|r| r.overhead_s)),
+                work_s_median: median(&col(|r| r.work_s)),
+                dispatch_s_median: median(&col(|r| r.dispatch_s)),
+                idle_s_median: median(&col(|r| r.idle_s)),
+                imbalance_s_median: median(&col(|r| r.imbalance_s)),
+                imbalance_median: median(&col(|r| r.imbalance)),
+                identical: rs.iter().all(|r| r.identical),
+            }
+        })
+        .collect()
+}
+
+pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
+    let mut w = csv::Writer::from_path(path)?;
+    w.write_record([
+        "experiment",
+        "config",
+        "scene",
+        "width",
+        "height",
+        "spp",
+        "max_depth",
+        "generator_count",
+        "tracer",
+        "scheduler",
+        "label",
+        "chunk",
+        "chunk_px",
+        "order",
+        "buffer",
+        "requeue",
+        "wait",
+        "grab",
+        "guided_k",
+        "workers",
+        "n",
+        "wall_median_s",
+        "wall_min_s",
+        "wall_max_s",
+        "wall_mean_s",
+        "wall_ci95_lo_s",
+        "wall_ci95_hi_s",
+        "speedup_median",
+        "speedup_min",
+        "speedup_max",
+        "efficiency_median",
+        "overhead_s_median",
+        "work_s_median",
+        "dispatch_s_median",
+        "idle_s_median",
+        "imbalance_s_median",
+        "imbalance_median",
+        "identical",
+    ])?;
+    let o = |v: &Option<String>| v.clone().unwrap_or_default();
+    let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
+    for s in sums {
+        let r = &s.row;
+        let f = |x: f64| format!("{x:.6}");
+        w.write_record([
+            r.experiment.clone(),
+            r.config.clone(),
+            r.scene.clone(),
+            r.width.to_string(),
+            r.height.to_string(),
+            r.spp.to_string(),
+            r.max_depth.to_string(),
+            r.generator_count.map(|g| g.to_string()).unwrap_or_default(),
+            r.tracer.clone(),
+            r.scheduler.clone(),
+            r.label.clone(),
+            o(&r.chunk),
+            r.chunk_px.map(|c| c.to_string()).unwrap_or_default(),
+            o(&r.order),
+            n(r.buffer),
+            o(&r.requeue),
+            o(&r.wait),
+            n(r.grab),
+            n(r.guided_k),
+            r.workers.to_string(),
+            s.n.to_string(),
+            f(s.wall_median),
+            f(s.wall_min),
+            f(s.wall_max),
+            f(s.wall_mean),
+            f(s.wall_ci95.0),
+            f(s.wall_ci95.1),
+            f(s.speedup_median),
+            f(s.speedup_min),
+            f(s.speedup_max),
+            f(s.efficiency_median),
+            f(s.overhead_s_median),
+            f(s.work_s_median),
+            f(s.dispatch_s_median),
+            f(s.idle_s_median),
+            f(s.imbalance_s_median),
+            f(s.imbalance_median),
+            s.identical.to_string(),
+        ])?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_and_interval() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        let (lo, hi) = ci95(&[1.0, 2.0, 3.0]);
+        // mean 2, sd 1, t(2) = 4.303: 2 ± 4.303/√3
+        assert!((lo - (2.0 - 4.303 / 3f64.sqrt())).abs() < 1e-9);
+        assert!((hi - (2.0 + 4.303 / 3f64.sqrt())).abs() < 1e-9);
+        assert_eq!(ci95(&[5.0]), (5.0, 5.0));
+    }
+}

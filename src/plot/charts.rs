@@ -1,0 +1,576 @@
+//! The figures: speedup vs workers, granularity (wall and speedup vs chunk size), buffer size,
+//! overhead breakdown and Gantt timelines.
+
+use crate::experiment::run::{slug, timeline_path};
+use crate::experiment::summary::Summary;
+use crate::sched::{SchedulerKind, MASTER_LANE};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// A drawn figure: `file` is the PNG relative to the experiment folder (an SVG lies beside it).
+#[derive(Clone, Debug)]
+pub struct Figure {
+    pub file: String,
+    pub title: String,
+    /// How to read it, one sentence.
+    pub caption: String,
+}
+
+type R = Result<(), String>;
+
+fn e<T: std::fmt::Display>(err: T) -> String {
+    err.to_string()
+}
+
+const SIZE: (u32, u32) = (900, 560);
+
+/// Draw `$f(&root, args…)` once on a PNG and once on an SVG backend.
+macro_rules! both {
+    ($stem:expr, $size:expr, $f:ident ( $($arg:expr),* )) => {{
+        let png = $stem.with_extension("png");
+        {
+            let root = BitMapBackend::new(&png, $size).into_drawing_area();
+            root.fill(&WHITE).map_err(e)?;
+            $f(&root, $($arg),*)?;
+            root.present().map_err(|err| format!("{}: {err}", png.display()))?;
+        }
+        let svg = $stem.with_extension("svg");
+        {
+            let root = SVGBackend::new(&svg, $size).into_drawing_area();
+            root.fill(&WHITE).map_err(e)?;
+            $f(&root, $($arg),*)?;
+            root.present().map_err(|err| format!("{}: {err}", svg.display()))?;
+        }
+    }};
+}
+
+/// A stable colour per scheduler kind (serial and unknown ids get black).
+fn colour(kind: &str) -> RGBColor {
+    // Okabe–Ito colours: distinguishable with colour-blindness and readable on white.
+    const C: [RGBColor; 7] = [
+        RGBColor(213, 94, 0),
+        RGBColor(0, 114, 178),
+        RGBColor(0, 158, 115),
+        RGBColor(204, 121, 167),
+        RGBColor(86, 180, 233),
+        RGBColor(230, 159, 0),
+        RGBColor(120, 120, 120),
+    ];
+    match SchedulerKind::ALL.iter().position(|k| k.id() == kind) {
+        Some(i) => C[i % C.len()],
+        None => BLACK,
+    }
+}
+
+/// (name, best value) lines: for each scheduler kind, `pick` over the configs at each x.
+type Series = Vec<(String, Vec<(f64, f64)>)>;
+
+fn series(
+    sums: &[&Summary],
+    key: impl Fn(&Summary) -> Option<String>,
+    x: impl Fn(&Summary) -> Option<f64>,
+    y: impl Fn(&Summary) -> f64,
+    better: impl Fn(f64, f64) -> bool,
+) -> Series {
+    let mut out: Series = Vec::new();
+    for s in sums {
+        let (Some(k), Some(xv)) = (key(s), x(s)) else {
+            continue;
+        };
+        let yv = y(s);
+        if !yv.is_finite() {
+            continue;
+        }
+        let line = match out.iter_mut().position(|(n, _)| *n == k) {
+            Some(i) => &mut out[i].1,
+            None => {
+                out.push((k, vec![]));
+                &mut out.last_mut().expect("just pushed").1
+            }
+        };
+        match line.iter_mut().find(|(px, _)| *px == xv) {
+            Some(p) if better(yv, p.1) => p.1 = yv,
+            Some(_) => {}
+            None => line.push((xv, yv)),
+        }
+    }
+    for (_, l) in &mut out {
+        l.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    out
+}
+
+fn range(series: &Series, f: impl Fn(&(f64, f64)) -> f64) -> (f64, f64) {
+    let v = series.iter().flat_map(|(_, l)| l.iter().map(&f));
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
+    if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 1.0)
+    }
+}
+
+fn kind_of(name: &str) -> &str {
+    name.split_whitespace().next().unwrap_or(name)
+}
+
+fn line_chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    data: &Series,
+    log2_x: bool,
+    ideal: bool,
+) -> R {
+    let (x0, x1) = range(data, |p| p.0);
+    let (_, y1) = range(data, |p| p.1);
+    let y1 = if ideal { y1.max(x1) } else { y1 };
+    let pad = ((x1 - x0) * 0.05).max(0.5);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.15).max(1e-9))
+        .map_err(e)?;
+    let fmt_x = |v: &f64| {
+        if log2_x {
+            if (v - v.round()).abs() < 1e-6 {
+                format!("{}", 2f64.powf(v.round()) as u64)
+            } else {
+                String::new()
+            }
+        } else if (v - v.round()).abs() < 1e-6 {
+            format!("{}", v.round())
+        } else {
+            format!("{v:.1}")
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_label_formatter(&fmt_x)
+        .x_labels(((x1 - x0) as usize + 3).min(16))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    if ideal {
+        let ideal_pts = vec![(x0.min(1.0), x0.min(1.0)), (x1, x1)];
+        chart
+            .draw_series(LineSeries::new(ideal_pts, BLACK.stroke_width(1)))
+            .map_err(e)?
+            .label("ideal (speedup = workers)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    }
+    for (i, (name, pts)) in data.iter().enumerate() {
+        let mut c = colour(kind_of(name));
+        if c == BLACK
+            || data
+                .iter()
+                .filter(|(n, _)| kind_of(n) == kind_of(name))
+                .count()
+                > 1
+        {
+            // Several lines of one kind (the buffer plot): tell them apart by index.
+            c = colour(SchedulerKind::ALL[i % SchedulerKind::ALL.len()].id());
+        }
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+            .map_err(e)?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+            .map_err(e)?;
+    }
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
+fn one_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    data: &Series,
+    log2_x: bool,
+    ideal: bool,
+) -> R {
+    line_chart(root, title, x_desc, y_desc, data, log2_x, ideal)
+}
+
+fn two_charts<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    titles: (&str, &str),
+    x_desc: &str,
+    top: (&str, &Series),
+    bottom: (&str, &Series),
+) -> R {
+    let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
+    line_chart(&upper, titles.0, x_desc, top.0, top.1, true, false)?;
+    line_chart(&lower, titles.1, x_desc, bottom.0, bottom.1, true, false)
+}
+
+/// Stacked bars: work, imbalance, other idle, dispatch; a dashed line at the serial time.
+fn overhead_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    bars: &[(String, [f64; 4])],
+    serial_s: f64,
+) -> R {
+    let parts = [
+        "work (Σ busy)",
+        "idle: imbalance",
+        "idle: other",
+        "dispatch (master)",
+    ];
+    let cols = [
+        RGBColor(90, 140, 200),
+        RGBColor(230, 150, 60),
+        RGBColor(200, 200, 200),
+        RGBColor(200, 70, 70),
+    ];
+    let top = bars
+        .iter()
+        .map(|(_, v)| v.iter().sum::<f64>())
+        .fold(serial_s, f64::max)
+        * 1.25;
+    let n = bars.len();
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (0..(n as i32 - 1).max(0)).into_segmented(),
+            0.0..top.max(1e-9),
+        )
+        .map_err(e)?;
+    let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
+    let fmt = |v: &SegmentValue<i32>| match v {
+        SegmentValue::CenterOf(i) => names.get(*i as usize).cloned().unwrap_or_default(),
+        _ => String::new(),
+    };
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_desc("scheduler (best configuration)")
+        .y_desc("CPU time = workers × wall (s)")
+        .x_label_formatter(&fmt)
+        .x_labels(n + 1)
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    for (p, (&name, &c)) in parts.iter().zip(cols.iter()).enumerate() {
+        let rects = bars.iter().enumerate().map(move |(i, (_, v))| {
+            let y0: f64 = v[..p].iter().sum();
+            let mut r = Rectangle::new(
+                [
+                    (SegmentValue::Exact(i as i32), y0),
+                    (SegmentValue::Exact(i as i32 + 1), y0 + v[p]),
+                ],
+                c.filled(),
+            );
+            r.set_margin(0, 0, 12, 12);
+            r
+        });
+        chart
+            .draw_series(rects)
+            .map_err(e)?
+            .label(name)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
+    }
+    chart
+        .draw_series(LineSeries::new(
+            vec![
+                (SegmentValue::Exact(0), serial_s),
+                (SegmentValue::Exact(n as i32), serial_s),
+            ],
+            BLACK.stroke_width(2),
+        ))
+        .map_err(e)?
+        .label("serial time (no overhead)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
+/// (worker, item, start_ns, end_ns) rows of a timeline file.
+fn read_timeline(path: &Path) -> Result<Vec<(u32, u32, u64, u64)>, String> {
+    let mut rdr =
+        csv::Reader::from_path(path).map_err(|err| format!("{}: {err}", path.display()))?;
+    rdr.deserialize()
+        .map(|r| r.map_err(|err| format!("{}: {err}", path.display())))
+        .collect()
+}
+
+fn gantt_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    spans: &[(u32, u32, u64, u64)],
+) -> R {
+    let workers = spans
+        .iter()
+        .filter(|s| s.0 != MASTER_LANE)
+        .map(|s| s.0 + 1)
+        .max()
+        .unwrap_or(1);
+    let has_master = spans.iter().any(|s| s.0 == MASTER_LANE);
+    let lanes = workers + u32::from(has_master);
+    let lane = |w: u32| if w == MASTER_LANE { workers } else { w } as f64;
+    let end_ms = spans.iter().map(|s| s.3).max().unwrap_or(1) as f64 / 1e6;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..end_ms * 1.02, -0.5..lanes as f64 - 0.5)
+        .map_err(e)?;
+    let fmt_y = |v: &f64| {
+        if (v - v.round()).abs() > 1e-6 || *v < 0.0 {
+            String::new()
+        } else if has_master && v.round() as u32 == workers {
+            "master".into()
+        } else {
+            format!("worker {}", v.round())
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc("time since the run started (ms)")
+        .y_desc("lane")
+        .y_labels(lanes as usize * 2 + 1)
+        .y_label_formatter(&fmt_y)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(spans.iter().map(|&(w, item, s, t)| {
+            let c = Palette99::pick(item as usize % 20);
+            let y = lane(w);
+            Rectangle::new(
+                [(s as f64 / 1e6, y - 0.38), (t as f64 / 1e6, y + 0.38)],
+                c.filled(),
+            )
+        }))
+        .map_err(e)?;
+    Ok(())
+}
+
+pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
+    let mut figs = Vec::new();
+    let mut groups: Vec<String> = Vec::new();
+    for s in sums {
+        if !groups.contains(&s.group()) {
+            groups.push(s.group());
+        }
+    }
+    let rel = |p: &PathBuf| {
+        p.strip_prefix(dir)
+            .unwrap_or(p)
+            .with_extension("png")
+            .to_string_lossy()
+            .into_owned()
+    };
+    for g in &groups {
+        let gs = slug(g);
+        let all: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.scheduler != "serial")
+            .collect();
+        if all.is_empty() {
+            continue;
+        }
+        let max_w = all.iter().map(|s| s.row.workers).max().unwrap_or(1);
+        let at_max: Vec<&Summary> = all
+            .iter()
+            .copied()
+            .filter(|s| s.row.workers == max_w)
+            .collect();
+        let kind = |s: &Summary| Some(s.row.scheduler.clone());
+        let higher = |a: f64, b: f64| a > b;
+        let lower = |a: f64, b: f64| a < b;
+
+        let workers: std::collections::BTreeSet<usize> =
+            all.iter().map(|s| s.row.workers).collect();
+        if workers.len() > 1 {
+            let data = series(
+                &all,
+                kind,
+                |s| Some(s.row.workers as f64),
+                |s| s.speedup_median,
+                higher,
+            );
+            let stem = plots.join(format!("speedup_vs_workers_{gs}"));
+            let title = format!("Speedup vs workers — {g}");
+            both!(
+                stem,
+                SIZE,
+                one_chart(
+                    &title,
+                    "worker threads",
+                    "speedup (t_serial / t)",
+                    &data,
+                    false,
+                    true
+                )
+            );
+            figs.push(Figure {
+                file: rel(&stem),
+                title,
+                caption: "Median speedup of each scheduler's best configuration per worker count; the black line is ideal linear speedup, and the gap below it is overhead.".into(),
+            });
+        }
+        let chunks: std::collections::BTreeSet<u64> =
+            at_max.iter().filter_map(|s| s.row.chunk_px).collect();
+        if chunks.len() > 1 {
+            let lx = |s: &Summary| s.row.chunk_px.map(|c| (c as f64).log2());
+            let wall = series(&at_max, kind, lx, |s| s.wall_median, lower);
+            let speed = series(&at_max, kind, lx, |s| s.speedup_median, higher);
+            let stem = plots.join(format!("granularity_{gs}"));
+            let title = format!("Granularity, {max_w} workers — {g}");
+            both!(
+                stem,
+                (900, 820),
+                two_charts(
+                    (
+                        &format!("Wall time vs chunk size, {max_w} workers — {g}"),
+                        "Speedup vs chunk size"
+                    ),
+                    "pixels per work item (log₂ scale)",
+                    ("median wall time (s)", &wall),
+                    ("speedup (t_serial / t)", &speed)
+                )
+            );
+            figs.push(Figure {
+                file: rel(&stem),
+                title,
+                caption: "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve.".into(),
+            });
+        }
+        let master: Vec<&Summary> = at_max
+            .iter()
+            .copied()
+            .filter(|s| s.row.buffer.is_some())
+            .collect();
+        let buffers: std::collections::BTreeSet<usize> =
+            master.iter().filter_map(|s| s.row.buffer).collect();
+        if buffers.len() > 1 {
+            let data = series(
+                &master,
+                |s| {
+                    Some(format!(
+                        "master chunk={}",
+                        s.row.chunk.clone().unwrap_or_default()
+                    ))
+                },
+                |s| s.row.buffer.map(|b| (b as f64).log2()),
+                |s| s.speedup_median,
+                higher,
+            );
+            let stem = plots.join(format!("buffer_{gs}"));
+            let title = format!("Master: speedup vs buffer size, {max_w} workers — {g}");
+            both!(
+                stem,
+                SIZE,
+                one_chart(
+                    &title,
+                    "items outstanding per worker, B (log₂ scale)",
+                    "speedup (t_serial / t)",
+                    &data,
+                    true,
+                    false
+                )
+            );
+            figs.push(Figure {
+                file: rel(&stem),
+                title,
+                caption: "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.".into(),
+            });
+        }
+        // Overhead: each kind's best configuration at the most workers.
+        let mut best: Vec<&Summary> = Vec::new();
+        for s in &at_max {
+            match best.iter_mut().find(|b| b.row.scheduler == s.row.scheduler) {
+                Some(b) if s.wall_median < b.wall_median => *b = s,
+                Some(_) => {}
+                None => best.push(s),
+            }
+        }
+        let serial_s = at_max.first().map_or(0.0, |s| s.row.serial_s);
+        let bars: Vec<(String, [f64; 4])> = best
+            .iter()
+            .map(|s| {
+                let other_idle = (s.idle_s_median - s.imbalance_s_median).max(0.0);
+                (
+                    s.row.scheduler.clone(),
+                    [
+                        s.work_s_median,
+                        s.imbalance_s_median.min(s.idle_s_median),
+                        other_idle,
+                        s.dispatch_s_median,
+                    ],
+                )
+            })
+            .collect();
+        let stem = plots.join(format!("overhead_{gs}"));
+        let title = format!("Where the time goes, {max_w} workers — {g}");
+        both!(stem, SIZE, overhead_chart(&title, &bars, serial_s));
+        figs.push(Figure {
+            file: rel(&stem),
+            title,
+            caption: "Total height = workers × wall time (+ the master's dispatch time on its own thread). Everything above the black serial line is overhead.".into(),
+        });
+        // Gantt: each kind's best run, plus the per-ray master if there is one.
+        let mut picks: Vec<(String, &Summary)> =
+            best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
+        if let Some(pr) = at_max
+            .iter()
+            .filter(|s| s.row.buffer.is_some() && s.row.chunk_px == Some(1))
+            .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
+        {
+            if !picks.iter().any(|(_, s)| s.row.config == pr.row.config) {
+                picks.push(("master_per_ray".into(), *pr));
+            }
+        }
+        for (name, s) in picks {
+            let tl = timeline_path(dir, &s.row.config);
+            if !tl.exists() {
+                continue;
+            }
+            let spans = read_timeline(&tl)?;
+            let stem = plots.join(format!("gantt_{gs}_{name}"));
+            let title = format!("Timeline: {} ×{} — {g}", s.row.label, s.row.workers);
+            both!(stem, SIZE, gantt_chart(&title, &spans));
+            figs.push(Figure {
+                file: rel(&stem),
+                title,
+                caption: "One lane per worker (the master on its own lane); each bar is one work item, white gaps are idle time.".into(),
+            });
+        }
+    }
+    Ok(figs)
+}

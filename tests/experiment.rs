@@ -1,0 +1,282 @@
+//! The experiment runner through the real binary: config errors, resume after kills, plots.
+
+use raysched::experiment::results::read_runs;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_raysched");
+
+fn scene_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/simple.toml")
+}
+
+/// A tiny experiment in `dir`: 2 scenes sizes × (serial + 6 scheduler configs) × reps.
+fn write_tiny(dir: &Path, reps: u32) -> PathBuf {
+    let text = format!(
+        r#"name = "tiny"
+repetitions = {reps}
+warmup = 0
+workers = [1, 2]
+[[scenes]]
+path = "{scene}"
+width = 16
+height = 16
+spp = 1
+[[scenes]]
+path = "{scene}"
+width = 24
+height = 8
+spp = 2
+[[schedulers]]
+kind = "master"
+chunk = ["1", "4"]
+buffer = [1, 2]
+[[schedulers]]
+kind = "static"
+chunk = "rows:1"
+"#,
+        scene = scene_path().display()
+    );
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn run(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn bad_configs_exit_2_naming_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read_to_string(write_tiny(dir.path(), 1)).unwrap();
+    let cases = [
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"static\"\nchunk = \"rows:1\"\nbuffer = 4",
+            "schedulers[1].buffer",
+        ),
+        ("repetitions = 1", "repetitions = 0", "repetitions"),
+        ("workers = [1, 2]", "workers = [0, 2]", "workers"),
+        (
+            "chunk = [\"1\", \"4\"]",
+            "chunk = [\"1\", \"0\"]",
+            "schedulers[0].chunk",
+        ),
+        (
+            "kind = \"master\"",
+            "kind = \"fastest\"",
+            "schedulers[0].kind",
+        ),
+        (
+            "name = \"tiny\"",
+            "name = \"tiny\"\ntracers = [\"embree\"]",
+            "tracers[0]",
+        ),
+        ("width = 16", "width = 0", "scenes[0]"),
+        ("width = 16", "widht = 16", "line"),
+    ];
+    for (from, to, field) in cases {
+        assert!(good.contains(from), "{from}");
+        let p = dir.path().join("bad.toml");
+        std::fs::write(&p, good.replacen(from, to, 1)).unwrap();
+        let out = run(
+            &["run", p.to_str().unwrap(), "--quiet", "--out", "res"],
+            dir.path(),
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        if to.contains("embree") && cfg!(feature = "embree") {
+            continue;
+        }
+        assert_eq!(out.status.code(), Some(2), "{to}: {err}");
+        assert!(
+            err.contains("bad.toml: ") && err.contains(field),
+            "{to}: {err}"
+        );
+        // Validation happens before anything is measured.
+        assert!(!dir.path().join("res/tiny/runs.csv").exists(), "{to}");
+    }
+}
+
+/// Kill the runner at random moments, resume, and check every (config, repetition) appears
+/// exactly once and no partial line survives.
+#[test]
+fn killed_runs_resume_without_lost_or_duplicated_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let reps = 40;
+    let exp = write_tiny(dir.path(), reps);
+    let args = ["run", exp.to_str().unwrap(), "--quiet", "--out", "res"];
+    let csv = dir.path().join("res/tiny/runs.csv");
+    // xorshift seeded from the clock: different kill points on every test run.
+    let mut x = Instant::now().elapsed().as_nanos() as u64 | 1;
+    x ^= std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    let mut rnd = move |n: u64| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x % n
+    };
+    let t0 = Instant::now();
+    let mut kills = 0;
+    let mut finished = false;
+    while kills < 12 && t0.elapsed() < Duration::from_secs(30) {
+        let mut child = Command::new(BIN)
+            .args(args)
+            .current_dir(dir.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(20 + rnd(250)));
+        if child.try_wait().unwrap().is_some() {
+            finished = true;
+            break;
+        }
+        child.kill().unwrap();
+        child.wait().unwrap();
+        kills += 1;
+        // Whatever the kill left, the rows read back are whole and unique so far.
+        if csv.exists() {
+            let (rows, _) = read_runs(&csv).unwrap();
+            let mut seen = HashMap::new();
+            for r in &rows {
+                assert!(
+                    seen.insert((r.config.clone(), r.repetition), ()).is_none(),
+                    "duplicate after kill {kills}"
+                );
+            }
+        }
+    }
+    let out = run(&args, dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&csv).unwrap();
+    assert_eq!(bytes.last(), Some(&b'\n'), "no partial last line");
+    let (rows, valid) = read_runs(&csv).unwrap();
+    assert_eq!(
+        valid as usize,
+        bytes.len(),
+        "every byte belongs to a whole row"
+    );
+    // 2 scenes × (serial + master 2 chunks × 2 buffers × 2 worker counts + static × 2).
+    let configs = 2 * (1 + 8 + 2);
+    let mut count: HashMap<(String, u32), usize> = HashMap::new();
+    for r in &rows {
+        *count.entry((r.config.clone(), r.repetition)).or_default() += 1;
+        assert!(r.identical, "{} rep {}", r.label, r.repetition);
+    }
+    assert_eq!(
+        count.len(),
+        configs * reps as usize,
+        "kills: {kills}, finished early: {finished}"
+    );
+    assert!(
+        count.values().all(|&c| c == 1),
+        "a (config, repetition) appears twice"
+    );
+    assert!(kills > 0 || finished, "the test never killed anything");
+
+    // Re-running measures nothing new.
+    let before = bytes.len();
+    assert!(run(&args, dir.path()).status.success());
+    assert_eq!(std::fs::read(&csv).unwrap().len(), before);
+
+    // A changed experiment file is refused (exit 2) unless --fresh.
+    let text = std::fs::read_to_string(&exp).unwrap();
+    std::fs::write(&exp, text.replace("warmup = 0", "warmup = 1")).unwrap();
+    let out = run(&args, dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--fresh"));
+    std::fs::write(
+        &exp,
+        text.replace(&format!("repetitions = {reps}"), "repetitions = 1"),
+    )
+    .unwrap();
+    let mut fresh = args.to_vec();
+    fresh.push("--fresh");
+    assert!(run(&fresh, dir.path()).status.success());
+    assert_eq!(read_runs(&csv).unwrap().0.len(), configs);
+}
+
+#[test]
+fn plot_regenerates_everything_from_the_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 2);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    for f in ["meta.toml", "summary.csv", "report.md"] {
+        assert!(res.join(f).exists(), "{f}");
+    }
+    let imgs: Vec<_> = std::fs::read_dir(res.join("images"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(imgs.len(), 4, "EXR + PNG per serial baseline: {imgs:?}");
+    std::fs::remove_dir_all(res.join("plots")).unwrap();
+    std::fs::remove_file(res.join("report.md")).unwrap();
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plots: Vec<String> = std::fs::read_dir(res.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    for prefix in [
+        "speedup_vs_workers_",
+        "granularity_",
+        "buffer_",
+        "overhead_",
+        "gantt_",
+    ] {
+        for ext in ["png", "svg"] {
+            assert!(
+                plots
+                    .iter()
+                    .any(|p| p.starts_with(prefix) && p.ends_with(ext)),
+                "{prefix}*.{ext} in {plots:?}"
+            );
+        }
+    }
+    let png = plots
+        .iter()
+        .find(|p| p.starts_with("granularity_") && p.ends_with("png"))
+        .unwrap();
+    let img = image::open(res.join("plots").join(png)).unwrap();
+    assert!(img.width() >= 800 && img.height() >= 500);
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains("per-ray master"), "{report}");
+    assert!(
+        report.contains("![") && report.contains("plots/granularity_"),
+        "{report}"
+    );
+    // A results folder without runs.csv is bad input.
+    assert_eq!(
+        run(&["plot", dir.path().to_str().unwrap()], dir.path())
+            .status
+            .code(),
+        Some(2)
+    );
+}
