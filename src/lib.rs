@@ -40,6 +40,8 @@
 //! ```
 
 pub mod cli;
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod geometry;
 pub mod render;
 pub mod rng;

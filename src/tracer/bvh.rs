@@ -77,9 +77,10 @@ impl BvhTracer {
                 b1: 0.0,
                 b2: 0.0,
             }),
-            LeafPrim::Triangle(tri) => tri
-                .intersect(ray, t_max)
-                .map(|(t, b1, b2)| Hit { t, prim, b1, b2 }),
+            LeafPrim::Triangle(tri) => {
+                tri.intersect(ray, t_max)
+                    .map(|(t, b1, b2)| Hit { t, prim, b1, b2 })
+            }
         }
     }
 }
