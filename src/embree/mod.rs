@@ -416,7 +416,7 @@ const TNEAR: f32 = f32::MIN_POSITIVE;
 /// An Embree ray for our `0 < t < t_max` contract (`None` when that interval is empty).
 #[inline(always)]
 fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
-    if !(t_max > 0.0) {
+    if t_max.is_nan() || t_max <= 0.0 {
         return None;
     }
     Some(ffi::RTCRay {
