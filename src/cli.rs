@@ -10,11 +10,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
-#[command(
-    name = "raysched",
-    version,
-    about = "Measure how parallel ray-tracing work should be handed out, and by whom"
-)]
+#[command(name = "raysched", version, about = "Measure how parallel ray-tracing work should be handed out, and by whom")]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -89,9 +85,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 
 fn render(args: RenderArgs) -> Result<(), CliError> {
     if args.threads == 0 {
-        return Err(CliError::input(anyhow::anyhow!(
-            "--threads: must be ≥ 1 (got 0)"
-        )));
+        return Err(CliError::input(anyhow::anyhow!("--threads: must be ≥ 1 (got 0)")));
     }
     let ext = args
         .output
@@ -108,9 +102,7 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         ..Default::default()
     };
     if args.spp == Some(0) {
-        return Err(CliError::input(anyhow::anyhow!(
-            "--spp: must be ≥ 1 (got 0)"
-        )));
+        return Err(CliError::input(anyhow::anyhow!("--spp: must be ≥ 1 (got 0)")));
     }
     let scene = load_scene(&args.scene, &overrides).map_err(CliError::input)?;
     let t0 = Instant::now();

@@ -144,10 +144,7 @@ impl Triangle {
         let b0 = 1.0 - b1 - b2;
         let p = p0 * b0 + p1 * b1 + p2 * b2;
         let err = (p0 * b0).abs() + (p1 * b1).abs() + (p2 * b2).abs();
-        (
-            p,
-            err * gamma(7) + (self.e1.abs() + self.e2.abs()) * gamma(3),
-        )
+        (p, err * gamma(7) + (self.e1.abs() + self.e2.abs()) * gamma(3))
     }
 }
 
@@ -268,18 +265,12 @@ mod tests {
                 center: Vec3::splat(0.3 * scale),
                 radius: scale,
             };
-            let ray = Ray::new(
-                s.center + Vec3::new(0.1, 0.2, 3.0) * scale,
-                Vec3::new(0.0, 0.0, -1.0),
-            );
+            let ray = Ray::new(s.center + Vec3::new(0.1, 0.2, 3.0) * scale, Vec3::new(0.0, 0.0, -1.0));
             let t = s.intersect(&ray, f32::INFINITY).unwrap();
             let (p, err, n) = s.point(&ray, t);
             // Leave outwards: the sphere must not be hit again.
             let o = offset_ray_origin(p, err, n, n);
-            assert!(
-                s.intersect(&Ray::new(o, n), f32::INFINITY).is_none(),
-                "scale {scale}"
-            );
+            assert!(s.intersect(&Ray::new(o, n), f32::INFINITY).is_none(), "scale {scale}");
         }
     }
 

@@ -31,10 +31,7 @@ impl Sampler {
     #[inline]
     pub fn next(&mut self) -> f32 {
         self.dim += 1;
-        let bits = mix64(
-            self.key
-                .wrapping_add(self.dim.wrapping_mul(0x9e37_79b9_7f4a_7c15)),
-        );
+        let bits = mix64(self.key.wrapping_add(self.dim.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
         (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
 
@@ -50,24 +47,18 @@ mod tests {
 
     #[test]
     fn same_key_same_stream_different_key_different_stream() {
-        let a: Vec<f32> = (0..8)
-            .map({
-                let mut s = Sampler::new(7, 42, 3);
-                move |_| s.next()
-            })
-            .collect();
-        let b: Vec<f32> = (0..8)
-            .map({
-                let mut s = Sampler::new(7, 42, 3);
-                move |_| s.next()
-            })
-            .collect();
-        let c: Vec<f32> = (0..8)
-            .map({
-                let mut s = Sampler::new(7, 43, 3);
-                move |_| s.next()
-            })
-            .collect();
+        let a: Vec<f32> = (0..8).map({
+            let mut s = Sampler::new(7, 42, 3);
+            move |_| s.next()
+        }).collect();
+        let b: Vec<f32> = (0..8).map({
+            let mut s = Sampler::new(7, 42, 3);
+            move |_| s.next()
+        }).collect();
+        let c: Vec<f32> = (0..8).map({
+            let mut s = Sampler::new(7, 43, 3);
+            move |_| s.next()
+        }).collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

@@ -130,11 +130,7 @@ impl Image {
 }
 
 pub fn srgb_encode(v: f32) -> f32 {
-    let v = if v.is_finite() {
-        v.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
     if v <= 0.003_130_8 {
         12.92 * v
     } else {

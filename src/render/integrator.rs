@@ -91,14 +91,7 @@ struct LightPoint {
     n: Vec3,
 }
 
-fn sample_area(
-    scene: &Scene,
-    prims: &[u32],
-    cdf: &[f32],
-    area: f32,
-    u: f32,
-    v: (f32, f32),
-) -> LightPoint {
+fn sample_area(scene: &Scene, prims: &[u32], cdf: &[f32], area: f32, u: f32, v: (f32, f32)) -> LightPoint {
     let g = &scene.geometry;
     let target = u * area;
     let k = cdf.partition_point(|&c| c <= target).min(prims.len() - 1);
@@ -108,11 +101,7 @@ fn sample_area(
         let s = &g.spheres[prim as usize];
         let dir = uniform_sphere(v);
         let p = s.center + dir * s.radius;
-        let n = if g.info[prim as usize].flip {
-            -dir
-        } else {
-            dir
-        };
+        let n = if g.info[prim as usize].flip { -dir } else { dir };
         LightPoint {
             p,
             err: (dir * s.radius).abs() * gamma(5) + s.center.abs() * gamma(2),

@@ -113,13 +113,7 @@ pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkIte
         item: item.id,
         pixels: sums
             .into_iter()
-            .map(|s| {
-                [
-                    (s[0] * inv) as f32,
-                    (s[1] * inv) as f32,
-                    (s[2] * inv) as f32,
-                ]
-            })
+            .map(|s| [(s[0] * inv) as f32, (s[1] * inv) as f32, (s[2] * inv) as f32])
             .collect(),
         rays,
         nonfinite,
@@ -154,9 +148,7 @@ pub fn render_parallel<T: Tracer + ?Sized>(
     threads: usize,
 ) -> Result<(Image, RenderCounters), rayon::ThreadPoolBuildError> {
     use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let results: Vec<(WorkItem, TileResult)> = pool.install(|| {
         (0..scene.height())
             .into_par_iter()

@@ -4,8 +4,8 @@
 use super::format::{LightSpec, MaterialSpec, ScaleSpec, SceneFile, ShapeSpec, TransformStep};
 use super::generators::{self, Generated, GeneratorParams};
 use super::{
-    Camera, Features, Fnv64, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings, Scene,
-    SceneOverrides, Texture, NO_LIGHT,
+    Camera, Features, Fnv64, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings,
+    Scene, SceneOverrides, Texture, NO_LIGHT,
 };
 use crate::geometry::{Sphere, Triangle};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
@@ -128,11 +128,7 @@ fn build_scene(
         return Err(cx.err("camera.fov_deg", format!("must be in (0, 180) (got {fov})")));
     }
     if cam.width == 0 || cam.height == 0 {
-        let field = if cam.width == 0 {
-            "camera.width"
-        } else {
-            "camera.height"
-        };
+        let field = if cam.width == 0 { "camera.width" } else { "camera.height" };
         return Err(cx.err(field, "must be ≥ 1 (got 0)"));
     }
     let forward = target - origin;
@@ -171,19 +167,20 @@ fn build_scene(
                 reflectance,
                 checker,
             } => {
-                let tex =
-                    match (reflectance, checker) {
-                        (Some(c), None) => Texture::Constant(albedo(&cx, &f("reflectance"), *c)?),
-                        (None, Some(ch)) => Texture::Checker {
-                            even: albedo(&cx, &f("checker.even"), ch.even)?,
-                            odd: albedo(&cx, &f("checker.odd"), ch.odd)?,
-                            size: cx.positive(&f("checker.size"), ch.size)?,
-                        },
-                        _ => return Err(cx.err(
+                let tex = match (reflectance, checker) {
+                    (Some(c), None) => Texture::Constant(albedo(&cx, &f("reflectance"), *c)?),
+                    (None, Some(ch)) => Texture::Checker {
+                        even: albedo(&cx, &f("checker.even"), ch.even)?,
+                        odd: albedo(&cx, &f("checker.odd"), ch.odd)?,
+                        size: cx.positive(&f("checker.size"), ch.size)?,
+                    },
+                    _ => {
+                        return Err(cx.err(
                             format!("materials.{name}"),
                             "a diffuse material needs exactly one of `reflectance` or `checker`",
-                        )),
-                    };
+                        ))
+                    }
+                };
                 Material::Diffuse { reflectance: tex }
             }
             MaterialSpec::Mirror { reflectance } => Material::Mirror {
@@ -255,23 +252,16 @@ fn build_scene(
                 })?;
                 let full: PathBuf = base.join(rel);
                 let bytes = std::fs::read(&full).map_err(|e| {
-                    cx.err(
-                        format!("{at}.path"),
-                        format!("cannot read '{}': {e}", full.display()),
-                    )
+                    cx.err(format!("{at}.path"), format!("cannot read '{}': {e}", full.display()))
                 })?;
                 hash.write(&bytes);
-                let tris = read_obj(&full).map_err(|e| {
-                    cx.err(format!("{at}.path"), format!("'{}': {e}", full.display()))
-                })?;
+                let tris = read_obj(&full)
+                    .map_err(|e| cx.err(format!("{at}.path"), format!("'{}': {e}", full.display())))?;
                 b.push_triangles(&m, &tris);
             }
             kind if generators::is_generator(kind) => {
                 let count = shape.count.ok_or_else(|| {
-                    cx.err(
-                        format!("{at}.count"),
-                        "a generator needs `count` (its size)",
-                    )
+                    cx.err(format!("{at}.count"), "a generator needs `count` (its size)")
                 })?;
                 if count == 0 {
                     return Err(cx.err(format!("{at}.count"), "must be ≥ 1 (got 0)"));
@@ -400,10 +390,7 @@ fn build_scene(
 
     let features = analyse(&g, &materials, &lights);
     Ok(Scene {
-        name: file
-            .name
-            .clone()
-            .unwrap_or_else(|| default_name.to_string()),
+        name: file.name.clone().unwrap_or_else(|| default_name.to_string()),
         hash: hash.finish(),
         origin,
         camera,
@@ -461,10 +448,7 @@ fn check_fields(cx: &Ctx, at: &str, s: &ShapeSpec) -> Result<(), SceneError> {
 fn placement(cx: &Ctx, at: &str, s: &ShapeSpec) -> Result<DMat4, SceneError> {
     let m = match (&s.transform, &s.matrix) {
         (Some(_), Some(_)) => {
-            return Err(cx.err(
-                format!("{at}.matrix"),
-                "give either `transform` or `matrix`, not both",
-            ))
+            return Err(cx.err(format!("{at}.matrix"), "give either `transform` or `matrix`, not both"))
         }
         (None, Some(rows)) => {
             for (r, row) in rows.iter().enumerate() {
@@ -504,11 +488,7 @@ fn placement(cx: &Ctx, at: &str, s: &ShapeSpec) -> Result<DMat4, SceneError> {
         }
         (None, None) => DMat4::IDENTITY,
     };
-    let field = if s.matrix.is_some() {
-        "matrix"
-    } else {
-        "transform"
-    };
+    let field = if s.matrix.is_some() { "matrix" } else { "transform" };
     if m.determinant() == 0.0 || !m.determinant().is_finite() {
         return Err(cx.err(format!("{at}.{field}"), "is singular (a scale of 0?)"));
     }
@@ -615,30 +595,17 @@ fn analyse(g: &Geometry, materials: &[Material], lights: &[Light]) -> Features {
     for info in &g.info {
         used[info.material as usize] = true;
     }
-    let used_materials = || {
-        materials
-            .iter()
-            .zip(&used)
-            .filter(|(_, u)| **u)
-            .map(|(m, _)| m)
-    };
+    let used_materials = || materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
     Features {
         triangles: !g.triangles.is_empty(),
         spheres: !g.spheres.is_empty(),
         area_lights: lights.iter().any(|l| matches!(l, Light::Area { .. })),
         point_lights: lights.iter().any(|l| matches!(l, Light::Point { .. })),
-        environment: lights
-            .iter()
-            .any(|l| matches!(l, Light::Environment { .. })),
+        environment: lights.iter().any(|l| matches!(l, Light::Environment { .. })),
         refraction: used_materials().any(|m| matches!(m, Material::Dielectric { .. })),
         mirrors: used_materials().any(|m| matches!(m, Material::Mirror { .. })),
         textures: used_materials().any(|m| {
-            matches!(
-                m,
-                Material::Diffuse {
-                    reflectance: Texture::Checker { .. }
-                }
-            )
+            matches!(m, Material::Diffuse { reflectance: Texture::Checker { .. } })
         }),
     }
 }

@@ -24,11 +24,7 @@ pub const NO_LIGHT: u32 = u32::MAX;
 pub enum Texture {
     Constant(Vec3),
     /// `even` where ⌊x/size⌋ + ⌊y/size⌋ is even, in world coordinates.
-    Checker {
-        even: Vec3,
-        odd: Vec3,
-        size: f64,
-    },
+    Checker { even: Vec3, odd: Vec3, size: f64 },
 }
 
 impl Texture {
@@ -108,12 +104,7 @@ impl Geometry {
         if prim < ns {
             self.spheres[prim as usize]
                 .intersect(ray, t_max)
-                .map(|t| Hit {
-                    t,
-                    prim,
-                    b1: 0.0,
-                    b2: 0.0,
-                })
+                .map(|t| Hit { t, prim, b1: 0.0, b2: 0.0 })
         } else {
             self.triangles[(prim - ns) as usize]
                 .intersect(ray, t_max)

@@ -155,12 +155,10 @@ impl Order {
         }
     }
     pub fn from_id(s: &str) -> Result<Self, SpecError> {
-        Self::ALL.into_iter().find(|o| o.id() == s).ok_or_else(|| {
-            err(
-                "order",
-                format!("unknown order '{s}' (expected scanline, morton or hilbert)"),
-            )
-        })
+        Self::ALL
+            .into_iter()
+            .find(|o| o.id() == s)
+            .ok_or_else(|| err("order", format!("unknown order '{s}' (expected scanline, morton or hilbert)")))
     }
 }
 
@@ -224,12 +222,10 @@ impl Wait {
         }
     }
     pub fn from_id(s: &str) -> Result<Self, SpecError> {
-        Self::ALL.into_iter().find(|w| w.id() == s).ok_or_else(|| {
-            err(
-                "wait",
-                format!("unknown wait strategy '{s}' (expected spin, yield or block)"),
-            )
-        })
+        Self::ALL
+            .into_iter()
+            .find(|w| w.id() == s)
+            .ok_or_else(|| err("wait", format!("unknown wait strategy '{s}' (expected spin, yield or block)")))
     }
 }
 
@@ -292,12 +288,7 @@ impl SchedulerSpec {
     pub fn label(&self) -> String {
         let mut s = format!("{} chunk={}", self.kind.id(), self.chunk);
         if self.kind.has_master() {
-            s += &format!(
-                " B={} requeue={} wait={}",
-                self.buffer,
-                self.requeue,
-                self.wait.id()
-            );
+            s += &format!(" B={} requeue={} wait={}", self.buffer, self.requeue, self.wait.id());
         }
         s
     }
@@ -312,10 +303,7 @@ mod tests {
         for k in SchedulerKind::ALL {
             assert_eq!(SchedulerKind::from_id(k.id()).unwrap(), k);
         }
-        assert!(SchedulerKind::from_id("fastest")
-            .unwrap_err()
-            .msg
-            .contains("unknown scheduler"));
+        assert!(SchedulerKind::from_id("fastest").unwrap_err().msg.contains("unknown scheduler"));
         assert!(Order::from_id("zigzag").is_err());
         assert!(Wait::from_id("nap").is_err());
     }
@@ -350,27 +338,9 @@ mod tests {
         let base = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
         assert!(base.validate().is_ok());
         for (field, spec) in [
-            (
-                "workers",
-                SchedulerSpec {
-                    workers: 0,
-                    ..base.clone()
-                },
-            ),
-            (
-                "buffer",
-                SchedulerSpec {
-                    buffer: 0,
-                    ..base.clone()
-                },
-            ),
-            (
-                "grab",
-                SchedulerSpec {
-                    grab: 0,
-                    ..base.clone()
-                },
-            ),
+            ("workers", SchedulerSpec { workers: 0, ..base.clone() }),
+            ("buffer", SchedulerSpec { buffer: 0, ..base.clone() }),
+            ("grab", SchedulerSpec { grab: 0, ..base.clone() }),
         ] {
             assert_eq!(spec.validate().unwrap_err().field, field);
         }

@@ -32,7 +32,6 @@ impl Tracer for BruteTracer {
         best
     }
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        (0..self.geometry.len() as u32)
-            .any(|p| self.geometry.intersect_prim(p, ray, t_max).is_some())
+        (0..self.geometry.len() as u32).any(|p| self.geometry.intersect_prim(p, ray, t_max).is_some())
     }
 }

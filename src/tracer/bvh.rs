@@ -77,10 +77,9 @@ impl BvhTracer {
                 b1: 0.0,
                 b2: 0.0,
             }),
-            LeafPrim::Triangle(tri) => {
-                tri.intersect(ray, t_max)
-                    .map(|(t, b1, b2)| Hit { t, prim, b1, b2 })
-            }
+            LeafPrim::Triangle(tri) => tri
+                .intersect(ray, t_max)
+                .map(|(t, b1, b2)| Hit { t, prim, b1, b2 }),
         }
     }
 }
