@@ -40,6 +40,8 @@
 //! ```
 
 pub mod cli;
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod experiment;
 pub mod geometry;
 pub mod plot;

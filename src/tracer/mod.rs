@@ -23,12 +23,17 @@ pub trait Tracer: Send + Sync {
 }
 
 /// The tracer ids this build knows, feature-gated ones included (with their feature).
-pub const TRACER_IDS: [(&str, Option<&str>); 3] =
-    [("bvh", None), ("brute", None), ("embree", Some("embree"))];
+/// `embree_robust` is Embree with `RTC_SCENE_FLAG_ROBUST` (fewer leaks through shared edges).
+pub const TRACER_IDS: [(&str, Option<&str>); 4] = [
+    ("bvh", None),
+    ("brute", None),
+    ("embree", Some("embree")),
+    ("embree_robust", Some("embree")),
+];
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TracerError {
-    #[error("unknown tracer '{0}' (expected one of: bvh, brute, embree)")]
+    #[error("unknown tracer '{0}' (expected one of: bvh, brute, embree, embree_robust)")]
     Unknown(String),
     #[error("tracer '{id}' needs cargo feature '{feature}', which this build was compiled without (rebuild with --features {feature})")]
     FeatureOff { id: String, feature: String },
@@ -55,6 +60,17 @@ fn feature_enabled(feature: &str) -> bool {
     }
 }
 
+/// OS threads of the whole process right now (`Threads:` of /proc/self/status; `None` where that
+/// file does not exist). Embree and rayon both own pools: a benchmark records this number so it
+/// measures what it says.
+pub fn os_thread_count() -> Option<usize> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("Threads:"))
+        .and_then(|v| v.trim().parse().ok())
+}
+
 /// Every tracer behind one enum: static dispatch, one `match` per query.
 pub enum AnyTracer {
     Bvh(BvhTracer),
@@ -72,12 +88,18 @@ impl AnyTracer {
             "bvh" => Ok(Self::Bvh(BvhTracer::new(&scene.geometry))),
             "brute" => Ok(Self::Brute(BruteTracer::new(&scene.geometry))),
             #[cfg(feature = "embree")]
-            "embree" => crate::embree::EmbreeTracer::new(&scene.geometry, threads)
-                .map(Self::Embree)
-                .map_err(|msg| TracerError::Build {
-                    id: id.to_string(),
-                    msg,
-                }),
+            "embree" | "embree_robust" => crate::embree::EmbreeTracer::with_options(
+                &scene.geometry,
+                crate::embree::EmbreeOptions {
+                    threads,
+                    robust: id == "embree_robust",
+                },
+            )
+            .map(Self::Embree)
+            .map_err(|msg| TracerError::Build {
+                id: id.to_string(),
+                msg,
+            }),
             other => Err(TracerError::Unknown(other.to_string())),
         }
     }

@@ -1,0 +1,336 @@
+//! The `embree` tracer agrees with `brute` and `bvh` (same primitive, `t` within 1e-5 relative),
+//! renders every reference scene like `bvh`, and keeps images scheduler-independent.
+//! Without the feature, asking for it is a clear error. Run with `cargo test --features embree`.
+
+#[cfg(not(feature = "embree"))]
+#[test]
+fn embree_without_the_feature_is_an_error_naming_it() {
+    use raysched::tracer::{check_tracer_id, AnyTracer, TracerError};
+    let scene = raysched::scene::load_scene(
+        std::path::Path::new("scenes/simple.toml"),
+        &Default::default(),
+    )
+    .unwrap();
+    for id in ["embree", "embree_robust"] {
+        let err = AnyTracer::build(id, &scene, 1).err().expect("must fail");
+        assert!(matches!(&err, TracerError::FeatureOff { feature, .. } if feature == "embree"));
+        assert!(err.to_string().contains("--features embree"), "{err}");
+        assert!(check_tracer_id(id).is_err());
+    }
+}
+
+#[cfg(feature = "embree")]
+mod with_embree {
+    use glam::Vec3;
+    use raysched::embree::{EmbreeOptions, EmbreeTracer};
+    use raysched::geometry::{next_float_down, next_float_up, Hit, Ray, Sphere, Triangle};
+    use raysched::render::{render_item, render_parallel, render_serial, Image, WorkItem};
+    use raysched::scene::{load_scene, Geometry, SceneOverrides};
+    use raysched::tracer::{AnyTracer, BruteTracer, BvhTracer, Tracer};
+
+    /// xorshift64*: enough for test input, independent of the crate's RNG.
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f32 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn v(&mut self, lo: f32, hi: f32) -> Vec3 {
+            Vec3::new(self.f(), self.f(), self.f()) * (hi - lo) + Vec3::splat(lo)
+        }
+    }
+
+    fn random_geometry(seed: u64, n_tris: usize, n_spheres: usize) -> Geometry {
+        let mut rng = Rng(seed | 1);
+        let triangles = (0..n_tris)
+            .map(|_| {
+                let c = rng.v(-4.0, 4.0);
+                Triangle::new(
+                    c + rng.v(-0.6, 0.6),
+                    c + rng.v(-0.6, 0.6),
+                    c + rng.v(-0.6, 0.6),
+                )
+            })
+            .collect();
+        let spheres = (0..n_spheres)
+            .map(|_| Sphere {
+                center: rng.v(-4.0, 4.0),
+                radius: 0.05 + rng.f() * 0.5,
+            })
+            .collect();
+        Geometry {
+            spheres,
+            triangles,
+            info: Vec::new(),
+        }
+    }
+
+    fn embree(g: &Geometry, robust: bool) -> EmbreeTracer {
+        EmbreeTracer::with_options(g, EmbreeOptions { threads: 1, robust }).unwrap()
+    }
+
+    /// Same primitive, `t` within 1e-5 relative and barycentrics within 1e-3. "Relative" is to
+    /// the hit point's distance from the world origin: Embree's `t` carries an absolute rounding
+    /// error of the coordinates' size, so a hit at t = 0.006 from |o| ≈ 6 differs by 2e-5 in t
+    /// (measured) while the hit points agree to 1e-7.
+    fn same_hit(ray: &Ray, a: Option<Hit>, b: Option<Hit>, tris_b: bool) -> bool {
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                let scale = ray.o.length() + b.t * ray.d.length();
+                (a.t - b.t).abs() * ray.d.length() <= 1e-5 * scale
+                    && (a.prim == b.prim)
+                    && (!tris_b || ((a.b1 - b.b1).abs() < 1e-3 && (a.b2 - b.b2).abs() < 1e-3))
+            }
+            _ => false,
+        }
+    }
+
+    #[test]
+    fn embree_equals_brute_and_bvh_on_random_scenes_and_rays() {
+        for (seed, robust) in [(1u64, false), (2, false), (3, true)] {
+            let g = random_geometry(seed, 1500, 30);
+            let (e, b, v) = (embree(&g, robust), BruteTracer::new(&g), BvhTracer::new(&g));
+            let mut rng = Rng(seed * 77);
+            let (mut hits, mut mismatches, mut occl) = (0, Vec::new(), 0);
+            for i in 0..3000 {
+                let o = rng.v(-6.0, 6.0);
+                // Unnormalised directions: `t` is in units of `d`.
+                let d = rng.v(-1.0, 1.0) * (0.1 + 3.0 * rng.f());
+                let ray = Ray::new(o, d);
+                let t_max = if i % 3 == 0 {
+                    0.5 + 4.0 * rng.f()
+                } else {
+                    f32::INFINITY
+                };
+                let (he, hb, hv) = (
+                    e.intersect(&ray, t_max),
+                    b.intersect(&ray, t_max),
+                    v.intersect(&ray, t_max),
+                );
+                assert!(
+                    same_hit(&ray, hv, hb, true),
+                    "bvh vs brute, ray {i}: {hv:?} {hb:?}"
+                );
+                let is_tri = hb.is_some_and(|h| h.prim >= g.spheres.len() as u32);
+                if !same_hit(&ray, he, hb, is_tri) {
+                    mismatches.push((i, he, hb));
+                }
+                hits += hb.is_some() as usize;
+                let (oe, ob) = (e.occluded(&ray, t_max), b.occluded(&ray, t_max));
+                assert_eq!(oe, ob, "occluded, ray {i} (seed {seed})");
+                occl += ob as usize;
+                // Sphere hits go through our own f64 routine: bit-identical `t`.
+                if let (Some(he), Some(hb)) = (he, hb) {
+                    if hb.prim < g.spheres.len() as u32 && he.prim == hb.prim {
+                        assert_eq!(he.t, hb.t, "sphere t, ray {i}");
+                    }
+                }
+            }
+            assert!(
+                hits > 500 && occl > 500,
+                "the test must exercise hits: {hits} {occl}"
+            );
+            assert!(
+                mismatches.is_empty(),
+                "seed {seed}: {} mismatches, first {:?}",
+                mismatches.len(),
+                &mismatches[..mismatches.len().min(3)]
+            );
+        }
+    }
+
+    #[test]
+    fn hits_with_t_zero_or_t_max_are_excluded_like_brute() {
+        // A square in z = 0 made of two triangles, and a unit sphere at z = -5.
+        let tri =
+            |a: [f32; 3], b: [f32; 3], c: [f32; 3]| Triangle::new(a.into(), b.into(), c.into());
+        let g = Geometry {
+            spheres: vec![Sphere {
+                center: Vec3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            }],
+            triangles: vec![
+                tri([-1., -1., 0.], [1., -1., 0.], [1., 1., 0.]),
+                tri([-1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]),
+            ],
+            info: Vec::new(),
+        };
+        let tracers: Vec<Box<dyn Tracer>> = vec![
+            Box::new(embree(&g, false)),
+            Box::new(embree(&g, true)),
+            Box::new(BruteTracer::new(&g)),
+        ];
+        for t in &tracers {
+            // Origin on the plane: the t = 0 hit is the surface we start on, the sphere is next.
+            let on = Ray::new(Vec3::new(0.3, -0.2, 0.0), Vec3::new(0.0, 0.0, -1.0));
+            let h = t.intersect(&on, f32::INFINITY).unwrap();
+            assert_eq!(h.prim, 0, "{}: {h:?}", t.id());
+            let sphere_t = g.spheres[0].intersect(&on, f32::INFINITY).unwrap();
+            assert_eq!(h.t, sphere_t, "{}: {h:?}", t.id());
+            // Strict t < t_max, for triangles and spheres, closest hit and occlusion.
+            let above = Ray::new(Vec3::new(0.3, -0.2, 2.0), Vec3::new(0.0, 0.0, -1.0));
+            assert!(t.intersect(&above, 2.0).is_none(), "{}", t.id());
+            assert!(!t.occluded(&above, 2.0), "{}", t.id());
+            let h = t.intersect(&above, next_float_up(2.0)).unwrap();
+            assert_eq!((h.t, h.prim), (2.0, 1), "{}", t.id());
+            assert!(t.occluded(&above, next_float_up(2.0)), "{}", t.id());
+            assert!(
+                t.intersect(&above, 6.0).is_none_or(|h| h.prim != 0),
+                "{}",
+                t.id()
+            );
+            assert!(!t.occluded(&on, 1.0), "{}: t = 0 occludes", t.id());
+            // (Not `sphere_t` itself: `Sphere::intersect` compares its f64 root with `t_max`, so
+            // a root just below `t_max` that rounds up to it counts, in every tracer alike.)
+            assert!(!t.occluded(&on, next_float_down(sphere_t)), "{}", t.id());
+            assert!(t.occluded(&on, next_float_up(sphere_t)), "{}", t.id());
+            assert!(t.intersect(&above, 0.0).is_none() && !t.occluded(&above, -1.0));
+            // Barycentrics: b1 weights v0+e1, b2 weights v0+e2.
+            let ray = Ray::new(Vec3::new(0.5, -0.5, 1.0), Vec3::new(0.0, 0.0, -1.0));
+            let h = t.intersect(&ray, f32::INFINITY).unwrap();
+            assert_eq!(h.prim, 1);
+            assert!(
+                (h.b1 - 0.5).abs() < 1e-6 && (h.b2 - 0.25).abs() < 1e-6,
+                "{}: {h:?}",
+                t.id()
+            );
+        }
+    }
+
+    #[test]
+    fn empty_and_sphere_only_scenes() {
+        let empty = Geometry::default();
+        let e = embree(&empty, false);
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        assert!(e.intersect(&ray, f32::INFINITY).is_none() && !e.occluded(&ray, f32::INFINITY));
+        let g = random_geometry(9, 0, 50);
+        let (e, b) = (embree(&g, false), BruteTracer::new(&g));
+        let mut rng = Rng(5);
+        for _ in 0..500 {
+            let ray = Ray::new(rng.v(-5.0, 5.0), rng.v(-1.0, 1.0));
+            assert_eq!(
+                e.intersect(&ray, f32::INFINITY),
+                b.intersect(&ray, f32::INFINITY)
+            );
+        }
+    }
+
+    #[test]
+    fn ids_options_and_bad_input() {
+        let g = random_geometry(4, 10, 2);
+        assert_eq!(embree(&g, false).id(), "embree");
+        assert_eq!(embree(&g, true).id(), "embree_robust");
+        assert!(embree(&g, true).options().robust);
+        let e = EmbreeTracer::new(&g, 2).unwrap();
+        assert_eq!(
+            e.options(),
+            EmbreeOptions {
+                threads: 2,
+                robust: false
+            }
+        );
+        assert!(e.os_threads_after_build.is_some_and(|n| n >= 1));
+        let err = EmbreeTracer::new(&g, 0).err().unwrap();
+        assert!(err.contains("threads"), "{err}");
+        // Embree's error callback becomes a Rust error, no panic.
+        let opts = EmbreeOptions {
+            threads: 1,
+            robust: false,
+        };
+        let err = EmbreeTracer::with_device_config(&g, "threads=1,verbose=x", opts)
+            .err()
+            .expect("bad config");
+        assert!(err.contains("Embree"), "{err}");
+    }
+
+    fn small(scene: &str, spp: u32) -> raysched::scene::Scene {
+        let o = SceneOverrides {
+            spp: Some(spp),
+            width: Some(40),
+            height: Some(40),
+            ..Default::default()
+        };
+        load_scene(std::path::Path::new(&format!("scenes/{scene}.toml")), &o).unwrap()
+    }
+
+    /// Triangle `t`s differ from ours by float rounding, so a path can occasionally take another
+    /// branch; images must still agree to within that noise.
+    #[test]
+    fn images_match_bvh_on_every_reference_scene() {
+        let scenes = [
+            "furnace",
+            "furnace_a08",
+            "interior_sphere",
+            "cornell_box",
+            "point_plane",
+            "glass_checker",
+            "glass_alone",
+            "simple",
+        ];
+        for name in scenes {
+            let scene = small(name, 4);
+            let bvh = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let (a, _) = render_serial(&scene, &bvh);
+            for id in ["embree", "embree_robust"] {
+                let e = AnyTracer::build(id, &scene, 1).unwrap();
+                let (b, _) = render_serial(&scene, &e);
+                let (mut diff, mut total, mut off) = (0.0f64, 0.0f64, 0usize);
+                for (pa, pb) in a.data.iter().zip(&b.data) {
+                    for c in 0..3 {
+                        let d = (pa[c] - pb[c]).abs() as f64;
+                        diff += d;
+                        total += pa[c].abs() as f64;
+                        off += (d > 1e-3 * (pa[c].abs() as f64).max(1e-3)) as usize;
+                    }
+                }
+                let n = a.data.len() * 3;
+                assert!(
+                    diff <= 1e-3 * total.max(1e-9),
+                    "{name}/{id}: mean rel diff {}",
+                    diff / total
+                );
+                assert!(off * 100 <= n, "{name}/{id}: {off} of {n} channels differ");
+            }
+        }
+    }
+
+    /// The scheduler identity: whoever renders which item, the image is bit-identical.
+    #[test]
+    fn embree_images_are_identical_across_schedules() {
+        let scene = small("cornell_box", 2);
+        let e = AnyTracer::build("embree", &scene, 2).unwrap();
+        let (serial, _) = render_serial(&scene, &e);
+        for threads in [1, 2, 3] {
+            let (par, _) = render_parallel(&scene, &e, threads).unwrap();
+            assert_eq!(par.hash(), serial.hash(), "{threads} threads");
+        }
+        // 7×5 tiles rendered in reverse order from rayon workers.
+        use rayon::prelude::*;
+        let (w, h) = (scene.width(), scene.height());
+        let mut items = Vec::new();
+        for y in (0..h).step_by(5) {
+            for x in (0..w).step_by(7) {
+                items.push(WorkItem::rect(
+                    items.len() as u32,
+                    x,
+                    y,
+                    7.min(w - x),
+                    5.min(h - y),
+                ));
+            }
+        }
+        items.reverse();
+        let results: Vec<_> = items
+            .par_iter()
+            .map(|it| render_item(&scene, &e, it))
+            .collect();
+        let mut img = Image::new(w, h);
+        for (it, r) in items.iter().zip(&results) {
+            img.put(it, &r.pixels);
+        }
+        assert_eq!(img.hash(), serial.hash());
+    }
+}
