@@ -49,4 +49,5 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sched;
+pub mod source;
 pub mod tracer;
