@@ -82,12 +82,13 @@ fn bad_configs_exit_2_naming_file_and_field() {
         ("width = 16", "width = 0", "scenes[0]"),
         ("width = 16", "widht = 16", "line"),
     ];
-    for (from, to, field) in cases {
+    for (i, (from, to, field)) in cases.into_iter().enumerate() {
+        let res = format!("res{i}");
         assert!(good.contains(from), "{from}");
         let p = dir.path().join("bad.toml");
         std::fs::write(&p, good.replacen(from, to, 1)).unwrap();
         let out = run(
-            &["run", p.to_str().unwrap(), "--quiet", "--out", "res"],
+            &["run", p.to_str().unwrap(), "--quiet", "--out", &res],
             dir.path(),
         );
         let err = String::from_utf8_lossy(&out.stderr);
@@ -100,7 +101,7 @@ fn bad_configs_exit_2_naming_file_and_field() {
             "{to}: {err}"
         );
         // Validation happens before anything is measured.
-        assert!(!dir.path().join("res/tiny/runs.csv").exists(), "{to}");
+        assert!(!dir.path().join(&res).join("tiny/runs.csv").exists(), "{to}");
     }
 }
 
