@@ -477,3 +477,23 @@ mod cli {
         }
     }
 }
+
+/// The identity test with the Embree tracer: every scheduler, at per-ray and per-block
+/// granularity, gives the image of the 1-thread serial Embree render.
+#[cfg(feature = "embree")]
+#[test]
+fn every_scheduler_matches_serial_with_embree() {
+    let scene = scene(17, 13);
+    let tracer = Arc::new(AnyTracer::build("embree", &scene, 1).unwrap());
+    let (serial, _) = render_serial(&scene, &*tracer);
+    for kind in SchedulerKind::ALL {
+        for chunk in [Chunk::Tile { w: 1, h: 1 }, Chunk::Tile { w: 4, h: 4 }, Chunk::Rows(2)] {
+            for workers in [1, 3] {
+                let spec = SchedulerSpec::new(kind, chunk, workers);
+                let (image, _) = run_scheduler(&spec, &scene, &tracer)
+                    .unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
+                assert_eq!(image.hash(), serial.hash(), "embree {}", spec.label());
+            }
+        }
+    }
+}
