@@ -40,9 +40,11 @@
 //! ```
 
 pub mod cli;
+pub mod converge;
 pub mod geometry;
 pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sched;
+pub mod stability;
 pub mod tracer;

@@ -17,8 +17,15 @@ enum LeafPrim {
     Triangle(Triangle),
 }
 
+/// Below this many primitives a BVH costs more than it saves: the tracer then tests every
+/// primitive in id order (exactly `brute`) and builds nothing. Measured with
+/// `cargo bench --bench features` (see that file for the numbers).
+pub const BVH_MIN_PRIMS: usize = 8;
+
 pub struct BvhTracer {
     bvh: Option<CwBvh>,
+    /// Set when the scene is below [`BVH_MIN_PRIMS`]: primitives tested linearly instead.
+    linear: Option<Geometry>,
     prims: Vec<LeafPrim>,
     /// Scene primitive id of each leaf slot.
     ids: Vec<u32>,
@@ -26,8 +33,28 @@ pub struct BvhTracer {
 }
 
 impl BvhTracer {
+    /// A BVH when the scene has at least [`BVH_MIN_PRIMS`] primitives, else a linear list.
     pub fn new(geometry: &Geometry) -> Self {
+        if geometry.len() < BVH_MIN_PRIMS {
+            return Self {
+                bvh: None,
+                linear: Some(geometry.clone()),
+                prims: Vec::new(),
+                ids: Vec::new(),
+                build_time: Duration::ZERO,
+            };
+        }
         Self::with_params(geometry, BvhBuildParams::medium_build())
+    }
+
+    /// Always a BVH, whatever the primitive count (for measuring the crossover).
+    pub fn forced(geometry: &Geometry) -> Self {
+        Self::with_params(geometry, BvhBuildParams::medium_build())
+    }
+
+    /// Whether a BVH was built (false: too few primitives to be worth it, or none at all).
+    pub fn uses_bvh(&self) -> bool {
+        self.bvh.is_some()
     }
 
     pub fn with_params(geometry: &Geometry, params: BvhBuildParams) -> Self {
@@ -35,6 +62,7 @@ impl BvhTracer {
         if geometry.is_empty() {
             return Self {
                 bvh: None,
+                linear: None,
                 prims: Vec::new(),
                 ids: Vec::new(),
                 build_time: start.elapsed(),
@@ -61,6 +89,7 @@ impl BvhTracer {
             .collect();
         Self {
             bvh: Some(bvh),
+            linear: None,
             prims,
             ids,
             build_time: start.elapsed(),
@@ -94,6 +123,9 @@ impl Tracer for BvhTracer {
     }
 
     fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        if let Some(g) = &self.linear {
+            return linear_intersect(g, ray, t_max);
+        }
         let bvh = self.bvh.as_ref()?;
         let mut best: Option<Hit> = None;
         let mut rh = obvhs::ray::RayHit::none();
@@ -110,6 +142,9 @@ impl Tracer for BvhTracer {
     }
 
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        if let Some(g) = &self.linear {
+            return (0..g.len() as u32).any(|p| g.intersect_prim(p, ray, t_max).is_some());
+        }
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
@@ -117,4 +152,18 @@ impl Tracer for BvhTracer {
             self.leaf(slot, ray, t_max).map_or(f32::INFINITY, |h| h.t)
         })
     }
+}
+
+/// Closest hit over every primitive in id order (what `brute` does).
+#[inline]
+fn linear_intersect(g: &Geometry, ray: &Ray, t_max: f32) -> Option<Hit> {
+    let mut best: Option<Hit> = None;
+    let mut t_max = t_max;
+    for p in 0..g.len() as u32 {
+        if let Some(h) = g.intersect_prim(p, ray, t_max) {
+            t_max = h.t;
+            best = Some(h);
+        }
+    }
+    best
 }
