@@ -31,6 +31,9 @@ pub struct Reference {
     /// are `false`.
     pub exact: Vec<bool>,
     pub kind: ReferenceKind,
+    /// Environment references: sub-pixel rays that hit a surface hidden from the sky (through a
+    /// crack, e.g. the shared edge of a rectangle's two triangles). Their pixels are not exact.
+    pub leaks: u64,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -110,6 +113,7 @@ fn interior(scene: &Scene) -> Option<Reference> {
         },
         exact: vec![true; scene.pixel_count()],
         kind: ReferenceKind::Interior,
+        leaks: 0,
     })
 }
 
@@ -147,6 +151,7 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
     let (w, h) = (scene.width(), scene.height());
     let mut image = Image::new(w, h);
     let mut exact = vec![true; scene.pixel_count()];
+    let mut leaks = 0u64;
     for py in 0..h {
         for px in 0..w {
             let mut sum = Vec3::ZERO;
@@ -162,7 +167,8 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
                     None => e,
                     Some(hit) => {
                         if hit.prim >= ns && !open_sky[(hit.prim - ns) as usize] {
-                            return None;
+                            leaks += 1;
+                            mixed = true;
                         }
                         let it = crate::render::integrator::interaction(scene, &ray, &hit);
                         if ray.d.dot(it.n) < 0.0 && lit {
@@ -188,6 +194,7 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
         image,
         exact,
         kind: ReferenceKind::EnvironmentConvex,
+        leaks,
     })
 }
 
@@ -211,21 +218,23 @@ fn rect_integral(f: impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64
 
 fn plane_point_lights(scene: &Scene) -> Option<Reference> {
     let g = &scene.geometry;
-    if !g.spheres.is_empty() || scene.lights.is_empty() {
+    if !g.spheres.is_empty() || scene.lights.is_empty() || scene.settings.max_depth == 1 {
         return None;
     }
     // One rectangle (two coplanar triangles) of one constant diffuse material; other
     // triangles may exist only as tiny emitters (handled as Lambertian points below).
     let mut plane_tris = Vec::new();
+    let mut material = 0;
     for (k, t) in g.triangles.iter().enumerate() {
         if g.info[k].light == crate::scene::NO_LIGHT {
             plane_tris.push(*t);
+            material = g.info[k].material;
         }
     }
     if plane_tris.len() != 2 {
         return None;
     }
-    let rho = constant_albedo(scene, g.info[0].material)?.as_dvec3();
+    let rho = constant_albedo(scene, material)?.as_dvec3();
     let n = plane_tris[0].normal().as_dvec3();
     if (plane_tris[1].normal().as_dvec3() - n).length() > 1e-6 {
         return None;
@@ -319,7 +328,7 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
                 let integral = if kind == 0 {
                     rect_integral(|x, y| solid_angle_corner(x, y, h), x0, x1, y0, y1)
                 } else {
-                    rect_integral(|x, y| form_factor_corner(x, y, h), x0, x1, y0, y1) / (h * h)
+                    rect_integral(|x, y| form_factor_corner(x, y, h), x0, x1, y0, y1)
                 };
                 l += rho * std::f64::consts::FRAC_1_PI * strength * (integral / area);
             }
@@ -330,6 +339,7 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
         image,
         exact: vec![true; scene.pixel_count()],
         kind: ReferenceKind::PlanePointLights,
+        leaks: 0,
     })
 }
 
@@ -415,5 +425,6 @@ pub fn reference<T: Tracer + ?Sized>(
             spp,
             path: Some(path),
         },
+        leaks: 0,
     })
 }

@@ -30,6 +30,36 @@ pub struct BvhTracer {
     /// Scene primitive id of each leaf slot.
     ids: Vec<u32>,
     pub build_time: Duration,
+    /// Power of two mapping render space to the BVH's space (extent ≈ 1): exact scaling.
+    k: f32,
+}
+
+/// obvhs culls node hits with `t < 1e-4` (a fixed epsilon, `cwbvh::node::EPSILON`) in units
+/// of the ray direction, and clamps direction components below f32::EPSILON. So the BVH lives
+/// in a space where the scene spans ≈ 2^16 (positions × `k`) and each traversal ray has a
+/// direction of length ≈ 1 (× `m`): both powers of two, so exact. The cutoff then lies at
+/// ≈ 1.5e-9 of the scene's extent at every scale. Without this a scene of size 1e-6
+/// rendered black and, at size 1e6, shadow rays skipped anything within ~100 units.
+const BVH_EXTENT_LOG2: f32 = 16.0;
+
+/// Power of two that maps `extent` to about 2^16, clamped to a safe exponent range.
+fn normaliser(extent: f32) -> f32 {
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    let e = (BVH_EXTENT_LOG2 - extent.log2().ceil()).clamp(-100.0, 100.0) as i32;
+    2f32.powi(e)
+}
+
+/// Power of two `m` with `|d|·m` in [1, 2) (by the largest component).
+#[inline(always)]
+fn unit_scale(d: glam::Vec3) -> f32 {
+    let e = d.abs().max_element();
+    let exp = ((e.to_bits() >> 23) & 0xff) as i32 - 127;
+    if !(-120..=120).contains(&exp) {
+        return 1.0;
+    }
+    f32::from_bits(((127 - exp) as u32) << 23)
 }
 
 impl BvhTracer {
@@ -42,6 +72,7 @@ impl BvhTracer {
                 prims: Vec::new(),
                 ids: Vec::new(),
                 build_time: Duration::ZERO,
+                k: 1.0,
             };
         }
         Self::with_params(geometry, BvhBuildParams::medium_build())
@@ -66,12 +97,18 @@ impl BvhTracer {
                 prims: Vec::new(),
                 ids: Vec::new(),
                 build_time: start.elapsed(),
+                k: 1.0,
             };
         }
+        let extent = (0..geometry.len() as u32).fold(0.0f32, |m, p| {
+            let (lo, hi) = geometry.prim_bounds(p);
+            m.max(lo.abs().max_element()).max(hi.abs().max_element())
+        });
+        let k = normaliser(extent);
         let aabbs: Vec<Aabb> = (0..geometry.len() as u32)
             .map(|p| {
                 let (lo, hi) = geometry.prim_bounds(p);
-                Aabb::new(lo.into(), hi.into())
+                Aabb::new((lo * k).into(), (hi * k).into())
             })
             .collect();
         let bvh = build_cwbvh(&aabbs, params, &mut Duration::default());
@@ -93,6 +130,7 @@ impl BvhTracer {
             prims,
             ids,
             build_time: start.elapsed(),
+            k,
         }
     }
 
@@ -113,8 +151,14 @@ impl BvhTracer {
     }
 }
 
-fn to_obvhs(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(ray.o.into(), ray.d.into(), 0.0, t_max)
+/// The traversal ray (origin × `k`, direction × `m`) and `q = k/m`: its `t` is the real `t`
+/// times `q` (exact: powers of two).
+#[inline(always)]
+fn to_obvhs(ray: &Ray, t_max: f32, k: f32) -> (obvhs::ray::Ray, f32) {
+    let m = unit_scale(ray.d);
+    let q = k / m;
+    let r = obvhs::ray::Ray::new((ray.o * k).into(), (ray.d * m).into(), 0.0, t_max * q);
+    (r, q)
 }
 
 impl Tracer for BvhTracer {
@@ -129,11 +173,12 @@ impl Tracer for BvhTracer {
         let bvh = self.bvh.as_ref()?;
         let mut best: Option<Hit> = None;
         let mut rh = obvhs::ray::RayHit::none();
-        bvh.ray_traverse(to_obvhs(ray, t_max), &mut rh, |r, slot| {
-            match self.leaf(slot, ray, r.tmax) {
+        let (r, q) = to_obvhs(ray, t_max, self.k);
+        bvh.ray_traverse(r, &mut rh, |r, slot| {
+            match self.leaf(slot, ray, r.tmax / q) {
                 Some(h) => {
                     best = Some(h);
-                    h.t
+                    h.t * q
                 }
                 None => f32::INFINITY,
             }
@@ -148,8 +193,9 @@ impl Tracer for BvhTracer {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
-        !bvh.ray_traverse_miss(to_obvhs(ray, t_max), |_, slot| {
-            self.leaf(slot, ray, t_max).map_or(f32::INFINITY, |h| h.t)
+        let (r, q) = to_obvhs(ray, t_max, self.k);
+        !bvh.ray_traverse_miss(r, |_, slot| {
+            self.leaf(slot, ray, t_max).map_or(f32::INFINITY, |h| h.t * q)
         })
     }
 }
