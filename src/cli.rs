@@ -5,7 +5,7 @@ use crate::render::{render_parallel, RenderCounters};
 use crate::scene::{load_scene, SceneOverrides};
 use crate::tracer::AnyTracer;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -20,6 +20,50 @@ pub struct Cli {
 pub enum Command {
     /// Render one scene and write OUT (.exr or .pfm, linear) plus an sRGB .png preview beside it.
     Render(RenderArgs),
+    /// Error against run time: progressive render (1, 2, 4, … spp) vs a reference; CSV + plot.
+    Converge(ConvergeArgs),
+    /// The numerical stability suite: CSV + markdown table of every case.
+    Stability(StabilityArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ConvergeArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Reference image (.exr); default: analytic, else a cached high-spp render.
+    #[arg(long = "ref")]
+    pub reference: Option<PathBuf>,
+    /// Largest sample count of the progression.
+    #[arg(long, default_value_t = 256)]
+    pub max_spp: u32,
+    /// Samples of a rendered reference (cached under results/refs/).
+    #[arg(long, default_value_t = 4096)]
+    pub ref_spp: u32,
+    /// Tracers to compare, comma separated.
+    #[arg(long, default_value = "bvh,brute")]
+    pub tracers: String,
+    #[arg(long, default_value_t = default_threads())]
+    pub threads: usize,
+    /// Output folder for convergence.csv and convergence.png.
+    #[arg(short, long, default_value = "results/converge")]
+    pub output: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct StabilityArgs {
+    /// Only the fast subset (what `cargo test` runs).
+    #[arg(long)]
+    pub quick: bool,
+    /// Image side of every case.
+    #[arg(long, default_value_t = 48)]
+    pub size: u32,
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    #[arg(long, default_value_t = default_threads())]
+    pub threads: usize,
+    /// Output folder for stability.csv and stability.md.
+    #[arg(short, long, default_value = "results/stability")]
+    pub output: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -80,7 +124,126 @@ pub fn main() -> ExitCode {
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Command::Render(args) => render(args),
+        Command::Converge(args) => converge(args),
+        Command::Stability(args) => stability(args),
     }
+}
+
+fn converge(args: ConvergeArgs) -> Result<(), CliError> {
+    use crate::converge::{self as cv, Reference, ReferenceKind};
+    if args.threads == 0 || args.max_spp == 0 || args.ref_spp == 0 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads, --max-spp and --ref-spp must be ≥ 1"
+        )));
+    }
+    let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
+    let ids: Vec<&str> = args.tracers.split(',').map(str::trim).collect();
+    for id in &ids {
+        crate::tracer::check_tracer_id(id)
+            .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    }
+    let first = AnyTracer::build(ids[0], &scene, args.threads).map_err(CliError::input)?;
+    let reference = match &args.reference {
+        Some(p) => {
+            let image = crate::render::Image::load_exr(p).map_err(CliError::input)?;
+            if image.width != scene.width() || image.height != scene.height() {
+                return Err(CliError::input(anyhow::anyhow!(
+                    "--ref {}: {}×{} does not match the scene's {}×{}",
+                    p.display(),
+                    image.width,
+                    image.height,
+                    scene.width(),
+                    scene.height()
+                )));
+            }
+            Reference {
+                exact: vec![false; image.data.len()],
+                image,
+                kind: ReferenceKind::Rendered {
+                    spp: 0,
+                    path: Some(p.clone()),
+                },
+                leaks: 0,
+            }
+        }
+        None => cv::reference::reference(
+            &scene,
+            &first,
+            Path::new("results/refs"),
+            args.ref_spp,
+            args.threads,
+        )
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
+    };
+    let mut rows = Vec::new();
+    for id in &ids {
+        let tracer = AnyTracer::build(id, &scene, args.threads).map_err(CliError::input)?;
+        rows.extend(cv::run_convergence(
+            &scene,
+            &tracer,
+            &reference,
+            args.max_spp,
+            args.threads,
+        ));
+    }
+    let csv = args.output.join("convergence.csv");
+    let png = args.output.join("convergence.png");
+    cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
+    println!("reference: {}", reference.kind.label());
+    for s in cv::summarise(&rows) {
+        println!(
+            "{} {}: slope {}, RMSE at {:.3} s = {}",
+            s.scene,
+            s.config,
+            s.slope.map_or("n/a".into(), |v| format!("{v:.3}")),
+            s.budget_s,
+            s.rmse_at_budget.map_or("n/a".into(), |v| format!("{v:.5}"))
+        );
+    }
+    println!("wrote {} and {}", csv.display(), png.display());
+    Ok(())
+}
+
+fn stability(args: StabilityArgs) -> Result<(), CliError> {
+    use crate::stability::{self as st, Budget};
+    if args.threads == 0 || args.size == 0 || args.spp < 2 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads and --size must be ≥ 1, --spp ≥ 2"
+        )));
+    }
+    let budget = if args.quick {
+        Budget {
+            threads: args.threads,
+            ..Budget::QUICK
+        }
+    } else {
+        Budget {
+            size: args.size,
+            spp: args.spp,
+            threads: args.threads,
+            quick: false,
+        }
+    };
+    let rows = st::cases::run_suite(&budget);
+    let table = st::markdown(&rows);
+    let csv = args.output.join("stability.csv");
+    st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
+    println!("{table}");
+    let failed = rows.iter().filter(|r| r.required && !r.pass).count();
+    println!(
+        "wrote {} ({} cases, {} required failures)",
+        csv.display(),
+        rows.len(),
+        failed
+    );
+    if failed > 0 {
+        return Err(CliError::runtime(anyhow::anyhow!(
+            "{failed} stability case(s) failed"
+        )));
+    }
+    Ok(())
 }
 
 fn render(args: RenderArgs) -> Result<(), CliError> {

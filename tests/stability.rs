@@ -25,19 +25,33 @@ fn bvh_matches_brute_at_tiny_scale() {
     let text = std::fs::read_to_string("scenes/cornell_box.toml").unwrap();
     for s in [1e-6, 1.0, 1e6] {
         let scene = stability::transform::load_transformed(
-            &text, "cornell", Path::new("."), s, 0.0, &SceneOverrides::default()).unwrap();
+            &text,
+            "cornell",
+            Path::new("."),
+            s,
+            0.0,
+            &SceneOverrides::default(),
+        )
+        .unwrap();
         let bvh = raysched::tracer::BvhTracer::forced(&scene.geometry);
         let brute = raysched::tracer::BruteTracer::new(&scene.geometry);
         let mut misses = 0;
         for k in 0..256u32 {
-            let ray = scene.camera.ray((k % 16) as f32 / 16.0 + 0.03, (k / 16) as f32 / 16.0 + 0.03);
+            let ray = scene
+                .camera
+                .ray((k % 16) as f32 / 16.0 + 0.03, (k / 16) as f32 / 16.0 + 0.03);
             use raysched::tracer::Tracer;
             // Same distance (a tie on a shared edge may name either triangle).
             let a = bvh.intersect(&ray, f32::INFINITY).map(|h| h.t);
             let b = brute.intersect(&ray, f32::INFINITY).map(|h| h.t);
-            if a != b { misses += 1; }
+            if a != b {
+                misses += 1;
+            }
         }
-        assert_eq!(misses, 0, "scale {s}: {misses}/256 rays differ between bvh and brute");
+        assert_eq!(
+            misses, 0,
+            "scale {s}: {misses}/256 rays differ between bvh and brute"
+        );
     }
 }
 
@@ -68,7 +82,10 @@ fn pruned_and_full_paths_are_bit_identical() {
         let pruned = render::render_sums(&scene, &tracer, &item, 0..3);
         let full = render::render_sums_full(&scene, &tracer, &item, 0..3);
         assert_eq!(pruned, full, "{path}");
-        assert!(pruned.0.iter().flatten().any(|v| *v != 0.0), "{path} rendered black");
+        assert!(
+            pruned.0.iter().flatten().any(|v| *v != 0.0),
+            "{path} rendered black"
+        );
     }
 }
 
@@ -82,11 +99,21 @@ fn features_report_names_what_a_scene_leaves_out() {
     for f in ["spheres", "environment", "shadow_rays"] {
         assert!(used.iter().any(|u| u == f), "{used:?}");
     }
-    for f in ["triangles", "bvh", "point_lights", "area_lights", "refraction", "mirrors", "textures"] {
+    for f in [
+        "triangles",
+        "bvh",
+        "point_lights",
+        "area_lights",
+        "refraction",
+        "mirrors",
+        "textures",
+    ] {
         assert!(left.iter().any(|u| u == f), "{left:?}");
     }
     let cornell = small("scenes/cornell_box.toml");
-    assert!(AnyTracer::build("bvh", &cornell, 1).unwrap().uses_acceleration());
+    assert!(AnyTracer::build("bvh", &cornell, 1)
+        .unwrap()
+        .uses_acceleration());
 }
 
 /// Progressive steps reuse earlier samples: 0..1 + 1..2 + 2..4 equals 0..4 (up to f64 order).
@@ -119,11 +146,17 @@ fn convergence_slope_is_minus_half() {
     let r = reference::reference(&scene, &tracer, dir.path(), 64, 2).unwrap();
     assert_eq!(r.kind, converge::ReferenceKind::Interior);
     let rows = converge::run_convergence(&scene, &tracer, &r, 256, 2);
-    assert_eq!(rows.iter().map(|r| r.spp).collect::<Vec<_>>(), [1, 2, 4, 8, 16, 32, 64, 128, 256]);
+    assert_eq!(
+        rows.iter().map(|r| r.spp).collect::<Vec<_>>(),
+        [1, 2, 4, 8, 16, 32, 64, 128, 256]
+    );
     // Slope in spp (wall time is too noisy on a shared CI machine for a unit test).
     let as_spp: Vec<_> = rows
         .iter()
-        .map(|r| converge::ConvergenceRow { wall_s: r.spp as f64, ..r.clone() })
+        .map(|r| converge::ConvergenceRow {
+            wall_s: r.spp as f64,
+            ..r.clone()
+        })
         .collect();
     let slope = converge::fitted_slope(&as_spp).unwrap();
     assert!((-0.65..=-0.35).contains(&slope), "slope {slope}");

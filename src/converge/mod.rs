@@ -135,7 +135,10 @@ pub fn fitted_slope(rows: &[ConvergenceRow]) -> Option<f64> {
 /// RMSE at wall time `budget`, interpolated in log-log between the rows around it; `None`
 /// when the run never reached that budget.
 pub fn error_at_budget(rows: &[ConvergenceRow], budget: f64) -> Option<f64> {
-    let pts: Vec<&ConvergenceRow> = rows.iter().filter(|r| r.wall_s > 0.0 && r.rmse > 0.0).collect();
+    let pts: Vec<&ConvergenceRow> = rows
+        .iter()
+        .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
+        .collect();
     let first = pts.first()?;
     if budget < first.wall_s {
         return None;
@@ -147,7 +150,9 @@ pub fn error_at_budget(rows: &[ConvergenceRow], budget: f64) -> Option<f64> {
             return Some((a.rmse.ln() + f * (b.rmse.ln() - a.rmse.ln())).exp());
         }
     }
-    (budget <= pts.last()?.wall_s).then(|| pts.last().map(|r| r.rmse)).flatten()
+    (budget <= pts.last()?.wall_s)
+        .then(|| pts.last().map(|r| r.rmse))
+        .flatten()
 }
 
 /// Per configuration (scene, tracer, scheduler, threads): slope and the RMSE at the largest
@@ -245,14 +250,23 @@ fn register_font() {
 pub fn plot(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
     use plotters::prelude::*;
     register_font();
-    let pts: Vec<&ConvergenceRow> = rows.iter().filter(|r| r.wall_s > 0.0 && r.rmse > 0.0).collect();
-    anyhow::ensure!(!pts.is_empty(), "no rows with positive wall time and error to plot");
+    let pts: Vec<&ConvergenceRow> = rows
+        .iter()
+        .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
+        .collect();
+    anyhow::ensure!(
+        !pts.is_empty(),
+        "no rows with positive wall time and error to plot"
+    );
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d)?;
     }
     match path.extension().and_then(|e| e.to_str()) {
         Some("svg") => draw_plot(SVGBackend::new(path, (800, 600)).into_drawing_area(), rows),
-        _ => draw_plot(BitMapBackend::new(path, (800, 600)).into_drawing_area(), rows),
+        _ => draw_plot(
+            BitMapBackend::new(path, (800, 600)).into_drawing_area(),
+            rows,
+        ),
     }
 }
 
@@ -261,7 +275,10 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
     rows: &[ConvergenceRow],
 ) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    let pts: Vec<&ConvergenceRow> = rows.iter().filter(|r| r.wall_s > 0.0 && r.rmse > 0.0).collect();
+    let pts: Vec<&ConvergenceRow> = rows
+        .iter()
+        .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
+        .collect();
     let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
         (a.min(r.wall_s), b.max(r.wall_s))
     });
@@ -329,5 +346,4 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
-
 }

@@ -42,7 +42,10 @@ pub enum ReferenceKind {
     EnvironmentConvex,
     PlanePointLights,
     /// Rendered by raysched with this many samples per pixel (cached at `path`).
-    Rendered { spp: u32, path: Option<PathBuf> },
+    Rendered {
+        spp: u32,
+        path: Option<PathBuf>,
+    },
 }
 
 impl ReferenceKind {
@@ -137,7 +140,9 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
     // A triangle sees the whole sky when every vertex of the scene is on or behind its plane
     // (convex solids, planes on top of a stack). Only such triangles may be hit.
     let verts: Vec<Vec3> = g.triangles.iter().flat_map(|t| t.vertices()).collect();
-    let extent = verts.iter().fold(0.0f32, |m, v| m.max(v.abs().max_element()));
+    let extent = verts
+        .iter()
+        .fold(0.0f32, |m, v| m.max(v.abs().max_element()));
     let open_sky: Vec<bool> = g
         .triangles
         .iter()
@@ -259,8 +264,8 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
         .flat_map(|t| t.vertices())
         .map(|v| v.as_dvec3())
         .collect::<Vec<_>>();
-    let x_axis = (on_plane(scene.camera.ray(1.0, 0.5)) - on_plane(scene.camera.ray(0.0, 0.5)))
-        .normalize();
+    let x_axis =
+        (on_plane(scene.camera.ray(1.0, 0.5)) - on_plane(scene.camera.ray(0.0, 0.5))).normalize();
     let y_axis = n.cross(x_axis);
     // Sources: (position, kind, strength) with kind 0 = isotropic point, 1 = Lambertian point.
     let mut sources: Vec<(DVec3, u8, DVec3)> = Vec::new();
@@ -299,11 +304,14 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
     }
     let (w, hgt) = (scene.width(), scene.height());
     let mut image = Image::new(w, hgt);
+    let mut exact = vec![true; scene.pixel_count()];
     let inside = |p: DVec3| {
         // Inside the rectangle's extent (an axis-aligned bound suffices for a check).
         let (lo, hi) = bounds
             .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
         p.cmpge(lo - 1e-9).all() && p.cmple(hi + 1e-9).all()
     };
     for py in 0..hgt {
@@ -325,6 +333,12 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
                 let (x0, x1) = (xa.min(xb), xa.max(xb));
                 let (y0, y1) = (ya.min(yb), ya.max(yb));
                 let area = (x1 - x0) * (y1 - y0);
+                // The pixel under a point light closer than a pixel's width: its samples have a
+                // variance ∝ 1/h² that a few spp cannot estimate (heavy tail). Exact value, but
+                // not usable for a 3σ test: marked inexact.
+                if kind == 0 && x0 <= 0.0 && 0.0 <= x1 && y0 <= 0.0 && 0.0 <= y1 && h < x1 - x0 {
+                    exact[(py * w + px) as usize] = false;
+                }
                 let integral = if kind == 0 {
                     rect_integral(|x, y| solid_angle_corner(x, y, h), x0, x1, y0, y1)
                 } else {
@@ -337,7 +351,7 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
     }
     Some(Reference {
         image,
-        exact: vec![true; scene.pixel_count()],
+        exact,
         kind: ReferenceKind::PlanePointLights,
         leaks: 0,
     })
@@ -405,11 +419,7 @@ pub fn reference<T: Tracer + ?Sized>(
         let image = Image {
             width: scene.width(),
             height: scene.height(),
-            data: m
-                .sums
-                .iter()
-                .map(|v| v.map(|c| (c * inv) as f32))
-                .collect(),
+            data: m.sums.iter().map(|v| v.map(|c| (c * inv) as f32)).collect(),
         };
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         image.save_with_preview(&path).map_err(|e| e.to_string())?;

@@ -46,14 +46,23 @@ fn failed(group: &str, case: &str, msg: String) -> CaseResult {
 }
 
 /// A case against the scene's analytic reference.
-fn analytic_case(group: &str, case: &str, text: &str, o: &SceneOverrides, b: &Budget) -> CaseResult {
+fn analytic_case(
+    group: &str,
+    case: &str,
+    text: &str,
+    o: &SceneOverrides,
+    b: &Budget,
+) -> CaseResult {
     let run = || -> Result<CaseResult, String> {
         let scene = load(text, case, o)?;
         let t = tracer(&scene)?;
         let r = analytic(&scene, &t).ok_or("the scene has no analytic reference")?;
         let mut res = against_reference(group, case, &scene, &t, &r, b);
         if r.leaks > 0 {
-            res.note = format!("{}; {} sub-pixel rays leaked through a crack", res.note, r.leaks);
+            res.note = format!(
+                "{}; {} sub-pixel rays leaked through a crack",
+                res.note, r.leaks
+            );
         }
         Ok(res)
     };
@@ -85,7 +94,12 @@ fn constant_case(group: &str, case: &str, text: &str, value: f32, b: &Budget) ->
 /// The transforms `(s, t, required)` of the scale group.
 pub fn transforms(quick: bool) -> Vec<(f64, f64, bool)> {
     if quick {
-        return vec![(1e-6, 0.0, true), (1e6, 0.0, true), (1.0, 1e6, true), (1e-6, 1e6, true)];
+        return vec![
+            (1e-6, 0.0, true),
+            (1e6, 0.0, true),
+            (1.0, 1e6, true),
+            (1e-6, 1e6, true),
+        ];
     }
     let mut v = Vec::new();
     for s in [1e-6, 1e-3, 1.0, 1e3, 1e6] {
@@ -136,7 +150,13 @@ fn geometry_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         plane,
         8,
     );
-    out.push(analytic_case("grazing", "plane seen at grazing angles", &grazing, &o, b));
+    out.push(analytic_case(
+        "grazing",
+        "plane seen at grazing angles",
+        &grazing,
+        &o,
+        b,
+    ));
     let cube = "[[shapes]]\ntype = \"cube\"\nmaterial = \"grey\"\n";
     let edge = env_scene(
         "origin = [1, 1, 6]\ntarget = [1, 1, 0]\nup = [0, 1, 0]\nfov_deg = 30",
@@ -144,14 +164,22 @@ fn geometry_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         cube,
         8,
     );
-    out.push(analytic_case("grazing", "rays along a box edge", &edge, &o, b));
+    out.push(analytic_case(
+        "grazing",
+        "rays along a box edge",
+        &edge,
+        &o,
+        b,
+    ));
     for gap in [0.01, 1e-5] {
         let shapes = format!(
             "{plane_top}[[shapes]]\ntype = \"rectangle\"\nmaterial = \"bright\"\ntransform = [{{ translate = [0, {y}, 0] }}, {{ rotate = {{ axis = [1, 0, 0], deg = -90 }} }}, {{ scale = 3 }}]\n",
             plane_top = "[[shapes]]\ntype = \"rectangle\"\nmaterial = \"grey\"\ntransform = [{ rotate = { axis = [1, 0, 0], deg = -90 } }, { scale = 3 }]\n",
             y = -gap
         );
-        let mats = format!("{GREY}[materials.bright]\ntype = \"diffuse\"\nreflectance = [0.9, 0.9, 0.9]\n");
+        let mats = format!(
+            "{GREY}[materials.bright]\ntype = \"diffuse\"\nreflectance = [0.9, 0.9, 0.9]\n"
+        );
         let text = env_scene(
             "origin = [0, 1.5, 2]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40",
             &mats,
@@ -172,21 +200,39 @@ fn geometry_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         cube,
         8,
     );
-    out.push(analytic_case("edge_vertex", "camera on a vertex, looking out", &vertex_out, &o, b));
+    out.push(analytic_case(
+        "edge_vertex",
+        "camera on a vertex, looking out",
+        &vertex_out,
+        &o,
+        b,
+    ));
     let vertex_in = env_scene(
         "origin = [1, 1, 1]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40",
         GREY,
         cube,
         8,
     );
-    out.push(analytic_case("edge_vertex", "camera on a vertex, looking in (black)", &vertex_in, &o, b));
+    out.push(analytic_case(
+        "edge_vertex",
+        "camera on a vertex, looking in (black)",
+        &vertex_in,
+        &o,
+        b,
+    ));
     let edge_mid = env_scene(
         "origin = [1, 1, 0]\ntarget = [2, 2, 0.5]\nup = [0, 0, 1]\nfov_deg = 60",
         GREY,
         cube,
         8,
     );
-    out.push(analytic_case("edge_vertex", "camera on an edge, looking out", &edge_mid, &o, b));
+    out.push(analytic_case(
+        "edge_vertex",
+        "camera on an edge, looking out",
+        &edge_mid,
+        &o,
+        b,
+    ));
     degenerate_cases(b, out);
 }
 
@@ -206,8 +252,14 @@ fn degenerate_cases(b: &Budget, out: &mut Vec<CaseResult>) {
             "[[shapes]]\ntype = \"mesh\"\nmaterial = \"grey\"\npath = \"degenerate.obj\"\n",
             8,
         );
-        let scene = load_scene_str(&text, "degenerate", &dir, "degenerate", &overrides(b, b.spp))
-            .map_err(|e| e.to_string())?;
+        let scene = load_scene_str(
+            &text,
+            "degenerate",
+            &dir,
+            "degenerate",
+            &overrides(b, b.spp),
+        )
+        .map_err(|e| e.to_string())?;
         let _ = std::fs::remove_dir_all(&dir);
         let t = tracer(&scene)?;
         let mut v = vec![count_case(
@@ -217,8 +269,20 @@ fn degenerate_cases(b: &Budget, out: &mut Vec<CaseResult>) {
             scene.load_stats.degenerate_triangles,
             "collinear + repeated vertex",
         )];
-        let m = crate::converge::reference::image_moments(&scene, &t, 0..scene.settings.spp, false, b.threads);
-        let mut r = count_case("degenerate", "needle triangles: NaN/Inf samples", 0, m.nonfinite, "two needles, widths 1e-7 and 1e-5");
+        let m = crate::converge::reference::image_moments(
+            &scene,
+            &t,
+            0..scene.settings.spp,
+            false,
+            b.threads,
+        );
+        let mut r = count_case(
+            "degenerate",
+            "needle triangles: NaN/Inf samples",
+            0,
+            m.nonfinite,
+            "two needles, widths 1e-7 and 1e-5",
+        );
         r.nonfinite = m.nonfinite;
         v.push(r);
         Ok(v)
@@ -267,13 +331,22 @@ fn dielectric_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         if with == GLASS_CHECKER {
             return Err("glass_checker.toml has no 'ior = 1.5' to replace".into());
         }
-        let mut file: crate::scene::SceneFile = toml::from_str(GLASS_CHECKER).map_err(|e| e.to_string())?;
+        let mut file: crate::scene::SceneFile =
+            toml::from_str(GLASS_CHECKER).map_err(|e| e.to_string())?;
         file.shapes.retain(|s| s.kind != "sphere");
         let without = toml::to_string(&file).map_err(|e| e.to_string())?;
         let a = load(&with, "ior1", &o)?;
         let bsc = load(&without, "backdrop", &o)?;
         let (ta, tb) = (tracer(&a)?, tracer(&bsc)?);
-        Ok(against_scene("dielectric", "sphere of IOR 1.0 is invisible", &a, &ta, &bsc, &tb, b))
+        Ok(against_scene(
+            "dielectric",
+            "sphere of IOR 1.0 is invisible",
+            &a,
+            &ta,
+            &bsc,
+            &tb,
+            b,
+        ))
     };
     out.push(run().unwrap_or_else(|e| failed("dielectric", "sphere of IOR 1.0 is invisible", e)));
 }
@@ -292,14 +365,30 @@ fn stiff_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         spp: Some(b.spp * 2),
         ..Default::default()
     };
-    out.push(analytic_case("stiff", "tiny very bright area light (1e-4 side, L=1e9)", &tiny, &o, b));
-    let heights: &[f64] = if b.quick { &[1e-3] } else { &[1e-2, 1e-3, 1e-4] };
+    out.push(analytic_case(
+        "stiff",
+        "tiny very bright area light (1e-4 side, L=1e9)",
+        &tiny,
+        &o,
+        b,
+    ));
+    let heights: &[f64] = if b.quick {
+        &[1e-3]
+    } else {
+        &[1e-2, 1e-3, 1e-4]
+    };
     for h in heights {
         let text = format!(
             "{plane_cam}[render]\nspp = 8\nmax_depth = 8\nseed = 5\n{plane}\
              [[lights]]\ntype = \"point\"\nposition = [0.01, 0.02, {h}]\nintensity = [10, 10, 10]\n"
         );
-        out.push(analytic_case("stiff", &format!("point light {h:e} above the plane"), &text, &o, b));
+        out.push(analytic_case(
+            "stiff",
+            &format!("point light {h:e} above the plane"),
+            &text,
+            &o,
+            b,
+        ));
     }
     let interior = "[camera]\norigin = [0, 0, 0]\ntarget = [0, 0, -1]\nup = [0, 1, 0]\nfov_deg = 90\nwidth = 8\nheight = 8\n\
                     [render]\nspp = 4\nmax_depth = -1\nseed = 7\n\
@@ -310,7 +399,13 @@ fn stiff_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         spp: Some(spp),
         ..Default::default()
     };
-    out.push(analytic_case("stiff", "albedo 0.999, unlimited depth (L = 1000)", interior, &o, b));
+    out.push(analytic_case(
+        "stiff",
+        "albedo 0.999, unlimited depth (L = 1000)",
+        interior,
+        &o,
+        b,
+    ));
 }
 
 /// Run every case (the short list when `budget.quick`).

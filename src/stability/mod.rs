@@ -90,7 +90,11 @@ fn verdict(
     note: String,
 ) -> CaseResult {
     let diff = (measured - expected).abs();
-    let rel_error = if expected != 0.0 { diff / expected.abs() } else { diff };
+    let rel_error = if expected != 0.0 {
+        diff / expected.abs()
+    } else {
+        diff
+    };
     // 1 % of the pixels may sit beyond 5σ: σ itself is estimated from few samples.
     let outliers_ok = outliers as f64 <= 0.01 * pixels as f64;
     let pass = measured.is_finite()
@@ -140,7 +144,17 @@ pub fn against_reference<T: Tracer + ?Sized>(
         }
     }
     if k == 0 {
-        let mut r = verdict(group, case, 0.0, f64::NAN, 0.0, m.nonfinite, 0, 0, String::new());
+        let mut r = verdict(
+            group,
+            case,
+            0.0,
+            f64::NAN,
+            0.0,
+            m.nonfinite,
+            0,
+            0,
+            String::new(),
+        );
         r.note = "no exact reference pixel".into();
         r.pass = false;
         return r;
@@ -171,7 +185,13 @@ pub fn against_scene<T: Tracer + ?Sized, U: Tracer + ?Sized>(
     budget: &Budget,
 ) -> CaseResult {
     let a = image_moments(scene, tracer, 0..scene.settings.spp, false, budget.threads);
-    let b = image_moments(baseline, baseline_tracer, 0..baseline.settings.spp, false, budget.threads);
+    let b = image_moments(
+        baseline,
+        baseline_tracer,
+        0..baseline.settings.spp,
+        false,
+        budget.threads,
+    );
     let sa = pixel_stats(&a, scene.settings.spp);
     let sb = pixel_stats(&b, baseline.settings.spp);
     let n = sa.len().min(sb.len()).max(1) as f64;
@@ -199,7 +219,17 @@ pub fn against_scene<T: Tracer + ?Sized, U: Tracer + ?Sized>(
 
 /// An exact count (e.g. degenerate triangles skipped): pass when equal.
 pub fn count_case(group: &str, case: &str, expected: u64, measured: u64, note: &str) -> CaseResult {
-    let mut r = verdict(group, case, expected as f64, measured as f64, 0.0, 0, 0, 1, note.into());
+    let mut r = verdict(
+        group,
+        case,
+        expected as f64,
+        measured as f64,
+        0.0,
+        0,
+        0,
+        1,
+        note.into(),
+    );
     r.pass = expected == measured;
     r
 }
@@ -233,8 +263,15 @@ pub fn markdown(rows: &[CaseResult]) -> String {
         };
         s.push_str(&format!(
             "| {} | {} | {:.6} | {:.6} | {:.2e} | {:.2e} | {} | {} | {} |\n",
-            r.group, r.case, r.expected, r.measured, r.sigma, r.rel_error, r.nonfinite,
-            r.outlier_pixels, result
+            r.group,
+            r.case,
+            r.expected,
+            r.measured,
+            r.sigma,
+            r.rel_error,
+            r.nonfinite,
+            r.outlier_pixels,
+            result
         ));
     }
     s
