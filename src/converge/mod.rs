@@ -75,10 +75,15 @@ pub fn run_convergence<T: Tracer + ?Sized>(
     let mut rows = Vec::new();
     let mut wall = 0.0;
     let (mut lo, mut step) = (0u32, 0u32);
+    // One pool for the whole run: building it per step would be timed as rendering.
+    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+        Ok(p) => p,
+        Err(_) => return rows,
+    };
     while lo < max_spp.max(1) {
         let hi = if lo == 0 { 1 } else { (lo * 2).min(max_spp) };
         let t0 = Instant::now();
-        let m = reference::image_moments(scene, tracer, lo..hi, false, threads);
+        let m = reference::image_moments_in(&pool, scene, tracer, lo..hi, false);
         wall += t0.elapsed().as_secs_f64();
         for i in 0..n {
             for c in 0..3 {

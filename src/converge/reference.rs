@@ -365,18 +365,33 @@ pub fn image_moments<T: Tracer + ?Sized>(
     full: bool,
     threads: usize,
 ) -> crate::render::Moments {
+    match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+        Ok(pool) => image_moments_in(&pool, scene, tracer, samples, full),
+        Err(_) => {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
+            match pool {
+                Ok(p) => image_moments_in(&p, scene, tracer, samples, full),
+                Err(e) => panic!("cannot build a one-thread pool: {e}"),
+            }
+        }
+    }
+}
+
+/// [`image_moments`] on an existing pool (a progressive run builds its pool once).
+pub fn image_moments_in<T: Tracer + ?Sized>(
+    pool: &rayon::ThreadPool,
+    scene: &Scene,
+    tracer: &T,
+    samples: std::ops::Range<u32>,
+    full: bool,
+) -> crate::render::Moments {
     use rayon::prelude::*;
     let rows = |y: u32| {
         let item = WorkItem::rect(y, 0, y, scene.width(), 1);
         render_moments(scene, tracer, &item, samples.clone(), full)
     };
-    let parts: Vec<crate::render::Moments> = match rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build()
-    {
-        Ok(pool) => pool.install(|| (0..scene.height()).into_par_iter().map(rows).collect()),
-        Err(_) => (0..scene.height()).map(rows).collect(),
-    };
+    let parts: Vec<crate::render::Moments> =
+        pool.install(|| (0..scene.height()).into_par_iter().map(rows).collect());
     let mut m = crate::render::Moments::default();
     for p in parts {
         m.sums.extend(p.sums);
