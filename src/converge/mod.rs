@@ -76,7 +76,10 @@ pub fn run_convergence<T: Tracer + ?Sized>(
     let mut wall = 0.0;
     let (mut lo, mut step) = (0u32, 0u32);
     // One pool for the whole run: building it per step would be timed as rendering.
-    let pool = match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+    let pool = match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
         Ok(p) => p,
         Err(_) => return rows,
     };

@@ -365,7 +365,10 @@ pub fn image_moments<T: Tracer + ?Sized>(
     full: bool,
     threads: usize,
 ) -> crate::render::Moments {
-    match rayon::ThreadPoolBuilder::new().num_threads(threads.max(1)).build() {
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
         Ok(pool) => image_moments_in(&pool, scene, tracer, samples, full),
         Err(_) => {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build();
