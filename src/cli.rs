@@ -299,6 +299,12 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         rays as f64 / wall / 1e6,
         nonfinite
     );
+    let (used, left_out) = scene.features.report(tracer.uses_acceleration());
+    println!(
+        "features used: {}; left out: {}",
+        used.join(","),
+        left_out.join(",")
+    );
     println!("wrote {} and {}", args.output.display(), png.display());
     Ok(())
 }
