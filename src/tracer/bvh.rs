@@ -19,7 +19,8 @@ enum LeafPrim {
 
 /// Below this many primitives a BVH costs more than it saves: the tracer then tests every
 /// primitive in id order (exactly `brute`) and builds nothing. Measured with
-/// `cargo bench --bench features` (see that file for the numbers).
+/// `cargo bench --bench features` (256 camera rays, spheres; other builds running): brute vs
+/// bvh 12.8/28.6 µs at 1 prim, 16.1/36.0 at 2, 7.4/19.4 at 4, 14.1/15.1 at 8, 35.1/12.7 at 16.
 pub const BVH_MIN_PRIMS: usize = 8;
 
 pub struct BvhTracer {
