@@ -5,7 +5,7 @@ use crate::scene::{load_scene, SceneOverrides};
 use crate::sched::{run_scheduler_with, Chunk, Order, Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, Wait};
 use crate::tracer::AnyTracer;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -29,6 +29,10 @@ pub enum Command {
     Run(RunArgs),
     /// Regenerate summary.csv, every plot and report.md of a results folder from its CSV files.
     Plot(PlotArgs),
+    /// Error against run time: progressive render (1, 2, 4, … spp) vs a reference; CSV + plot.
+    Converge(ConvergeArgs),
+    /// The numerical stability suite: CSV + markdown table of every case.
+    Stability(StabilityArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -50,6 +54,46 @@ pub struct RunArgs {
 pub struct PlotArgs {
     /// A results folder, e.g. results/quick.
     pub dir: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ConvergeArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Reference image (.exr); default: analytic, else a cached high-spp render.
+    #[arg(long = "ref")]
+    pub reference: Option<PathBuf>,
+    /// Largest sample count of the progression.
+    #[arg(long, default_value_t = 256)]
+    pub max_spp: u32,
+    /// Samples of a rendered reference (cached under results/refs/).
+    #[arg(long, default_value_t = 4096)]
+    pub ref_spp: u32,
+    /// Tracers to compare, comma separated.
+    #[arg(long, default_value = "bvh,brute")]
+    pub tracers: String,
+    #[arg(long, default_value_t = default_threads())]
+    pub threads: usize,
+    /// Output folder for convergence.csv and convergence.png.
+    #[arg(short, long, default_value = "results/converge")]
+    pub output: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct StabilityArgs {
+    /// Only the fast subset (what `cargo test` runs).
+    #[arg(long)]
+    pub quick: bool,
+    /// Image side of every case.
+    #[arg(long, default_value_t = 48)]
+    pub size: u32,
+    #[arg(long, default_value_t = 32)]
+    pub spp: u32,
+    #[arg(long, default_value_t = default_threads())]
+    pub threads: usize,
+    /// Output folder for stability.csv and stability.md.
+    #[arg(short, long, default_value = "results/stability")]
+    pub output: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -178,6 +222,8 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
             println!("wrote {} files under {}", written.len(), args.dir.display());
             Ok(())
         }
+        Command::Converge(args) => converge(args),
+        Command::Stability(args) => stability(args),
     }
 }
 
@@ -209,6 +255,123 @@ fn run_experiment(args: RunArgs) -> Result<(), CliError> {
             "{} run(s) produced an image different from the serial baseline (identical=false in {})",
             outcome.mismatches,
             outcome.dir.join("runs.csv").display()
+        )));
+    }
+    Ok(())
+}
+
+fn converge(args: ConvergeArgs) -> Result<(), CliError> {
+    use crate::converge::{self as cv, Reference, ReferenceKind};
+    if args.threads == 0 || args.max_spp == 0 || args.ref_spp == 0 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads, --max-spp and --ref-spp must be ≥ 1"
+        )));
+    }
+    let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
+    let ids: Vec<&str> = args.tracers.split(',').map(str::trim).collect();
+    for id in &ids {
+        crate::tracer::check_tracer_id(id)
+            .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    }
+    let first = AnyTracer::build(ids[0], &scene, args.threads).map_err(CliError::input)?;
+    let reference = match &args.reference {
+        Some(p) => {
+            let image = crate::render::Image::load_exr(p).map_err(CliError::input)?;
+            if image.width != scene.width() || image.height != scene.height() {
+                return Err(CliError::input(anyhow::anyhow!(
+                    "--ref {}: {}×{} does not match the scene's {}×{}",
+                    p.display(),
+                    image.width,
+                    image.height,
+                    scene.width(),
+                    scene.height()
+                )));
+            }
+            Reference {
+                exact: vec![false; image.data.len()],
+                image,
+                kind: ReferenceKind::Rendered {
+                    spp: 0,
+                    path: Some(p.clone()),
+                },
+                leaks: 0,
+            }
+        }
+        None => cv::reference::reference(
+            &scene,
+            &first,
+            Path::new("results/refs"),
+            args.ref_spp,
+            args.threads,
+        )
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
+    };
+    let mut rows = Vec::new();
+    for id in &ids {
+        let tracer = AnyTracer::build(id, &scene, args.threads).map_err(CliError::input)?;
+        rows.extend(cv::run_convergence(
+            &scene,
+            &tracer,
+            &reference,
+            args.max_spp,
+            args.threads,
+        ));
+    }
+    let csv = args.output.join("convergence.csv");
+    let png = args.output.join("convergence.png");
+    cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
+    println!("reference: {}", reference.kind.label());
+    for s in cv::summarise(&rows) {
+        println!(
+            "{} {}: slope {}, RMSE at {:.3} s = {}",
+            s.scene,
+            s.config,
+            s.slope.map_or("n/a".into(), |v| format!("{v:.3}")),
+            s.budget_s,
+            s.rmse_at_budget.map_or("n/a".into(), |v| format!("{v:.5}"))
+        );
+    }
+    println!("wrote {} and {}", csv.display(), png.display());
+    Ok(())
+}
+
+fn stability(args: StabilityArgs) -> Result<(), CliError> {
+    use crate::stability::{self as st, Budget};
+    if args.threads == 0 || args.size == 0 || args.spp < 2 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads and --size must be ≥ 1, --spp ≥ 2"
+        )));
+    }
+    let budget = if args.quick {
+        Budget {
+            threads: args.threads,
+            ..Budget::QUICK
+        }
+    } else {
+        Budget {
+            size: args.size,
+            spp: args.spp,
+            threads: args.threads,
+            quick: false,
+        }
+    };
+    let rows = st::cases::run_suite(&budget);
+    let table = st::markdown(&rows);
+    let csv = args.output.join("stability.csv");
+    st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
+    println!("{table}");
+    let failed = rows.iter().filter(|r| r.required && !r.pass).count();
+    println!(
+        "wrote {} ({} cases, {} required failures)",
+        csv.display(),
+        rows.len(),
+        failed
+    );
+    if failed > 0 {
+        return Err(CliError::runtime(anyhow::anyhow!(
+            "{failed} stability case(s) failed"
         )));
     }
     Ok(())
@@ -281,6 +444,12 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         nonfinite
     );
     print!("{}", stats.summary());
+    let (used, left_out) = scene.features.report(tracer.uses_acceleration());
+    println!(
+        "features used: {}; left out: {}",
+        used.join(","),
+        left_out.join(",")
+    );
     println!("wrote {} and {}", args.output.display(), png.display());
     Ok(())
 }

@@ -40,6 +40,7 @@
 //! ```
 
 pub mod cli;
+pub mod converge;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod experiment;
@@ -50,4 +51,5 @@ pub mod rng;
 pub mod scene;
 pub mod sched;
 pub mod source;
+pub mod stability;
 pub mod tracer;

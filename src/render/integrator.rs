@@ -11,6 +11,41 @@ use crate::tracer::Tracer;
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
+/// The scene features a specialised [`radiance_with`] keeps. Each flag is a constant, so a
+/// feature the scene lacks is compiled out of the per-ray loop (no branch, no match arm).
+/// [`feature_flags`] picks the set once per item (`render_sums`), never per ray.
+pub trait FeatureSet {
+    const ENV: bool;
+    const AREA: bool;
+    const POINT: bool;
+    /// Mirrors or dielectrics (the specular bounces).
+    const SPECULAR: bool;
+}
+
+/// A feature set as const generics: `Feats<ENV, AREA, POINT, SPECULAR>`.
+pub struct Feats<const E: bool, const A: bool, const P: bool, const S: bool>;
+
+impl<const E: bool, const A: bool, const P: bool, const S: bool> FeatureSet for Feats<E, A, P, S> {
+    const ENV: bool = E;
+    const AREA: bool = A;
+    const POINT: bool = P;
+    const SPECULAR: bool = S;
+}
+
+/// Every feature on: the forced-full path.
+pub type FullFeatures = Feats<true, true, true, true>;
+
+/// Which `Feats` flags a scene needs: (environment, area lights, point lights, specular).
+pub fn feature_flags(scene: &Scene) -> [bool; 4] {
+    let f = &scene.features;
+    [
+        f.environment,
+        f.area_lights,
+        f.point_lights,
+        f.mirrors || f.refraction,
+    ]
+}
+
 /// Segments before Russian roulette may end a path.
 const RR_START: u32 = 5;
 /// Shadow rays stop this fraction short of the (offset) light point, as pbrt's ShadowEpsilon.
@@ -142,7 +177,7 @@ fn area_pdf(scene: &Scene, light: u32, dist: f32, cos_l: f32) -> f32 {
 
 /// Next-event estimation at a diffuse vertex: radiance arriving through one light sample,
 /// MIS-weighted against cosine BSDF sampling. `f` is the BSDF value (albedo/π).
-fn direct<T: Tracer + ?Sized>(
+fn direct<T: Tracer + ?Sized, F: FeatureSet>(
     scene: &Scene,
     tracer: &T,
     it: &Interaction,
@@ -160,7 +195,7 @@ fn direct<T: Tracer + ?Sized>(
         Light::Point {
             position,
             intensity,
-        } => {
+        } if F::POINT => {
             let o = offset_ray_origin(it.p, it.p_err, it.n, *position - it.p);
             let d = *position - o;
             let dist2 = d.length_squared();
@@ -180,7 +215,7 @@ fn direct<T: Tracer + ?Sized>(
             cdf,
             area,
             radiance,
-        } => {
+        } if F::AREA => {
             let lp = sample_area(scene, prims, cdf, *area, u3, u);
             let to = lp.p - it.p;
             let dist = to.length();
@@ -203,7 +238,7 @@ fn direct<T: Tracer + ?Sized>(
             let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
             f * *radiance * (cos * w / light_pdf)
         }
-        Light::Environment { radiance } => {
+        Light::Environment { radiance } if F::ENV => {
             let wi = uniform_sphere(u);
             let cos = it.n.dot(wi);
             if cos <= 0.0 {
@@ -218,11 +253,27 @@ fn direct<T: Tracer + ?Sized>(
             let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
             f * *radiance * (cos * w / light_pdf)
         }
+        // A light kind the feature set leaves out: the scene has none (`feature_flags`).
+        _ => Vec3::ZERO,
     }
 }
 
 /// Radiance along a camera ray. `rays` counts every tracer query (closest-hit and shadow).
+/// The forced-full path: every feature compiled in.
 pub fn radiance<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    ray: Ray,
+    s: &mut Sampler,
+    rays: &mut u64,
+) -> Vec3 {
+    radiance_with::<T, FullFeatures>(scene, tracer, ray, s, rays)
+}
+
+/// [`radiance`] specialised to feature set `F`. `F` must include every feature of the scene
+/// ([`feature_flags`]); then the result is bit-identical to the full path, since the same
+/// random numbers are drawn in the same order and only code the scene never reaches is gone.
+pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
     scene: &Scene,
     tracer: &T,
     mut ray: Ray,
@@ -234,7 +285,7 @@ pub fn radiance<T: Tracer + ?Sized>(
     } else {
         scene.settings.max_depth as u32
     };
-    let has_lights = !scene.lights.is_empty();
+    let has_lights = (F::ENV || F::AREA || F::POINT) && !scene.lights.is_empty();
     let env = scene.environment_radiance();
     let env_pdf = 1.0 / (4.0 * PI * scene.lights.len().max(1) as f32);
     let mut l = Vec3::ZERO;
@@ -245,7 +296,7 @@ pub fn radiance<T: Tracer + ?Sized>(
     loop {
         *rays += 1;
         let Some(hit) = tracer.intersect(&ray, f32::INFINITY) else {
-            if scene.environment.is_some() {
+            if F::ENV && scene.environment.is_some() {
                 let w = if specular {
                     1.0
                 } else {
@@ -257,7 +308,7 @@ pub fn radiance<T: Tracer + ?Sized>(
         };
         let it = interaction(scene, &ray, &hit);
         let front = ray.d.dot(it.n) < 0.0;
-        if it.light != NO_LIGHT && front {
+        if F::AREA && it.light != NO_LIGHT && front {
             if let Light::Area { radiance, .. } = &scene.lights[it.light as usize] {
                 let w = if specular {
                     1.0
@@ -281,7 +332,7 @@ pub fn radiance<T: Tracer + ?Sized>(
                 let albedo = reflectance.eval(it.p, scene.origin);
                 let f = albedo * FRAC_1_PI;
                 if has_lights {
-                    l += beta * direct(scene, tracer, &it, f, s, rays);
+                    l += beta * direct::<T, F>(scene, tracer, &it, f, s, rays);
                 }
                 let wi = cosine_hemisphere(it.n, s.next2());
                 bsdf_pdf = it.n.dot(wi).max(0.0) * FRAC_1_PI;
@@ -292,7 +343,7 @@ pub fn radiance<T: Tracer + ?Sized>(
                 specular = false;
                 wi
             }
-            Material::Mirror { reflectance } => {
+            Material::Mirror { reflectance } if F::SPECULAR => {
                 if !front {
                     break;
                 }
@@ -300,7 +351,7 @@ pub fn radiance<T: Tracer + ?Sized>(
                 specular = true;
                 it.n * (2.0 * wo.dot(it.n)) - wo
             }
-            Material::Dielectric { ior } => {
+            Material::Dielectric { ior } if F::SPECULAR => {
                 let cos_o = wo.dot(it.n);
                 let (nf, eta, cos_i) = if cos_o > 0.0 {
                     (it.n, ior, cos_o)
@@ -319,6 +370,8 @@ pub fn radiance<T: Tracer + ?Sized>(
                     (-wo / eta + nf * (cos_i / eta - cos_t)).normalize()
                 }
             }
+            // A specular material with SPECULAR off: the scene has none (see `radiance_with`).
+            _ => break,
         };
         depth += 1;
         if depth > RR_START {

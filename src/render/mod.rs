@@ -79,41 +79,125 @@ pub fn sample_pixel<T: Tracer + ?Sized>(
     sample: u32,
     rays: &mut u64,
 ) -> Vec3 {
+    sample_pixel_with::<T, integrator::FullFeatures>(scene, tracer, idx, sample, rays)
+}
+
+/// [`sample_pixel`] through the path specialised to feature set `F`.
+#[inline(always)]
+fn sample_pixel_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
+    scene: &Scene,
+    tracer: &T,
+    idx: u32,
+    sample: u32,
+    rays: &mut u64,
+) -> Vec3 {
     let width = scene.width();
     let mut s = Sampler::new(scene.settings.seed, idx as u64, sample as u64);
     let (jx, jy) = s.next2();
     let ray = scene.camera.pixel_ray(idx % width, idx / width, jx, jy);
-    integrator::radiance(scene, tracer, ray, &mut s, rays)
+    integrator::radiance_with::<T, F>(scene, tracer, ray, &mut s, rays)
 }
 
 /// Sum of the radiance samples `samples` of every pixel of `item` (f64 sums, fixed order).
-/// Non-finite samples are dropped and counted.
+/// Runs the path specialised to the scene's features ([`integrator::feature_flags`]); the
+/// image is bit-identical to [`render_sums_full`].
 pub fn render_sums<T: Tracer + ?Sized>(
     scene: &Scene,
     tracer: &T,
     item: &WorkItem,
     samples: Range<u32>,
 ) -> (Vec<[f64; 3]>, u64, u64) {
-    let mut rays = 0u64;
-    let mut nonfinite = 0u64;
-    let sums = item
-        .pixels(scene.width())
-        .map(|idx| {
-            let mut sum = [0.0f64; 3];
-            for sample in samples.clone() {
-                let l = sample_pixel(scene, tracer, idx, sample, &mut rays);
-                if l.is_finite() {
-                    for c in 0..3 {
-                        sum[c] += l[c] as f64;
-                    }
-                } else {
-                    nonfinite += 1;
-                }
+    let m = render_moments(scene, tracer, item, samples, false);
+    (m.sums, m.rays, m.nonfinite)
+}
+
+/// [`render_sums`] through the forced-full path (every feature compiled in): the baseline the
+/// pruned path is tested and benchmarked against.
+pub fn render_sums_full<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    item: &WorkItem,
+    samples: Range<u32>,
+) -> (Vec<[f64; 3]>, u64, u64) {
+    let m = render_moments(scene, tracer, item, samples, true);
+    (m.sums, m.rays, m.nonfinite)
+}
+
+/// Per-pixel first and second moments of a sample range (f64, fixed order), for error bars.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Moments {
+    pub sums: Vec<[f64; 3]>,
+    pub sq_sums: Vec<[f64; 3]>,
+    /// Finite samples per pixel (NaN/Inf samples are dropped and counted in `nonfinite`).
+    pub counts: Vec<u32>,
+    pub rays: u64,
+    pub nonfinite: u64,
+}
+
+/// Sums and squared sums of samples `samples` of every pixel of `item`. `full` forces the
+/// all-features path; otherwise the feature set is chosen here, once per item.
+pub fn render_moments<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    item: &WorkItem,
+    samples: Range<u32>,
+    full: bool,
+) -> Moments {
+    use integrator::Feats;
+    if full {
+        return moments_with::<T, integrator::FullFeatures>(scene, tracer, item, samples);
+    }
+    // One monomorphised path per feature combination, chosen here and not per ray.
+    macro_rules! dispatch {
+        ($($e:literal $a:literal $p:literal $s:literal),*) => {
+            match integrator::feature_flags(scene) {
+                $([$e, $a, $p, $s] => moments_with::<T, Feats<$e, $a, $p, $s>>(scene, tracer, item, samples),)*
             }
-            sum
-        })
-        .collect();
-    (sums, rays, nonfinite)
+        };
+    }
+    dispatch!(
+        false false false false, false false false true, false false true false, false false true true,
+        false true false false, false true false true, false true true false, false true true true,
+        true false false false, true false false true, true false true false, true false true true,
+        true true false false, true true false true, true true true false, true true true true
+    )
+}
+
+fn moments_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
+    scene: &Scene,
+    tracer: &T,
+    item: &WorkItem,
+    samples: Range<u32>,
+) -> Moments {
+    let n = item.pixel_count();
+    let mut m = Moments {
+        sums: Vec::with_capacity(n),
+        sq_sums: Vec::with_capacity(n),
+        counts: Vec::with_capacity(n),
+        ..Default::default()
+    };
+    for idx in item.pixels(scene.width()) {
+        let mut sum = [0.0f64; 3];
+        let mut sq = [0.0f64; 3];
+        let mut count = 0u32;
+        for sample in samples.clone() {
+            let l = sample_pixel_with::<T, F>(scene, tracer, idx, sample, &mut m.rays);
+            if l.is_finite() {
+                for c in 0..3 {
+                    let v = l[c] as f64;
+                    sum[c] += v;
+                    sq[c] += v * v;
+                }
+                count += 1;
+            } else {
+                m.nonfinite += 1;
+            }
+        }
+        m.sums.push(sum);
+        m.sq_sums.push(sq);
+        m.counts.push(count);
+    }
+    m
 }
 
 /// Render every pixel of `item` with the scene's sample count: the pure per-item function.

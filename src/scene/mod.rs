@@ -180,6 +180,21 @@ impl Features {
     pub fn shadow_rays(&self) -> bool {
         self.area_lights || self.point_lights || self.environment
     }
+    /// `(features_used, features_left_out)` as written to `RunStats` and CSV: the scene
+    /// features plus `shadow_rays` and `bvh` (`accelerated` = the tracer built one).
+    pub fn report(&self, accelerated: bool) -> (Vec<String>, Vec<String>) {
+        let mut used = Vec::new();
+        let mut left_out = Vec::new();
+        let extra = [("bvh", accelerated), ("shadow_rays", self.shadow_rays())];
+        for (name, on) in Self::NAMES.iter().copied().zip(self.flags()).chain(extra) {
+            if on {
+                used.push(name.to_string());
+            } else {
+                left_out.push(name.to_string());
+            }
+        }
+        (used, left_out)
+    }
     /// Names of the features the scene uses (`used = true`) or leaves out.
     pub fn names(&self, used: bool) -> Vec<&'static str> {
         Self::NAMES

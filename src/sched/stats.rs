@@ -57,6 +57,12 @@ pub struct RunStats {
     /// Sources lost during the run (panicked, killed).
     pub lost_sources: u64,
     pub timeline: Option<Vec<Span>>,
+    /// Scene features the render path was specialised to (see `stability::features`).
+    #[serde(default)]
+    pub features_used: Vec<String>,
+    /// Features compiled out of the render path (and acceleration not built).
+    #[serde(default)]
+    pub features_left_out: Vec<String>,
 }
 
 impl RunStats {

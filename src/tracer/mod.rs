@@ -105,6 +105,19 @@ impl AnyTracer {
     }
 }
 
+impl AnyTracer {
+    /// Whether an acceleration structure was built (a small scene gets none: see
+    /// [`bvh::BVH_MIN_PRIMS`]); `brute` never builds one.
+    pub fn uses_acceleration(&self) -> bool {
+        match self {
+            Self::Bvh(t) => t.uses_bvh(),
+            Self::Brute(_) => false,
+            #[cfg(feature = "embree")]
+            Self::Embree(_) => true,
+        }
+    }
+}
+
 impl Tracer for AnyTracer {
     fn id(&self) -> &'static str {
         match self {

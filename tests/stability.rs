@@ -1,0 +1,171 @@
+//! Issue 6: the fast subset of the stability suite, the pruned-vs-full path identity, the
+//! progressive-render reuse and the convergence slope.
+
+use raysched::converge::{self, reference};
+use raysched::render::{self, WorkItem};
+use raysched::scene::{load_scene, SceneOverrides};
+use raysched::stability::{self, cases, Budget};
+use raysched::tracer::AnyTracer;
+use std::path::Path;
+
+#[test]
+fn stability_quick_suite_passes() {
+    let rows = cases::run_suite(&Budget::QUICK);
+    let table = stability::markdown(&rows);
+    println!("{table}");
+    assert!(rows.len() >= 20, "{table}");
+    let failed: Vec<_> = rows.iter().filter(|r| r.required && !r.pass).collect();
+    assert!(failed.is_empty(), "failed cases:\n{table}");
+    assert!(rows.iter().all(|r| r.nonfinite == 0), "{table}");
+}
+
+/// The BVH must find the same closest hits as brute force on a scene shrunk to 1e-6.
+#[test]
+fn bvh_matches_brute_at_tiny_scale() {
+    let text = std::fs::read_to_string("scenes/cornell_box.toml").unwrap();
+    for s in [1e-6, 1.0, 1e6] {
+        let scene = stability::transform::load_transformed(
+            &text,
+            "cornell",
+            Path::new("."),
+            s,
+            0.0,
+            &SceneOverrides::default(),
+        )
+        .unwrap();
+        let bvh = raysched::tracer::BvhTracer::forced(&scene.geometry);
+        let brute = raysched::tracer::BruteTracer::new(&scene.geometry);
+        let mut misses = 0;
+        for k in 0..256u32 {
+            let ray = scene
+                .camera
+                .ray((k % 16) as f32 / 16.0 + 0.03, (k / 16) as f32 / 16.0 + 0.03);
+            use raysched::tracer::Tracer;
+            // Same distance (a tie on a shared edge may name either triangle).
+            let a = bvh.intersect(&ray, f32::INFINITY).map(|h| h.t);
+            let b = brute.intersect(&ray, f32::INFINITY).map(|h| h.t);
+            if a != b {
+                misses += 1;
+            }
+        }
+        assert_eq!(
+            misses, 0,
+            "scale {s}: {misses}/256 rays differ between bvh and brute"
+        );
+    }
+}
+
+fn small(path: &str) -> raysched::scene::Scene {
+    let o = SceneOverrides {
+        width: Some(12),
+        height: Some(12),
+        spp: Some(3),
+        ..Default::default()
+    };
+    load_scene(Path::new(path), &o).unwrap()
+}
+
+/// The path specialised to a scene's features gives the same bits as the forced-full path.
+#[test]
+fn pruned_and_full_paths_are_bit_identical() {
+    for path in [
+        "scenes/simple.toml",
+        "scenes/furnace.toml",
+        "scenes/cornell_box.toml",
+        "scenes/glass_checker.toml",
+        "scenes/point_plane.toml",
+        "scenes/interior_sphere.toml",
+    ] {
+        let scene = small(path);
+        let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+        let item = WorkItem::rect(0, 0, 0, scene.width(), scene.height());
+        let pruned = render::render_sums(&scene, &tracer, &item, 0..3);
+        let full = render::render_sums_full(&scene, &tracer, &item, 0..3);
+        assert_eq!(pruned, full, "{path}");
+        assert!(
+            pruned.0.iter().flatten().any(|v| *v != 0.0),
+            "{path} rendered black"
+        );
+    }
+}
+
+#[test]
+fn features_report_names_what_a_scene_leaves_out() {
+    let scene = small("scenes/furnace.toml");
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    // One sphere: below the measured BVH crossover, so no BVH is built.
+    assert!(!tracer.uses_acceleration());
+    let (used, left) = scene.features.report(tracer.uses_acceleration());
+    for f in ["spheres", "environment", "shadow_rays"] {
+        assert!(used.iter().any(|u| u == f), "{used:?}");
+    }
+    for f in [
+        "triangles",
+        "bvh",
+        "point_lights",
+        "area_lights",
+        "refraction",
+        "mirrors",
+        "textures",
+    ] {
+        assert!(left.iter().any(|u| u == f), "{left:?}");
+    }
+    let cornell = small("scenes/cornell_box.toml");
+    assert!(AnyTracer::build("bvh", &cornell, 1)
+        .unwrap()
+        .uses_acceleration());
+}
+
+/// Progressive steps reuse earlier samples: 0..1 + 1..2 + 2..4 equals 0..4 (up to f64 order).
+#[test]
+fn progressive_sums_add_up() {
+    let scene = small("scenes/cornell_box.toml");
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let item = WorkItem::rect(0, 0, 0, scene.width(), scene.height());
+    let whole = render::render_sums(&scene, &tracer, &item, 0..4).0;
+    let parts = [0..1, 1..2, 2..4].map(|r| render::render_sums(&scene, &tracer, &item, r).0);
+    for (i, w) in whole.iter().enumerate() {
+        for c in 0..3 {
+            let s: f64 = parts.iter().map(|p| p[i][c]).sum();
+            assert!((s - w[c]).abs() <= 1e-9 * w[c].abs().max(1.0), "pixel {i}");
+        }
+    }
+}
+
+/// RMSE against the analytic interior-sphere reference falls as spp^−½; CSV and plot written.
+#[test]
+fn convergence_slope_is_minus_half() {
+    let o = SceneOverrides {
+        width: Some(16),
+        height: Some(16),
+        ..Default::default()
+    };
+    let scene = load_scene(Path::new("scenes/interior_sphere.toml"), &o).unwrap();
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let r = reference::reference(&scene, &tracer, dir.path(), 64, 2).unwrap();
+    assert_eq!(r.kind, converge::ReferenceKind::Interior);
+    let rows = converge::run_convergence(&scene, &tracer, &r, 256, 2);
+    assert_eq!(
+        rows.iter().map(|r| r.spp).collect::<Vec<_>>(),
+        [1, 2, 4, 8, 16, 32, 64, 128, 256]
+    );
+    // Slope in spp (wall time is too noisy on a shared CI machine for a unit test).
+    let as_spp: Vec<_> = rows
+        .iter()
+        .map(|r| converge::ConvergenceRow {
+            wall_s: r.spp as f64,
+            ..r.clone()
+        })
+        .collect();
+    let slope = converge::fitted_slope(&as_spp).unwrap();
+    assert!((-0.65..=-0.35).contains(&slope), "slope {slope}");
+    assert!(rows.iter().all(|r| r.nonfinite_samples == 0));
+    let csv = dir.path().join("conv.csv");
+    converge::write_csv(&csv, &rows).unwrap();
+    let back = converge::read_csv(&csv).unwrap();
+    assert_eq!(back.len(), rows.len());
+    let png = dir.path().join("conv.png");
+    converge::plot(&png, &back).unwrap();
+    assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+}
