@@ -45,4 +45,5 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sched;
+pub mod source;
 pub mod tracer;

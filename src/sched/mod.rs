@@ -1,8 +1,172 @@
 //! Schedulers: who renders which work item, and when. Every scheduler returns the same
 //! [`RunStats`] and an image bit-identical to the serial render.
+//!
+//! The core ([`run_items`]) is generic over the per-item [`Job`], so the dispatch cost of each
+//! scheduler can be measured with a job that renders nothing; [`run_scheduler`] instantiates
+//! it with `render_item`.
 
+pub mod decompose;
+pub mod master;
+mod shared;
 pub mod spec;
 pub mod stats;
+pub mod wire;
 
+pub use decompose::decompose;
 pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
 pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
+
+pub use crate::source::Job;
+use crate::render::{render_item, Image, TileResult, WorkItem};
+use crate::scene::Scene;
+use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, LocalThreadSource, Probe};
+use crate::tracer::Tracer;
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SchedError {
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    #[error("{lost} of {total} items were lost and re-queue policy 'never' cannot redo them")]
+    LostItems { lost: u64, total: u64 },
+    #[error("deadline of {deadline:?} passed with {done} of {total} items done")]
+    Deadline { deadline: Duration, done: u64, total: u64 },
+    #[error("all {sources} compute sources were lost with {remaining} of {total} items unfinished")]
+    AllSourcesLost { sources: u64, remaining: u64, total: u64 },
+    #[error("worker thread panicked: {0}")]
+    WorkerPanic(String),
+    #[error("building the thread pool: {0}")]
+    Pool(String),
+    #[error("item {item}: no result (scheduler bug)")]
+    Missing { item: u32 },
+}
+
+/// Run settings that are not part of the scheduler's identity.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Time each item (busy/idle, master dispatch/wait). Off, no clock is read per item.
+    pub stats: bool,
+    /// Give up after this long (master only): never a hang, even when results are dropped.
+    pub deadline: Option<Duration>,
+    /// Master only: wrap each local source in a fault injector.
+    pub faults: Option<FaultPlan>,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            stats: true,
+            deadline: None,
+            faults: None,
+        }
+    }
+}
+
+/// The render job: `render_item` over one shared scene and tracer (no per-thread copies).
+pub fn render_job<T: Tracer + 'static>(scene: &Arc<Scene>, tracer: &Arc<T>) -> Job {
+    let (scene, tracer) = (scene.clone(), tracer.clone());
+    Arc::new(move |item: &WorkItem| render_item(&scene, &*tracer, item))
+}
+
+/// Render `scene` under `spec`: the experiment runner's entry point.
+pub fn run_scheduler<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+) -> Result<(Image, RunStats), SchedError> {
+    run_scheduler_with(spec, scene, tracer, &RunOptions::default())
+}
+
+pub fn run_scheduler_with<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    opts: &RunOptions,
+) -> Result<(Image, RunStats), SchedError> {
+    spec.validate()?;
+    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
+    let (results, stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
+    let image = assemble(scene.width(), scene.height(), &items, &results)?;
+    Ok((image, stats))
+}
+
+/// Run `job` over `items` under `spec`; results come back indexed by item id.
+pub fn run_items(
+    spec: &SchedulerSpec,
+    items: &[WorkItem],
+    job: Job,
+    opts: &RunOptions,
+) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+    spec.validate()?;
+    debug_assert!(items.iter().enumerate().all(|(i, it)| it.id == i as u32));
+    let probe = Probe::new(opts.stats, spec.timeline);
+    match spec.kind {
+        SchedulerKind::Master => {
+            let sources = make_sources(&job, spec.workers, opts.faults.as_ref(), probe);
+            master::run_master(spec, items, sources, opts, probe)
+        }
+        _ => shared::run_shared(spec, items, &job, probe),
+    }
+}
+
+/// `workers` local thread sources (fault-injecting ones when `faults` is given).
+pub fn make_sources(job: &Job, workers: usize, faults: Option<&FaultPlan>, probe: Probe) -> Vec<Box<dyn ComputeSource>> {
+    match faults {
+        Some(plan) => faulty_sources(job, workers, plan, probe),
+        None => (0..workers as u32)
+            .map(|id| Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as Box<dyn ComputeSource>)
+            .collect(),
+    }
+}
+
+/// Put each item's result into an image; a missing result is an error.
+pub fn assemble(width: u32, height: u32, items: &[WorkItem], results: &[Option<TileResult>]) -> Result<Image, SchedError> {
+    let mut image = Image::new(width, height);
+    for item in items {
+        let r = results
+            .get(item.id as usize)
+            .and_then(Option::as_ref)
+            .ok_or(SchedError::Missing { item: item.id })?;
+        image.put(item, &r.pixels);
+    }
+    Ok(image)
+}
+
+/// First result per item wins; later ones are counted as duplicates and dropped.
+pub(crate) struct Collector {
+    pub results: Vec<Option<TileResult>>,
+    pub done: usize,
+    pub duplicates: u64,
+    pub bytes: u64,
+    pub rays: u64,
+    pub nonfinite: u64,
+}
+
+impl Collector {
+    pub fn new(n: usize) -> Self {
+        Self {
+            results: (0..n).map(|_| None).collect(),
+            done: 0,
+            duplicates: 0,
+            bytes: 0,
+            rays: 0,
+            nonfinite: 0,
+        }
+    }
+    pub fn is_done(&self, item: u32) -> bool {
+        self.results[item as usize].is_some()
+    }
+    pub fn accept(&mut self, r: TileResult) {
+        self.bytes += wire::result_bytes(&r);
+        let slot = &mut self.results[r.item as usize];
+        if slot.is_some() {
+            self.duplicates += 1;
+        } else {
+            self.rays += r.rays;
+            self.nonfinite += r.nonfinite;
+            *slot = Some(r);
+            self.done += 1;
+        }
+    }
+}

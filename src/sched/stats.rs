@@ -81,3 +81,41 @@ impl RunStats {
         self.master.as_ref().map_or(0.0, |m| m.dispatch_s)
     }
 }
+
+impl RunStats {
+    /// A human-readable multi-line summary (the `render` command prints it).
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "wall {:.4} s · items {} · issued {} (re-issued {}) · duplicates {} · bytes {} · rays {} · lost sources {}",
+            self.wall_s, self.items, self.issued, self.reissued, self.duplicates, self.bytes, self.rays, self.lost_sources
+        );
+        let _ = writeln!(
+            s,
+            "busy {:.4} s · idle {:.4} s · imbalance (max/mean busy) {:.3}",
+            self.busy_s(),
+            self.idle_s(),
+            self.imbalance()
+        );
+        for (i, w) in self.workers.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "  worker {i}: busy {:.4} s · idle {:.4} s · items {} · pixels {} · rays {}",
+                w.busy_s, w.idle_s, w.items, w.pixels, w.rays
+            );
+        }
+        if let Some(m) = &self.master {
+            let _ = writeln!(
+                s,
+                "  master: dispatch {:.4} s · wait {:.4} s · iterations {}",
+                m.dispatch_s, m.wait_s, m.iterations
+            );
+        }
+        if let Some(t) = &self.timeline {
+            let _ = writeln!(s, "  timeline: {} spans", t.len());
+        }
+        s
+    }
+}

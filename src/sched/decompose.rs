@@ -1,0 +1,147 @@
+//! Cutting an image into work items by granularity ([`Chunk`]) and hand-out order ([`Order`]).
+//!
+//! Items are axis-aligned rectangles on a grid of cells (tiles, row bands or the frame); the
+//! order sorts the grid cells by scanline, Morton (Z) or Hilbert index. Ids are 0..n in hand-out
+//! order and every pixel lies in exactly one item.
+
+use super::spec::{Chunk, Order};
+use crate::render::WorkItem;
+
+/// Items covering a `width`×`height` image, ids 0..n in hand-out order.
+pub fn decompose(width: u32, height: u32, chunk: Chunk, order: Order) -> Vec<WorkItem> {
+    if width == 0 || height == 0 {
+        return Vec::new();
+    }
+    let (cw, ch) = match chunk {
+        Chunk::Tile { w, h } => (w.clamp(1, width), h.clamp(1, height)),
+        Chunk::Rows(n) => (width, n.clamp(1, height)),
+        Chunk::Frame => (width, height),
+    };
+    let (gx, gy) = (width.div_ceil(cw), height.div_ceil(ch));
+    let mut cells: Vec<(u32, u32)> = (0..gy).flat_map(|y| (0..gx).map(move |x| (x, y))).collect();
+    match order {
+        Order::Scanline => {}
+        Order::Morton => cells.sort_by_key(|&(x, y)| morton(x, y)),
+        Order::Hilbert => {
+            let side = gx.max(gy).next_power_of_two();
+            cells.sort_by_key(|&(x, y)| hilbert(side, x, y));
+        }
+    }
+    cells
+        .into_iter()
+        .enumerate()
+        .map(|(id, (cx, cy))| {
+            let (x, y) = (cx * cw, cy * ch);
+            WorkItem::rect(id as u32, x, y, cw.min(width - x), ch.min(height - y))
+        })
+        .collect()
+}
+
+/// Interleave the bits of x (even positions) and y (odd positions).
+pub fn morton(x: u32, y: u32) -> u64 {
+    fn spread(v: u32) -> u64 {
+        let mut v = v as u64;
+        v = (v | (v << 16)) & 0x0000_ffff_0000_ffff;
+        v = (v | (v << 8)) & 0x00ff_00ff_00ff_00ff;
+        v = (v | (v << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+        v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+        v = (v | (v << 1)) & 0x5555_5555_5555_5555;
+        v
+    }
+    spread(x) | (spread(y) << 1)
+}
+
+/// Distance of (x, y) along the Hilbert curve filling a `side`×`side` square (side a power of
+/// two), the classic rotate-and-flip formulation.
+pub fn hilbert(side: u32, x: u32, y: u32) -> u64 {
+    let (mut x, mut y) = (x as u64, y as u64);
+    let n = side as u64;
+    let mut d = 0u64;
+    let mut s = n / 2;
+    while s > 0 {
+        let rx = u64::from(x & s > 0);
+        let ry = u64::from(y & s > 0);
+        d += s * s * ((3 * rx) ^ ry);
+        if ry == 0 {
+            if rx == 1 {
+                x = n - 1 - x;
+                y = n - 1 - y;
+            }
+            std::mem::swap(&mut x, &mut y);
+        }
+        s /= 2;
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn coverage(w: u32, h: u32, items: &[WorkItem]) -> Vec<u32> {
+        let mut seen = vec![0u32; (w * h) as usize];
+        for it in items {
+            for p in it.pixels(w) {
+                seen[p as usize] += 1;
+            }
+        }
+        seen
+    }
+
+    #[test]
+    fn every_pixel_exactly_once_for_every_chunk_and_order() {
+        let chunks = [
+            Chunk::Tile { w: 1, h: 1 },
+            Chunk::Tile { w: 4, h: 4 },
+            Chunk::Tile { w: 5, h: 3 },
+            Chunk::Tile { w: 64, h: 64 },
+            Chunk::Rows(2),
+            Chunk::Frame,
+        ];
+        for (w, h) in [(17, 13), (1, 1), (8, 8), (3, 40)] {
+            for chunk in chunks {
+                for order in Order::ALL {
+                    let items = decompose(w, h, chunk, order);
+                    assert!(coverage(w, h, &items).iter().all(|&c| c == 1), "{w}x{h} {chunk} {order:?}");
+                    for (i, it) in items.iter().enumerate() {
+                        assert_eq!(it.id, i as u32);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn hilbert_visits_neighbours_and_morton_is_z() {
+        // Consecutive Hilbert cells are edge neighbours; Morton's first four cells form a Z.
+        let items = decompose(8, 8, Chunk::Tile { w: 1, h: 1 }, Order::Hilbert);
+        for pair in items.windows(2) {
+            let p = |it: &WorkItem| match it.region {
+                crate::render::Region::Rect { x, y, .. } => (x as i32, y as i32),
+                _ => unreachable!(),
+            };
+            let ((x0, y0), (x1, y1)) = (p(&pair[0]), p(&pair[1]));
+            assert_eq!((x0 - x1).abs() + (y0 - y1).abs(), 1);
+        }
+        let z: Vec<_> = decompose(4, 4, Chunk::Tile { w: 1, h: 1 }, Order::Morton)[..4]
+            .iter()
+            .map(|it| it.region.clone())
+            .collect();
+        use crate::render::Region::Rect;
+        assert_eq!(
+            z,
+            vec![
+                Rect { x: 0, y: 0, w: 1, h: 1 },
+                Rect { x: 1, y: 0, w: 1, h: 1 },
+                Rect { x: 0, y: 1, w: 1, h: 1 },
+                Rect { x: 1, y: 1, w: 1, h: 1 }
+            ]
+        );
+    }
+
+    #[test]
+    fn chunk_larger_than_image_is_one_item() {
+        let items = decompose(5, 3, Chunk::Tile { w: 64, h: 64 }, Order::Hilbert);
+        assert_eq!(items, vec![WorkItem::rect(0, 0, 0, 5, 3)]);
+    }
+}

@@ -1,0 +1,244 @@
+//! Schedulers without a master: the workers take their own items from shared structures.
+//! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
+
+use super::{wire, Collector, Job, RunStats, SchedError, SchedulerKind, SchedulerSpec, Span, WorkerStats};
+use crate::render::{TileResult, WorkItem};
+use crate::source::local::panic_message;
+use crate::source::Probe;
+use crossbeam::deque::{Steal, Stealer, Worker};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// What one worker thread accumulates; merged once at the end (no shared counters).
+struct Local {
+    id: u32,
+    busy_ns: u64,
+    stats: WorkerStats,
+    item_bytes: u64,
+    spans: Vec<Span>,
+    results: Vec<TileResult>,
+}
+
+impl Local {
+    fn new(id: u32) -> Self {
+        Self {
+            id,
+            busy_ns: 0,
+            stats: WorkerStats::default(),
+            item_bytes: 0,
+            spans: Vec::new(),
+            results: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn run(&mut self, job: &Job, item: &WorkItem, probe: &Probe) {
+        let r = if probe.stats {
+            let t0 = Instant::now();
+            let r = job(item);
+            let t1 = Instant::now();
+            self.busy_ns += (t1 - t0).as_nanos() as u64;
+            if probe.timeline {
+                self.spans.push(Span {
+                    worker: self.id,
+                    item: item.id,
+                    start_ns: (t0 - probe.epoch).as_nanos() as u64,
+                    end_ns: (t1 - probe.epoch).as_nanos() as u64,
+                });
+            }
+            r
+        } else {
+            job(item)
+        };
+        self.stats.items += 1;
+        self.stats.pixels += item.pixel_count() as u64;
+        self.stats.rays += r.rays;
+        self.item_bytes += wire::item_bytes(item);
+        self.results.push(r);
+    }
+}
+
+/// Spawn one scoped thread per state and join them all (a panic becomes an error).
+fn spawn_workers<S: Send>(states: Vec<S>, f: impl Fn(u32, S, &mut Local) + Sync) -> Result<Vec<Local>, SchedError> {
+    std::thread::scope(|s| {
+        let handles: Vec<_> = states
+            .into_iter()
+            .enumerate()
+            .map(|(id, st)| {
+                let f = &f;
+                s.spawn(move || {
+                    let mut l = Local::new(id as u32);
+                    f(id as u32, st, &mut l);
+                    l
+                })
+            })
+            .collect();
+        let joined: Vec<_> = handles.into_iter().map(|h| h.join()).collect();
+        joined
+            .into_iter()
+            .map(|r| r.map_err(|p| SchedError::WorkerPanic(panic_message(&p))))
+            .collect()
+    })
+}
+
+pub(super) fn run_shared(
+    spec: &SchedulerSpec,
+    items: &[WorkItem],
+    job: &Job,
+    probe: Probe,
+) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+    let t0 = Instant::now();
+    let (n, w, grab) = (items.len(), spec.workers, spec.grab);
+    let units = vec![(); w];
+    let locals = match spec.kind {
+        SchedulerKind::Static => spawn_workers(units, |id, (), l| {
+            let id = id as usize;
+            for it in &items[id * n / w..(id + 1) * n / w] {
+                l.run(job, it, &probe);
+            }
+        })?,
+        SchedulerKind::StaticCyclic => spawn_workers(units, |id, (), l| {
+            for it in items.iter().skip(id as usize).step_by(w) {
+                l.run(job, it, &probe);
+            }
+        })?,
+        SchedulerKind::SelfScheduling => {
+            let next = AtomicUsize::new(0);
+            spawn_workers(units, |_, (), l| loop {
+                let s = next.fetch_add(grab, Ordering::Relaxed);
+                if s >= n {
+                    break;
+                }
+                for it in &items[s..(s + grab).min(n)] {
+                    l.run(job, it, &probe);
+                }
+            })?
+        }
+        SchedulerKind::Guided => {
+            let next = AtomicUsize::new(0);
+            let k = spec.guided_k * w;
+            spawn_workers(units, |_, (), l| {
+                let mut cur = next.load(Ordering::Relaxed);
+                while cur < n {
+                    let c = grab.max((n - cur).div_ceil(k)).min(n - cur);
+                    match next.compare_exchange_weak(cur, cur + c, Ordering::Relaxed, Ordering::Relaxed) {
+                        Ok(_) => {
+                            for it in &items[cur..cur + c] {
+                                l.run(job, it, &probe);
+                            }
+                            cur = next.load(Ordering::Relaxed);
+                        }
+                        Err(now) => cur = now,
+                    }
+                }
+            })?
+        }
+        SchedulerKind::WorkStealingDeque => {
+            // Each deque starts with a contiguous band; thieves take half a victim's deque.
+            let deques: Vec<Worker<u32>> = (0..w).map(|_| Worker::new_fifo()).collect();
+            for (id, d) in deques.iter().enumerate() {
+                for i in id * n / w..(id + 1) * n / w {
+                    d.push(i as u32);
+                }
+            }
+            let stealers: Vec<Stealer<u32>> = deques.iter().map(Worker::stealer).collect();
+            spawn_workers(deques, |id, own, l| {
+                while let Some(i) = find_task(id as usize, &own, &stealers) {
+                    l.run(job, &items[i as usize], &probe);
+                }
+            })?
+        }
+        SchedulerKind::WorkStealing => rayon_locals(items, job, w, grab, probe)?,
+        SchedulerKind::Master => unreachable!("the master has its own loop"),
+    };
+    Ok(finish(locals, n, t0, probe))
+}
+
+fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<u32> {
+    if let Some(i) = own.pop() {
+        return Some(i);
+    }
+    // Items are never created during the run: once every deque is empty, we are done.
+    loop {
+        let mut retry = false;
+        for k in 1..stealers.len() {
+            match stealers[(id + k) % stealers.len()].steal_batch_and_pop(own) {
+                Steal::Success(i) => return Some(i),
+                Steal::Retry => retry = true,
+                Steal::Empty => {}
+            }
+        }
+        if !retry {
+            return None;
+        }
+    }
+}
+
+fn rayon_locals(items: &[WorkItem], job: &Job, w: usize, grab: usize, probe: Probe) -> Result<Vec<Local>, SchedError> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(w)
+        .build()
+        .map_err(|e| SchedError::Pool(e.to_string()))?;
+    // One fold accumulator per rayon leaf task, always on one thread: merge them by thread.
+    let folds = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        pool.install(|| {
+            items
+                .par_iter()
+                .with_min_len(grab)
+                .fold(
+                    || Local::new(rayon::current_thread_index().unwrap_or(0) as u32),
+                    |mut l, it| {
+                        l.run(job, it, &probe);
+                        l
+                    },
+                )
+                .collect::<Vec<Local>>()
+        })
+    }))
+    .map_err(|p| SchedError::WorkerPanic(panic_message(&p)))?;
+    let mut locals: Vec<Local> = (0..w as u32).map(Local::new).collect();
+    for f in folds {
+        let l = &mut locals[f.id as usize];
+        l.busy_ns += f.busy_ns;
+        l.stats.items += f.stats.items;
+        l.stats.pixels += f.stats.pixels;
+        l.stats.rays += f.stats.rays;
+        l.item_bytes += f.item_bytes;
+        l.spans.extend(f.spans);
+        l.results.extend(f.results);
+    }
+    Ok(locals)
+}
+
+fn finish(locals: Vec<Local>, n: usize, t0: Instant, probe: Probe) -> (Vec<Option<TileResult>>, RunStats) {
+    let wall = t0.elapsed().as_secs_f64();
+    let mut c = Collector::new(n);
+    let mut stats = RunStats {
+        items: n as u64,
+        ..Default::default()
+    };
+    let mut spans = Vec::new();
+    for l in locals {
+        let mut ws = l.stats;
+        ws.busy_s = l.busy_ns as f64 * 1e-9;
+        ws.idle_s = (wall - ws.busy_s).max(0.0);
+        stats.issued += ws.items;
+        stats.bytes += l.item_bytes;
+        stats.workers.push(ws);
+        spans.extend(l.spans);
+        for r in l.results {
+            c.accept(r);
+        }
+    }
+    if probe.timeline {
+        spans.sort_by_key(|s| (s.start_ns, s.worker));
+        stats.timeline = Some(spans);
+    }
+    stats.wall_s = wall;
+    stats.duplicates = c.duplicates;
+    stats.bytes += c.bytes;
+    stats.rays = c.rays;
+    stats.nonfinite = c.nonfinite;
+    (c.results, stats)
+}

@@ -1,0 +1,118 @@
+//! Fault injection for tests and experiments: drop a fraction of results (they never arrive),
+//! delay some items, make one worker panic. Decisions come from a hash of (seed, source, item,
+//! submission number), so a run's faults are reproducible and a re-issued item can succeed.
+
+use super::{ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, Probe, SourceReport};
+use crate::render::WorkItem;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaultPlan {
+    /// Fraction of results silently dropped (the message is lost; the source stays alive).
+    pub drop_fraction: f64,
+    /// Fraction of items delayed by up to `max_delay` before they are rendered.
+    pub delay_fraction: f64,
+    pub max_delay: Duration,
+    /// (source id, n): that source's worker panics on its n-th item (0-based).
+    pub panic: Option<(u32, u64)>,
+    pub seed: u64,
+}
+
+impl Default for FaultPlan {
+    fn default() -> Self {
+        Self {
+            drop_fraction: 0.0,
+            delay_fraction: 0.0,
+            max_delay: Duration::ZERO,
+            panic: None,
+            seed: 1,
+        }
+    }
+}
+
+/// splitmix64 finaliser → uniform in [0, 1).
+fn unit(seed: u64, a: u64, b: u64, c: u64) -> f64 {
+    let mut z = seed ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f) ^ c.wrapping_mul(0x1656_67b1_9e37_79f9);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The job as a faulty worker runs it: some items delayed, the planned one panics.
+pub fn faulty_job(job: Job, plan: &FaultPlan, source: u32) -> Job {
+    let plan = plan.clone();
+    let calls = AtomicU64::new(0);
+    Arc::new(move |item: &WorkItem| {
+        let n = calls.fetch_add(1, Ordering::Relaxed);
+        if plan.panic == Some((source, n)) {
+            panic!("injected fault: source {source} panics on its item #{n} (item {})", item.id);
+        }
+        let u = unit(plan.seed, source as u64, item.id as u64, n ^ 0xde1a);
+        if u < plan.delay_fraction {
+            std::thread::sleep(plan.max_delay.mul_f64(u / plan.delay_fraction));
+        }
+        job(item)
+    })
+}
+
+/// Wraps any source and loses a fraction of its results on the way back.
+pub struct FaultySource {
+    inner: Box<dyn ComputeSource>,
+    plan: FaultPlan,
+    submitted: u64,
+    pub dropped: u64,
+}
+
+impl FaultySource {
+    pub fn new(inner: Box<dyn ComputeSource>, plan: FaultPlan) -> Self {
+        Self {
+            inner,
+            plan,
+            submitted: 0,
+            dropped: 0,
+        }
+    }
+}
+
+impl ComputeSource for FaultySource {
+    fn id(&self) -> u32 {
+        self.inner.id()
+    }
+    fn label(&self) -> String {
+        format!("faulty({})", self.inner.label())
+    }
+    fn submit(&mut self, item: WorkItem) -> DelayedResult {
+        let (id, src) = (item.id, self.inner.id());
+        let n = self.submitted;
+        self.submitted += 1;
+        let d = self.inner.submit(item);
+        if unit(self.plan.seed, src as u64, id as u64, n) < self.plan.drop_fraction {
+            self.dropped += 1;
+            drop(d); // the worker still renders it; the result just never comes back
+            return DelayedResult::never(id, src);
+        }
+        d
+    }
+    fn is_lost(&self) -> bool {
+        self.inner.is_lost()
+    }
+    fn set_notifier(&mut self, notifier: Notifier) {
+        self.inner.set_notifier(notifier)
+    }
+    fn finish(self: Box<Self>) -> SourceReport {
+        self.inner.finish()
+    }
+}
+
+/// `workers` local thread sources running `job` under `plan`.
+pub fn faulty_sources(job: &Job, workers: usize, plan: &FaultPlan, probe: Probe) -> Vec<Box<dyn ComputeSource>> {
+    (0..workers as u32)
+        .map(|id| {
+            let local = LocalThreadSource::spawn(id, faulty_job(job.clone(), plan, id), probe);
+            Box::new(FaultySource::new(Box::new(local), plan.clone())) as Box<dyn ComputeSource>
+        })
+        .collect()
+}
