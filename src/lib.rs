@@ -41,6 +41,8 @@
 
 pub mod cli;
 pub mod geometry;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod render;
 pub mod rng;
 pub mod scene;
