@@ -218,10 +218,12 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
     assert!(!out_img.exists());
 
     // A bad scene on rank 0 itself: an input error naming the field; the workers exit too.
-    std::fs::write(&path, "[camera]\nwidth = 0\n").unwrap();
+    let bad = std::fs::read_to_string(&path).unwrap().replace("width = 8", "width = 0");
+    std::fs::write(&path, bad).unwrap();
     let child = mpirun(2, &[], &[], &args).spawn().unwrap();
     let o = finish(child, "bad scene on rank 0");
     let (_, stderr) = text(&o);
     assert!(!o.status.success());
-    assert!(stderr.contains("camera"), "stderr:\n{stderr}");
+    assert!(stderr.contains("camera.width: must be ≥ 1"), "stderr:\n{stderr}");
+    assert_eq!(o.status.code(), Some(2), "an input error exits 2 through mpirun");
 }
