@@ -14,7 +14,10 @@ use std::time::{Duration, Instant};
 const DEADLINE: Duration = Duration::from_secs(60);
 
 fn have_mpirun() -> bool {
-    let ok = Command::new("mpirun").arg("--version").output().is_ok_and(|o| o.status.success());
+    let ok = Command::new("mpirun")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
     if !ok {
         eprintln!("SKIPPED: `mpirun` not found (apt-get install openmpi-bin libopenmpi-dev)");
     }
@@ -23,7 +26,11 @@ fn have_mpirun() -> bool {
 
 /// A scene with a mesh, written to a fresh folder: the ranks get it only through the broadcast.
 fn scene(dir: &Path, w: u32, h: u32, spp: u32) -> PathBuf {
-    std::fs::write(dir.join("tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
     let text = format!(
         r#"
 [camera]
@@ -74,7 +81,11 @@ fn mpirun(ranks: usize, extra_mpirun: &[&str], env: &[(&str, &str)], args: &[&st
     for (k, v) in env {
         c.env(k, v).arg("-x").arg(k);
     }
-    c.arg(env!("CARGO_BIN_EXE_raysched")).arg("render").args(args).arg("--sources").arg("mpi");
+    c.arg(env!("CARGO_BIN_EXE_raysched"))
+        .arg("render")
+        .args(args)
+        .arg("--sources")
+        .arg("mpi");
     c.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
@@ -92,7 +103,9 @@ fn finish(mut child: Child, what: &str) -> Output {
     let end = Instant::now() + DEADLINE;
     while child.try_wait().unwrap().is_none() {
         if Instant::now() > end {
-            let _ = Command::new("kill").args(["-9", "--", &format!("-{}", child.id())]).status();
+            let _ = Command::new("kill")
+                .args(["-9", "--", &format!("-{}", child.id())])
+                .status();
             let out = child.wait_with_output().unwrap();
             panic!(
                 "{what}: mpirun still running after {DEADLINE:?}, killed\nstdout:\n{}\nstderr:\n{}",
@@ -106,11 +119,17 @@ fn finish(mut child: Child, what: &str) -> Output {
 }
 
 fn text(o: &Output) -> (String, String) {
-    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 fn image_hash(stdout: &str) -> Option<String> {
-    stdout.split("image hash ").nth(1).map(|s| s.split_whitespace().next().unwrap_or("").to_string())
+    stdout
+        .split("image hash ")
+        .nth(1)
+        .map(|s| s.split_whitespace().next().unwrap_or("").to_string())
 }
 
 #[test]
@@ -125,9 +144,25 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
     let cases: &[&[&str]] = &[
         &["--scheduler", "master", "--chunk", "1", "--buffer", "4"],
         &["--scheduler", "master", "--chunk", "8", "--buffer", "2"],
-        &["--scheduler", "master", "--chunk", "rows:3", "--buffer", "1", "--local-threads", "1"],
+        &[
+            "--scheduler",
+            "master",
+            "--chunk",
+            "rows:3",
+            "--buffer",
+            "1",
+            "--local-threads",
+            "1",
+        ],
         &["--scheduler", "static", "--chunk", "4"],
-        &["--scheduler", "self_scheduling", "--chunk", "4", "--grab", "2"],
+        &[
+            "--scheduler",
+            "self_scheduling",
+            "--chunk",
+            "4",
+            "--grab",
+            "2",
+        ],
     ];
     for case in cases {
         let out_img = dir.path().join("out.pfm");
@@ -136,12 +171,29 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
         let child = mpirun(3, &[], &[], &args).spawn().unwrap();
         let o = finish(child, &case.join(" "));
         let (stdout, stderr) = text(&o);
-        assert!(o.status.success(), "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}");
-        assert_eq!(image_hash(&stdout).as_deref(), Some(want.as_str()), "{case:?}\n{stdout}");
-        assert!(stdout.contains("source 0 = mpi-rank-1") && stdout.contains("source 1 = mpi-rank-2"), "{stdout}");
+        assert!(
+            o.status.success(),
+            "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        assert_eq!(
+            image_hash(&stdout).as_deref(),
+            Some(want.as_str()),
+            "{case:?}\n{stdout}"
+        );
+        assert!(
+            stdout.contains("source 0 = mpi-rank-1") && stdout.contains("source 1 = mpi-rank-2"),
+            "{stdout}"
+        );
         // Both ranks really rendered (on this tiny image even static gives each a band).
-        for w in stdout.lines().filter(|l| l.trim_start().starts_with("worker ")).take(2) {
-            assert!(!w.contains("items 0 "), "{case:?}: a rank rendered nothing: {w}");
+        for w in stdout
+            .lines()
+            .filter(|l| l.trim_start().starts_with("worker "))
+            .take(2)
+        {
+            assert!(
+                !w.contains("items 0 "),
+                "{case:?}: a rank rendered nothing: {w}"
+            );
         }
         if case.contains(&"--local-threads") {
             assert!(stdout.contains("source 2 = local-thread-2"), "{stdout}");
@@ -176,22 +228,38 @@ fn a_rank_killed_mid_run_loses_no_work() {
         "50000",
     ];
     let env = [("RAYSCHED_MPI_PID_DIR", pids.to_str().unwrap())];
-    let child = mpirun(3, &["--enable-recovery"], &env, &args).spawn().unwrap();
+    let child = mpirun(3, &["--enable-recovery"], &env, &args)
+        .spawn()
+        .unwrap();
     // Rank 1 writes its pid after its first result: it is mid-run when it dies.
     let pid_file = pids.join("rank1.pid");
     let end = Instant::now() + DEADLINE;
     let pid = loop {
-        if let Some(pid) = std::fs::read_to_string(&pid_file).ok().filter(|s| !s.is_empty()) {
+        if let Some(pid) = std::fs::read_to_string(&pid_file)
+            .ok()
+            .filter(|s| !s.is_empty())
+        {
             break pid;
         }
         assert!(Instant::now() < end, "rank 1 never wrote its pid");
         std::thread::sleep(Duration::from_millis(5));
     };
-    assert!(Command::new("kill").args(["-9", pid.trim()]).status().unwrap().success());
+    assert!(Command::new("kill")
+        .args(["-9", pid.trim()])
+        .status()
+        .unwrap()
+        .success());
     let o = finish(child, "kill test");
     let (stdout, stderr) = text(&o);
-    assert_eq!(image_hash(&stdout).as_deref(), Some(want.as_str()), "stdout:\n{stdout}\nstderr:\n{stderr}");
-    assert!(stdout.contains("lost MPI rank 1"), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert_eq!(
+        image_hash(&stdout).as_deref(),
+        Some(want.as_str()),
+        "stdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    assert!(
+        stdout.contains("lost MPI rank 1"),
+        "stdout:\n{stdout}\nstderr:\n{stderr}"
+    );
     let lost: u64 = stdout
         .split("lost sources ")
         .nth(1)
@@ -209,21 +277,41 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path(), 8, 8, 1);
     let out_img = dir.path().join("out.pfm");
-    let args = [path.to_str().unwrap(), "-o", out_img.to_str().unwrap(), "--scheduler", "master"];
-    let child = mpirun(3, &[], &[("RAYSCHED_MPI_TEST_CORRUPT_RANK", "2")], &args).spawn().unwrap();
+    let args = [
+        path.to_str().unwrap(),
+        "-o",
+        out_img.to_str().unwrap(),
+        "--scheduler",
+        "master",
+    ];
+    let child = mpirun(3, &[], &[("RAYSCHED_MPI_TEST_CORRUPT_RANK", "2")], &args)
+        .spawn()
+        .unwrap();
     let o = finish(child, "bad scene on rank 2");
     let (stdout, stderr) = text(&o);
     assert!(!o.status.success(), "{stdout}");
-    assert!(stderr.contains("rank 2") && stderr.contains("corrupted_on_purpose"), "stderr:\n{stderr}");
+    assert!(
+        stderr.contains("rank 2") && stderr.contains("corrupted_on_purpose"),
+        "stderr:\n{stderr}"
+    );
     assert!(!out_img.exists());
 
     // A bad scene on rank 0 itself: an input error naming the field; the workers exit too.
-    let bad = std::fs::read_to_string(&path).unwrap().replace("width = 8", "width = 0");
+    let bad = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("width = 8", "width = 0");
     std::fs::write(&path, bad).unwrap();
     let child = mpirun(2, &[], &[], &args).spawn().unwrap();
     let o = finish(child, "bad scene on rank 0");
     let (_, stderr) = text(&o);
     assert!(!o.status.success());
-    assert!(stderr.contains("camera.width: must be ≥ 1"), "stderr:\n{stderr}");
-    assert_eq!(o.status.code(), Some(2), "an input error exits 2 through mpirun");
+    assert!(
+        stderr.contains("camera.width: must be ≥ 1"),
+        "stderr:\n{stderr}"
+    );
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "an input error exits 2 through mpirun"
+    );
 }

@@ -61,17 +61,27 @@ pub struct Pending {
 impl Comm {
     /// Initialise MPI (`FUNNELED`: only this thread will call MPI) and make errors return.
     pub fn init() -> Result<Self, MpiError> {
-        let (universe, _level) = mpi::initialize_with_threading(Threading::Funneled).ok_or(MpiError {
-            call: "Init_thread (MPI already initialised)",
-            code: -1,
-        })?;
+        let (universe, _level) =
+            mpi::initialize_with_threading(Threading::Funneled).ok_or(MpiError {
+                call: "Init_thread (MPI already initialised)",
+                code: -1,
+            })?;
         let (mut rank, mut size) = (0, 0);
         // SAFETY: MPI is initialised; RSMPI_COMM_WORLD and RSMPI_ERRORS_RETURN are valid handles
         // exported by mpi-sys, and rank/size are valid out-pointers.
         unsafe {
-            check("Comm_set_errhandler", ffi::MPI_Comm_set_errhandler(ffi::RSMPI_COMM_WORLD, ffi::RSMPI_ERRORS_RETURN))?;
-            check("Comm_rank", ffi::MPI_Comm_rank(ffi::RSMPI_COMM_WORLD, &mut rank))?;
-            check("Comm_size", ffi::MPI_Comm_size(ffi::RSMPI_COMM_WORLD, &mut size))?;
+            check(
+                "Comm_set_errhandler",
+                ffi::MPI_Comm_set_errhandler(ffi::RSMPI_COMM_WORLD, ffi::RSMPI_ERRORS_RETURN),
+            )?;
+            check(
+                "Comm_rank",
+                ffi::MPI_Comm_rank(ffi::RSMPI_COMM_WORLD, &mut rank),
+            )?;
+            check(
+                "Comm_size",
+                ffi::MPI_Comm_size(ffi::RSMPI_COMM_WORLD, &mut size),
+            )?;
         }
         Ok(Self {
             universe: Some(universe),
@@ -100,7 +110,9 @@ impl Comm {
     fn pending_of(status: &ffi::MPI_Status) -> Result<Pending, MpiError> {
         let mut count = 0;
         // SAFETY: `status` was filled by a successful probe; count is a valid out-pointer.
-        check("Get_count", unsafe { ffi::MPI_Get_count(status, ffi::RSMPI_UINT8_T, &mut count) })?;
+        check("Get_count", unsafe {
+            ffi::MPI_Get_count(status, ffi::RSMPI_UINT8_T, &mut count)
+        })?;
         Ok(Pending {
             source: status.MPI_SOURCE,
             tag: status.MPI_TAG,
@@ -138,7 +150,12 @@ impl Comm {
         unsafe {
             check(
                 "Probe",
-                ffi::MPI_Probe(source, ffi::RSMPI_ANY_TAG, ffi::RSMPI_COMM_WORLD, status.as_mut_ptr()),
+                ffi::MPI_Probe(
+                    source,
+                    ffi::RSMPI_ANY_TAG,
+                    ffi::RSMPI_COMM_WORLD,
+                    status.as_mut_ptr(),
+                ),
             )?;
             Self::pending_of(&status.assume_init())
         }
@@ -169,17 +186,32 @@ impl Comm {
         let mut len: u64 = bytes.as_ref().map_or(0, |b| b.len() as u64);
         // SAFETY: `len` is one valid u64 on every rank; the handles are valid.
         check("Bcast", unsafe {
-            ffi::MPI_Bcast((&mut len as *mut u64).cast(), 8, ffi::RSMPI_UINT8_T, 0, ffi::RSMPI_COMM_WORLD)
+            ffi::MPI_Bcast(
+                (&mut len as *mut u64).cast(),
+                8,
+                ffi::RSMPI_UINT8_T,
+                0,
+                ffi::RSMPI_COMM_WORLD,
+            )
         })?;
         let mut buf = bytes.unwrap_or_else(|| vec![0u8; len as usize]);
         // Scene packages beyond 2 GiB would need chunking; refuse them rather than truncate.
         if len > c_int::MAX as u64 {
-            return Err(MpiError { call: "Bcast (scene package over 2 GiB)", code: -1 });
+            return Err(MpiError {
+                call: "Bcast (scene package over 2 GiB)",
+                code: -1,
+            });
         }
         if len > 0 {
             // SAFETY: buf holds exactly `len` bytes on every rank.
             check("Bcast", unsafe {
-                ffi::MPI_Bcast(buf.as_mut_ptr().cast(), len as c_int, ffi::RSMPI_UINT8_T, 0, ffi::RSMPI_COMM_WORLD)
+                ffi::MPI_Bcast(
+                    buf.as_mut_ptr().cast(),
+                    len as c_int,
+                    ffi::RSMPI_UINT8_T,
+                    0,
+                    ffi::RSMPI_COMM_WORLD,
+                )
             })?;
         }
         Ok(buf)

@@ -26,10 +26,16 @@ pub fn run_pull(
     for s in sources.iter_mut() {
         s.set_notifier(Notifier(tx.clone()));
     }
-    let mut stats = RunStats { items: n as u64, ..Default::default() };
+    let mut stats = RunStats {
+        items: n as u64,
+        ..Default::default()
+    };
     let mut results: Vec<Option<TileResult>> = (0..n).map(|_| None).collect();
     let mut out: Vec<Vec<DelayedResult>> = (0..k).map(|_| Vec::new()).collect();
-    let submit = |out: &mut Vec<DelayedResult>, i: usize, src: &mut Box<dyn ComputeSource>, stats: &mut RunStats| {
+    let submit = |out: &mut Vec<DelayedResult>,
+                  i: usize,
+                  src: &mut Box<dyn ComputeSource>,
+                  stats: &mut RunStats| {
         stats.bytes += wire::item_bytes(&items[i]);
         stats.issued += 1;
         out.push(src.submit(items[i].clone()));
@@ -75,13 +81,20 @@ pub fn run_pull(
         }
         if failed.is_some() {
             stats.lost_sources = sources.iter().filter(|s| s.is_lost()).count().max(1) as u64;
-            break Err(SchedError::LostItems { lost: (n - done) as u64, total: n as u64 });
+            break Err(SchedError::LostItems {
+                lost: (n - done) as u64,
+                total: n as u64,
+            });
         }
         if done == n {
             break Ok(());
         }
         if let Some(dl) = deadline.filter(|dl| t0.elapsed() >= *dl) {
-            break Err(SchedError::Deadline { deadline: dl, done: done as u64, total: n as u64 });
+            break Err(SchedError::Deadline {
+                deadline: dl,
+                done: done as u64,
+                total: n as u64,
+            });
         }
         for (s, src) in sources.iter_mut().enumerate() {
             if out[s].is_empty() && next < n {

@@ -5,8 +5,10 @@ use super::comm::{tag, Comm};
 use super::source::{stop_ranks, Hub, Peer};
 use super::wire::Ready;
 use crate::cli::{CliError, RenderArgs};
-use crate::sched::{assemble, decompose, master, render_job, RunOptions, SchedError, SchedulerKind};
 use crate::scene::SceneOverrides;
+use crate::sched::{
+    assemble, decompose, master, render_job, RunOptions, SchedError, SchedulerKind,
+};
 use crate::source::{ComputeSource, LocalThreadSource, Probe};
 use crate::tracer::AnyTracer;
 use std::sync::Arc;
@@ -47,7 +49,10 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     // broadcast tells the workers to finalise and exit.
     let prepared = (|| {
         let mut spec = args.scheduler_spec()?;
-        if !matches!(spec.kind, SchedulerKind::Master | SchedulerKind::Static | SchedulerKind::SelfScheduling) {
+        if !matches!(
+            spec.kind,
+            SchedulerKind::Master | SchedulerKind::Static | SchedulerKind::SelfScheduling
+        ) {
             return Err(input(format!(
                 "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
                 spec.kind.id()
@@ -62,13 +67,23 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         if args.spp == Some(0) {
             return Err(input("--spp: must be ≥ 1 (got 0)".into()));
         }
-        let ext = args.output.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let ext = args
+            .output
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
         if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
-            return Err(input(format!("--output {}: unsupported extension (use .exr or .pfm)", args.output.display())));
+            return Err(input(format!(
+                "--output {}: unsupported extension (use .exr or .pfm)",
+                args.output.display()
+            )));
         }
         crate::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
-        let overrides = SceneOverrides { spp: args.spp, ..Default::default() };
-        let (scene, pkg) = super::scene::package(&args.scene, &overrides, &args.tracer).map_err(CliError::input)?;
+        let overrides = SceneOverrides {
+            spp: args.spp,
+            ..Default::default()
+        };
+        let (scene, pkg) = super::scene::package(&args.scene, &overrides, &args.tracer)
+            .map_err(CliError::input)?;
         spec.workers = comm.size as usize - 1 + args.local_threads;
         Ok((scene, pkg, spec))
     })();
@@ -79,7 +94,8 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
             return Err(e);
         }
     };
-    comm.broadcast(Some(pkg.encode())).map_err(CliError::runtime)?;
+    comm.broadcast(Some(pkg.encode()))
+        .map_err(CliError::runtime)?;
     let peers = gather_ready(comm)?;
 
     let scene = Arc::new(scene);
@@ -90,11 +106,14 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         .map_or(SILENCE, Duration::from_millis);
     let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
     if args.local_threads > 0 {
-        let tracer = Arc::new(AnyTracer::build(&args.tracer, &scene, args.local_threads).map_err(CliError::input)?);
+        let tracer = Arc::new(
+            AnyTracer::build(&args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
+        );
         let job = render_job(&scene, &tracer);
         for t in 0..args.local_threads {
             let id = sources.len() as u32;
-            sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as Box<dyn ComputeSource>);
+            sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe))
+                as Box<dyn ComputeSource>);
             let _ = t;
         }
     }
@@ -112,18 +131,25 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
             _ => super::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
         });
         let report = hub.serve(STOP_WAIT);
-        let outcome = master.join().unwrap_or_else(|p| Err(SchedError::WorkerPanic(crate::source::local::panic_message(&p))));
+        let outcome = master.join().unwrap_or_else(|p| {
+            Err(SchedError::WorkerPanic(
+                crate::source::local::panic_message(&p),
+            ))
+        });
         (outcome, report)
     });
     *lost = !hub_report.lost.is_empty();
     let (results, mut stats) = outcome.map_err(CliError::runtime)?;
     stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);
-    let image = assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
+    let image =
+        assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
     let wall = t0.elapsed().as_secs_f64();
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(CliError::runtime)?;
     }
-    let png = image.save_with_preview(&args.output).map_err(CliError::runtime)?;
+    let png = image
+        .save_with_preview(&args.output)
+        .map_err(CliError::runtime)?;
     println!(
         "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, {} MPI ranks + {} local threads on rank 0",
         scene.name,
@@ -135,8 +161,19 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         comm.size - 1,
         args.local_threads
     );
-    println!("scheduler {}, order {}, image hash {:016x}", spec.label(), spec.order.id(), image.hash());
-    println!("wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}", wall, stats.rays, stats.rays as f64 / wall / 1e6, hub_report.messages);
+    println!(
+        "scheduler {}, order {}, image hash {:016x}",
+        spec.label(),
+        spec.order.id(),
+        image.hash()
+    );
+    println!(
+        "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}",
+        wall,
+        stats.rays,
+        stats.rays as f64 / wall / 1e6,
+        hub_report.messages
+    );
     print!("{}", stats.summary());
     for (i, l) in labels.iter().enumerate() {
         println!("  source {i} = {l}");
@@ -157,7 +194,10 @@ fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
     let mut missing = comm.size as usize - 1;
     while missing > 0 {
         if Instant::now() > end {
-            errors.push(format!("{missing} rank(s) did not report ready within {} s", READY_WAIT.as_secs()));
+            errors.push(format!(
+                "{missing} rank(s) did not report ready within {} s",
+                READY_WAIT.as_secs()
+            ));
             break;
         }
         let Some(p) = comm.iprobe(None).map_err(CliError::runtime)? else {
@@ -170,13 +210,26 @@ fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
         }
         missing -= 1;
         match Ready::decode(&body) {
-            Ok(r) if r.error.is_empty() => peers[p.source as usize] = Some(Peer { rank: p.source, pid: r.pid, host: r.host }),
-            Ok(r) => errors.push(format!("rank {} ({}, pid {}): {}", p.source, r.host, r.pid, r.error)),
+            Ok(r) if r.error.is_empty() => {
+                peers[p.source as usize] = Some(Peer {
+                    rank: p.source,
+                    pid: r.pid,
+                    host: r.host,
+                })
+            }
+            Ok(r) => errors.push(format!(
+                "rank {} ({}, pid {}): {}",
+                p.source, r.host, r.pid, r.error
+            )),
             Err(e) => errors.push(format!("rank {}: {e}", p.source)),
         }
         if peers[p.source as usize].is_none() {
             // Keep the slot marked as answered.
-            peers[p.source as usize] = Some(Peer { rank: -1, pid: 0, host: String::new() });
+            peers[p.source as usize] = Some(Peer {
+                rank: -1,
+                pid: 0,
+                host: String::new(),
+            });
         }
     }
     if !errors.is_empty() {

@@ -8,9 +8,14 @@ use std::path::{Component, Path, PathBuf};
 
 /// Read the scene file and its meshes on rank 0 and load the scene; the package carries
 /// what every other rank needs to load the same scene.
-pub fn package(path: &Path, overrides: &SceneOverrides, tracer: &str) -> anyhow::Result<(Scene, ScenePackage)> {
+pub fn package(
+    path: &Path,
+    overrides: &SceneOverrides,
+    tracer: &str,
+) -> anyhow::Result<(Scene, ScenePackage)> {
     let display = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{display}: cannot read scene file: {e}"))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow::anyhow!("{display}: cannot read scene file: {e}"))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let name = path
         .file_stem()
@@ -21,14 +26,17 @@ pub fn package(path: &Path, overrides: &SceneOverrides, tracer: &str) -> anyhow:
     let file: SceneFile = toml::from_str(&text)?;
     let mut meshes = Vec::new();
     for (i, shape) in file.shapes.iter().enumerate() {
-        let Some(rel) = shape.path.as_deref().filter(|_| shape.kind == "mesh") else { continue };
+        let Some(rel) = shape.path.as_deref().filter(|_| shape.kind == "mesh") else {
+            continue;
+        };
         if Path::new(rel).is_absolute() {
             anyhow::bail!(
                 "{display}: shapes[{i}].path: '{rel}' is absolute; MPI ranks get meshes by path relative to the scene file"
             );
         }
-        let bytes = std::fs::read(base.join(rel))
-            .map_err(|e| anyhow::anyhow!("{display}: shapes[{i}].path: cannot read '{rel}': {e}"))?;
+        let bytes = std::fs::read(base.join(rel)).map_err(|e| {
+            anyhow::anyhow!("{display}: shapes[{i}].path: cannot read '{rel}': {e}")
+        })?;
         meshes.push((rel.to_string(), bytes));
     }
     let pkg = ScenePackage {
@@ -49,7 +57,12 @@ pub fn unpack(pkg: &ScenePackage, rank: i32) -> anyhow::Result<Scene> {
     let ups = pkg
         .meshes
         .iter()
-        .map(|(p, _)| Path::new(p).components().filter(|c| *c == Component::ParentDir).count())
+        .map(|(p, _)| {
+            Path::new(p)
+                .components()
+                .filter(|c| *c == Component::ParentDir)
+                .count()
+        })
         .max()
         .unwrap_or(0);
     let root = std::env::temp_dir().join(format!("raysched-mpi-{}-rank{rank}", std::process::id()));
@@ -106,7 +119,11 @@ mod tests {
     fn a_packaged_scene_unpacks_to_the_same_hash_and_a_changed_one_is_refused() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir_all(dir.path().join("s")).unwrap();
-        std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        std::fs::write(
+            dir.path().join("tri.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
         let text = r#"
 [camera]
 origin = [0, 0, 4]
@@ -132,9 +149,15 @@ radiance = [1, 1, 1]
         assert_eq!(pkg.meshes.len(), 1);
         let back = unpack(&pkg, 1).unwrap();
         assert_eq!(back.hash, scene.hash);
-        assert_eq!(back.geometry.triangles.len(), scene.geometry.triangles.len());
+        assert_eq!(
+            back.geometry.triangles.len(),
+            scene.geometry.triangles.len()
+        );
         let mut bad = pkg.clone();
         bad.meshes[0].1 = b"v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n".to_vec();
-        assert!(unpack(&bad, 1).unwrap_err().to_string().contains("differs from rank 0"));
+        assert!(unpack(&bad, 1)
+            .unwrap_err()
+            .to_string()
+            .contains("differs from rank 0"));
     }
 }

@@ -13,7 +13,9 @@ use super::wire::decode_result;
 use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
 use crate::sched::Span;
-use crate::source::{Completer, ComputeSource, DelayedResult, Notifier, Probe, SourceFailure, SourceReport};
+use crate::source::{
+    Completer, ComputeSource, DelayedResult, Notifier, Probe, SourceFailure, SourceReport,
+};
 use crossbeam::channel::{Receiver, Sender, TryRecvError};
 use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -56,7 +58,11 @@ impl ComputeSource for MpiRankSource {
             done.complete(Err(self.lost_failure()));
         } else {
             // A closed channel drops the completer, which fails the result.
-            let _ = self.tx.send(Cmd { rank: self.rank, item, done });
+            let _ = self.tx.send(Cmd {
+                rank: self.rank,
+                item,
+                done,
+            });
         }
         d
     }
@@ -135,7 +141,12 @@ impl<'c> Hub<'c> {
         for (k, p) in peers.iter().enumerate() {
             let shared = Arc::new(Shared::default());
             let id = first_id + k as u32;
-            sources.push(Box::new(MpiRankSource { id, rank: p.rank, tx: tx.clone(), shared: shared.clone() }));
+            sources.push(Box::new(MpiRankSource {
+                id,
+                rank: p.rank,
+                tx: tx.clone(),
+                shared: shared.clone(),
+            }));
             ranks.push(RankState {
                 rank: p.rank,
                 id,
@@ -147,7 +158,15 @@ impl<'c> Hub<'c> {
                 lost: None,
             });
         }
-        let hub = Self { comm, rx, ranks, probe, silence, report: HubReport::default(), buf: Vec::new() };
+        let hub = Self {
+            comm,
+            rx,
+            ranks,
+            probe,
+            silence,
+            report: HubReport::default(),
+            buf: Vec::new(),
+        };
         (hub, sources)
     }
 
@@ -165,7 +184,10 @@ impl<'c> Hub<'c> {
         let id = st.id;
         for (item, q) in st.outstanding.drain() {
             for done in q {
-                done.complete(Err(SourceFailure::Lost { source_id: id, reason: why.clone() }));
+                done.complete(Err(SourceFailure::Lost {
+                    source_id: id,
+                    reason: why.clone(),
+                }));
             }
             if let Some(n) = st.shared.notifier.get() {
                 n.ring(id, item);
@@ -205,7 +227,9 @@ impl<'c> Hub<'c> {
         self.report.messages += 1;
         let epoch = self.probe.epoch;
         let timeline = self.probe.timeline;
-        let Some(st) = self.state(p.source) else { return };
+        let Some(st) = self.state(p.source) else {
+            return;
+        };
         st.last_heard = Instant::now();
         if p.tag != tag::RESULT || st.lost.is_some() {
             return;
@@ -217,9 +241,13 @@ impl<'c> Hub<'c> {
                 return;
             }
         };
-        let busy_ns = rest.get(..8).map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap()));
+        let busy_ns = rest
+            .get(..8)
+            .map_or(0, |b| u64::from_le_bytes(b.try_into().unwrap()));
         let item = result.item;
-        let Some(done) = st.outstanding.get_mut(&item).and_then(VecDeque::pop_front) else { return };
+        let Some(done) = st.outstanding.get_mut(&item).and_then(VecDeque::pop_front) else {
+            return;
+        };
         st.pending -= 1;
         {
             let mut rep = st.shared.report.lock().unwrap_or_else(|e| e.into_inner());
@@ -230,7 +258,12 @@ impl<'c> Hub<'c> {
             if timeline {
                 // Rank 0's clock: the span ends when the result arrived.
                 let end = (Instant::now() - epoch).as_nanos() as u64;
-                rep.spans.push(Span { worker: st.id, item, start_ns: end.saturating_sub(busy_ns), end_ns: end });
+                rep.spans.push(Span {
+                    worker: st.id,
+                    item,
+                    start_ns: end.saturating_sub(busy_ns),
+                    end_ns: end,
+                });
             }
         }
         done.complete(Ok(result));
@@ -254,7 +287,12 @@ impl<'c> Hub<'c> {
                 Ok(None) => return any,
                 Err(_) => {
                     // Some rank is broken: probe them one by one to find it.
-                    let live: Vec<i32> = self.ranks.iter().filter(|r| r.lost.is_none()).map(|r| r.rank).collect();
+                    let live: Vec<i32> = self
+                        .ranks
+                        .iter()
+                        .filter(|r| r.lost.is_none())
+                        .map(|r| r.rank)
+                        .collect();
                     for r in live {
                         match self.comm.iprobe(Some(r)) {
                             Ok(Some(p)) => match self.comm.recv(p) {
@@ -282,7 +320,13 @@ impl<'c> Hub<'c> {
                 }
             }
             if st.pending > 0 && now - st.last_heard > self.silence {
-                dead.push((st.rank, format!("silent for {:.1} s with work outstanding", self.silence.as_secs_f64())));
+                dead.push((
+                    st.rank,
+                    format!(
+                        "silent for {:.1} s with work outstanding",
+                        self.silence.as_secs_f64()
+                    ),
+                ));
             }
         }
         for (r, why) in dead {
@@ -325,7 +369,12 @@ impl<'c> Hub<'c> {
 
     fn stop(&mut self, stop_wait: Duration) {
         let finalize = self.report.lost.is_empty() as u8;
-        let live: Vec<i32> = self.ranks.iter().filter(|r| r.lost.is_none()).map(|r| r.rank).collect();
+        let live: Vec<i32> = self
+            .ranks
+            .iter()
+            .filter(|r| r.lost.is_none())
+            .map(|r| r.rank)
+            .collect();
         stop_ranks(self.comm, &live, finalize == 1, stop_wait);
     }
 

@@ -79,11 +79,19 @@ pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
         1 => {
             let n = r.u32()? as usize;
             if r.rest().len() < 4 * n {
-                return Err(WireError { what: "item", msg: format!("{n} pixels announced, fewer sent") });
+                return Err(WireError {
+                    what: "item",
+                    msg: format!("{n} pixels announced, fewer sent"),
+                });
             }
             Region::Pixels((0..n).map(|_| r.u32()).collect::<Result<_, _>>()?)
         }
-        t => return Err(WireError { what: "item", msg: format!("unknown region tag {t}") }),
+        t => {
+            return Err(WireError {
+                what: "item",
+                msg: format!("unknown region tag {t}"),
+            })
+        }
     };
     Ok(WorkItem { id, region })
 }
@@ -94,7 +102,10 @@ pub fn decode_result(bytes: &[u8]) -> Result<(TileResult, &[u8]), WireError> {
     let item = r.u32()?;
     let n = r.u32()? as usize;
     if r.rest().len() < 12 * n {
-        return Err(WireError { what: "result", msg: format!("{n} pixels announced, fewer sent") });
+        return Err(WireError {
+            what: "result",
+            msg: format!("{n} pixels announced, fewer sent"),
+        });
     }
     let mut pixels = Vec::with_capacity(n);
     for _ in 0..n {
@@ -102,7 +113,15 @@ pub fn decode_result(bytes: &[u8]) -> Result<(TileResult, &[u8]), WireError> {
     }
     let rays = r.u64()?;
     let nonfinite = r.u64()?;
-    Ok((TileResult { item, pixels, rays, nonfinite }, r.rest()))
+    Ok((
+        TileResult {
+            item,
+            pixels,
+            rays,
+            nonfinite,
+        },
+        r.rest(),
+    ))
 }
 
 /// Everything a worker rank needs to build the scene and tracer rank 0 has: no shared
@@ -146,7 +165,10 @@ impl ScenePackage {
         let display = r.string()?;
         let name = r.string()?;
         let ov = r.string()?;
-        let overrides = toml::from_str(&ov).map_err(|e| WireError { what: "scene package", msg: e.to_string() })?;
+        let overrides = toml::from_str(&ov).map_err(|e| WireError {
+            what: "scene package",
+            msg: e.to_string(),
+        })?;
         let n = r.u64()?;
         let mut meshes = Vec::new();
         for _ in 0..n {
@@ -154,7 +176,15 @@ impl ScenePackage {
         }
         let tracer = r.string()?;
         let hash = r.u64()?;
-        Ok(Self { text, display, name, overrides, meshes, tracer, hash })
+        Ok(Self {
+            text,
+            display,
+            name,
+            overrides,
+            meshes,
+            tracer,
+            hash,
+        })
     }
 }
 
@@ -176,7 +206,11 @@ impl Ready {
     }
     pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
         let mut r = Reader::new(bytes, "ready");
-        Ok(Self { pid: r.u32()?, host: r.string()?, error: r.string()? })
+        Ok(Self {
+            pid: r.u32()?,
+            host: r.string()?,
+            error: r.string()?,
+        })
     }
 }
 
@@ -187,13 +221,24 @@ mod tests {
 
     #[test]
     fn items_and_results_round_trip() {
-        for item in [WorkItem::rect(3, 1, 2, 16, 16), WorkItem { id: 9, region: Region::Pixels(vec![1, 5, 7]) }] {
+        for item in [
+            WorkItem::rect(3, 1, 2, 16, 16),
+            WorkItem {
+                id: 9,
+                region: Region::Pixels(vec![1, 5, 7]),
+            },
+        ] {
             let mut b = Vec::new();
             encode_item(&item, &mut b);
             assert_eq!(decode_item(&b).unwrap(), item);
             assert!(decode_item(&b[..b.len() - 1]).is_err());
         }
-        let r = TileResult { item: 3, pixels: vec![[1.0, -2.5, f32::MAX]; 5], rays: 7, nonfinite: 2 };
+        let r = TileResult {
+            item: 3,
+            pixels: vec![[1.0, -2.5, f32::MAX]; 5],
+            rays: 7,
+            nonfinite: 2,
+        };
         let mut b = Vec::new();
         encode_result(&r, &mut b);
         b.extend_from_slice(&42u64.to_le_bytes());
@@ -209,14 +254,21 @@ mod tests {
             text: "[camera]\n".into(),
             display: "scenes/x.toml".into(),
             name: "x".into(),
-            overrides: SceneOverrides { spp: Some(3), ..Default::default() },
+            overrides: SceneOverrides {
+                spp: Some(3),
+                ..Default::default()
+            },
             meshes: vec![("m/a.obj".into(), vec![1, 2, 3])],
             tracer: "bvh".into(),
             hash: 0xdead_beef,
         };
         assert_eq!(ScenePackage::decode(&p.encode()).unwrap(), p);
         assert!(ScenePackage::decode(&p.encode()[..20]).is_err());
-        let r = Ready { pid: 12, host: "h".into(), error: String::new() };
+        let r = Ready {
+            pid: 12,
+            host: "h".into(),
+            error: String::new(),
+        };
         assert_eq!(Ready::decode(&r.encode()).unwrap(), r);
     }
 }

@@ -22,7 +22,11 @@ pub fn hostname() -> String {
 
 fn build(comm: &Comm, bytes: &[u8]) -> anyhow::Result<(crate::scene::Scene, AnyTracer)> {
     let mut pkg = ScenePackage::decode(bytes)?;
-    if std::env::var(ENV_CORRUPT_RANK).ok().and_then(|r| r.parse::<i32>().ok()) == Some(comm.rank) {
+    if std::env::var(ENV_CORRUPT_RANK)
+        .ok()
+        .and_then(|r| r.parse::<i32>().ok())
+        == Some(comm.rank)
+    {
         pkg.text.push_str("\n[corrupted_on_purpose]\n");
     }
     let scene = super::scene::unpack(&pkg, comm.rank)?;
@@ -47,7 +51,11 @@ pub fn run(comm: Comm) -> ! {
     let ready = Ready {
         pid: std::process::id(),
         host: hostname(),
-        error: built.as_ref().err().map(|e| format!("{e:#}")).unwrap_or_default(),
+        error: built
+            .as_ref()
+            .err()
+            .map(|e| format!("{e:#}"))
+            .unwrap_or_default(),
     };
     if comm.send(0, tag::READY, &ready.encode()).is_err() {
         comm.shutdown(false, 1)
@@ -65,7 +73,9 @@ pub fn run(comm: Comm) -> ! {
         };
         match msg {
             (p, body) if p.tag == tag::ITEM => {
-                let Ok((scene, tracer)) = &built else { continue };
+                let Ok((scene, tracer)) = &built else {
+                    continue;
+                };
                 let item = match decode_item(&body) {
                     Ok(i) => i,
                     Err(e) => {
