@@ -149,7 +149,8 @@ pub fn run_master(
                         (Requeue::Timeout(d), Some(at)) => now - at >= d,
                         (Requeue::Never, _) => false,
                     };
-                    if !again || out[s].iter().any(|sl| sl.item == i) {
+                    // Not again to a source that still holds a fresh copy.
+                    if !again || out[s].iter().any(|sl| sl.item == i && now - sl.at < stale) {
                         queue.push_back(i);
                         continue;
                     }

@@ -38,6 +38,18 @@ struct Cell {
     inner: Mutex<CellInner>,
 }
 
+impl Cell {
+    fn new() -> Arc<Self> {
+        Arc::new(Cell {
+            ready: AtomicBool::new(false),
+            inner: Mutex::new(CellInner {
+                value: None,
+                waiter: None,
+            }),
+        })
+    }
+}
+
 struct CellInner {
     value: Option<Outcome>,
     waiter: Option<Thread>,
@@ -61,13 +73,7 @@ pub struct Completer {
 
 impl DelayedResult {
     pub fn pending(item: u32, source: u32) -> (Self, Completer) {
-        let cell = Arc::new(Cell {
-            ready: AtomicBool::new(false),
-            inner: Mutex::new(CellInner {
-                value: None,
-                waiter: None,
-            }),
-        });
+        let cell = Cell::new();
         (
             Self {
                 item,
@@ -84,7 +90,12 @@ impl DelayedResult {
 
     /// A result that never arrives (a dropped message).
     pub fn never(item: u32, source: u32) -> Self {
-        Self::pending(item, source).0
+        // No completer exists, so nothing can ever fill (or fail) it.
+        Self {
+            item,
+            source,
+            cell: Cell::new(),
+        }
     }
 
     /// A result that is already there.

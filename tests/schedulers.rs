@@ -1,0 +1,372 @@
+//! Issue 4: every scheduler × granularity × buffer × workers gives the serial image bit for bit;
+//! faults are survived (or reported, never hung on); bad parameters are clear errors.
+
+use raysched::render::{render_serial, Image, TileResult, WorkItem};
+use raysched::scene::{load_scene_str, Scene};
+use raysched::sched::{
+    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, Order, Requeue, RunOptions, SchedError,
+    SchedulerKind, SchedulerSpec, Wait,
+};
+use raysched::source::FaultPlan;
+use raysched::tracer::AnyTracer;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::{Duration, Instant};
+
+/// A cheap scene with shadow rays and bounces: a diffuse sphere on a floor under an
+/// environment; odd sizes catch edge bugs.
+fn scene(w: u32, h: u32) -> Arc<Scene> {
+    let text = format!(
+        r#"
+[camera]
+origin = [0, 0.5, 4]
+target = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 40
+width = {w}
+height = {h}
+[render]
+spp = 1
+max_depth = 3
+[materials.white]
+type = "diffuse"
+reflectance = [0.8, 0.7, 0.6]
+[[shapes]]
+type = "sphere"
+material = "white"
+[[shapes]]
+type = "rectangle"
+material = "white"
+transform = [{{ translate = [0, -1, 0] }}, {{ rotate = {{ axis = [1, 0, 0], deg = -90 }} }}, {{ scale = 4 }}]
+[[lights]]
+type = "environment"
+radiance = [1, 1, 1]
+"#
+    );
+    Arc::new(load_scene_str(&text, "test", std::path::Path::new("."), "test", &Default::default()).unwrap())
+}
+
+struct Fixture {
+    scene: Arc<Scene>,
+    tracer: Arc<AnyTracer>,
+    serial: Image,
+}
+
+fn fixture() -> &'static Fixture {
+    static F: OnceLock<Fixture> = OnceLock::new();
+    F.get_or_init(|| {
+        let scene = scene(17, 13);
+        let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+        let (serial, _) = render_serial(&scene, &*tracer);
+        Fixture { scene, tracer, serial }
+    })
+}
+
+const CHUNKS: [Chunk; 6] = [
+    Chunk::Tile { w: 1, h: 1 },
+    Chunk::Tile { w: 4, h: 4 },
+    Chunk::Tile { w: 16, h: 16 },
+    Chunk::Tile { w: 64, h: 64 },
+    Chunk::Rows(1),
+    Chunk::Frame,
+];
+
+fn check_run(spec: &SchedulerSpec) {
+    let f = fixture();
+    let (image, stats) =
+        run_scheduler(spec, &f.scene, &f.tracer).unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
+    let label = spec.label();
+    assert_eq!(image.hash(), f.serial.hash(), "{label}: image differs from the serial render");
+    let n = decompose(17, 13, spec.chunk, spec.order).len() as u64;
+    assert_eq!(stats.items, n, "{label}");
+    assert_eq!(stats.workers.len(), spec.workers, "{label}: one WorkerStats per worker");
+    let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
+    let pixels: u64 = stats.workers.iter().map(|w| w.pixels).sum();
+    assert!(stats.wall_s > 0.0 && stats.bytes > 0 && stats.rays > 0, "{label}");
+    if spec.kind == SchedulerKind::Master {
+        assert!(stats.master.as_ref().unwrap().iterations > 0);
+        assert_eq!(stats.issued - stats.reissued, n, "{label}: each item handed out once before re-issues");
+        assert!(rendered >= n && pixels >= 17 * 13, "{label}");
+    } else {
+        assert!(stats.master.is_none());
+        assert_eq!((stats.issued, stats.duplicates, rendered, pixels), (n, 0, n, 17 * 13), "{label}");
+    }
+    for w in &stats.workers {
+        assert!(w.busy_s >= 0.0 && w.idle_s >= 0.0);
+    }
+}
+
+#[test]
+fn every_scheduler_granularity_and_worker_count_matches_serial() {
+    let mut runs = 0;
+    for kind in SchedulerKind::ALL.into_iter().filter(|k| *k != SchedulerKind::Master) {
+        for (ci, chunk) in CHUNKS.into_iter().enumerate() {
+            for workers in [1, 2, 3, 5] {
+                let mut spec = SchedulerSpec::new(kind, chunk, workers);
+                spec.order = Order::ALL[(ci + workers) % 3];
+                spec.grab = 1 + ci % 3;
+                spec.timeline = workers == 3;
+                check_run(&spec);
+                runs += 1;
+            }
+        }
+    }
+    assert_eq!(runs, 6 * 6 * 4);
+}
+
+#[test]
+fn master_every_granularity_buffer_and_worker_count_matches_serial() {
+    for (ci, chunk) in CHUNKS.into_iter().enumerate() {
+        for buffer in [1, 2, 8, 64] {
+            for workers in [1, 2, 3, 5] {
+                let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, workers);
+                spec.buffer = buffer;
+                spec.order = Order::ALL[(ci + buffer) % 3];
+                spec.requeue =
+                    [Requeue::Seed, Requeue::Never, Requeue::Timeout(Duration::from_millis(5))][(buffer + workers) % 3];
+                spec.wait = Wait::ALL[(ci + workers) % 3];
+                check_run(&spec);
+            }
+        }
+    }
+}
+
+#[test]
+fn timeline_has_one_span_per_rendered_item() {
+    let f = fixture();
+    for kind in SchedulerKind::ALL {
+        let mut spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, 2);
+        spec.timeline = true;
+        let (_, stats) = run_scheduler(&spec, &f.scene, &f.tracer).unwrap();
+        let spans = stats.timeline.expect("timeline requested");
+        let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
+        assert_eq!(spans.len() as u64, rendered, "{kind:?}");
+        assert!(spans.iter().all(|s| s.end_ns >= s.start_ns && (s.worker as usize) < 2));
+    }
+}
+
+#[test]
+fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
+    let scene = scene(1, 1);
+    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+    let (serial, _) = render_serial(&scene, &*tracer);
+    for kind in SchedulerKind::ALL {
+        for chunk in [Chunk::Tile { w: 1, h: 1 }, Chunk::Tile { w: 64, h: 64 }, Chunk::Rows(7), Chunk::Frame] {
+            let mut spec = SchedulerSpec::new(kind, chunk, 5);
+            spec.grab = 9;
+            spec.requeue = Requeue::Seed;
+            let (image, stats) = run_scheduler(&spec, &scene, &tracer).unwrap();
+            assert_eq!(image.hash(), serial.hash(), "{}", spec.label());
+            assert_eq!(stats.items, 1);
+            assert_eq!(stats.workers.len(), 5);
+        }
+    }
+}
+
+/// Every pixel is rendered by someone, and each item's first result is the one kept.
+#[test]
+fn every_item_rendered_and_kept_once_even_with_duplicates() {
+    let items = decompose(17, 13, Chunk::Tile { w: 1, h: 1 }, Order::Hilbert);
+    let renders: Arc<Vec<AtomicU32>> = Arc::new((0..items.len()).map(|_| AtomicU32::new(0)).collect());
+    let r2 = renders.clone();
+    let job: Job = Arc::new(move |it: &WorkItem| {
+        r2[it.id as usize].fetch_add(1, Ordering::Relaxed);
+        TileResult {
+            item: it.id,
+            pixels: vec![[it.id as f32; 3]],
+            rays: 1,
+            nonfinite: 0,
+        }
+    });
+    let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 3);
+    spec.requeue = Requeue::Seed;
+    spec.buffer = 8;
+    let (results, stats) = run_items(&spec, &items, job, &RunOptions::default()).unwrap();
+    for (i, r) in results.iter().enumerate() {
+        assert_eq!(r.as_ref().unwrap().item, i as u32);
+        assert!(renders[i].load(Ordering::Relaxed) >= 1);
+    }
+    let total: u64 = renders.iter().map(|r| r.load(Ordering::Relaxed) as u64).sum();
+    assert!(stats.duplicates <= total - items.len() as u64);
+    assert_eq!(stats.rays, items.len() as u64, "rays count first results only");
+}
+
+fn faults() -> FaultPlan {
+    FaultPlan {
+        drop_fraction: 0.1,
+        delay_fraction: 0.2,
+        max_delay: Duration::from_millis(3),
+        panic: Some((1, 1)),
+        seed: 7,
+    }
+}
+
+#[test]
+fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
+    let f = fixture();
+    for requeue in [Requeue::Seed, Requeue::Timeout(Duration::from_millis(20))] {
+        for (chunk, buffer) in [(Chunk::Tile { w: 1, h: 1 }, 1), (Chunk::Tile { w: 4, h: 4 }, 2), (Chunk::Rows(1), 8)] {
+            let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, 3);
+            spec.requeue = requeue;
+            spec.buffer = buffer;
+            let opts = RunOptions {
+                deadline: Some(Duration::from_secs(20)),
+                faults: Some(faults()),
+                ..Default::default()
+            };
+            let (image, stats) = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap();
+            assert_eq!(image.hash(), f.serial.hash(), "{}", spec.label());
+            assert_eq!(stats.lost_sources, 1, "{}", spec.label());
+            assert!(stats.reissued > 0, "{}: lost work must be re-issued", spec.label());
+        }
+    }
+}
+
+#[test]
+fn master_never_requeue_reports_lost_items_within_the_deadline() {
+    let f = fixture();
+    let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 3);
+    spec.requeue = Requeue::Never;
+    let opts = RunOptions {
+        deadline: Some(Duration::from_millis(1500)),
+        faults: Some(faults()),
+        ..Default::default()
+    };
+    let t = Instant::now();
+    let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
+    assert!(t.elapsed() < Duration::from_secs(5), "took {:?}", t.elapsed());
+    match err {
+        SchedError::LostItems { lost, total } => {
+            assert!(lost > 0 && lost < total, "{lost} of {total}");
+            assert!(err.to_string().contains(&format!("{lost} of {total} items were lost")));
+        }
+        e => panic!("expected LostItems, got {e}"),
+    }
+    // Only a panic, no drops: the lost items are known at once, no deadline needed.
+    let plan = FaultPlan {
+        panic: Some((0, 0)),
+        ..Default::default()
+    };
+    let opts = RunOptions {
+        deadline: Some(Duration::from_secs(30)),
+        faults: Some(plan),
+        ..Default::default()
+    };
+    let t = Instant::now();
+    let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
+    assert!(matches!(err, SchedError::LostItems { lost, .. } if lost >= 1), "{err}");
+    assert!(t.elapsed() < Duration::from_secs(10));
+}
+
+#[test]
+fn all_sources_lost_is_an_error_not_a_hang() {
+    let job: Job = Arc::new(|_: &WorkItem| panic!("every worker dies"));
+    let items = decompose(17, 13, Chunk::Tile { w: 4, h: 4 }, Order::Scanline);
+    let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2);
+    spec.requeue = Requeue::Seed;
+    let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
+    assert!(matches!(err, SchedError::AllSourcesLost { sources: 2, .. }), "{err}");
+    // Without a master a worker panic is an error too, never a crash of the caller.
+    for kind in SchedulerKind::ALL.into_iter().filter(|k| *k != SchedulerKind::Master) {
+        let spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, 2);
+        let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
+        assert!(
+            matches!(err, SchedError::WorkerPanic(ref m) if m.contains("every worker dies")),
+            "{kind:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn bad_parameters_are_clear_errors() {
+    let f = fixture();
+    let base = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
+    for (spec, field) in [
+        (SchedulerSpec { workers: 0, ..base.clone() }, "workers"),
+        (SchedulerSpec { buffer: 0, ..base.clone() }, "buffer"),
+        (SchedulerSpec { grab: 0, ..base.clone() }, "grab"),
+        (
+            SchedulerSpec {
+                chunk: Chunk::Tile { w: 0, h: 4 },
+                ..base.clone()
+            },
+            "chunk",
+        ),
+    ] {
+        match run_scheduler(&spec, &f.scene, &f.tracer) {
+            Err(SchedError::Spec(e)) => assert_eq!(e.field, field),
+            other => panic!("{field}: expected a spec error, got {:?}", other.map(|_| ())),
+        }
+    }
+    assert!(Chunk::parse("0").is_err());
+    assert!(SchedulerKind::from_id("fifo").unwrap_err().to_string().contains("unknown scheduler 'fifo'"));
+    assert!(Order::from_id("peano").unwrap_err().to_string().contains("unknown order 'peano'"));
+}
+
+mod cli {
+    use clap::Parser;
+    use raysched::cli::{run, Cli};
+
+    fn scene_file(dir: &std::path::Path) -> std::path::PathBuf {
+        let p = dir.join("s.toml");
+        std::fs::write(
+            &p,
+            "[camera]\norigin=[0,0,4]\ntarget=[0,0,0]\nup=[0,1,0]\nfov_deg=40\nwidth=9\nheight=7\n[render]\nspp=1\n\
+             [materials.w]\ntype=\"diffuse\"\nreflectance=[0.5,0.5,0.5]\n[[shapes]]\ntype=\"sphere\"\nmaterial=\"w\"\n\
+             [[lights]]\ntype=\"environment\"\nradiance=[1,1,1]\n",
+        )
+        .unwrap();
+        p
+    }
+
+    #[test]
+    fn render_with_a_scheduler_and_bad_flags_exit_2_naming_the_flag() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = scene_file(dir.path());
+        let out = dir.path().join("o.pfm");
+        let args = |extra: &[&str]| {
+            let mut v = vec![
+                "raysched",
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ];
+            v.extend_from_slice(extra);
+            Cli::parse_from(v)
+        };
+        run(args(&[
+            "--threads",
+            "2",
+            "--scheduler",
+            "master",
+            "--chunk",
+            "1",
+            "--buffer",
+            "2",
+            "--order",
+            "morton",
+            "--requeue",
+            "seed",
+            "--wait",
+            "spin",
+        ]))
+        .map_err(|e| e.error)
+        .unwrap();
+        assert!(out.exists());
+        for (flag, value) in [
+            ("--chunk", "0"),
+            ("--buffer", "0"),
+            ("--threads", "0"),
+            ("--scheduler", "fastest"),
+            ("--order", "zigzag"),
+            ("--requeue", "maybe"),
+            ("--wait", "nap"),
+            ("--grab", "0"),
+        ] {
+            let e = run(args(&[flag, value])).unwrap_err();
+            assert_eq!(e.code, 2, "{flag} {value}");
+            assert!(format!("{:#}", e.error).contains(flag), "{flag}: {:#}", e.error);
+        }
+    }
+}
