@@ -47,7 +47,14 @@ pub fn run(comm: Comm) -> ! {
         // Rank 0 could not load the scene; it reports why and finalises.
         comm.shutdown(true, 0)
     }
-    let built = build(&comm, &bytes);
+    // A panic while building (a tracer bug) is reported like an error, not a silent death.
+    let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| build(&comm, &bytes)))
+        .unwrap_or_else(|p| {
+            Err(anyhow::anyhow!(
+                "panicked: {}",
+                crate::source::local::panic_message(&p)
+            ))
+        });
     let ready = Ready {
         pid: std::process::id(),
         host: hostname(),
