@@ -167,12 +167,15 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         spec.order.id(),
         image.hash()
     );
+    // Same definition as the local path (the scheduler's wall time), so the two compare; the
+    // total adds stopping the ranks and writing the image.
     println!(
-        "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}",
-        wall,
+        "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}, total {:.3} s",
+        stats.wall_s,
         stats.rays,
-        stats.rays as f64 / wall / 1e6,
-        hub_report.messages
+        stats.rays as f64 / stats.wall_s / 1e6,
+        hub_report.messages,
+        wall
     );
     print!("{}", stats.summary());
     for (i, l) in labels.iter().enumerate() {

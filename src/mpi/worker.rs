@@ -70,13 +70,31 @@ pub fn run(comm: Comm) -> ! {
     let pid_dir = std::env::var_os(ENV_PID_DIR);
     let mut served = 0u64;
     let mut out = Vec::new();
+    let mut inbox = std::collections::VecDeque::new();
     loop {
-        let msg = match comm.probe(0).and_then(|p| Ok((p, comm.recv(p)?))) {
-            Ok(m) => m,
-            Err(e) => {
-                eprintln!("rank {}: lost rank 0: {e}", comm.rank);
-                comm.shutdown(false, 1)
+        // Take everything already waiting: a STOP queued behind items skips them (they are
+        // re-issued copies nobody waits for any more), so the run ends without rendering them.
+        let got = (|| {
+            while let Some(p) = comm.iprobe(Some(0))? {
+                inbox.push_back((p, comm.recv(p)?));
             }
+            if inbox.is_empty() {
+                let p = comm.probe(0)?;
+                inbox.push_back((p, comm.recv(p)?));
+            }
+            Ok::<_, super::comm::MpiError>(())
+        })();
+        if let Err(e) = got {
+            eprintln!("rank {}: lost rank 0: {e}", comm.rank);
+            comm.shutdown(false, 1)
+        }
+        if let Some(k) = inbox.iter().position(|(p, _)| p.tag == tag::STOP) {
+            let stop = inbox.remove(k).expect("position is in range");
+            inbox.clear();
+            inbox.push_back(stop);
+        }
+        let Some(msg) = inbox.pop_front() else {
+            continue;
         };
         match msg {
             (p, body) if p.tag == tag::ITEM => {
