@@ -177,6 +177,7 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         hub_report.messages,
         wall
     );
+    println!("items/s {:.0}", stats.items as f64 / stats.wall_s);
     print!("{}", stats.summary());
     for (i, l) in labels.iter().enumerate() {
         println!("  source {i} = {l}");

@@ -3,7 +3,7 @@
 
 use super::comm::{tag, Comm};
 use super::wire::{decode_item, Ready, ScenePackage};
-use crate::render::render_item;
+use crate::render::{render_item, TileResult};
 use crate::sched::wire::encode_result;
 use crate::tracer::AnyTracer;
 use std::time::Instant;
@@ -13,6 +13,9 @@ pub const ENV_CORRUPT_RANK: &str = "RAYSCHED_MPI_TEST_CORRUPT_RANK";
 /// Test hook: each worker writes `rank<r>.pid` into this folder after its first result, so a
 /// test can `kill -9` it mid-run.
 pub const ENV_PID_DIR: &str = "RAYSCHED_MPI_PID_DIR";
+/// Measurement hook: workers return black pixels without rendering, so a run measures the
+/// pure dispatch cost over MPI (the image is then wrong, by design).
+pub const ENV_ZERO_WORK: &str = "RAYSCHED_MPI_ZERO_WORK";
 
 pub fn hostname() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname")
@@ -71,6 +74,7 @@ pub fn run(comm: Comm) -> ! {
     let mut served = 0u64;
     let mut out = Vec::new();
     let mut inbox = std::collections::VecDeque::new();
+    let zero_work = std::env::var_os(ENV_ZERO_WORK).is_some();
     loop {
         // Take everything already waiting: a STOP queued behind items skips them (they are
         // re-issued copies nobody waits for any more), so the run ends without rendering them.
@@ -109,7 +113,16 @@ pub fn run(comm: Comm) -> ! {
                     }
                 };
                 let t0 = Instant::now();
-                let r = render_item(scene, tracer, &item);
+                let r = if zero_work {
+                    TileResult {
+                        item: item.id,
+                        pixels: vec![[0.0; 3]; item.pixel_count()],
+                        rays: 0,
+                        nonfinite: 0,
+                    }
+                } else {
+                    render_item(scene, tracer, &item)
+                };
                 let busy = t0.elapsed().as_nanos() as u64;
                 out.clear();
                 encode_result(&r, &mut out);
