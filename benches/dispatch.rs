@@ -9,7 +9,8 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, Job, Order, Requeue, RunOptions, SchedulerKind, SchedulerSpec, Wait,
+    decompose, render_job, run_items, Chunk, Job, Order, Requeue, RunOptions, SchedulerKind,
+    SchedulerSpec, Wait,
 };
 use raysched::tracer::AnyTracer;
 use std::sync::Arc;
@@ -28,7 +29,12 @@ fn dispatch(c: &mut Criterion) {
     let mut specs: Vec<(String, SchedulerSpec)> = SchedulerKind::ALL
         .into_iter()
         .filter(|k| *k != SchedulerKind::Master)
-        .map(|k| (k.id().to_string(), SchedulerSpec::new(k, Chunk::Tile { w: 1, h: 1 }, 2)))
+        .map(|k| {
+            (
+                k.id().to_string(),
+                SchedulerSpec::new(k, Chunk::Tile { w: 1, h: 1 }, 2),
+            )
+        })
         .collect();
     for (wait, buffer) in [(Wait::Block, 64), (Wait::Spin, 64), (Wait::Block, 2)] {
         let mut s = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 2);
@@ -44,7 +50,9 @@ fn dispatch(c: &mut Criterion) {
                 ..Default::default()
             };
             let id = BenchmarkId::new(&name, if stats { "stats_on" } else { "stats_off" });
-            g.bench_function(id, |b| b.iter(|| run_items(&spec, &items, job.clone(), &opts).unwrap()));
+            g.bench_function(id, |b| {
+                b.iter(|| run_items(&spec, &items, job.clone(), &opts).unwrap())
+            });
         }
     }
     g.finish();
@@ -63,8 +71,16 @@ fn instrumentation(c: &mut Criterion) {
     let mut g = c.benchmark_group("instrumentation");
     g.sample_size(10);
     for (name, kind, chunk) in [
-        ("self_scheduling_4x4", SchedulerKind::SelfScheduling, Chunk::Tile { w: 4, h: 4 }),
-        ("master_1px", SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }),
+        (
+            "self_scheduling_4x4",
+            SchedulerKind::SelfScheduling,
+            Chunk::Tile { w: 4, h: 4 },
+        ),
+        (
+            "master_1px",
+            SchedulerKind::Master,
+            Chunk::Tile { w: 1, h: 1 },
+        ),
     ] {
         let mut spec = SchedulerSpec::new(kind, chunk, 2);
         spec.buffer = 8;
@@ -76,7 +92,9 @@ fn instrumentation(c: &mut Criterion) {
                 ..Default::default()
             };
             let id = BenchmarkId::new(name, if stats { "stats_on" } else { "stats_off" });
-            g.bench_function(id, |b| b.iter(|| run_items(&spec, &items, job.clone(), &opts).unwrap()));
+            g.bench_function(id, |b| {
+                b.iter(|| run_items(&spec, &items, job.clone(), &opts).unwrap())
+            });
         }
     }
     g.finish();

@@ -4,8 +4,8 @@
 use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
-    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, Order, Requeue, RunOptions, SchedError,
-    SchedulerKind, SchedulerSpec, Wait,
+    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, Order, Requeue,
+    RunOptions, SchedError, SchedulerKind, SchedulerSpec, Wait,
 };
 use raysched::source::FaultPlan;
 use raysched::tracer::AnyTracer;
@@ -43,7 +43,16 @@ type = "environment"
 radiance = [1, 1, 1]
 "#
     );
-    Arc::new(load_scene_str(&text, "test", std::path::Path::new("."), "test", &Default::default()).unwrap())
+    Arc::new(
+        load_scene_str(
+            &text,
+            "test",
+            std::path::Path::new("."),
+            "test",
+            &Default::default(),
+        )
+        .unwrap(),
+    )
 }
 
 struct Fixture {
@@ -58,7 +67,11 @@ fn fixture() -> &'static Fixture {
         let scene = scene(17, 13);
         let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
         let (serial, _) = render_serial(&scene, &*tracer);
-        Fixture { scene, tracer, serial }
+        Fixture {
+            scene,
+            tracer,
+            serial,
+        }
     })
 }
 
@@ -73,23 +86,42 @@ const CHUNKS: [Chunk; 6] = [
 
 fn check_run(spec: &SchedulerSpec) {
     let f = fixture();
-    let (image, stats) =
-        run_scheduler(spec, &f.scene, &f.tracer).unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
+    let (image, stats) = run_scheduler(spec, &f.scene, &f.tracer)
+        .unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
     let label = spec.label();
-    assert_eq!(image.hash(), f.serial.hash(), "{label}: image differs from the serial render");
+    assert_eq!(
+        image.hash(),
+        f.serial.hash(),
+        "{label}: image differs from the serial render"
+    );
     let n = decompose(17, 13, spec.chunk, spec.order).len() as u64;
     assert_eq!(stats.items, n, "{label}");
-    assert_eq!(stats.workers.len(), spec.workers, "{label}: one WorkerStats per worker");
+    assert_eq!(
+        stats.workers.len(),
+        spec.workers,
+        "{label}: one WorkerStats per worker"
+    );
     let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
     let pixels: u64 = stats.workers.iter().map(|w| w.pixels).sum();
-    assert!(stats.wall_s > 0.0 && stats.bytes > 0 && stats.rays > 0, "{label}");
+    assert!(
+        stats.wall_s > 0.0 && stats.bytes > 0 && stats.rays > 0,
+        "{label}"
+    );
     if spec.kind == SchedulerKind::Master {
         assert!(stats.master.as_ref().unwrap().iterations > 0);
-        assert_eq!(stats.issued - stats.reissued, n, "{label}: each item handed out once before re-issues");
+        assert_eq!(
+            stats.issued - stats.reissued,
+            n,
+            "{label}: each item handed out once before re-issues"
+        );
         assert!(rendered >= n && pixels >= 17 * 13, "{label}");
     } else {
         assert!(stats.master.is_none());
-        assert_eq!((stats.issued, stats.duplicates, rendered, pixels), (n, 0, n, 17 * 13), "{label}");
+        assert_eq!(
+            (stats.issued, stats.duplicates, rendered, pixels),
+            (n, 0, n, 17 * 13),
+            "{label}"
+        );
     }
     for w in &stats.workers {
         assert!(w.busy_s >= 0.0 && w.idle_s >= 0.0);
@@ -99,7 +131,10 @@ fn check_run(spec: &SchedulerSpec) {
 #[test]
 fn every_scheduler_granularity_and_worker_count_matches_serial() {
     let mut runs = 0;
-    for kind in SchedulerKind::ALL.into_iter().filter(|k| *k != SchedulerKind::Master) {
+    for kind in SchedulerKind::ALL
+        .into_iter()
+        .filter(|k| *k != SchedulerKind::Master)
+    {
         for (ci, chunk) in CHUNKS.into_iter().enumerate() {
             for workers in [1, 2, 3, 5] {
                 let mut spec = SchedulerSpec::new(kind, chunk, workers);
@@ -122,8 +157,11 @@ fn master_every_granularity_buffer_and_worker_count_matches_serial() {
                 let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, workers);
                 spec.buffer = buffer;
                 spec.order = Order::ALL[(ci + buffer) % 3];
-                spec.requeue =
-                    [Requeue::Seed, Requeue::Never, Requeue::Timeout(Duration::from_millis(5))][(buffer + workers) % 3];
+                spec.requeue = [
+                    Requeue::Seed,
+                    Requeue::Never,
+                    Requeue::Timeout(Duration::from_millis(5)),
+                ][(buffer + workers) % 3];
                 spec.wait = Wait::ALL[(ci + workers) % 3];
                 check_run(&spec);
             }
@@ -141,7 +179,9 @@ fn timeline_has_one_span_per_rendered_item() {
         let spans = stats.timeline.expect("timeline requested");
         let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
         assert_eq!(spans.len() as u64, rendered, "{kind:?}");
-        assert!(spans.iter().all(|s| s.end_ns >= s.start_ns && (s.worker as usize) < 2));
+        assert!(spans
+            .iter()
+            .all(|s| s.end_ns >= s.start_ns && (s.worker as usize) < 2));
     }
 }
 
@@ -151,7 +191,12 @@ fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
     let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
     let (serial, _) = render_serial(&scene, &*tracer);
     for kind in SchedulerKind::ALL {
-        for chunk in [Chunk::Tile { w: 1, h: 1 }, Chunk::Tile { w: 64, h: 64 }, Chunk::Rows(7), Chunk::Frame] {
+        for chunk in [
+            Chunk::Tile { w: 1, h: 1 },
+            Chunk::Tile { w: 64, h: 64 },
+            Chunk::Rows(7),
+            Chunk::Frame,
+        ] {
             let mut spec = SchedulerSpec::new(kind, chunk, 5);
             spec.grab = 9;
             spec.requeue = Requeue::Seed;
@@ -167,7 +212,8 @@ fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
 #[test]
 fn every_item_rendered_and_kept_once_even_with_duplicates() {
     let items = decompose(17, 13, Chunk::Tile { w: 1, h: 1 }, Order::Hilbert);
-    let renders: Arc<Vec<AtomicU32>> = Arc::new((0..items.len()).map(|_| AtomicU32::new(0)).collect());
+    let renders: Arc<Vec<AtomicU32>> =
+        Arc::new((0..items.len()).map(|_| AtomicU32::new(0)).collect());
     let r2 = renders.clone();
     let job: Job = Arc::new(move |it: &WorkItem| {
         r2[it.id as usize].fetch_add(1, Ordering::Relaxed);
@@ -186,9 +232,16 @@ fn every_item_rendered_and_kept_once_even_with_duplicates() {
         assert_eq!(r.as_ref().unwrap().item, i as u32);
         assert!(renders[i].load(Ordering::Relaxed) >= 1);
     }
-    let total: u64 = renders.iter().map(|r| r.load(Ordering::Relaxed) as u64).sum();
+    let total: u64 = renders
+        .iter()
+        .map(|r| r.load(Ordering::Relaxed) as u64)
+        .sum();
     assert!(stats.duplicates <= total - items.len() as u64);
-    assert_eq!(stats.rays, items.len() as u64, "rays count first results only");
+    assert_eq!(
+        stats.rays,
+        items.len() as u64,
+        "rays count first results only"
+    );
 }
 
 fn faults() -> FaultPlan {
@@ -205,7 +258,11 @@ fn faults() -> FaultPlan {
 fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
     let f = fixture();
     for requeue in [Requeue::Seed, Requeue::Timeout(Duration::from_millis(20))] {
-        for (chunk, buffer) in [(Chunk::Tile { w: 1, h: 1 }, 1), (Chunk::Tile { w: 4, h: 4 }, 2), (Chunk::Rows(1), 8)] {
+        for (chunk, buffer) in [
+            (Chunk::Tile { w: 1, h: 1 }, 1),
+            (Chunk::Tile { w: 4, h: 4 }, 2),
+            (Chunk::Rows(1), 8),
+        ] {
             let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, 3);
             spec.requeue = requeue;
             spec.buffer = buffer;
@@ -217,7 +274,11 @@ fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
             let (image, stats) = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap();
             assert_eq!(image.hash(), f.serial.hash(), "{}", spec.label());
             assert_eq!(stats.lost_sources, 1, "{}", spec.label());
-            assert!(stats.reissued > 0, "{}: lost work must be re-issued", spec.label());
+            assert!(
+                stats.reissued > 0,
+                "{}: lost work must be re-issued",
+                spec.label()
+            );
         }
     }
 }
@@ -234,11 +295,17 @@ fn master_never_requeue_reports_lost_items_within_the_deadline() {
     };
     let t = Instant::now();
     let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
-    assert!(t.elapsed() < Duration::from_secs(5), "took {:?}", t.elapsed());
+    assert!(
+        t.elapsed() < Duration::from_secs(5),
+        "took {:?}",
+        t.elapsed()
+    );
     match err {
         SchedError::LostItems { lost, total } => {
             assert!(lost > 0 && lost < total, "{lost} of {total}");
-            assert!(err.to_string().contains(&format!("{lost} of {total} items were lost")));
+            assert!(err
+                .to_string()
+                .contains(&format!("{lost} of {total} items were lost")));
         }
         e => panic!("expected LostItems, got {e}"),
     }
@@ -254,7 +321,10 @@ fn master_never_requeue_reports_lost_items_within_the_deadline() {
     };
     let t = Instant::now();
     let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
-    assert!(matches!(err, SchedError::LostItems { lost, .. } if lost >= 1), "{err}");
+    assert!(
+        matches!(err, SchedError::LostItems { lost, .. } if lost >= 1),
+        "{err}"
+    );
     assert!(t.elapsed() < Duration::from_secs(10));
 }
 
@@ -265,9 +335,15 @@ fn all_sources_lost_is_an_error_not_a_hang() {
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2);
     spec.requeue = Requeue::Seed;
     let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
-    assert!(matches!(err, SchedError::AllSourcesLost { sources: 2, .. }), "{err}");
+    assert!(
+        matches!(err, SchedError::AllSourcesLost { sources: 2, .. }),
+        "{err}"
+    );
     // Without a master a worker panic is an error too, never a crash of the caller.
-    for kind in SchedulerKind::ALL.into_iter().filter(|k| *k != SchedulerKind::Master) {
+    for kind in SchedulerKind::ALL
+        .into_iter()
+        .filter(|k| *k != SchedulerKind::Master)
+    {
         let spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, 2);
         let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
         assert!(
@@ -282,9 +358,27 @@ fn bad_parameters_are_clear_errors() {
     let f = fixture();
     let base = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
     for (spec, field) in [
-        (SchedulerSpec { workers: 0, ..base.clone() }, "workers"),
-        (SchedulerSpec { buffer: 0, ..base.clone() }, "buffer"),
-        (SchedulerSpec { grab: 0, ..base.clone() }, "grab"),
+        (
+            SchedulerSpec {
+                workers: 0,
+                ..base.clone()
+            },
+            "workers",
+        ),
+        (
+            SchedulerSpec {
+                buffer: 0,
+                ..base.clone()
+            },
+            "buffer",
+        ),
+        (
+            SchedulerSpec {
+                grab: 0,
+                ..base.clone()
+            },
+            "grab",
+        ),
         (
             SchedulerSpec {
                 chunk: Chunk::Tile { w: 0, h: 4 },
@@ -295,12 +389,21 @@ fn bad_parameters_are_clear_errors() {
     ] {
         match run_scheduler(&spec, &f.scene, &f.tracer) {
             Err(SchedError::Spec(e)) => assert_eq!(e.field, field),
-            other => panic!("{field}: expected a spec error, got {:?}", other.map(|_| ())),
+            other => panic!(
+                "{field}: expected a spec error, got {:?}",
+                other.map(|_| ())
+            ),
         }
     }
     assert!(Chunk::parse("0").is_err());
-    assert!(SchedulerKind::from_id("fifo").unwrap_err().to_string().contains("unknown scheduler 'fifo'"));
-    assert!(Order::from_id("peano").unwrap_err().to_string().contains("unknown order 'peano'"));
+    assert!(SchedulerKind::from_id("fifo")
+        .unwrap_err()
+        .to_string()
+        .contains("unknown scheduler 'fifo'"));
+    assert!(Order::from_id("peano")
+        .unwrap_err()
+        .to_string()
+        .contains("unknown order 'peano'"));
 }
 
 mod cli {
@@ -366,7 +469,11 @@ mod cli {
         ] {
             let e = run(args(&[flag, value])).unwrap_err();
             assert_eq!(e.code, 2, "{flag} {value}");
-            assert!(format!("{:#}", e.error).contains(flag), "{flag}: {:#}", e.error);
+            assert!(
+                format!("{:#}", e.error).contains(flag),
+                "{flag}: {:#}",
+                e.error
+            );
         }
     }
 }

@@ -102,7 +102,10 @@ mod tests {
             for chunk in chunks {
                 for order in Order::ALL {
                     let items = decompose(w, h, chunk, order);
-                    assert!(coverage(w, h, &items).iter().all(|&c| c == 1), "{w}x{h} {chunk} {order:?}");
+                    assert!(
+                        coverage(w, h, &items).iter().all(|&c| c == 1),
+                        "{w}x{h} {chunk} {order:?}"
+                    );
                     for (i, it) in items.iter().enumerate() {
                         assert_eq!(it.id, i as u32);
                     }
@@ -131,10 +134,30 @@ mod tests {
         assert_eq!(
             z,
             vec![
-                Rect { x: 0, y: 0, w: 1, h: 1 },
-                Rect { x: 1, y: 0, w: 1, h: 1 },
-                Rect { x: 0, y: 1, w: 1, h: 1 },
-                Rect { x: 1, y: 1, w: 1, h: 1 }
+                Rect {
+                    x: 0,
+                    y: 0,
+                    w: 1,
+                    h: 1
+                },
+                Rect {
+                    x: 1,
+                    y: 0,
+                    w: 1,
+                    h: 1
+                },
+                Rect {
+                    x: 0,
+                    y: 1,
+                    w: 1,
+                    h: 1
+                },
+                Rect {
+                    x: 1,
+                    y: 1,
+                    w: 1,
+                    h: 1
+                }
             ]
         );
     }

@@ -123,8 +123,15 @@ pub fn run_master(
             if t0.elapsed() >= dl {
                 let (done, total) = (c.done as u64, n as u64);
                 break Err(match spec.requeue {
-                    Requeue::Never => SchedError::LostItems { lost: total - done, total },
-                    _ => SchedError::Deadline { deadline: dl, done, total },
+                    Requeue::Never => SchedError::LostItems {
+                        lost: total - done,
+                        total,
+                    },
+                    _ => SchedError::Deadline {
+                        deadline: dl,
+                        done,
+                        total,
+                    },
                 });
             }
         }
@@ -159,7 +166,11 @@ pub fn run_master(
                 let item = items[i as usize].clone();
                 stats.bytes += wire::item_bytes(&item);
                 let result = src.submit(item);
-                out[s].push(Slot { item: i, result, at: now });
+                out[s].push(Slot {
+                    item: i,
+                    result,
+                    at: now,
+                });
                 fresh += 1;
                 stats.issued += 1;
                 handed[i as usize] = true;

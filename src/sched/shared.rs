@@ -1,7 +1,9 @@
 //! Schedulers without a master: the workers take their own items from shared structures.
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
-use super::{wire, Collector, Job, RunStats, SchedError, SchedulerKind, SchedulerSpec, Span, WorkerStats};
+use super::{
+    wire, Collector, Job, RunStats, SchedError, SchedulerKind, SchedulerSpec, Span, WorkerStats,
+};
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
 use crate::source::Probe;
@@ -59,7 +61,10 @@ impl Local {
 }
 
 /// Spawn one scoped thread per state and join them all (a panic becomes an error).
-fn spawn_workers<S: Send>(states: Vec<S>, f: impl Fn(u32, S, &mut Local) + Sync) -> Result<Vec<Local>, SchedError> {
+fn spawn_workers<S: Send>(
+    states: Vec<S>,
+    f: impl Fn(u32, S, &mut Local) + Sync,
+) -> Result<Vec<Local>, SchedError> {
     std::thread::scope(|s| {
         let handles: Vec<_> = states
             .into_iter()
@@ -121,7 +126,12 @@ pub(super) fn run_shared(
                 let mut cur = next.load(Ordering::Relaxed);
                 while cur < n {
                     let c = grab.max((n - cur).div_ceil(k)).min(n - cur);
-                    match next.compare_exchange_weak(cur, cur + c, Ordering::Relaxed, Ordering::Relaxed) {
+                    match next.compare_exchange_weak(
+                        cur,
+                        cur + c,
+                        Ordering::Relaxed,
+                        Ordering::Relaxed,
+                    ) {
                         Ok(_) => {
                             for it in &items[cur..cur + c] {
                                 l.run(job, it, &probe);
@@ -174,7 +184,13 @@ fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<
     }
 }
 
-fn rayon_locals(items: &[WorkItem], job: &Job, w: usize, grab: usize, probe: Probe) -> Result<Vec<Local>, SchedError> {
+fn rayon_locals(
+    items: &[WorkItem],
+    job: &Job,
+    w: usize,
+    grab: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(w)
@@ -211,7 +227,12 @@ fn rayon_locals(items: &[WorkItem], job: &Job, w: usize, grab: usize, probe: Pro
     Ok(locals)
 }
 
-fn finish(locals: Vec<Local>, n: usize, t0: Instant, probe: Probe) -> (Vec<Option<TileResult>>, RunStats) {
+fn finish(
+    locals: Vec<Local>,
+    n: usize,
+    t0: Instant,
+    probe: Probe,
+) -> (Vec<Option<TileResult>>, RunStats) {
     let wall = t0.elapsed().as_secs_f64();
     let mut c = Collector::new(n);
     let mut stats = RunStats {

@@ -58,12 +58,23 @@ mod tests {
 
     #[test]
     fn sizes_match_the_encoded_bytes() {
-        for item in [WorkItem::rect(3, 1, 2, 16, 16), WorkItem { id: 9, region: Region::Pixels(vec![1, 5, 7]) }] {
+        for item in [
+            WorkItem::rect(3, 1, 2, 16, 16),
+            WorkItem {
+                id: 9,
+                region: Region::Pixels(vec![1, 5, 7]),
+            },
+        ] {
             let mut b = Vec::new();
             encode_item(&item, &mut b);
             assert_eq!(b.len() as u64, item_bytes(&item));
         }
-        let r = TileResult { item: 3, pixels: vec![[1.0, 2.0, 3.0]; 256], rays: 7, nonfinite: 0 };
+        let r = TileResult {
+            item: 3,
+            pixels: vec![[1.0, 2.0, 3.0]; 256],
+            rays: 7,
+            nonfinite: 0,
+        };
         let mut b = Vec::new();
         encode_result(&r, &mut b);
         assert_eq!(b.len() as u64, result_bytes(&r));

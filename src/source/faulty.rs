@@ -34,7 +34,10 @@ impl Default for FaultPlan {
 
 /// splitmix64 finaliser → uniform in [0, 1).
 fn unit(seed: u64, a: u64, b: u64, c: u64) -> f64 {
-    let mut z = seed ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f) ^ c.wrapping_mul(0x1656_67b1_9e37_79f9);
+    let mut z = seed
+        ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+        ^ c.wrapping_mul(0x1656_67b1_9e37_79f9);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^= z >> 31;
@@ -48,7 +51,10 @@ pub fn faulty_job(job: Job, plan: &FaultPlan, source: u32) -> Job {
     Arc::new(move |item: &WorkItem| {
         let n = calls.fetch_add(1, Ordering::Relaxed);
         if plan.panic == Some((source, n)) {
-            panic!("injected fault: source {source} panics on its item #{n} (item {})", item.id);
+            panic!(
+                "injected fault: source {source} panics on its item #{n} (item {})",
+                item.id
+            );
         }
         let u = unit(plan.seed, source as u64, item.id as u64, n ^ 0xde1a);
         if u < plan.delay_fraction {
@@ -108,7 +114,12 @@ impl ComputeSource for FaultySource {
 }
 
 /// `workers` local thread sources running `job` under `plan`.
-pub fn faulty_sources(job: &Job, workers: usize, plan: &FaultPlan, probe: Probe) -> Vec<Box<dyn ComputeSource>> {
+pub fn faulty_sources(
+    job: &Job,
+    workers: usize,
+    plan: &FaultPlan,
+    probe: Probe,
+) -> Vec<Box<dyn ComputeSource>> {
     (0..workers as u32)
         .map(|id| {
             let local = LocalThreadSource::spawn(id, faulty_job(job.clone(), plan, id), probe);

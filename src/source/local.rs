@@ -2,7 +2,9 @@
 //! tracer by `Arc`, so every thread reads the one copy; `Tracer: Sync` and the immutable
 //! `Scene` make that sharing read-only by type, not by convention.
 
-use super::{ComputeSource, Completer, DelayedResult, Job, Notifier, Probe, SourceFailure, SourceReport};
+use super::{
+    Completer, ComputeSource, DelayedResult, Job, Notifier, Probe, SourceFailure, SourceReport,
+};
 use crate::render::WorkItem;
 use crate::sched::Span;
 use crossbeam::channel::{unbounded, Sender};

@@ -33,6 +33,7 @@ pub enum SourceFailure {
 
 pub type Outcome = Result<TileResult, SourceFailure>;
 
+#[derive(Debug)]
 struct Cell {
     ready: AtomicBool,
     inner: Mutex<CellInner>,
@@ -50,12 +51,14 @@ impl Cell {
     }
 }
 
+#[derive(Debug)]
 struct CellInner {
     value: Option<Outcome>,
     waiter: Option<Thread>,
 }
 
 /// A result that will arrive later (or never). Polling is one atomic load.
+#[derive(Debug)]
 pub struct DelayedResult {
     item: u32,
     source: u32,
@@ -121,7 +124,13 @@ impl DelayedResult {
         if !self.is_ready() {
             return Err(self);
         }
-        let v = self.cell.inner.lock().unwrap_or_else(|e| e.into_inner()).value.take();
+        let v = self
+            .cell
+            .inner
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .value
+            .take();
         v.ok_or(self)
     }
 
@@ -148,7 +157,11 @@ impl DelayedResult {
             }
             let now = Instant::now();
             if now >= end {
-                self.cell.inner.lock().unwrap_or_else(|e| e.into_inner()).waiter = None;
+                self.cell
+                    .inner
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .waiter = None;
                 return Err(self);
             }
             // An unpark that came before this park makes it return at once: no lost wake-up.
@@ -281,7 +294,10 @@ mod tests {
     fn dropped_completer_fails_the_result_and_never_stays_pending() {
         let (d, c) = DelayedResult::pending(2, 3);
         drop(c);
-        assert!(matches!(d.wait_timeout(Duration::from_secs(1)), Ok(Err(SourceFailure::Lost { source_id: 3, .. }))));
+        assert!(matches!(
+            d.wait_timeout(Duration::from_secs(1)),
+            Ok(Err(SourceFailure::Lost { source_id: 3, .. }))
+        ));
         let n = DelayedResult::never(1, 0);
         assert!(n.wait_timeout(Duration::from_millis(10)).is_err());
     }
