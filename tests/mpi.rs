@@ -184,11 +184,14 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
             stdout.contains("source 0 = mpi-rank-1") && stdout.contains("source 1 = mpi-rank-2"),
             "{stdout}"
         );
-        // Both ranks really rendered (on this tiny image even static gives each a band).
+        // Under static both ranks must have rendered their band (under the master a slow rank
+        // may legitimately see all its items re-issued and done elsewhere first).
+        let is_static = case.contains(&"static");
         for w in stdout
             .lines()
             .filter(|l| l.trim_start().starts_with("worker "))
             .take(2)
+            .filter(|_| is_static)
         {
             assert!(
                 !w.contains("items 0 "),
