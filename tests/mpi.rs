@@ -13,6 +13,14 @@ use std::time::{Duration, Instant};
 
 const DEADLINE: Duration = Duration::from_secs(60);
 
+/// One mpirun at a time: concurrent ones race on OpenMPI's session directory and, on 2 cores,
+/// on CPU time.
+static MPIRUN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    MPIRUN.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn have_mpirun() -> bool {
     let ok = Command::new("mpirun")
         .arg("--version")
@@ -75,7 +83,13 @@ fn serial_hash(path: &Path) -> String {
     format!("{:016x}", render_serial(&scene, &tracer).0.hash())
 }
 
-fn mpirun(ranks: usize, extra_mpirun: &[&str], env: &[(&str, &str)], args: &[&str]) -> Command {
+fn mpirun(
+    session: &Path,
+    ranks: usize,
+    extra_mpirun: &[&str],
+    env: &[(&str, &str)],
+    args: &[&str],
+) -> Command {
     let mut c = Command::new("mpirun");
     c.args(extra_mpirun).arg("-n").arg(ranks.to_string());
     for (k, v) in env {
@@ -91,6 +105,8 @@ fn mpirun(ranks: usize, extra_mpirun: &[&str], env: &[(&str, &str)], args: &[&st
         .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
         .env("OMPI_MCA_mpi_yield_when_idle", "1")
         .env("OMPI_MCA_btl", "self,vader")
+        // A private session directory: no clash with other mpiruns on the machine.
+        .env("OMPI_MCA_orte_tmpdir_base", session)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -137,6 +153,7 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
     if !have_mpirun() {
         return;
     }
+    let _one = serial();
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path(), 24, 16, 4);
     let want = serial_hash(&path);
@@ -168,7 +185,7 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
         let out_img = dir.path().join("out.pfm");
         let mut args = vec![p, "-o", out_img.to_str().unwrap()];
         args.extend_from_slice(case);
-        let child = mpirun(3, &[], &[], &args).spawn().unwrap();
+        let child = mpirun(dir.path(), 3, &[], &[], &args).spawn().unwrap();
         let o = finish(child, &case.join(" "));
         let (stdout, stderr) = text(&o);
         assert!(
@@ -209,6 +226,7 @@ fn a_rank_killed_mid_run_loses_no_work() {
     if !have_mpirun() {
         return;
     }
+    let _one = serial();
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path(), 48, 32, 48);
     let want = serial_hash(&path);
@@ -231,7 +249,7 @@ fn a_rank_killed_mid_run_loses_no_work() {
         "50000",
     ];
     let env = [("RAYSCHED_MPI_PID_DIR", pids.to_str().unwrap())];
-    let child = mpirun(3, &["--enable-recovery"], &env, &args)
+    let child = mpirun(dir.path(), 3, &["--enable-recovery"], &env, &args)
         .spawn()
         .unwrap();
     // Rank 1 writes its pid after its first result: it is mid-run when it dies.
@@ -277,6 +295,7 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
     if !have_mpirun() {
         return;
     }
+    let _one = serial();
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path(), 8, 8, 1);
     let out_img = dir.path().join("out.pfm");
@@ -287,9 +306,15 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
         "--scheduler",
         "master",
     ];
-    let child = mpirun(3, &[], &[("RAYSCHED_MPI_TEST_CORRUPT_RANK", "2")], &args)
-        .spawn()
-        .unwrap();
+    let child = mpirun(
+        dir.path(),
+        3,
+        &[],
+        &[("RAYSCHED_MPI_TEST_CORRUPT_RANK", "2")],
+        &args,
+    )
+    .spawn()
+    .unwrap();
     let o = finish(child, "bad scene on rank 2");
     let (stdout, stderr) = text(&o);
     assert!(!o.status.success(), "{stdout}");
@@ -304,7 +329,7 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
         .unwrap()
         .replace("width = 8", "width = 0");
     std::fs::write(&path, bad).unwrap();
-    let child = mpirun(2, &[], &[], &args).spawn().unwrap();
+    let child = mpirun(dir.path(), 2, &[], &[], &args).spawn().unwrap();
     let o = finish(child, "bad scene on rank 0");
     let (_, stderr) = text(&o);
     assert!(!o.status.success());
