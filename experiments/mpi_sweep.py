@@ -4,7 +4,7 @@ plus the local-thread master baseline; long-format CSV to results/mpi/results.cs
 
 Every mpirun has a deadline (killed past it). Timings on a shared machine are noisy: report
 the minimum over repetitions and say what else was running."""
-import csv, os, re, subprocess, sys, tomllib, pathlib
+import csv, os, re, subprocess, sys, tempfile, tomllib, pathlib
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 BIN = ROOT / "target" / "debug" / "raysched"
@@ -64,7 +64,7 @@ def main():
             for ranks in spec["mpi"]["ranks"]:
                 for chunk in sched["chunk"]:
                     for buf in sched["buffer"]:
-                        common = [str(scene), "--spp", str(sc.get("spp", 1)), "-o", str(out / "last.pfm"),
+                        common = [str(scene), "--spp", str(sc.get("spp", 1)), "-o", os.path.join(tempfile.gettempdir(), "raysched_mpi_sweep.pfm"),
                                   "--scheduler", sched["kind"], "--chunk", chunk, "--buffer", str(buf)]
                         cfgs = [("local_threads", [str(BIN), "render", *common, "--threads", str(ranks - 1)], ENV)]
                         for t in transports:
