@@ -146,6 +146,12 @@ pub struct RenderArgs {
     /// Master: give up after this many milliseconds.
     #[arg(long)]
     pub deadline_ms: Option<u64>,
+    /// Compute sources: local (threads) or mpi (ranks 1…K−1 under `mpirun -n K`; feature `mpi`).
+    #[arg(long, default_value = "local")]
+    pub sources: String,
+    /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
+    #[arg(long, default_value_t = 0)]
+    pub local_threads: usize,
 }
 
 impl RenderArgs {
@@ -378,6 +384,18 @@ fn stability(args: StabilityArgs) -> Result<(), CliError> {
 }
 
 fn render(args: RenderArgs) -> Result<(), CliError> {
+    match args.sources.as_str() {
+        "local" => {}
+        #[cfg(feature = "mpi")]
+        "mpi" => return crate::mpi::run::render(args),
+        #[cfg(not(feature = "mpi"))]
+        "mpi" => {
+            return Err(CliError::input(anyhow::anyhow!(
+                "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)"
+            )))
+        }
+        s => return Err(CliError::input(anyhow::anyhow!("--sources: unknown '{s}' (expected local or mpi)"))),
+    }
     if args.threads == 0 {
         return Err(CliError::input(anyhow::anyhow!(
             "--threads: must be ≥ 1 (got 0)"

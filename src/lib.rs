@@ -45,6 +45,8 @@ pub mod converge;
 pub mod embree;
 pub mod experiment;
 pub mod geometry;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod plot;
 pub mod render;
 pub mod rng;

@@ -1,0 +1,24 @@
+//! MPI compute sources (feature `mpi`): machines across a network as the report's second kind
+//! of computing power source.
+//!
+//! Under `mpirun -n K raysched render SCENE --sources mpi`, rank 0 runs the scheduler and
+//! ranks 1…K−1 render. No shared filesystem is assumed: rank 0 broadcasts the scene text,
+//! overrides and mesh bytes with the scene hash ([`scene`]); each worker rebuilds scene and
+//! tracer, checks the hash and answers READY ([`worker`]). Items and results travel in the
+//! layout of [`crate::sched::wire`] ([`wire`] decodes it). On rank 0 one thread owns MPI
+//! ([`source::Hub`]); the master talks to it through [`source::MpiRankSource`]s.
+//!
+//! Faults: with `mpirun --enable-recovery` and `MPI_ERRORS_RETURN` ([`comm`]), a rank killed
+//! mid-run is noticed (failed call, vanished local pid, or silence), its results fail, and the
+//! master's re-queue hands its items to the others; the survivors then exit without
+//! `MPI_Finalize`.
+
+pub mod comm;
+pub mod pull;
+pub mod run;
+pub mod scene;
+pub mod source;
+pub mod wire;
+pub mod worker;
+
+pub use source::MpiRankSource;

@@ -1,0 +1,129 @@
+//! `static` and `self_scheduling` over compute sources (the thread versions in `sched` run a
+//! job on their own threads; over ranks the items must travel through `submit`).
+//!
+//! - `static`: source s gets the contiguous band [s·n/k, (s+1)·n/k) at once; no master.
+//! - `self_scheduling`: the counter lives at rank 0; a source with nothing outstanding takes
+//!   the next `grab` items.
+//!
+//! Neither re-queues: a lost source fails the run (the master is the fault-tolerant one).
+
+use crate::render::TileResult;
+use crate::render::WorkItem;
+use crate::sched::{wire, MasterStats, RunStats, SchedError, SchedulerKind, SchedulerSpec};
+use crate::source::{ComputeSource, DelayedResult, Notifier, Probe};
+use std::time::{Duration, Instant};
+
+pub fn run_pull(
+    spec: &SchedulerSpec,
+    items: &[WorkItem],
+    mut sources: Vec<Box<dyn ComputeSource>>,
+    deadline: Option<Duration>,
+    probe: Probe,
+) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+    let t0 = Instant::now();
+    let (n, k) = (items.len(), sources.len());
+    let (tx, rx) = crossbeam::channel::unbounded();
+    for s in sources.iter_mut() {
+        s.set_notifier(Notifier(tx.clone()));
+    }
+    let mut stats = RunStats {
+        items: n as u64,
+        ..Default::default()
+    };
+    let mut results: Vec<Option<TileResult>> = (0..n).map(|_| None).collect();
+    let mut out: Vec<Vec<DelayedResult>> = (0..k).map(|_| Vec::new()).collect();
+    let submit = |out: &mut Vec<DelayedResult>,
+                  i: usize,
+                  src: &mut Box<dyn ComputeSource>,
+                  stats: &mut RunStats| {
+        stats.bytes += wire::item_bytes(&items[i]);
+        stats.issued += 1;
+        out.push(src.submit(items[i].clone()));
+    };
+    let mut next = 0usize;
+    if spec.kind == SchedulerKind::Static {
+        for (s, src) in sources.iter_mut().enumerate() {
+            for i in s * n / k..(s + 1) * n / k {
+                submit(&mut out[s], i, src, &mut stats);
+            }
+        }
+        next = n;
+    }
+    let mut done = 0usize;
+    let mut m = MasterStats::default();
+    let outcome = loop {
+        m.iterations += 1;
+        let mut failed = None;
+        for slots in out.iter_mut() {
+            let mut j = 0;
+            while j < slots.len() {
+                if !slots[j].is_ready() {
+                    j += 1;
+                    continue;
+                }
+                match slots.swap_remove(j).try_take() {
+                    Ok(Ok(r)) => {
+                        stats.bytes += wire::result_bytes(&r);
+                        stats.rays += r.rays;
+                        stats.nonfinite += r.nonfinite;
+                        let slot = &mut results[r.item as usize];
+                        if slot.is_none() {
+                            done += 1;
+                            *slot = Some(r);
+                        } else {
+                            stats.duplicates += 1;
+                        }
+                    }
+                    Ok(Err(_)) => failed = Some(()),
+                    Err(d) => slots.push(d),
+                }
+            }
+        }
+        if failed.is_some() {
+            stats.lost_sources = sources.iter().filter(|s| s.is_lost()).count().max(1) as u64;
+            break Err(SchedError::LostItems {
+                lost: (n - done) as u64,
+                total: n as u64,
+            });
+        }
+        if done == n {
+            break Ok(());
+        }
+        if let Some(dl) = deadline.filter(|dl| t0.elapsed() >= *dl) {
+            break Err(SchedError::Deadline {
+                deadline: dl,
+                done: done as u64,
+                total: n as u64,
+            });
+        }
+        for (s, src) in sources.iter_mut().enumerate() {
+            if out[s].is_empty() && next < n {
+                for i in next..(next + spec.grab).min(n) {
+                    submit(&mut out[s], i, src, &mut stats);
+                }
+                next = (next + spec.grab).min(n);
+            }
+        }
+        let tw = Instant::now();
+        let _ = rx.recv_timeout(Duration::from_millis(2));
+        while rx.try_recv().is_ok() {}
+        m.wait_s += tw.elapsed().as_secs_f64();
+    };
+    drop(out);
+    let wall = t0.elapsed().as_secs_f64();
+    let mut spans = Vec::new();
+    for src in sources {
+        let mut rep = src.finish();
+        rep.stats.idle_s = (wall - rep.stats.busy_s).max(0.0);
+        stats.workers.push(rep.stats);
+        spans.extend(rep.spans);
+    }
+    outcome?;
+    if probe.timeline {
+        spans.sort_by_key(|s| (s.start_ns, s.worker));
+        stats.timeline = Some(spans);
+    }
+    stats.wall_s = wall;
+    stats.master = Some(m);
+    Ok((results, stats))
+}

@@ -1,0 +1,248 @@
+//! `raysched render SCENE --sources mpi` under `mpirun -n K`: rank 0 runs the scheduler, ranks
+//! 1…K−1 are compute sources (plus `--local-threads` threads on rank 0: a heterogeneous run).
+
+use super::comm::{tag, Comm};
+use super::source::{stop_ranks, Hub, Peer};
+use super::wire::Ready;
+use crate::cli::{CliError, RenderArgs};
+use crate::scene::SceneOverrides;
+use crate::sched::{
+    assemble, decompose, master, render_job, RunOptions, SchedError, SchedulerKind,
+};
+use crate::source::{ComputeSource, LocalThreadSource, Probe};
+use crate::tracer::AnyTracer;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How long a worker may take to build its scene and tracer.
+const READY_WAIT: Duration = Duration::from_secs(600);
+/// How long rank 0 waits for the workers' goodbyes after STOP.
+const STOP_WAIT: Duration = Duration::from_secs(10);
+/// A rank with work outstanding that says nothing this long is lost (env
+/// `RAYSCHED_MPI_SILENCE_MS`); local ranks are also checked by pid, which is much faster.
+const SILENCE: Duration = Duration::from_secs(60);
+
+/// Every rank enters here; only rank 0 returns from MPI's point of view — all ranks end the
+/// process themselves (with or without `MPI_Finalize`, see [`Comm::shutdown`]).
+pub fn render(args: RenderArgs) -> Result<(), CliError> {
+    let comm = Comm::init().map_err(CliError::runtime)?;
+    if comm.rank != 0 {
+        super::worker::run(comm)
+    }
+    let mut lost = false;
+    let code = match rank0(&comm, &args, &mut lost) {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {:#}", e.error);
+            e.code as i32
+        }
+    };
+    comm.shutdown(!lost, code)
+}
+
+fn input(msg: String) -> CliError {
+    CliError::input(anyhow::anyhow!(msg))
+}
+
+fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError> {
+    // Everything that can be wrong with the input is found before the broadcast; an empty
+    // broadcast tells the workers to finalise and exit.
+    let prepared = (|| {
+        let mut spec = args.scheduler_spec()?;
+        if !matches!(
+            spec.kind,
+            SchedulerKind::Master | SchedulerKind::Static | SchedulerKind::SelfScheduling
+        ) {
+            return Err(input(format!(
+                "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
+                spec.kind.id()
+            )));
+        }
+        if comm.size < 2 && args.local_threads == 0 {
+            return Err(input(format!(
+                "--sources mpi: {} rank(s) and no --local-threads: nobody to render (run under mpirun -n K, K ≥ 2)",
+                comm.size
+            )));
+        }
+        if args.spp == Some(0) {
+            return Err(input("--spp: must be ≥ 1 (got 0)".into()));
+        }
+        let ext = args
+            .output
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
+            return Err(input(format!(
+                "--output {}: unsupported extension (use .exr or .pfm)",
+                args.output.display()
+            )));
+        }
+        crate::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
+        let overrides = SceneOverrides {
+            spp: args.spp,
+            ..Default::default()
+        };
+        let (scene, pkg) = super::scene::package(&args.scene, &overrides, &args.tracer)
+            .map_err(CliError::input)?;
+        spec.workers = comm.size as usize - 1 + args.local_threads;
+        Ok((scene, pkg, spec))
+    })();
+    let (scene, pkg, spec) = match prepared {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = comm.broadcast(Some(Vec::new()));
+            return Err(e);
+        }
+    };
+    comm.broadcast(Some(pkg.encode()))
+        .map_err(CliError::runtime)?;
+    let peers = gather_ready(comm)?;
+
+    let scene = Arc::new(scene);
+    let probe = Probe::new(!args.stats_off, args.timeline);
+    let silence = std::env::var("RAYSCHED_MPI_SILENCE_MS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(SILENCE, Duration::from_millis);
+    let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
+    if args.local_threads > 0 {
+        let tracer = Arc::new(
+            AnyTracer::build(&args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
+        );
+        let job = render_job(&scene, &tracer);
+        for t in 0..args.local_threads {
+            let id = sources.len() as u32;
+            sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe))
+                as Box<dyn ComputeSource>);
+            let _ = t;
+        }
+    }
+    let labels: Vec<String> = sources.iter().map(|s| s.label()).collect();
+    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
+    let opts = RunOptions {
+        stats: !args.stats_off,
+        deadline: args.deadline_ms.map(Duration::from_millis),
+        faults: None,
+    };
+    let t0 = Instant::now();
+    let (outcome, hub_report) = std::thread::scope(|s| {
+        let master = s.spawn(|| match spec.kind {
+            SchedulerKind::Master => master::run_master(&spec, &items, sources, &opts, probe),
+            _ => super::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
+        });
+        let report = hub.serve(STOP_WAIT);
+        let outcome = master.join().unwrap_or_else(|p| {
+            Err(SchedError::WorkerPanic(
+                crate::source::local::panic_message(&p),
+            ))
+        });
+        (outcome, report)
+    });
+    *lost = !hub_report.lost.is_empty();
+    let (results, mut stats) = outcome.map_err(CliError::runtime)?;
+    stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);
+    let image =
+        assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
+    let wall = t0.elapsed().as_secs_f64();
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(CliError::runtime)?;
+    }
+    let png = image
+        .save_with_preview(&args.output)
+        .map_err(CliError::runtime)?;
+    println!(
+        "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, {} MPI ranks + {} local threads on rank 0",
+        scene.name,
+        scene.width(),
+        scene.height(),
+        scene.settings.spp,
+        scene.settings.max_depth,
+        args.tracer,
+        comm.size - 1,
+        args.local_threads
+    );
+    println!(
+        "scheduler {}, order {}, image hash {:016x}",
+        spec.label(),
+        spec.order.id(),
+        image.hash()
+    );
+    // Same definition as the local path (the scheduler's wall time), so the two compare; the
+    // total adds stopping the ranks and writing the image.
+    println!(
+        "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}, total {:.3} s",
+        stats.wall_s,
+        stats.rays,
+        stats.rays as f64 / stats.wall_s / 1e6,
+        hub_report.messages,
+        wall
+    );
+    println!("items/s {:.0}", stats.items as f64 / stats.wall_s);
+    print!("{}", stats.summary());
+    for (i, l) in labels.iter().enumerate() {
+        println!("  source {i} = {l}");
+    }
+    for (r, why) in &hub_report.lost {
+        println!("  lost MPI rank {r}: {why}");
+    }
+    println!("wrote {} and {}", args.output.display(), png.display());
+    Ok(())
+}
+
+/// Wait for every worker's READY; a rank that could not build the scene stops the run with
+/// its own message.
+fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
+    let mut peers: Vec<Option<Peer>> = vec![None; comm.size as usize];
+    let mut errors = Vec::new();
+    let end = Instant::now() + READY_WAIT;
+    let mut missing = comm.size as usize - 1;
+    while missing > 0 {
+        if Instant::now() > end {
+            errors.push(format!(
+                "{missing} rank(s) did not report ready within {} s",
+                READY_WAIT.as_secs()
+            ));
+            break;
+        }
+        let Some(p) = comm.iprobe(None).map_err(CliError::runtime)? else {
+            std::thread::sleep(Duration::from_micros(200));
+            continue;
+        };
+        let body = comm.recv(p).map_err(CliError::runtime)?;
+        if p.tag != tag::READY || peers[p.source as usize].is_some() {
+            continue;
+        }
+        missing -= 1;
+        match Ready::decode(&body) {
+            Ok(r) if r.error.is_empty() => {
+                peers[p.source as usize] = Some(Peer {
+                    rank: p.source,
+                    pid: r.pid,
+                    host: r.host,
+                })
+            }
+            Ok(r) => errors.push(format!(
+                "rank {} ({}, pid {}): {}",
+                p.source, r.host, r.pid, r.error
+            )),
+            Err(e) => errors.push(format!("rank {}: {e}", p.source)),
+        }
+        if peers[p.source as usize].is_none() {
+            // Keep the slot marked as answered.
+            peers[p.source as usize] = Some(Peer {
+                rank: -1,
+                pid: 0,
+                host: String::new(),
+            });
+        }
+    }
+    if !errors.is_empty() {
+        let all: Vec<i32> = (1..comm.size).collect();
+        stop_ranks(comm, &all, true, STOP_WAIT);
+        return Err(CliError::runtime(anyhow::anyhow!(
+            "the scene could not be built on every rank:\n  {}",
+            errors.join("\n  ")
+        )));
+    }
+    Ok(peers.into_iter().flatten().filter(|p| p.rank > 0).collect())
+}

@@ -1,0 +1,274 @@
+//! Decoders for the item/result layout of [`crate::sched::wire`], and the messages only the MPI
+//! protocol has: the scene package rank 0 broadcasts and the READY answer of each worker.
+
+use crate::render::{Region, TileResult, WorkItem};
+use crate::scene::SceneOverrides;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("malformed {what} message: {msg}")]
+pub struct WireError {
+    pub what: &'static str,
+    pub msg: String,
+}
+
+/// A little-endian reader over a byte slice that fails instead of panicking.
+pub struct Reader<'a> {
+    bytes: &'a [u8],
+    what: &'static str,
+}
+
+impl<'a> Reader<'a> {
+    pub fn new(bytes: &'a [u8], what: &'static str) -> Self {
+        Self { bytes, what }
+    }
+    fn take(&mut self, n: usize) -> Result<&'a [u8], WireError> {
+        if self.bytes.len() < n {
+            return Err(WireError {
+                what: self.what,
+                msg: format!("needs {n} more bytes, {} left", self.bytes.len()),
+            });
+        }
+        let (a, b) = self.bytes.split_at(n);
+        self.bytes = b;
+        Ok(a)
+    }
+    pub fn u8(&mut self) -> Result<u8, WireError> {
+        Ok(self.take(1)?[0])
+    }
+    pub fn u32(&mut self) -> Result<u32, WireError> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap()))
+    }
+    pub fn u64(&mut self) -> Result<u64, WireError> {
+        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
+    }
+    pub fn f32(&mut self) -> Result<f32, WireError> {
+        Ok(f32::from_le_bytes(self.take(4)?.try_into().unwrap()))
+    }
+    pub fn bytes(&mut self) -> Result<&'a [u8], WireError> {
+        let n = self.u64()? as usize;
+        self.take(n)
+    }
+    pub fn string(&mut self) -> Result<String, WireError> {
+        let b = self.bytes()?;
+        String::from_utf8(b.to_vec()).map_err(|e| WireError {
+            what: self.what,
+            msg: e.to_string(),
+        })
+    }
+    pub fn rest(&self) -> &'a [u8] {
+        self.bytes
+    }
+}
+
+pub fn put_bytes(out: &mut Vec<u8>, b: &[u8]) {
+    out.extend_from_slice(&(b.len() as u64).to_le_bytes());
+    out.extend_from_slice(b);
+}
+
+/// Inverse of [`crate::sched::wire::encode_item`].
+pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
+    let mut r = Reader::new(bytes, "item");
+    let id = r.u32()?;
+    let region = match r.u8()? {
+        0 => Region::Rect {
+            x: r.u32()?,
+            y: r.u32()?,
+            w: r.u32()?,
+            h: r.u32()?,
+        },
+        1 => {
+            let n = r.u32()? as usize;
+            if r.rest().len() < 4 * n {
+                return Err(WireError {
+                    what: "item",
+                    msg: format!("{n} pixels announced, fewer sent"),
+                });
+            }
+            Region::Pixels((0..n).map(|_| r.u32()).collect::<Result<_, _>>()?)
+        }
+        t => {
+            return Err(WireError {
+                what: "item",
+                msg: format!("unknown region tag {t}"),
+            })
+        }
+    };
+    Ok(WorkItem { id, region })
+}
+
+/// Inverse of [`crate::sched::wire::encode_result`]; returns the bytes that follow it.
+pub fn decode_result(bytes: &[u8]) -> Result<(TileResult, &[u8]), WireError> {
+    let mut r = Reader::new(bytes, "result");
+    let item = r.u32()?;
+    let n = r.u32()? as usize;
+    if r.rest().len() < 12 * n {
+        return Err(WireError {
+            what: "result",
+            msg: format!("{n} pixels announced, fewer sent"),
+        });
+    }
+    let mut pixels = Vec::with_capacity(n);
+    for _ in 0..n {
+        pixels.push([r.f32()?, r.f32()?, r.f32()?]);
+    }
+    let rays = r.u64()?;
+    let nonfinite = r.u64()?;
+    Ok((
+        TileResult {
+            item,
+            pixels,
+            rays,
+            nonfinite,
+        },
+        r.rest(),
+    ))
+}
+
+/// Everything a worker rank needs to build the scene and tracer rank 0 has: no shared
+/// filesystem is assumed, so mesh files travel as bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScenePackage {
+    /// The scene file's text, exactly as read.
+    pub text: String,
+    /// How errors name the scene (rank 0's path).
+    pub display: String,
+    pub name: String,
+    pub overrides: SceneOverrides,
+    /// (path as written in the scene, file bytes) of every mesh.
+    pub meshes: Vec<(String, Vec<u8>)>,
+    pub tracer: String,
+    /// Rank 0's `Scene::hash`; every worker checks its own against it.
+    pub hash: u64,
+}
+
+impl ScenePackage {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        put_bytes(&mut out, self.text.as_bytes());
+        put_bytes(&mut out, self.display.as_bytes());
+        put_bytes(&mut out, self.name.as_bytes());
+        let ov = toml::to_string(&self.overrides).expect("overrides serialise");
+        put_bytes(&mut out, ov.as_bytes());
+        out.extend_from_slice(&(self.meshes.len() as u64).to_le_bytes());
+        for (p, b) in &self.meshes {
+            put_bytes(&mut out, p.as_bytes());
+            put_bytes(&mut out, b);
+        }
+        put_bytes(&mut out, self.tracer.as_bytes());
+        out.extend_from_slice(&self.hash.to_le_bytes());
+        out
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
+        let mut r = Reader::new(bytes, "scene package");
+        let text = r.string()?;
+        let display = r.string()?;
+        let name = r.string()?;
+        let ov = r.string()?;
+        let overrides = toml::from_str(&ov).map_err(|e| WireError {
+            what: "scene package",
+            msg: e.to_string(),
+        })?;
+        let n = r.u64()?;
+        let mut meshes = Vec::new();
+        for _ in 0..n {
+            meshes.push((r.string()?, r.bytes()?.to_vec()));
+        }
+        let tracer = r.string()?;
+        let hash = r.u64()?;
+        Ok(Self {
+            text,
+            display,
+            name,
+            overrides,
+            meshes,
+            tracer,
+            hash,
+        })
+    }
+}
+
+/// A worker's answer after building the scene: its pid and host (so rank 0 can notice a local
+/// rank that died) and an error message, empty when all went well.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ready {
+    pub pid: u32,
+    pub host: String,
+    pub error: String,
+}
+
+impl Ready {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = self.pid.to_le_bytes().to_vec();
+        put_bytes(&mut out, self.host.as_bytes());
+        put_bytes(&mut out, self.error.as_bytes());
+        out
+    }
+    pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
+        let mut r = Reader::new(bytes, "ready");
+        Ok(Self {
+            pid: r.u32()?,
+            host: r.string()?,
+            error: r.string()?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sched::wire::{encode_item, encode_result};
+
+    #[test]
+    fn items_and_results_round_trip() {
+        for item in [
+            WorkItem::rect(3, 1, 2, 16, 16),
+            WorkItem {
+                id: 9,
+                region: Region::Pixels(vec![1, 5, 7]),
+            },
+        ] {
+            let mut b = Vec::new();
+            encode_item(&item, &mut b);
+            assert_eq!(decode_item(&b).unwrap(), item);
+            assert!(decode_item(&b[..b.len() - 1]).is_err());
+        }
+        let r = TileResult {
+            item: 3,
+            pixels: vec![[1.0, -2.5, f32::MAX]; 5],
+            rays: 7,
+            nonfinite: 2,
+        };
+        let mut b = Vec::new();
+        encode_result(&r, &mut b);
+        b.extend_from_slice(&42u64.to_le_bytes());
+        let (back, rest) = decode_result(&b).unwrap();
+        assert_eq!(back, r);
+        assert_eq!(rest, 42u64.to_le_bytes());
+        assert!(decode_result(&b[..10]).is_err());
+    }
+
+    #[test]
+    fn packages_round_trip() {
+        let p = ScenePackage {
+            text: "[camera]\n".into(),
+            display: "scenes/x.toml".into(),
+            name: "x".into(),
+            overrides: SceneOverrides {
+                spp: Some(3),
+                ..Default::default()
+            },
+            meshes: vec![("m/a.obj".into(), vec![1, 2, 3])],
+            tracer: "bvh".into(),
+            hash: 0xdead_beef,
+        };
+        assert_eq!(ScenePackage::decode(&p.encode()).unwrap(), p);
+        assert!(ScenePackage::decode(&p.encode()[..20]).is_err());
+        let r = Ready {
+            pid: 12,
+            host: "h".into(),
+            error: String::new(),
+        };
+        assert_eq!(Ready::decode(&r.encode()).unwrap(), r);
+    }
+}
