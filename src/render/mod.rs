@@ -201,6 +201,9 @@ fn moments_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
 }
 
 /// Render every pixel of `item` with the scene's sample count: the pure per-item function.
+// Never inlined: the serial baseline and every scheduler then run the same machine code, so a
+// speedup measures scheduling, not where the optimiser happened to inline the renderer.
+#[inline(never)]
 pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
     let spp = scene.settings.spp;
     let (sums, rays, nonfinite) = render_sums(scene, tracer, item, 0..spp);
