@@ -193,11 +193,12 @@ impl Sphere {
             let (x, y) = (q / a, c_term / q);
             (x.min(y), x.max(y))
         };
-        let t_max = t_max as f64;
         for t in [t0, t1] {
-            // The f32 `t` must itself be positive: a root that rounds to 0 is the surface we start on.
-            if t > 0.0 && t < t_max && (t as f32) > 0.0 {
-                return Some(t as f32);
+            // The contract 0 < t < t_max holds for the f32 `t` returned: a root that rounds to 0
+            // is the surface we start on, and one that rounds up to t_max is not before it.
+            let tf = t as f32;
+            if t > 0.0 && tf > 0.0 && tf < t_max {
+                return Some(tf);
             }
         }
         None
@@ -259,6 +260,10 @@ mod tests {
         assert!((s.intersect(&inside, f32::INFINITY).unwrap() - 2.0).abs() < 1e-6);
         let away = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::Z);
         assert!(s.intersect(&away, f32::INFINITY).is_none());
+        // t_max is exclusive for the returned f32: the hit at exactly t is not before t.
+        let t = s.intersect(&out, f32::INFINITY).unwrap();
+        assert!(s.intersect(&out, t).is_none());
+        assert!(s.intersect(&out, next_float_up(t)).is_some());
     }
 
     #[test]
