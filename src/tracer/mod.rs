@@ -54,10 +54,7 @@ pub fn check_tracer_id(id: &str) -> Result<(), TracerError> {
 }
 
 fn feature_enabled(feature: &str) -> bool {
-    match feature {
-        "embree" => cfg!(feature = "embree"),
-        _ => false,
-    }
+    feature == "embree" && cfg!(feature = "embree")
 }
 
 /// OS threads of the whole process right now (`Threads:` of /proc/self/status; `None` where that
