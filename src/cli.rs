@@ -436,9 +436,6 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         _ => CliError::runtime(e),
     })?;
     let (wall, rays, nonfinite) = (stats.wall_s, stats.rays, stats.nonfinite);
-    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(CliError::runtime)?;
-    }
     let png = image
         .save_with_preview(&args.output)
         .map_err(CliError::runtime)?;

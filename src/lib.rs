@@ -41,6 +41,7 @@
 
 pub mod cli;
 pub mod converge;
+pub mod csv_out;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod experiment;

@@ -218,15 +218,7 @@ pub fn summarise(rows: &[ConvergenceRow]) -> Vec<ConvergenceSummary> {
 /// # Errors
 /// I/O or CSV errors.
 pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)?;
-    }
-    let mut w = csv::Writer::from_path(path)?;
-    for r in rows {
-        w.serialize(r)?;
-    }
-    w.flush()?;
-    Ok(())
+    crate::csv_out::write_rows(path, rows)
 }
 
 /// Read rows back (plots are drawn from the CSV, never from memory).

@@ -10,8 +10,8 @@ use std::time::Instant;
 
 /// Test hook: this rank corrupts the scene it received (a "bad scene on one rank").
 pub const ENV_CORRUPT_RANK: &str = "RAYSCHED_MPI_TEST_CORRUPT_RANK";
-/// Test hook: each worker writes `rank<r>.pid` into this folder after its first result, so a
-/// test can `kill -9` it mid-run.
+/// Test hook: each worker writes `rank<r>.pid` into this folder after its first result and then
+/// stalls for 2 s (a slow node), so a test can `kill -9` it mid-run.
 pub const ENV_PID_DIR: &str = "RAYSCHED_MPI_PID_DIR";
 /// Measurement hook: workers return black pixels without rendering, so a run measures the
 /// pure dispatch cost over MPI (the image is then wrong, by design).
@@ -135,6 +135,9 @@ pub fn run(comm: Comm) -> ! {
                     if let Some(dir) = &pid_dir {
                         let path = std::path::Path::new(dir).join(format!("rank{}.pid", comm.rank));
                         let _ = std::fs::write(path, std::process::id().to_string());
+                        // A slow node: hold on to the items still queued here so the test's
+                        // kill lands mid-run even when the whole render takes milliseconds.
+                        std::thread::sleep(std::time::Duration::from_secs(2));
                     }
                 }
             }

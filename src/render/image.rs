@@ -53,8 +53,8 @@ impl Image {
         h.finish()
     }
 
-    /// Write the data file (`.exr` or `.pfm`) and an sRGB `.png` preview beside it; returns the
-    /// preview's path. Nothing is written if the extension is not supported.
+    /// Write the data file (`.exr` or `.pfm`) and an sRGB `.png` preview beside it, creating the
+    /// folder; returns the preview's path. Nothing is written if the extension is not supported.
     pub fn save_with_preview(&self, path: &Path) -> Result<PathBuf, ImageError> {
         let ext = path
             .extension()
@@ -64,6 +64,11 @@ impl Image {
             path: path.display().to_string(),
             msg: e.to_string(),
         };
+        if matches!(ext.as_str(), "exr" | "pfm") {
+            if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| io(&e))?;
+            }
+        }
         match ext.as_str() {
             "exr" => self.save_exr(path).map_err(|e| io(&e))?,
             "pfm" => std::fs::write(path, self.pfm_bytes()).map_err(|e| io(&e))?,

@@ -241,15 +241,7 @@ pub fn count_case(group: &str, case: &str, expected: u64, measured: u64, note: &
 /// # Errors
 /// I/O or CSV errors.
 pub fn write_csv(path: &Path, rows: &[CaseResult]) -> anyhow::Result<()> {
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)?;
-    }
-    let mut w = csv::Writer::from_path(path)?;
-    for r in rows {
-        w.serialize(r)?;
-    }
-    w.flush()?;
-    Ok(())
+    crate::csv_out::write_rows(path, rows)
 }
 
 /// The table as markdown.
