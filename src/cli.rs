@@ -459,7 +459,7 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         nonfinite
     );
     print!("{}", stats.summary());
-    let (used, left_out) = scene.features.report(tracer.uses_acceleration());
+    let (used, left_out) = scene.features.report(crate::tracer::Tracer::accelerated(&*tracer));
     println!(
         "features used: {}; left out: {}",
         used.join(","),

@@ -281,3 +281,56 @@ fn plot_regenerates_everything_from_the_csv() {
         Some(2)
     );
 }
+
+/// `features_used` / `features_left_out` reach runs.csv and the report: the one-sphere scene
+/// builds no BVH and needs no refraction; the Cornell box has a BVH over its triangles.
+#[test]
+fn runs_record_what_each_scene_uses_and_leaves_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = format!(
+        r#"name = "feats"
+repetitions = 1
+warmup = 0
+workers = [1]
+[[scenes]]
+path = "{simple}"
+width = 8
+height = 8
+spp = 1
+[[scenes]]
+path = "{cornell}"
+width = 8
+height = 8
+spp = 1
+[[schedulers]]
+kind = "self_scheduling"
+chunk = "4"
+"#,
+        simple = scenes.join("simple.toml").display(),
+        cornell = scenes.join("cornell_box.toml").display()
+    );
+    std::fs::write(dir.path().join("feats.toml"), text).unwrap();
+    let out = run(&["run", "feats.toml", "--quiet", "--out", "res"], dir.path());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (rows, _) = read_runs(&dir.path().join("res/feats/runs.csv")).unwrap();
+    assert_eq!(rows.len(), 4, "serial + one scheduler config per scene");
+    for r in &rows {
+        let used: Vec<&str> = r.features_used.split('+').collect();
+        let left: Vec<&str> = r.features_left_out.split('+').collect();
+        assert!(left.contains(&"refraction") && !used.contains(&"refraction"), "{r:?}");
+        match r.scene.as_str() {
+            "simple" => {
+                assert!(used.contains(&"spheres") && used.contains(&"environment"), "{r:?}");
+                assert!(left.contains(&"bvh") && left.contains(&"triangles"), "{r:?}");
+            }
+            "cornell_box" => {
+                assert!(used.contains(&"bvh") && used.contains(&"area_lights"), "{r:?}");
+                assert!(left.contains(&"environment") && left.contains(&"spheres"), "{r:?}");
+            }
+            other => panic!("unexpected scene {other}"),
+        }
+    }
+    let report = std::fs::read_to_string(dir.path().join("res/feats/report.md")).unwrap();
+    assert!(report.contains("left out `"), "{report}");
+}

@@ -5,7 +5,7 @@ use raysched::converge::{self, reference};
 use raysched::render::{self, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::stability::{self, cases, Budget};
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, Tracer};
 use std::path::Path;
 
 #[test]
@@ -94,8 +94,8 @@ fn features_report_names_what_a_scene_leaves_out() {
     let scene = small("scenes/furnace.toml");
     let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
     // One sphere: below the measured BVH crossover, so no BVH is built.
-    assert!(!tracer.uses_acceleration());
-    let (used, left) = scene.features.report(tracer.uses_acceleration());
+    assert!(!tracer.accelerated());
+    let (used, left) = scene.features.report(tracer.accelerated());
     for f in ["spheres", "environment", "shadow_rays"] {
         assert!(used.iter().any(|u| u == f), "{used:?}");
     }
@@ -113,7 +113,7 @@ fn features_report_names_what_a_scene_leaves_out() {
     let cornell = small("scenes/cornell_box.toml");
     assert!(AnyTracer::build("bvh", &cornell, 1)
         .unwrap()
-        .uses_acceleration());
+        .accelerated());
 }
 
 /// Progressive steps reuse earlier samples: 0..1 + 1..2 + 2..4 equals 0..4 (up to f64 order).

@@ -92,6 +92,16 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         sums.len(),
         groups.join("; ")
     );
+    // What each scene's render path pays for (from the serial baseline row of each group).
+    for g in &groups {
+        if let Some(s) = sums.iter().find(|s| &s.group() == g && !s.row.features_used.is_empty()) {
+            let _ = writeln!(
+                md,
+                "- {g}: features used `{}`, left out `{}`",
+                s.row.features_used, s.row.features_left_out
+            );
+        }
+    }
     let _ = writeln!(md, "- Speedup = t_serial / t (serial = one thread, no scheduler, same scene, tracer and settings); every image is compared bit for bit with the serial one.\n");
     if let Some(m) = meta {
         let c = &m.machine;

@@ -65,6 +65,10 @@ pub struct RunRow {
     pub bytes: u64,
     pub rays: u64,
     pub nonfinite: u64,
+    /// What the scene's render path uses and leaves out, `+`-separated (e.g.
+    /// `spheres+environment+shadow_rays` / `triangles+bvh+…`).
+    pub features_used: String,
+    pub features_left_out: String,
     pub image_hash: String,
     pub identical: bool,
 }
@@ -125,6 +129,8 @@ impl RunRow {
             bytes: 0,
             rays: 0,
             nonfinite: 0,
+            features_used: String::new(),
+            features_left_out: String::new(),
             image_hash: String::new(),
             identical: false,
         }

@@ -7,6 +7,7 @@ use super::results::{ResultsError, RunRow, RunsFile};
 use super::summary::median;
 use crate::render::{render_serial, Image};
 use crate::sched::{run_scheduler, RunStats, SchedError, WorkerStats};
+use crate::tracer::Tracer;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::HashMap;
 use std::io::Write;
@@ -291,7 +292,15 @@ fn measure(
                 nonfinite: counters.nonfinite,
                 ..Default::default()
             };
-            Ok((image, stats))
+            let (used, left_out) = scene.features.report(b.tracer.accelerated());
+            Ok((
+                image,
+                RunStats {
+                    features_used: used,
+                    features_left_out: left_out,
+                    ..stats
+                },
+            ))
         }
         Some(spec) => {
             let mut spec = spec.clone();
@@ -319,6 +328,8 @@ fn fill_stats(row: &mut RunRow, s: &RunStats) {
     row.bytes = s.bytes;
     row.rays = s.rays;
     row.nonfinite = s.nonfinite;
+    row.features_used = s.features_used.join("+");
+    row.features_left_out = s.features_left_out.join("+");
 }
 
 /// A file-name-safe form of a label.

@@ -86,8 +86,9 @@ pub fn run_scheduler_with<T: Tracer + 'static>(
 ) -> Result<(Image, RunStats), SchedError> {
     spec.validate()?;
     let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
-    let (results, stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
+    let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
     let image = assemble(scene.width(), scene.height(), &items, &results)?;
+    (stats.features_used, stats.features_left_out) = scene.features.report(tracer.accelerated());
     Ok((image, stats))
 }
 

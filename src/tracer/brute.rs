@@ -20,6 +20,9 @@ impl Tracer for BruteTracer {
     fn id(&self) -> &'static str {
         "brute"
     }
+    fn accelerated(&self) -> bool {
+        false
+    }
     fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;

@@ -167,6 +167,9 @@ impl Tracer for BvhTracer {
     fn id(&self) -> &'static str {
         "bvh"
     }
+    fn accelerated(&self) -> bool {
+        self.uses_bvh()
+    }
 
     fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if let Some(g) = &self.linear {

@@ -20,6 +20,11 @@ pub trait Tracer: Send + Sync {
     fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit>;
     /// Whether anything is hit with `0 < t < t_max`.
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool;
+    /// Whether an acceleration structure was built (recorded as the `bvh` feature of a run; a
+    /// small scene gets none, see [`bvh::BVH_MIN_PRIMS`]).
+    fn accelerated(&self) -> bool {
+        true
+    }
 }
 
 /// The tracer ids this build knows, feature-gated ones included (with their feature).
@@ -102,20 +107,15 @@ impl AnyTracer {
     }
 }
 
-impl AnyTracer {
-    /// Whether an acceleration structure was built (a small scene gets none: see
-    /// [`bvh::BVH_MIN_PRIMS`]); `brute` never builds one.
-    pub fn uses_acceleration(&self) -> bool {
+impl Tracer for AnyTracer {
+    fn accelerated(&self) -> bool {
         match self {
-            Self::Bvh(t) => t.uses_bvh(),
-            Self::Brute(_) => false,
+            Self::Bvh(t) => t.accelerated(),
+            Self::Brute(t) => t.accelerated(),
             #[cfg(feature = "embree")]
-            Self::Embree(_) => true,
+            Self::Embree(t) => t.accelerated(),
         }
     }
-}
-
-impl Tracer for AnyTracer {
     fn id(&self) -> &'static str {
         match self {
             Self::Bvh(t) => t.id(),
