@@ -2,7 +2,10 @@
 //! Bad input (scene, config, parameters) exits with code 2; other failures with 1.
 
 use crate::scene::{load_scene, SceneOverrides};
-use crate::sched::{run_scheduler_with, Chunk, Order, Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, Wait};
+use crate::sched::{
+    run_scheduler_with, Chunk, Order, Requeue, RunOptions, SchedError, SchedulerKind,
+    SchedulerSpec, Wait,
+};
 use crate::tracer::AnyTracer;
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -245,7 +248,8 @@ fn run_experiment(args: RunArgs) -> Result<(), CliError> {
         RunError::Refused(_) => CliError::input(e),
         _ => CliError::runtime(e),
     })?;
-    let written = experiment::finish(&outcome.dir).map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
+    let written =
+        experiment::finish(&outcome.dir).map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
     if !args.quiet {
         println!(
             "{}: {} runs measured, {} already done; wrote {} files (report: {})",
@@ -423,18 +427,20 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
     let spec = args.scheduler_spec()?;
     let scene = std::sync::Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let t0 = Instant::now();
-    let tracer =
-        std::sync::Arc::new(AnyTracer::build(&args.tracer, &scene, args.threads).map_err(CliError::input)?);
+    let tracer = std::sync::Arc::new(
+        AnyTracer::build(&args.tracer, &scene, args.threads).map_err(CliError::input)?,
+    );
     let build = t0.elapsed();
     let opts = RunOptions {
         stats: !args.stats_off,
         deadline: args.deadline_ms.map(std::time::Duration::from_millis),
         faults: None,
     };
-    let (image, stats) = run_scheduler_with(&spec, &scene, &tracer, &opts).map_err(|e| match e {
-        SchedError::Spec(_) => CliError::input(e),
-        _ => CliError::runtime(e),
-    })?;
+    let (image, stats) =
+        run_scheduler_with(&spec, &scene, &tracer, &opts).map_err(|e| match e {
+            SchedError::Spec(_) => CliError::input(e),
+            _ => CliError::runtime(e),
+        })?;
     let (wall, rays, nonfinite) = (stats.wall_s, stats.rays, stats.nonfinite);
     let png = image
         .save_with_preview(&args.output)
@@ -450,7 +456,12 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         build.as_secs_f64(),
         args.threads
     );
-    println!("scheduler {}, order {}, image hash {:016x}", spec.label(), spec.order.id(), image.hash());
+    println!(
+        "scheduler {}, order {}, image hash {:016x}",
+        spec.label(),
+        spec.order.id(),
+        image.hash()
+    );
     println!(
         "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
         wall,
@@ -459,7 +470,9 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         nonfinite
     );
     print!("{}", stats.summary());
-    let (used, left_out) = scene.features.report(crate::tracer::Tracer::accelerated(&*tracer));
+    let (used, left_out) = scene
+        .features
+        .report(crate::tracer::Tracer::accelerated(&*tracer));
     println!(
         "features used: {}; left out: {}",
         used.join(","),

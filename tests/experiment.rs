@@ -101,7 +101,10 @@ fn bad_configs_exit_2_naming_file_and_field() {
             "{to}: {err}"
         );
         // Validation happens before anything is measured.
-        assert!(!dir.path().join(&res).join("tiny/runs.csv").exists(), "{to}");
+        assert!(
+            !dir.path().join(&res).join("tiny/runs.csv").exists(),
+            "{to}"
+        );
     }
 }
 
@@ -311,22 +314,44 @@ chunk = "4"
         cornell = scenes.join("cornell_box.toml").display()
     );
     std::fs::write(dir.path().join("feats.toml"), text).unwrap();
-    let out = run(&["run", "feats.toml", "--quiet", "--out", "res"], dir.path());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run(
+        &["run", "feats.toml", "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let (rows, _) = read_runs(&dir.path().join("res/feats/runs.csv")).unwrap();
     assert_eq!(rows.len(), 4, "serial + one scheduler config per scene");
     for r in &rows {
         let used: Vec<&str> = r.features_used.split('+').collect();
         let left: Vec<&str> = r.features_left_out.split('+').collect();
-        assert!(left.contains(&"refraction") && !used.contains(&"refraction"), "{r:?}");
+        assert!(
+            left.contains(&"refraction") && !used.contains(&"refraction"),
+            "{r:?}"
+        );
         match r.scene.as_str() {
             "simple" => {
-                assert!(used.contains(&"spheres") && used.contains(&"environment"), "{r:?}");
-                assert!(left.contains(&"bvh") && left.contains(&"triangles"), "{r:?}");
+                assert!(
+                    used.contains(&"spheres") && used.contains(&"environment"),
+                    "{r:?}"
+                );
+                assert!(
+                    left.contains(&"bvh") && left.contains(&"triangles"),
+                    "{r:?}"
+                );
             }
             "cornell_box" => {
-                assert!(used.contains(&"bvh") && used.contains(&"area_lights"), "{r:?}");
-                assert!(left.contains(&"environment") && left.contains(&"spheres"), "{r:?}");
+                assert!(
+                    used.contains(&"bvh") && used.contains(&"area_lights"),
+                    "{r:?}"
+                );
+                assert!(
+                    left.contains(&"environment") && left.contains(&"spheres"),
+                    "{r:?}"
+                );
             }
             other => panic!("unexpected scene {other}"),
         }

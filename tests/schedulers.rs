@@ -487,7 +487,11 @@ fn every_scheduler_matches_serial_with_embree() {
     let tracer = Arc::new(AnyTracer::build("embree", &scene, 1).unwrap());
     let (serial, _) = render_serial(&scene, &*tracer);
     for kind in SchedulerKind::ALL {
-        for chunk in [Chunk::Tile { w: 1, h: 1 }, Chunk::Tile { w: 4, h: 4 }, Chunk::Rows(2)] {
+        for chunk in [
+            Chunk::Tile { w: 1, h: 1 },
+            Chunk::Tile { w: 4, h: 4 },
+            Chunk::Rows(2),
+        ] {
             for workers in [1, 3] {
                 let spec = SchedulerSpec::new(kind, chunk, workers);
                 let (image, _) = run_scheduler(&spec, &scene, &tracer)

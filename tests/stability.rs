@@ -111,9 +111,7 @@ fn features_report_names_what_a_scene_leaves_out() {
         assert!(left.iter().any(|u| u == f), "{left:?}");
     }
     let cornell = small("scenes/cornell_box.toml");
-    assert!(AnyTracer::build("bvh", &cornell, 1)
-        .unwrap()
-        .accelerated());
+    assert!(AnyTracer::build("bvh", &cornell, 1).unwrap().accelerated());
 }
 
 /// Progressive steps reuse earlier samples: 0..1 + 1..2 + 2..4 equals 0..4 (up to f64 order).

@@ -94,7 +94,10 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
     );
     // What each scene's render path pays for (from the serial baseline row of each group).
     for g in &groups {
-        if let Some(s) = sums.iter().find(|s| &s.group() == g && !s.row.features_used.is_empty()) {
+        if let Some(s) = sums
+            .iter()
+            .find(|s| &s.group() == g && !s.row.features_used.is_empty())
+        {
             let _ = writeln!(
                 md,
                 "- {g}: features used `{}`, left out `{}`",

@@ -16,9 +16,9 @@ pub use decompose::decompose;
 pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
 pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
-pub use crate::source::Job;
 use crate::render::{render_item, Image, TileResult, WorkItem};
 use crate::scene::Scene;
+pub use crate::source::Job;
 use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, LocalThreadSource, Probe};
 use crate::tracer::Tracer;
 use std::sync::Arc;
@@ -31,9 +31,19 @@ pub enum SchedError {
     #[error("{lost} of {total} items were lost and re-queue policy 'never' cannot redo them")]
     LostItems { lost: u64, total: u64 },
     #[error("deadline of {deadline:?} passed with {done} of {total} items done")]
-    Deadline { deadline: Duration, done: u64, total: u64 },
-    #[error("all {sources} compute sources were lost with {remaining} of {total} items unfinished")]
-    AllSourcesLost { sources: u64, remaining: u64, total: u64 },
+    Deadline {
+        deadline: Duration,
+        done: u64,
+        total: u64,
+    },
+    #[error(
+        "all {sources} compute sources were lost with {remaining} of {total} items unfinished"
+    )]
+    AllSourcesLost {
+        sources: u64,
+        remaining: u64,
+        total: u64,
+    },
     #[error("worker thread panicked: {0}")]
     WorkerPanic(String),
     #[error("building the thread pool: {0}")]
@@ -112,17 +122,29 @@ pub fn run_items(
 }
 
 /// `workers` local thread sources (fault-injecting ones when `faults` is given).
-pub fn make_sources(job: &Job, workers: usize, faults: Option<&FaultPlan>, probe: Probe) -> Vec<Box<dyn ComputeSource>> {
+pub fn make_sources(
+    job: &Job,
+    workers: usize,
+    faults: Option<&FaultPlan>,
+    probe: Probe,
+) -> Vec<Box<dyn ComputeSource>> {
     match faults {
         Some(plan) => faulty_sources(job, workers, plan, probe),
         None => (0..workers as u32)
-            .map(|id| Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as Box<dyn ComputeSource>)
+            .map(|id| {
+                Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as Box<dyn ComputeSource>
+            })
             .collect(),
     }
 }
 
 /// Put each item's result into an image; a missing result is an error.
-pub fn assemble(width: u32, height: u32, items: &[WorkItem], results: &[Option<TileResult>]) -> Result<Image, SchedError> {
+pub fn assemble(
+    width: u32,
+    height: u32,
+    items: &[WorkItem],
+    results: &[Option<TileResult>],
+) -> Result<Image, SchedError> {
     let mut image = Image::new(width, height);
     for item in items {
         let r = results

@@ -200,7 +200,8 @@ impl Tracer for BvhTracer {
         };
         let (r, q) = to_obvhs(ray, t_max, self.k);
         !bvh.ray_traverse_miss(r, |_, slot| {
-            self.leaf(slot, ray, t_max).map_or(f32::INFINITY, |h| h.t * q)
+            self.leaf(slot, ray, t_max)
+                .map_or(f32::INFINITY, |h| h.t * q)
         })
     }
 }
