@@ -239,6 +239,13 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 fn run_experiment(args: RunArgs) -> Result<(), CliError> {
     use crate::experiment::{self, RunError, RunOptions};
     let plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
+    if plan.convergence.is_some() {
+        let dir = experiment::convergence::run(&plan, &args.out).map_err(CliError::runtime)?;
+        if !args.quiet {
+            println!("{}: wrote {}", plan.name, dir.join("report.md").display());
+        }
+        return Ok(());
+    }
     let opts = RunOptions {
         out: args.out,
         fresh: args.fresh,

@@ -359,3 +359,56 @@ chunk = "4"
     let report = std::fs::read_to_string(dir.path().join("res/feats/report.md")).unwrap();
     assert!(report.contains("left out `"), "{report}");
 }
+
+/// `kind = "convergence"`: error against time for every (scene, tracer), CSV + plot + report;
+/// its own fields are validated before anything renders.
+#[test]
+fn convergence_experiment_writes_rows_plot_and_slopes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/furnace_a08.toml");
+    let good = format!(
+        "kind = \"convergence\"\nmax_spp = 8\nworkers = 1\ntracers = [\"bvh\", \"brute\"]\n\
+         [[scenes]]\npath = \"{}\"\nwidth = 12\nheight = 12\n",
+        scene.display()
+    );
+    std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
+    let out = run(&["run", "conv.toml", "--quiet", "--out", "res"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
+    // 1, 2, 4, 8 spp for each of the two tracers.
+    assert_eq!(rows.len(), 8);
+    for t in ["bvh", "brute"] {
+        let spp: Vec<u32> = rows
+            .iter()
+            .filter(|r| r.tracer == t)
+            .map(|r| r.spp)
+            .collect();
+        assert_eq!(spp, vec![1, 2, 4, 8], "{t}");
+    }
+    assert!(rows.iter().all(|r| r.rmse.is_finite() && r.rmse > 0.0));
+    assert!(dir.path().join("res/conv/convergence.png").exists());
+    let report = std::fs::read_to_string(dir.path().join("res/conv/report.md")).unwrap();
+    assert!(
+        report.contains("slope") && report.contains("furnace_a08"),
+        "{report}"
+    );
+
+    for (from, to, field) in [
+        ("max_spp = 8\n", "", "max_spp"),
+        ("max_spp = 8", "max_spp = 0", "max_spp"),
+        ("kind = \"convergence\"\n", "", "schedulers"),
+    ] {
+        std::fs::write(dir.path().join("bad.toml"), good.replacen(from, to, 1)).unwrap();
+        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(field),
+            "{to:?}: {err}"
+        );
+    }
+}

@@ -13,7 +13,7 @@
 //! path = "../scenes/simple.toml"  # relative to this file
 //! width = 64                      # any field of SceneOverrides
 //!
-//! [[schedulers]]
+//! [[schedulers]]                 # none for kind = "convergence" (max_spp, ref_spp instead)
 //! kind = "master"
 //! chunk = ["1", "8", "frame"]     # every grid field takes a value or a list
 //! buffer = [1, 2, 16]
@@ -38,7 +38,24 @@ pub struct ExperimentFile {
     #[serde(default = "yes")]
     pub timeline: bool,
     pub scenes: Vec<SceneEntry>,
+    #[serde(default)]
     pub schedulers: Vec<SchedulerEntry>,
+    /// `timing` (the default: the scheduler sweep) or `convergence` (error against run time).
+    #[serde(default)]
+    pub kind: ExperimentKind,
+    /// convergence: the largest sample count of the 1, 2, 4, … progression.
+    pub max_spp: Option<u32>,
+    /// convergence: samples of a rendered reference (cached under `<out>/refs/`) where the scene
+    /// has no analytic answer.
+    pub ref_spp: Option<u32>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExperimentKind {
+    #[default]
+    Timing,
+    Convergence,
 }
 
 fn one() -> u32 {

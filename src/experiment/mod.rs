@@ -6,6 +6,7 @@
 //! the CSV alone, so `raysched plot` can redo it for any old run.
 
 pub mod config;
+pub mod convergence;
 pub mod meta;
 pub mod plan;
 pub mod report;

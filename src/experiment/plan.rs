@@ -2,7 +2,9 @@
 //! and every value range-checked here, before any timing starts; errors name the experiment
 //! file and the field (`experiments/x.toml: schedulers[1].buffer: …`).
 
-use super::config::{ExperimentFile, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec};
+use super::config::{
+    ExperimentFile, ExperimentKind, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec,
+};
 use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, Wait};
 use crate::tracer::{check_tracer_id, AnyTracer};
@@ -59,6 +61,16 @@ pub struct ExperimentPlan {
     pub baselines: Vec<Baseline>,
     /// Serial baselines first, so a scheduler run always finds its baseline measured.
     pub configs: Vec<RunConfig>,
+    /// `Some` for a convergence experiment (then `configs` holds only the baselines' entries).
+    pub convergence: Option<ConvergenceSettings>,
+    /// The largest worker count: the thread budget of tracer builds and convergence renders.
+    pub max_workers: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ConvergenceSettings {
+    pub max_spp: u32,
+    pub ref_spp: u32,
 }
 
 impl ExperimentPlan {
@@ -132,12 +144,42 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
             "must list at least one scene ([[scenes]] path = …)".into(),
         ));
     }
-    if file.schedulers.is_empty() {
-        return Err(err(
-            "schedulers",
-            "must list at least one scheduler ([[schedulers]] kind = …)".into(),
-        ));
-    }
+    let convergence = match file.kind {
+        ExperimentKind::Timing => {
+            if file.schedulers.is_empty() {
+                return Err(err(
+                    "schedulers",
+                    "must list at least one scheduler ([[schedulers]] kind = …)".into(),
+                ));
+            }
+            for f in ["max_spp", "ref_spp"] {
+                if (f == "max_spp" && file.max_spp.is_some())
+                    || (f == "ref_spp" && file.ref_spp.is_some())
+                {
+                    return Err(err(f, "applies only to kind = \"convergence\"".into()));
+                }
+            }
+            None
+        }
+        ExperimentKind::Convergence => {
+            if !file.schedulers.is_empty() {
+                return Err(err(
+                    "schedulers",
+                    "a convergence experiment renders progressively on its own pool; it has no schedulers".into(),
+                ));
+            }
+            let max_spp = file
+                .max_spp
+                .ok_or_else(|| err("max_spp", "kind = \"convergence\" needs max_spp".into()))?;
+            let ref_spp = file.ref_spp.unwrap_or(1024);
+            for (f, v) in [("max_spp", max_spp), ("ref_spp", ref_spp)] {
+                if v == 0 {
+                    return Err(err(f, "must be ≥ 1 (got 0)".into()));
+                }
+            }
+            Some(ConvergenceSettings { max_spp, ref_spp })
+        }
+    };
     // Expand every scheduler grid before the (slow) scene loading, so a typo fails fast.
     let mut grids = Vec::new();
     for (i, s) in file.schedulers.iter().enumerate() {
@@ -207,6 +249,8 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         scenes,
         baselines,
         configs,
+        convergence,
+        max_workers,
     };
     let mut seen = std::collections::HashSet::new();
     let mut unique = Vec::new();
