@@ -177,11 +177,21 @@ fn timeline_has_one_span_per_rendered_item() {
         spec.timeline = true;
         let (_, stats) = run_scheduler(&spec, &f.scene, &f.tracer).unwrap();
         let spans = stats.timeline.expect("timeline requested");
+        let (master, work): (Vec<&raysched::sched::Span>, Vec<_>) = spans
+            .iter()
+            .partition(|s| s.worker == raysched::sched::MASTER_LANE);
         let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
-        assert_eq!(spans.len() as u64, rendered, "{kind:?}");
-        assert!(spans
+        assert_eq!(work.len() as u64, rendered, "{kind:?}");
+        assert!(work
             .iter()
             .all(|s| s.end_ns >= s.start_ns && (s.worker as usize) < 2));
+        // The master has its own lane: at least one hand-out pass, none for the others.
+        if kind == SchedulerKind::Master {
+            assert!(!master.is_empty(), "master lane missing");
+            assert!(master.iter().all(|s| s.end_ns >= s.start_ns));
+        } else {
+            assert!(master.is_empty(), "{kind:?} has no master");
+        }
     }
 }
 

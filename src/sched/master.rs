@@ -8,7 +8,7 @@
 
 use super::{wire, Collector, MasterStats, RunOptions, RunStats, SchedError, SchedulerSpec};
 use crate::render::{TileResult, WorkItem};
-use crate::sched::{Requeue, Wait};
+use crate::sched::{Requeue, Span, Wait, MASTER_LANE};
 use crate::source::{ComputeSource, DelayedResult, Notifier, Probe};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -63,9 +63,12 @@ pub fn run_master(
     let mut handed = vec![false; n];
     let mut known_lost = 0u64;
     let mut slowest = Duration::ZERO;
+    let mut master_spans = Vec::new();
     let result = loop {
         m.iterations += 1;
         let now = Instant::now();
+        let issued_before = stats.issued;
+        let mut first_issued = u32::MAX;
         // 1. Collect whatever is ready; a failure means the source is gone.
         for (s, slots) in out.iter_mut().enumerate() {
             let mut k = 0;
@@ -172,6 +175,9 @@ pub fn run_master(
                     at: now,
                 });
                 fresh += 1;
+                if stats.issued == issued_before {
+                    first_issued = i;
+                }
                 stats.issued += 1;
                 handed[i as usize] = true;
                 issued_at[i as usize] = Some(now);
@@ -184,6 +190,16 @@ pub fn run_master(
         let t_wait = timed.then(Instant::now);
         if let Some(b) = t_wait {
             m.dispatch_s += (b - now).as_secs_f64();
+            if probe.timeline && stats.issued > issued_before {
+                // The master's own lane: each loop pass that handed something out, labelled with
+                // the first item of the pass.
+                master_spans.push(Span {
+                    worker: MASTER_LANE,
+                    item: first_issued,
+                    start_ns: (now - probe.epoch).as_nanos() as u64,
+                    end_ns: (b - probe.epoch).as_nanos() as u64,
+                });
+            }
         }
         if !out.iter().flatten().any(|sl| sl.result.is_ready()) {
             match spec.wait {
@@ -210,7 +226,7 @@ pub fn run_master(
     // Results still in flight are duplicates or lost; cancel them and stop every source.
     drop(out);
     let wall_run = t0.elapsed().as_secs_f64();
-    let mut spans = Vec::new();
+    let mut spans = master_spans;
     for src in sources {
         let mut rep = src.finish();
         rep.stats.idle_s = (wall_run - rep.stats.busy_s).max(0.0);
