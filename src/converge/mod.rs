@@ -286,7 +286,11 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
         (a.min(r.rmse), b.max(r.rmse))
     });
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let title = format!("RMSE vs wall time ({})", pts[0].scene);
+    let mut scenes: Vec<&str> = pts.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    scenes.sort_unstable();
+    scenes.dedup();
+    let title = format!("RMSE vs wall time ({})", scenes.join(", "));
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
         .margin(10)
@@ -301,6 +305,8 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
         .configure_mesh()
         .x_desc("wall time [s]")
         .y_desc("RMSE")
+        .x_label_formatter(&|v| format!("{v:.2e}"))
+        .y_label_formatter(&|v| format!("{v:.2e}"))
         .draw()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut groups: std::collections::BTreeMap<(String, String), Vec<ConvergenceRow>> =
@@ -308,7 +314,7 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
     for r in rows {
         groups.entry(config_key(r)).or_default().push(r.clone());
     }
-    for (k, ((_, config), g)) in groups.iter().enumerate() {
+    for (k, ((scene, config), g)) in groups.iter().enumerate() {
         let colour = Palette99::pick(k).to_rgba();
         let series: Vec<(f64, f64)> = g
             .iter()
@@ -319,7 +325,7 @@ fn draw_plot<DB: plotters::prelude::DrawingBackend>(
         chart
             .draw_series(LineSeries::new(series.clone(), colour.stroke_width(2)))
             .map_err(|e| anyhow::anyhow!("{e}"))?
-            .label(format!("{config}: slope {slope}"))
+            .label(format!("{scene} {config}: slope {slope}"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
         chart
             .draw_series(series.iter().map(|&p| Circle::new(p, 3, colour.filled())))
