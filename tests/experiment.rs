@@ -396,6 +396,15 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
         report.contains("slope") && report.contains("furnace_a08"),
         "{report}"
     );
+    // `raysched plot` redraws it from the CSV alone.
+    std::fs::remove_file(dir.path().join("res/conv/convergence.png")).unwrap();
+    let out = run(&["plot", "res/conv"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("res/conv/convergence.png").exists());
 
     for (from, to, field) in [
         ("max_spp = 8\n", "", "max_spp"),

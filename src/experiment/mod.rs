@@ -19,10 +19,19 @@ pub use run::{run_experiment, RunError, RunOptions, RunOutcome};
 
 use std::path::{Path, PathBuf};
 
-/// Recompute `summary.csv`, every plot and `report.md` in `dir` from `dir/runs.csv`.
-/// Returns the paths written.
+/// Recompute `summary.csv`, every plot and `report.md` in `dir` from `dir/runs.csv` (for a
+/// convergence experiment: its plot from `convergence.csv`). Returns the paths written.
 pub fn finish(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let runs = dir.join("runs.csv");
+    let convergence = dir.join("convergence.csv");
+    if !runs.exists() && convergence.exists() {
+        // A convergence experiment: its plot is drawn from its CSV alone too.
+        let png = dir.join("convergence.png");
+        let rows = crate::converge::read_csv(&convergence)
+            .map_err(|e| format!("{}: {e}", convergence.display()))?;
+        crate::converge::plot(&png, &rows).map_err(|e| format!("{}: {e}", png.display()))?;
+        return Ok(vec![png]);
+    }
     if !runs.exists() {
         return Err(format!(
             "{}: not found (is {} an experiment results folder?)",
