@@ -452,22 +452,16 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
     let png = image
         .save_with_preview(&args.output)
         .map_err(CliError::runtime)?;
-    println!(
-        "scene {} ({}×{}, {} spp, max_depth {}), tracer {} built in {:.3} s, {} threads",
-        scene.name,
-        scene.width(),
-        scene.height(),
-        scene.settings.spp,
-        scene.settings.max_depth,
-        args.tracer,
-        build.as_secs_f64(),
-        args.threads
-    );
-    println!(
-        "scheduler {}, order {}, image hash {:016x}",
-        spec.label(),
-        spec.order.id(),
-        image.hash()
+    print_render_header(
+        &scene,
+        &format!(
+            "{} built in {:.3} s, {} threads",
+            args.tracer,
+            build.as_secs_f64(),
+            args.threads
+        ),
+        &spec,
+        &image,
     );
     println!(
         "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
@@ -487,4 +481,28 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
     );
     println!("wrote {} and {}", args.output.display(), png.display());
     Ok(())
+}
+
+/// The first two lines of a render's report, shared by the local and the MPI path (tests read
+/// the image hash from them).
+pub(crate) fn print_render_header(
+    scene: &crate::scene::Scene,
+    tracer: &str,
+    spec: &SchedulerSpec,
+    image: &crate::render::Image,
+) {
+    println!(
+        "scene {} ({}×{}, {} spp, max_depth {}), tracer {tracer}",
+        scene.name,
+        scene.width(),
+        scene.height(),
+        scene.settings.spp,
+        scene.settings.max_depth,
+    );
+    println!(
+        "scheduler {}, order {}, image hash {:016x}",
+        spec.label(),
+        spec.order.id(),
+        image.hash()
+    );
 }

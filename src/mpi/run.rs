@@ -147,22 +147,16 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let png = image
         .save_with_preview(&args.output)
         .map_err(CliError::runtime)?;
-    println!(
-        "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, {} MPI ranks + {} local threads on rank 0",
-        scene.name,
-        scene.width(),
-        scene.height(),
-        scene.settings.spp,
-        scene.settings.max_depth,
-        args.tracer,
-        comm.size - 1,
-        args.local_threads
-    );
-    println!(
-        "scheduler {}, order {}, image hash {:016x}",
-        spec.label(),
-        spec.order.id(),
-        image.hash()
+    crate::cli::print_render_header(
+        &scene,
+        &format!(
+            "{}, {} MPI ranks + {} local threads on rank 0",
+            args.tracer,
+            comm.size - 1,
+            args.local_threads
+        ),
+        &spec,
+        &image,
     );
     // Same definition as the local path (the scheduler's wall time), so the two compare; the
     // total adds stopping the ranks and writing the image.
