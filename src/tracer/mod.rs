@@ -6,6 +6,7 @@
 
 pub mod brute;
 pub mod bvh;
+pub mod bvh4;
 
 pub use brute::BruteTracer;
 pub use bvh::BvhTracer;
