@@ -46,6 +46,9 @@ pub fn displaced_sphere(count: u64, displacement: f64) -> Vec<[DVec3; 3]> {
     };
     let vertex = |i: usize, j: usize| {
         let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        // A pole is one point: without this the bump moved each pole vertex along the axis
+        // with φ and the caps were open slivers (the watertight stability case found it).
+        let j = if i == 0 || i == rings { 0 } else { j };
         let phi = std::f64::consts::TAU * (j % segments) as f64 / segments as f64;
         let r = radius(theta, phi);
         DVec3::new(

@@ -423,5 +423,7 @@ pub fn run_suite(b: &Budget) -> Vec<CaseResult> {
     geometry_cases(b, &mut out);
     dielectric_cases(b, &mut out);
     stiff_cases(b, &mut out);
+    let mesh = if b.quick { 2_000 } else { 200_000 };
+    super::watertight::watertight_cases(mesh, &mut out);
     out
 }

@@ -6,6 +6,7 @@
 
 pub mod cases;
 pub mod transform;
+pub mod watertight;
 
 use crate::converge::reference::image_moments;
 use crate::converge::Reference;
