@@ -221,8 +221,8 @@ fn scheduled_convergence_matches_rows_rayon() {
     let scene = Arc::new(small("scenes/cornell_box.toml"));
     let tracer = Arc::new(AnyTracer::build("bvh", &scene, 2).unwrap());
     let refs = tempfile::tempdir().unwrap();
-    let r = reference::reference(&*scene, &*tracer, refs.path(), 4, 2).unwrap();
-    let base = converge::run_convergence(&*scene, &*tracer, &r, 8, 2);
+    let r = reference::reference(&scene, &*tracer, refs.path(), 4, 2).unwrap();
+    let base = converge::run_convergence(&scene, &*tracer, &r, 8, 2);
     assert_eq!(base.len(), 4);
     for spec in [
         SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 2),

@@ -366,6 +366,17 @@ pub fn budget_winners(rows: &[ConvergenceRow]) -> Vec<String> {
                 w / b.max(f64::MIN_POSITIVE)
             );
         }
+        let late: Vec<&str> = g
+            .iter()
+            .filter(|s| s.rmse_at_budget.is_none())
+            .map(|s| s.config.as_str())
+            .collect();
+        if !late.is_empty() {
+            line += &format!(
+                "; no image yet at that time (first step slower than the budget): {}",
+                late.join(", ")
+            );
+        }
         out.push(line);
     }
     out

@@ -110,6 +110,10 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
         md,
         "\n## Fitted slopes (log RMSE vs log time; −½ expected)\n\nConfiguration = \
          tracer/scheduler/workers. Best first per scene.\n\n\
+         A slope steeper than −½ means the early, small steps are dominated by a per-step cost \
+         (threads started, items handed out) that the later, larger steps amortise: the \
+         configuration pays a constant price per step, not per sample. On a run of a few tens of \
+         milliseconds (the furnace) the slope is mostly that overhead and the machine's noise.\n\n\
          | scene | configuration | slope | time budget (s) | RMSE at budget |\n|---|---|---|---|---|"
     );
     for s in converge::summarise(&from_csv) {
