@@ -242,6 +242,11 @@ fn run_experiment(args: RunArgs) -> Result<(), CliError> {
     if plan.convergence.is_some() {
         let dir = experiment::convergence::run(&plan, &args.out).map_err(CliError::runtime)?;
         if !args.quiet {
+            let rows = crate::converge::read_csv(&dir.join("convergence.csv"))
+                .map_err(CliError::runtime)?;
+            for line in crate::converge::budget_winners(&rows) {
+                println!("{line}");
+            }
             println!("{}: wrote {}", plan.name, dir.join("report.md").display());
         }
         return Ok(());
@@ -348,6 +353,9 @@ fn converge(args: ConvergeArgs) -> Result<(), CliError> {
             s.budget_s,
             s.rmse_at_budget.map_or("n/a".into(), |v| format!("{v:.5}"))
         );
+    }
+    for line in cv::budget_winners(&rows) {
+        println!("{line}");
     }
     println!("wrote {} and {}", csv.display(), png.display());
     Ok(())

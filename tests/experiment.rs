@@ -421,3 +421,105 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
         );
     }
 }
+
+/// Issue 6: schedulers are a dimension of a convergence experiment. One row set per
+/// (tracer, scheduler); the images are bit-identical, so every error column of a step is the
+/// same under every scheduler; the summary answers the time-budget question on stdout and in
+/// the report; an unknown scheduler is a config error naming the file and the field.
+#[test]
+fn convergence_per_scheduler_same_errors_and_budget_winner() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let good = format!(
+        "kind = \"convergence\"\nmax_spp = 4\nref_spp = 8\nworkers = 2\ntracers = [\"bvh\"]\n\
+         [[scenes]]\npath = \"{}\"\nwidth = 10\nheight = 8\n\
+         [[schedulers]]\nkind = \"master\"\nchunk = \"1\"\n\
+         [[schedulers]]\nkind = \"work_stealing\"\nchunk = [\"3\", \"frame\"]\n\
+         [[schedulers]]\nkind = \"static\"\nchunk = \"rows:1\"\n",
+        scene.display()
+    );
+    std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
+    let out = run(&["run", "conv.toml", "--out", "res"], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
+    let mut by_sched: std::collections::BTreeMap<String, Vec<_>> = Default::default();
+    for r in &rows {
+        by_sched.entry(r.scheduler.clone()).or_default().push(r);
+    }
+    let names: Vec<&str> = by_sched.keys().map(String::as_str).collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+    assert!(
+        names.iter().any(|n| n.starts_with("master chunk=1")),
+        "{names:?}"
+    );
+    assert!(names.contains(&"work_stealing chunk=frame"), "{names:?}");
+    let first = &by_sched[names[0]];
+    for (name, g) in &by_sched {
+        // 1, 2, 4 spp on 2 workers, errors identical bit for bit.
+        assert_eq!(
+            g.iter().map(|r| r.spp).collect::<Vec<_>>(),
+            [1, 2, 4],
+            "{name}"
+        );
+        for (a, b) in g.iter().zip(first) {
+            assert_eq!(a.threads, 2);
+            assert_eq!(
+                (a.rmse, a.rel_mse, a.mae, a.max_err, a.rays),
+                (b.rmse, b.rel_mse, b.mae, b.max_err, b.rays),
+                "{name} vs {} at {} spp",
+                names[0],
+                a.spp
+            );
+        }
+        assert!(g.windows(2).all(|w| w[1].wall_s > w[0].wall_s), "{name}");
+    }
+    let report = std::fs::read_to_string(dir.path().join("res/conv/report.md")).unwrap();
+    let winner = raysched::converge::budget_winners(&rows);
+    assert_eq!(winner.len(), 1);
+    assert!(winner[0].contains("lowest RMSE is bvh/"), "{}", winner[0]);
+    assert!(
+        report.contains(&winner[0]) && stdout.contains(&winner[0]),
+        "{report}\n{stdout}"
+    );
+    assert!(report.contains("load average"), "{report}");
+    // Both plots are redrawn from the CSV alone.
+    for p in ["convergence.png", "convergence.svg"] {
+        std::fs::remove_file(dir.path().join("res/conv").join(p)).unwrap();
+    }
+    assert!(run(&["plot", "res/conv"], dir.path()).status.success());
+    for p in ["convergence.png", "convergence.svg"] {
+        assert!(dir.path().join("res/conv").join(p).exists(), "{p}");
+    }
+
+    for (from, to, field) in [
+        (
+            "kind = \"master\"",
+            "kind = \"fastest\"",
+            "schedulers[0].kind",
+        ),
+        (
+            "chunk = \"rows:1\"",
+            "chunk = \"rows:0\"",
+            "schedulers[2].chunk",
+        ),
+        (
+            "chunk = \"1\"\n",
+            "chunk = \"1\"\nguided_k = 2\n",
+            "schedulers[0].guided_k",
+        ),
+    ] {
+        std::fs::write(dir.path().join("bad.toml"), good.replacen(from, to, 1)).unwrap();
+        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(field),
+            "{to:?}: {err}"
+        );
+    }
+}

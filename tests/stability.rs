@@ -17,6 +17,11 @@ fn stability_quick_suite_passes() {
     let failed: Vec<_> = rows.iter().filter(|r| r.required && !r.pass).collect();
     assert!(failed.is_empty(), "failed cases:\n{table}");
     assert!(rows.iter().all(|r| r.nonfinite == 0), "{table}");
+    assert!(
+        rows.iter()
+            .any(|r| r.case.starts_with("equal power") && r.pass),
+        "{table}"
+    );
 }
 
 /// The BVH must find the same closest hits as brute force on a scene shrunk to 1e-6.
@@ -166,4 +171,73 @@ fn convergence_slope_is_minus_half() {
     let png = dir.path().join("conv.png");
     converge::plot(&png, &back).unwrap();
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
+}
+
+/// Issue 6, stiff light: a tiny light of the same power (radiance × area) as a large one has
+/// the same image mean (within 3σ, no NaN/Inf) and a far larger variance of that mean. The
+/// check is not vacuous: a tiny light of 3× the power fails on the mean, and the two swapped
+/// fail on the variance ratio.
+#[test]
+fn equal_power_tiny_light_same_mean_far_larger_variance() {
+    let b = Budget::QUICK;
+    let scene = |side: f64, l: f64| {
+        let text = cases::square_light(side, l, 2048);
+        raysched::scene::load_scene_str(&text, "sq", Path::new("."), "sq", &Default::default())
+            .unwrap()
+    };
+    let (tiny, large) = (scene(0.02, 2.5e6), scene(1.0, 1e3));
+    let bright = scene(0.02, 7.5e6);
+    let tr = |s: &raysched::scene::Scene| AnyTracer::build("bvh", s, 1).unwrap();
+    let (tt, tl, tb) = (tr(&tiny), tr(&large), tr(&bright));
+    let ok = stability::equal_power("stiff", "equal", (&tiny, &tt), (&large, &tl), &b);
+    assert!(ok.pass && ok.nonfinite == 0, "{ok:?}");
+    // Analytic: L·A over the film's area at the lights' distance 3 (2·3·tan 30° wide).
+    let film = (6.0 * 30f64.to_radians().tan()).powi(2);
+    assert!(
+        (ok.expected - 1e3 / film).abs() < 1e-3 * ok.expected,
+        "{ok:?}"
+    );
+    assert!(ok.sigma > 10.0 * 0.07, "{ok:?}");
+    assert!(ok.note.contains("tiny/large = "), "{}", ok.note);
+    let too_bright = stability::equal_power("stiff", "3x", (&bright, &tb), (&large, &tl), &b);
+    assert!(!too_bright.pass, "{too_bright:?}");
+    let swapped = stability::equal_power("stiff", "swap", (&large, &tl), (&tiny, &tt), &b);
+    assert!(
+        (swapped.measured - swapped.expected).abs() <= 3.0 * swapped.sigma,
+        "{swapped:?}"
+    );
+    assert!(
+        !swapped.pass,
+        "means agree, so only the variance ratio can fail it: {swapped:?}"
+    );
+}
+
+/// A progressive run under any scheduler gives the same errors, bit for bit, as the
+/// row-parallel pool (the images are identical); only the wall times differ.
+#[test]
+fn scheduled_convergence_matches_rows_rayon() {
+    use raysched::sched::{Chunk, SchedulerKind, SchedulerSpec};
+    use std::sync::Arc;
+    let scene = Arc::new(small("scenes/cornell_box.toml"));
+    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 2).unwrap());
+    let refs = tempfile::tempdir().unwrap();
+    let r = reference::reference(&scene, &*tracer, refs.path(), 4, 2).unwrap();
+    let base = converge::run_convergence(&scene, &*tracer, &r, 8, 2);
+    assert_eq!(base.len(), 4);
+    for spec in [
+        SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 2),
+        SchedulerSpec::new(SchedulerKind::Guided, Chunk::Tile { w: 5, h: 3 }, 2),
+    ] {
+        let rows = converge::run_convergence_scheduled(&scene, &tracer, &r, 8, &spec).unwrap();
+        assert_eq!(rows.len(), base.len());
+        for (a, b) in rows.iter().zip(&base) {
+            assert_eq!(a.scheduler, spec.label());
+            assert_eq!(
+                (a.spp, a.rmse, a.rel_mse, a.mae, a.max_err, a.rays),
+                (b.spp, b.rmse, b.rel_mse, b.mae, b.max_err, b.rays),
+                "{}",
+                spec.label()
+            );
+        }
+    }
 }

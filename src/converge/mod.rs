@@ -6,15 +6,21 @@
 //! slope of RMSE against wall time should be −½; a configuration is better than another when
 //! it reaches a lower error for the same time budget ([`error_at_budget`]).
 
+mod plot;
 pub mod reference;
+
+pub use plot::plot;
 
 pub use reference::{Reference, ReferenceKind};
 
-use crate::render::Moments;
+use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
+use crate::sched::{decompose, run_items, Job, RunOptions, SchedError, SchedulerSpec};
 use crate::tracer::Tracer;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 use std::path::Path;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 /// One step of a progressive render: the image after `spp` samples against the reference.
@@ -66,6 +72,126 @@ pub fn run_convergence<T: Tracer + ?Sized>(
     max_spp: u32,
     threads: usize,
 ) -> Vec<ConvergenceRow> {
+    // One pool for the whole run: building it per step would be timed as rendering.
+    let Ok(pool) = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    else {
+        return Vec::new();
+    };
+    let label = Label {
+        tracer: tracer.id().to_string(),
+        scheduler: ROWS_RAYON.into(),
+        threads,
+    };
+    let step = |range: Range<u32>| -> Result<(Moments, f64), std::convert::Infallible> {
+        let t0 = Instant::now();
+        let m = reference::image_moments_in(&pool, scene, tracer, range, false);
+        Ok((m, t0.elapsed().as_secs_f64()))
+    };
+    match progressive(scene, reference, max_spp, &label, step) {
+        Ok(rows) => rows,
+        Err(e) => match e {},
+    }
+}
+
+/// The scheduler label of [`run_convergence`]'s rows: one row-parallel rayon pool.
+pub const ROWS_RAYON: &str = "rows_rayon";
+
+/// [`run_convergence`] with every step rendered under the scheduler `spec` (its workers, its
+/// chunk, its hand-out): a step's wall time is that scheduler's time for samples `lo..hi` of
+/// the whole image, threads and sources started and joined included, as in a timing run.
+/// Pixel sums are the same f64 sums in the same sample order whoever renders them, so the
+/// images, and every error column, are bit-identical to [`run_convergence`]'s.
+///
+/// # Errors
+/// The scheduler's error (an invalid spec, a lost item).
+pub fn run_convergence_scheduled<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    reference: &Reference,
+    max_spp: u32,
+    spec: &SchedulerSpec,
+) -> Result<Vec<ConvergenceRow>, SchedError> {
+    spec.validate()?;
+    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
+    let label = Label {
+        tracer: tracer.id().to_string(),
+        scheduler: spec.label(),
+        threads: spec.workers,
+    };
+    // Per-step clocks off: the probe's clock reads would be timed as rendering.
+    let opts = RunOptions {
+        stats: false,
+        ..RunOptions::default()
+    };
+    let width = scene.width() as usize;
+    let n = scene.pixel_count();
+    let step = |range: Range<u32>| -> Result<(Moments, f64), SchedError> {
+        // The job hands back f32 means (what a source would send); the exact f64 moments go
+        // to a per-item slot, first result wins (a re-issued item renders the same bits).
+        let slots: Arc<Vec<OnceLock<Moments>>> =
+            Arc::new((0..items.len()).map(|_| OnceLock::new()).collect());
+        let job: Job = {
+            let (scene, tracer, slots) = (scene.clone(), tracer.clone(), slots.clone());
+            let range = range.clone();
+            Arc::new(move |item: &WorkItem| {
+                let m = render_moments(&scene, &*tracer, item, range.clone(), false);
+                let r = TileResult {
+                    item: item.id,
+                    pixels: m
+                        .sums
+                        .iter()
+                        .zip(&m.counts)
+                        .map(|(s, &c)| s.map(|v| (v / c.max(1) as f64) as f32))
+                        .collect(),
+                    rays: m.rays,
+                    nonfinite: m.nonfinite,
+                };
+                let _ = slots[item.id as usize].set(m);
+                r
+            })
+        };
+        let t0 = Instant::now();
+        run_items(spec, &items, job, &opts)?;
+        let wall = t0.elapsed().as_secs_f64();
+        let mut all = Moments {
+            sums: vec![[0.0; 3]; n],
+            counts: vec![0; n],
+            ..Default::default()
+        };
+        for item in &items {
+            let m = slots[item.id as usize]
+                .get()
+                .ok_or(SchedError::Missing { item: item.id })?;
+            for (k, idx) in item.pixels(width as u32).enumerate() {
+                all.sums[idx as usize] = m.sums[k];
+                all.counts[idx as usize] = m.counts[k];
+            }
+            all.rays += m.rays;
+            all.nonfinite += m.nonfinite;
+        }
+        Ok((all, wall))
+    };
+    progressive(scene, reference, max_spp, &label, step)
+}
+
+/// Who rendered a progressive run (the CSV's configuration columns).
+struct Label {
+    tracer: String,
+    scheduler: String,
+    threads: usize,
+}
+
+/// The progression 1, 2, 4, … `max_spp`: `step(lo..hi)` renders samples `lo..hi` of every
+/// pixel and returns their moments and its wall time; the sums accumulate across steps.
+fn progressive<E>(
+    scene: &Scene,
+    reference: &Reference,
+    max_spp: u32,
+    label: &Label,
+    mut step: impl FnMut(Range<u32>) -> Result<(Moments, f64), E>,
+) -> Result<Vec<ConvergenceRow>, E> {
     let n = scene.pixel_count();
     let mut acc = Moments {
         sums: vec![[0.0; 3]; n],
@@ -74,20 +200,11 @@ pub fn run_convergence<T: Tracer + ?Sized>(
     };
     let mut rows = Vec::new();
     let mut wall = 0.0;
-    let (mut lo, mut step) = (0u32, 0u32);
-    // One pool for the whole run: building it per step would be timed as rendering.
-    let pool = match rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build()
-    {
-        Ok(p) => p,
-        Err(_) => return rows,
-    };
+    let (mut lo, mut k) = (0u32, 0u32);
     while lo < max_spp.max(1) {
         let hi = if lo == 0 { 1 } else { (lo * 2).min(max_spp) };
-        let t0 = Instant::now();
-        let m = reference::image_moments_in(&pool, scene, tracer, lo..hi, false);
-        wall += t0.elapsed().as_secs_f64();
+        let (m, dt) = step(lo..hi)?;
+        wall += dt;
         for i in 0..n {
             for c in 0..3 {
                 acc.sums[i][c] += m.sums[i][c];
@@ -101,11 +218,11 @@ pub fn run_convergence<T: Tracer + ?Sized>(
         let (rmse, rel_mse, mae, max_err) = errors(&est, &reference.image.data);
         rows.push(ConvergenceRow {
             scene: scene.name.clone(),
-            tracer: tracer.id().to_string(),
-            scheduler: "rows_rayon".into(),
-            threads,
+            tracer: label.tracer.clone(),
+            scheduler: label.scheduler.clone(),
+            threads: label.threads,
             reference: reference.kind.label(),
-            step,
+            step: k,
             spp: hi,
             wall_s: wall,
             rmse,
@@ -117,9 +234,9 @@ pub fn run_convergence<T: Tracer + ?Sized>(
             rays: acc.rays,
         });
         lo = hi;
-        step += 1;
+        k += 1;
     }
-    rows
+    Ok(rows)
 }
 
 /// Least-squares slope of log(rmse) against log(wall_s) over rows with both positive.
@@ -213,6 +330,58 @@ pub fn summarise(rows: &[ConvergenceRow]) -> Vec<ConvergenceSummary> {
     out
 }
 
+/// Per scene, one sentence answering "given the same time budget, which configuration gives
+/// the lowest error?": the budget is the largest wall time every configuration of the scene
+/// reached, each curve read there by log-log interpolation ([`error_at_budget`]).
+pub fn budget_winners(rows: &[ConvergenceRow]) -> Vec<String> {
+    let summary = summarise(rows);
+    let mut out = Vec::new();
+    let mut scenes: Vec<&str> = summary.iter().map(|s| s.scene.as_str()).collect();
+    scenes.dedup();
+    for scene in scenes {
+        let g: Vec<&ConvergenceSummary> = summary.iter().filter(|s| s.scene == scene).collect();
+        let reached: Vec<&&ConvergenceSummary> =
+            g.iter().filter(|s| s.rmse_at_budget.is_some()).collect();
+        let (Some(best), Some(worst)) = (reached.first(), reached.last()) else {
+            out.push(format!(
+                "{scene}: no configuration has an error at a common time budget"
+            ));
+            continue;
+        };
+        let (b, w) = (
+            best.rmse_at_budget.unwrap_or(0.0),
+            worst.rmse_at_budget.unwrap_or(0.0),
+        );
+        let mut line = format!(
+            "{scene}: at a time budget of {:.4} s (the largest time all {} configurations \
+             reached) the lowest RMSE is {} ({b:.5})",
+            best.budget_s,
+            g.len(),
+            best.config
+        );
+        if reached.len() > 1 {
+            line += &format!(
+                "; the highest is {} ({w:.5}, {:.2}× the lowest)",
+                worst.config,
+                w / b.max(f64::MIN_POSITIVE)
+            );
+        }
+        let late: Vec<&str> = g
+            .iter()
+            .filter(|s| s.rmse_at_budget.is_none())
+            .map(|s| s.config.as_str())
+            .collect();
+        if !late.is_empty() {
+            line += &format!(
+                "; no image yet at that time (first step slower than the budget): {}",
+                late.join(", ")
+            );
+        }
+        out.push(line);
+    }
+    out
+}
+
 /// Write rows as CSV (one row per step, fixed units: seconds).
 ///
 /// # Errors
@@ -228,128 +397,4 @@ pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
 pub fn read_csv(path: &Path) -> anyhow::Result<Vec<ConvergenceRow>> {
     let mut r = csv::Reader::from_path(path)?;
     Ok(r.deserialize().collect::<Result<_, _>>()?)
-}
-
-static FONT: std::sync::Once = std::sync::Once::new();
-
-fn register_font() {
-    FONT.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            plotters::style::FontStyle::Normal,
-            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
-}
-
-/// Log-log plot of RMSE against wall time, one series per configuration, each with its fitted
-/// slope in the legend, plus a dashed −½ guide through the first point. `.png` or `.svg`.
-///
-/// # Errors
-/// Drawing errors, or no rows with positive time and error.
-pub fn plot(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    register_font();
-    let pts: Vec<&ConvergenceRow> = rows
-        .iter()
-        .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
-        .collect();
-    anyhow::ensure!(
-        !pts.is_empty(),
-        "no rows with positive wall time and error to plot"
-    );
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)?;
-    }
-    match path.extension().and_then(|e| e.to_str()) {
-        Some("svg") => draw_plot(SVGBackend::new(path, (800, 600)).into_drawing_area(), rows),
-        _ => draw_plot(
-            BitMapBackend::new(path, (800, 600)).into_drawing_area(),
-            rows,
-        ),
-    }
-}
-
-fn draw_plot<DB: plotters::prelude::DrawingBackend>(
-    root: plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
-    rows: &[ConvergenceRow],
-) -> anyhow::Result<()> {
-    use plotters::prelude::*;
-    let pts: Vec<&ConvergenceRow> = rows
-        .iter()
-        .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
-        .collect();
-    let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
-        (a.min(r.wall_s), b.max(r.wall_s))
-    });
-    let (y0, y1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), r| {
-        (a.min(r.rmse), b.max(r.rmse))
-    });
-    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut scenes: Vec<&str> = pts.iter().map(|r| r.scene.as_str()).collect();
-    scenes.dedup();
-    scenes.sort_unstable();
-    scenes.dedup();
-    let title = format!("RMSE vs wall time ({})", scenes.join(", "));
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(
-            (x0 / 1.5..x1 * 1.5).log_scale(),
-            (y0 / 1.5..y1 * 1.5).log_scale(),
-        )
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    chart
-        .configure_mesh()
-        .x_desc("wall time [s]")
-        .y_desc("RMSE")
-        .x_label_formatter(&|v| format!("{v:.2e}"))
-        .y_label_formatter(&|v| format!("{v:.2e}"))
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut groups: std::collections::BTreeMap<(String, String), Vec<ConvergenceRow>> =
-        Default::default();
-    for r in rows {
-        groups.entry(config_key(r)).or_default().push(r.clone());
-    }
-    for (k, ((scene, config), g)) in groups.iter().enumerate() {
-        let colour = Palette99::pick(k).to_rgba();
-        let series: Vec<(f64, f64)> = g
-            .iter()
-            .filter(|r| r.wall_s > 0.0 && r.rmse > 0.0)
-            .map(|r| (r.wall_s, r.rmse))
-            .collect();
-        let slope = fitted_slope(g).map_or("n/a".into(), |s| format!("{s:.2}"));
-        chart
-            .draw_series(LineSeries::new(series.clone(), colour.stroke_width(2)))
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .label(format!("{scene} {config}: slope {slope}"))
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour));
-        chart
-            .draw_series(series.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    // The −½ guide through the first point of the first series.
-    let (gx, gy) = (pts[0].wall_s, pts[0].rmse);
-    let guide: Vec<(f64, f64)> = (0..=20)
-        .map(|i| {
-            let x = x0 * (x1 / x0).powf(i as f64 / 20.0);
-            (x, gy * (x / gx).powf(-0.5))
-        })
-        .collect();
-    chart
-        .draw_series(DashedLineSeries::new(guide, 6, 4, BLACK.stroke_width(1)))
-        .map_err(|e| anyhow::anyhow!("{e}"))?
-        .label("slope −½ guide")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    Ok(())
 }

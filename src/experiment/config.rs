@@ -13,7 +13,7 @@
 //! path = "../scenes/simple.toml"  # relative to this file
 //! width = 64                      # any field of SceneOverrides
 //!
-//! [[schedulers]]                 # none for kind = "convergence" (max_spp, ref_spp instead)
+//! [[schedulers]]                 # kind = "convergence": optional, one progressive run each
 //! kind = "master"
 //! chunk = ["1", "8", "frame"]     # every grid field takes a value or a list
 //! buffer = [1, 2, 16]

@@ -25,12 +25,14 @@ pub fn finish(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     if !runs.exists() && convergence.exists() {
-        // A convergence experiment: its plot is drawn from its CSV alone too.
-        let png = dir.join("convergence.png");
+        // A convergence experiment: its plots are drawn from its CSV alone too.
         let rows = crate::converge::read_csv(&convergence)
             .map_err(|e| format!("{}: {e}", convergence.display()))?;
-        crate::converge::plot(&png, &rows).map_err(|e| format!("{}: {e}", png.display()))?;
-        return Ok(vec![png]);
+        let plots = convergence::PLOTS.map(|p| dir.join(p));
+        for p in &plots {
+            crate::converge::plot(p, &rows).map_err(|e| format!("{}: {e}", p.display()))?;
+        }
+        return Ok(plots.to_vec());
     }
     if !runs.exists() {
         return Err(format!(

@@ -61,7 +61,8 @@ pub struct ExperimentPlan {
     pub baselines: Vec<Baseline>,
     /// Serial baselines first, so a scheduler run always finds its baseline measured.
     pub configs: Vec<RunConfig>,
-    /// `Some` for a convergence experiment (then `configs` holds only the baselines' entries).
+    /// `Some` for a convergence experiment: each `configs` entry with a scheduler is one
+    /// progressive run under it; a baseline without any is rendered on a row-parallel pool.
     pub convergence: Option<ConvergenceSettings>,
     /// The largest worker count: the thread budget of tracer builds and convergence renders.
     pub max_workers: usize,
@@ -162,12 +163,6 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
             None
         }
         ExperimentKind::Convergence => {
-            if !file.schedulers.is_empty() {
-                return Err(err(
-                    "schedulers",
-                    "a convergence experiment renders progressively on its own pool; it has no schedulers".into(),
-                ));
-            }
             let max_spp = file
                 .max_spp
                 .ok_or_else(|| err("max_spp", "kind = \"convergence\" needs max_spp".into()))?;
@@ -181,12 +176,12 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         }
     };
     // Expand every scheduler grid before the (slow) scene loading, so a typo fails fast.
+    // A progressive run records no timeline: a Gantt chart per step would be noise.
+    let timeline = file.timeline && convergence.is_none();
     let mut grids = Vec::new();
     for (i, s) in file.schedulers.iter().enumerate() {
         let field = |f: &str| format!("schedulers[{i}].{f}");
-        grids.push(
-            expand_scheduler(s, &workers, file.timeline).map_err(|(f, m)| err(&field(&f), m))?,
-        );
+        grids.push(expand_scheduler(s, &workers, timeline).map_err(|(f, m)| err(&field(&f), m))?);
     }
     let max_workers = workers.iter().copied().max().unwrap_or(1);
 

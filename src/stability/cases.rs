@@ -1,7 +1,7 @@
 //! The cases of the stability suite, each a small scene written out here in TOML.
 
 use super::transform::load_transformed;
-use super::{against_reference, against_scene, count_case, Budget, CaseResult};
+use super::{against_reference, against_scene, count_case, equal_power, Budget, CaseResult};
 use crate::converge::reference::{analytic, Reference, ReferenceKind};
 use crate::render::Image;
 use crate::scene::{load_scene_str, Scene, SceneOverrides};
@@ -372,6 +372,7 @@ fn stiff_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         &o,
         b,
     ));
+    out.push(equal_power_case(b));
     let heights: &[f64] = if b.quick {
         &[1e-3]
     } else {
@@ -406,6 +407,50 @@ fn stiff_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         &o,
         b,
     ));
+}
+
+/// A tiny, very bright light against a large one of the same power (radiance × area), both
+/// facing the camera at the same place: the image mean is the same (a fronto-parallel square
+/// projects to the film with its area scaled by a constant), but the tiny light's mean rests
+/// on the few samples that hit it. (Seen only through the plane it lights, next-event
+/// estimation makes a tiny light easy, not stiff: the direct view is the hard case.)
+fn equal_power_case(b: &Budget) -> CaseResult {
+    // Quick: side 0.02 (≈ 1 % of a pixel's footprint, ≈ 20 hits at 2048 spp); full: side
+    // 0.01, 8192 spp (same expected hits, 4× the radiance ratio).
+    let (side, spp): (f64, u32) = if b.quick { (0.02, 2048) } else { (0.01, 8192) };
+    let large_side = 1.0;
+    let large_l = 1000.0;
+    let tiny_l = large_l * (large_side / side).powi(2);
+    let case =
+        format!("equal power: tiny light (side {side}, L={tiny_l:e}) vs large (side 1, L=1e3)");
+    let run = || -> Result<CaseResult, String> {
+        let o = SceneOverrides::default();
+        let tiny = load(&square_light(side, tiny_l, spp), "tiny_light", &o)?;
+        let large = load(&square_light(large_side, large_l, spp), "large_light", &o)?;
+        let (tt, tl) = (tracer(&tiny)?, tracer(&large)?);
+        let mut r = equal_power("stiff", &case, (&tiny, &tt), (&large, &tl), b);
+        // The film spans 2·3·tan 30° at the lights' distance 3.
+        let film = (2.0 * 3.0 * 30f64.to_radians().tan()).powi(2);
+        r.note += &format!(
+            "; analytic mean L·A/film = {:.4}",
+            large_l * large_side * large_side / film
+        );
+        Ok(r)
+    };
+    run().unwrap_or_else(|e| failed("stiff", &case, e))
+}
+
+/// A square light of side `side` and radiance `l`, 3 units in front of a 17×17 camera with a
+/// 60° field of view and facing it, on black (the equal-power case's scenes).
+pub fn square_light(side: f64, l: f64, spp: u32) -> String {
+    format!(
+        "[camera]\norigin = [0, 0, 5]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 60\nwidth = 17\nheight = 17\n\
+         [render]\nspp = {spp}\nmax_depth = 4\nseed = 11\n\
+         [materials.black]\ntype = \"diffuse\"\nreflectance = [0, 0, 0]\n\
+         [[shapes]]\ntype = \"rectangle\"\nmaterial = \"black\"\nemission = [{l:e}, {l:e}, {l:e}]\n\
+         transform = [{{ translate = [0, 0, 2] }}, {{ scale = {:e} }}]\n",
+        side / 2.0
+    )
 }
 
 /// Run every case (the short list when `budget.quick`).

@@ -220,6 +220,57 @@ pub fn against_scene<T: Tracer + ?Sized, U: Tracer + ?Sized>(
     )
 }
 
+/// Below this ratio of image-mean variances (tiny light / large light) the equal-power case
+/// fails: its point is a light with the same mean and a far larger variance.
+pub const EQUAL_POWER_MIN_VAR_RATIO: f64 = 10.0;
+
+/// Two renders that must have the same image mean but may differ pixel by pixel (a tiny
+/// bright light and a large dim one of the same power): means within 3σ (combined standard
+/// error), no NaN/Inf, and the `stiff` render's variance of the mean at least
+/// [`EQUAL_POWER_MIN_VAR_RATIO`] times the `mild` one's. The ratio is in the note.
+pub fn equal_power<T: Tracer + ?Sized, U: Tracer + ?Sized>(
+    group: &str,
+    case: &str,
+    stiff: (&Scene, &T),
+    mild: (&Scene, &U),
+    budget: &Budget,
+) -> CaseResult {
+    // (image mean, variance of that mean, NaN/Inf samples, pixels)
+    let stats = |scene: &Scene, m: Moments| {
+        let st = pixel_stats(&m, scene.settings.spp);
+        let n = st.len().max(1) as f64;
+        let mean = st.iter().map(|p| p.0).sum::<f64>() / n;
+        let var = st.iter().map(|p| p.1).sum::<f64>() / (n * n);
+        (mean, var, m.nonfinite, st.len())
+    };
+    let spp = |s: &Scene| 0..s.settings.spp;
+    let a = image_moments(stiff.0, stiff.1, spp(stiff.0), false, budget.threads);
+    let b = image_moments(mild.0, mild.1, spp(mild.0), false, budget.threads);
+    let (ms, vs, ns, pixels) = stats(stiff.0, a);
+    let (mm, vm, nm, _) = stats(mild.0, b);
+    let ratio = if vm > 0.0 { vs / vm } else { f64::INFINITY };
+    let mut r = verdict(
+        group,
+        case,
+        mm,
+        ms,
+        (vs + vm).sqrt(),
+        ns + nm,
+        0,
+        pixels,
+        format!(
+            "vs large light of equal power; variance of the mean tiny/large = {ratio:.3e} \
+             (σ {:.2e} / {:.2e}), {} / {} spp",
+            vs.sqrt(),
+            vm.sqrt(),
+            stiff.0.settings.spp,
+            mild.0.settings.spp
+        ),
+    );
+    r.pass &= ratio >= EQUAL_POWER_MIN_VAR_RATIO;
+    r
+}
+
 /// An exact count (e.g. degenerate triangles skipped): pass when equal.
 pub fn count_case(group: &str, case: &str, expected: u64, measured: u64, note: &str) -> CaseResult {
     let mut r = verdict(
@@ -248,7 +299,7 @@ pub fn write_csv(path: &Path, rows: &[CaseResult]) -> anyhow::Result<()> {
 /// The table as markdown.
 pub fn markdown(rows: &[CaseResult]) -> String {
     let mut s = String::from(
-        "| group | case | expected | measured | σ | rel. error | NaN/Inf | outlier px | result |\n|---|---|---|---|---|---|---|---|---|\n",
+        "| group | case | expected | measured | σ | rel. error | NaN/Inf | outlier px | result | note |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let result = match (r.pass, r.required) {
@@ -257,7 +308,7 @@ pub fn markdown(rows: &[CaseResult]) -> String {
             (false, false) => "fail (report only)",
         };
         s.push_str(&format!(
-            "| {} | {} | {:.6} | {:.6} | {:.2e} | {:.2e} | {} | {} | {} |\n",
+            "| {} | {} | {:.6} | {:.6} | {:.2e} | {:.2e} | {} | {} | {} | {} |\n",
             r.group,
             r.case,
             r.expected,
@@ -266,7 +317,8 @@ pub fn markdown(rows: &[CaseResult]) -> String {
             r.rel_error,
             r.nonfinite,
             r.outlier_pixels,
-            result
+            result,
+            r.note.replace('|', "/")
         ));
     }
     s
