@@ -25,6 +25,11 @@ pub mod tag {
     pub const READY: i32 = 4;
     /// worker → rank 0: acknowledges STOP, nothing of it follows.
     pub const BYE: i32 = 5;
+    /// rank 0 → worker: an encoded `ScenePackage` to build (replacing the current scene);
+    /// answered with READY. `raysched run` sends one per (scene, tracer).
+    pub const SCENE: i32 = 6;
+    /// worker → rank 0: alive and busy (empty), sent while an item takes long.
+    pub const HEARTBEAT: i32 = 7;
 }
 
 #[derive(Debug, thiserror::Error)]
