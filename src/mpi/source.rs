@@ -8,7 +8,7 @@
 //! [`LIVENESS_EVERY`]), or when it has had work outstanding and said nothing for `silence`
 //! (the only signal for a remote rank that died without MPI noticing).
 
-use super::comm::{tag, Comm, Pending};
+use super::comm::{tag, Comm, Pending, SendReq};
 use super::wire::decode_result;
 use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
@@ -118,6 +118,8 @@ pub struct Hub<'c> {
     silence: Duration,
     report: HubReport,
     buf: Vec<u8>,
+    /// Item sends in flight: (rank, request, when sent).
+    sends: Vec<(i32, SendReq, Instant)>,
 }
 
 /// A worker rank as rank 0 knows it after READY.
@@ -170,6 +172,7 @@ impl<'c> Hub<'c> {
             silence,
             report: HubReport::default(),
             buf: Vec::new(),
+            sends: Vec::new(),
         };
         (hub, sources)
     }
@@ -213,10 +216,13 @@ impl<'c> Hub<'c> {
             drop(done); // fails the result as lost
             return;
         }
-        if let Err(e) = self.comm.send(rank, tag::ITEM, &self.buf) {
-            drop(done);
-            self.lose(rank, format!("sending an item failed: {e}"));
-            return;
+        match self.comm.isend(rank, tag::ITEM, self.buf.clone()) {
+            Ok(req) => self.sends.push((rank, req, Instant::now())),
+            Err(e) => {
+                drop(done);
+                self.lose(rank, format!("sending an item failed: {e}"));
+                return;
+            }
         }
         self.report.messages += 1;
         let st = self.state(rank).expect("rank checked above");
@@ -316,6 +322,30 @@ impl<'c> Hub<'c> {
     fn check_liveness(&mut self) {
         let now = Instant::now();
         let mut dead = Vec::new();
+        // Sends that completed are done with; one stuck for the silence limit means the
+        // receiver is gone (a live worker drains its messages within a heartbeat).
+        let mut sends = std::mem::take(&mut self.sends);
+        sends.retain_mut(|(rank, req, at)| match self.comm.test(req) {
+            Ok(true) => false,
+            Ok(false) if now - *at > self.silence => {
+                dead.push((
+                    *rank,
+                    format!(
+                        "an item sent to it was not taken for {:.1} s",
+                        self.silence.as_secs_f64()
+                    ),
+                ));
+                true
+            }
+            Ok(false) => true,
+            Err(e) => {
+                dead.push((*rank, format!("sending an item failed: {e}")));
+                false
+            }
+        });
+        let lost: Vec<i32> = dead.iter().map(|d| d.0).collect();
+        sends.retain(|(r, _, _)| !lost.contains(r));
+        self.sends = sends;
         for st in self.ranks.iter().filter(|r| r.lost.is_none()) {
             if let Some(pid) = st.local_pid {
                 if !process_alive(pid) {
