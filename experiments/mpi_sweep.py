@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
-"""Run the MPI sweep of experiments/mpi.toml: one mpirun per configuration and repetition,
-plus the local-thread master baseline; long-format CSV to results/mpi/results.csv.
+"""Drive the MPI experiment: one `mpirun -n K raysched run EXPERIMENT` per (ranks, transport)
+of its [mpi] table; each launch appends its rows to OUT/<name>/runs.csv (the serial and
+local-thread baselines are measured by the first launch that needs them) and redraws the plots
+and report.md.
 
-Every mpirun has a deadline (killed past it). Timings on a shared machine are noisy: report
-the minimum over repetitions and say what else was running."""
-import csv, os, re, subprocess, sys, tempfile, tomllib, pathlib
+    python3 experiments/mpi_sweep.py [experiments/mpi.toml] [--fresh] [--out results]
+
+Needs a binary built with `cargo build --features mpi`. Every mpirun has a deadline; past it
+its whole process group is killed. A transport this script cannot set up is skipped with a
+message (launch it by hand with RAYSCHED_MPI_TRANSPORT=<name>)."""
+import argparse, os, pathlib, signal, subprocess, sys, tomllib
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 BIN = ROOT / "target" / "debug" / "raysched"
@@ -14,84 +19,46 @@ TRANSPORT_ENV = {
     "shared_memory": {"OMPI_MCA_btl": "self,vader"},
     "tcp_loopback": {"OMPI_MCA_btl": "self,tcp", "OMPI_MCA_btl_tcp_if_include": "lo"},
 }
-DEADLINE_S = 300
+DEADLINE_S = 900
 
 
-def netem_refusal():
-    """None when netem works in a scratch namespace, else the kernel's answer."""
-    ns = "raysched_netem_probe"
-    if subprocess.run(["ip", "netns", "add", ns], capture_output=True).returncode != 0:
-        return "cannot create a network namespace (ip netns add)"
+def launch(ranks, transport, experiment, out, fresh):
+    cmd = ["mpirun", "-n", str(ranks), str(BIN), "run", str(experiment), "--out", str(out), "--quiet"]
+    if fresh:
+        cmd.append("--fresh")
+    env = dict(ENV, **TRANSPORT_ENV[transport])
+    print(f"== {' '.join(cmd)}  ({transport}: {TRANSPORT_ENV[transport]})", flush=True)
+    p = subprocess.Popen(cmd, env=env, start_new_session=True)
     try:
-        subprocess.run(["ip", "-n", ns, "link", "set", "lo", "up"], capture_output=True)
-        r = subprocess.run(["ip", "netns", "exec", ns, "tc", "qdisc", "add", "dev", "lo", "root",
-                            "netem", "delay", "1ms"], capture_output=True, text=True)
-        return None if r.returncode == 0 else (r.stderr.strip() or "tc netem failed")
-    finally:
-        subprocess.run(["ip", "netns", "del", ns], capture_output=True)
-
-
-def run(cmd, env):
-    try:
-        p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=DEADLINE_S)
+        return p.wait(timeout=DEADLINE_S)
     except subprocess.TimeoutExpired:
-        return None, "deadline"
-    m = re.search(r"^wall ([0-9.]+) s, rays ([0-9]+)", p.stdout, re.M)
-    h = re.search(r"image hash ([0-9a-f]+)", p.stdout)
-    if p.returncode != 0 or not m:
-        return None, p.stderr.strip().splitlines()[-1:] or ["failed"]
-    return (float(m.group(1)), int(m.group(2)), h.group(1) if h else ""), None
+        os.killpg(p.pid, signal.SIGKILL)
+        p.wait()
+        print(f"   killed after {DEADLINE_S} s", flush=True)
+        return 124
 
 
 def main():
-    spec_path = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else ROOT / "experiments" / "mpi.toml")
-    spec = tomllib.loads(spec_path.read_text())
-    out = ROOT / "results" / "mpi"
-    out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    transports = list(spec["mpi"]["transports"])
-    if "tcp_netem" in transports:
-        why = netem_refusal()
-        if why:
-            print(f"tcp_netem: skipped, the kernel refuses netem here: {why}")
-            transports.remove("tcp_netem")
-        else:
-            print("tcp_netem: netem works, but running ranks across namespaces is not implemented yet: skipped")
-            transports.remove("tcp_netem")
-    for sc in spec["scenes"]:
-        scene = (spec_path.parent / sc["path"]).resolve()
-        for sched in spec["schedulers"]:
-            for ranks in spec["mpi"]["ranks"]:
-                for chunk in sched["chunk"]:
-                    for buf in sched["buffer"]:
-                        common = [str(scene), "--spp", str(sc.get("spp", 1)), "-o", os.path.join(tempfile.gettempdir(), "raysched_mpi_sweep.pfm"),
-                                  "--scheduler", sched["kind"], "--chunk", chunk, "--buffer", str(buf)]
-                        cfgs = [("local_threads", [str(BIN), "render", *common, "--threads", str(ranks - 1)], ENV)]
-                        for t in transports:
-                            cfgs.append((t, ["mpirun", "-n", str(ranks), str(BIN), "render", *common,
-                                             "--sources", "mpi"], dict(ENV, **TRANSPORT_ENV[t])))
-                        for name, cmd, env in cfgs:
-                            for rep in range(spec.get("repetitions", 1)):
-                                r, err = run(cmd, env)
-                                if r is None:
-                                    print(f"{name} chunk={chunk} B={buf}: {err}")
-                                    continue
-                                wall, rays, h = r
-                                rows.append(dict(scene=scene.stem, transport=name, ranks=ranks, chunk=chunk,
-                                                 buffer=buf, rep=rep, wall_s=wall, rays=rays,
-                                                 mrays_per_s=rays / wall / 1e6, image_hash=h))
-                            best = [x for x in rows if x["transport"] == name and x["chunk"] == chunk
-                                    and x["buffer"] == buf and x["ranks"] == ranks and x["scene"] == scene.stem]
-                            if best:
-                                b = max(best, key=lambda x: x["mrays_per_s"])
-                                print(f"{scene.stem:12} {name:14} ranks={ranks} chunk={chunk:>3} B={buf:>3} "
-                                      f"best {b['mrays_per_s']:.2f} Mrays/s (wall {b['wall_s']:.4f} s)")
-    with open(out / "results.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
-    hashes = {(r["scene"], r["image_hash"]) for r in rows}
-    print(f"wrote {out / 'results.csv'} ({len(rows)} rows); distinct image hashes per scene: {len(hashes)}")
+    ap = argparse.ArgumentParser()
+    ap.add_argument("experiment", nargs="?", default=str(ROOT / "experiments" / "mpi.toml"))
+    ap.add_argument("--fresh", action="store_true", help="start runs.csv over (first launch only)")
+    ap.add_argument("--out", default=str(ROOT / "results"))
+    a = ap.parse_args()
+    spec = tomllib.loads(pathlib.Path(a.experiment).read_text())
+    mpi = spec["mpi"]
+    ranks = mpi["ranks"] if isinstance(mpi["ranks"], list) else [mpi["ranks"]]
+    fresh, failed = a.fresh, 0
+    for k in ranks:
+        for t in mpi["transports"]:
+            if t not in TRANSPORT_ENV:
+                print(f"{t}: skipped, this driver cannot set it up (launch by hand with RAYSCHED_MPI_TRANSPORT={t})")
+                continue
+            rc = launch(k, t, a.experiment, a.out, fresh)
+            fresh = False
+            if rc != 0:
+                failed += 1
+                print(f"   ranks={k} {t}: exit {rc}", flush=True)
+    sys.exit(1 if failed else 0)
 
 
 if __name__ == "__main__":

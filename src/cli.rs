@@ -236,9 +236,33 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     }
 }
 
+/// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?
+pub fn under_mpirun() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some())
+}
+
 fn run_experiment(args: RunArgs) -> Result<(), CliError> {
-    use crate::experiment::{self, RunError, RunOptions};
+    use crate::experiment::{self, RunOptions};
+    if under_mpirun() {
+        // Every rank lands here; rank 0 runs the experiment, the others render for it.
+        #[cfg(feature = "mpi")]
+        crate::mpi::experiment::run(args);
+        #[cfg(not(feature = "mpi"))]
+        return Err(CliError::input(anyhow::anyhow!(
+            "{}: started by mpirun, but this raysched was built without feature `mpi` (cargo build --features mpi)",
+            args.experiment.display()
+        )));
+    }
     let plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
+    if plan.mpi.is_some() {
+        return Err(CliError::input(anyhow::anyhow!(
+            "{}: mpi: this experiment needs `mpirun -n K raysched run {}` with K in mpi.ranks (this process was not started by mpirun)",
+            args.experiment.display(),
+            args.experiment.display()
+        )));
+    }
     if plan.convergence.is_some() {
         let dir = experiment::convergence::run(&plan, &args.out).map_err(CliError::runtime)?;
         if !args.quiet {
@@ -252,19 +276,35 @@ fn run_experiment(args: RunArgs) -> Result<(), CliError> {
         return Ok(());
     }
     let opts = RunOptions {
-        out: args.out,
+        out: args.out.clone(),
         fresh: args.fresh,
         quiet: args.quiet,
     };
-    let outcome = experiment::run_experiment(&plan, &opts).map_err(|e| match e {
+    let outcome = experiment::run_experiment(&plan, &opts);
+    finish_experiment(&plan, outcome, args.quiet)
+}
+
+/// Plots, report and the closing line of `raysched run` (also under mpirun, on rank 0).
+pub(crate) fn finish_experiment(
+    plan: &crate::experiment::ExperimentPlan,
+    outcome: Result<crate::experiment::RunOutcome, crate::experiment::RunError>,
+    quiet: bool,
+) -> Result<(), CliError> {
+    use crate::experiment::{self, RunError};
+    let outcome = outcome.map_err(|e| match e {
         RunError::Refused(_) => CliError::input(e),
         _ => CliError::runtime(e),
     })?;
     let written =
         experiment::finish(&outcome.dir).map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
-    if !args.quiet {
+    if !quiet {
+        let others = if outcome.other_launches > 0 {
+            format!(", {} left to other mpirun launches", outcome.other_launches)
+        } else {
+            String::new()
+        };
         println!(
-            "{}: {} runs measured, {} already done; wrote {} files (report: {})",
+            "{}: {} runs measured, {} already done{others}; wrote {} files (report: {})",
             plan.name,
             outcome.measured,
             outcome.skipped,

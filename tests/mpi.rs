@@ -343,3 +343,320 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
         "an input error exits 2 through mpirun"
     );
 }
+
+/// `mpirun -n ranks raysched run EXPERIMENT --out OUT` over the BTLs `btl`.
+fn mpirun_run(session: &Path, ranks: usize, btl: &str, experiment: &Path, out: &Path) -> Command {
+    let mut c = Command::new("mpirun");
+    c.arg("-n")
+        .arg(ranks.to_string())
+        .arg(env!("CARGO_BIN_EXE_raysched"))
+        .arg("run")
+        .arg(experiment)
+        .arg("--out")
+        .arg(out)
+        .arg("--quiet");
+    c.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+        .env("OMPI_MCA_mpi_yield_when_idle", "1")
+        .env("OMPI_MCA_btl", btl)
+        .env("OMPI_MCA_btl_tcp_if_include", "lo")
+        .env("OMPI_MCA_orte_tmpdir_base", session)
+        .env_remove("RAYSCHED_MPI_TRANSPORT")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0);
+    c
+}
+
+/// A tiny MPI experiment beside `scene.toml` in `dir`, with `mpi` (its [mpi] table).
+fn mpi_experiment(dir: &Path, mpi: &str) -> PathBuf {
+    // Keys before "[mpi]" go to the top level.
+    let (top, mpi) = match mpi.split_once("[mpi]") {
+        Some((top, rest)) => (top.to_string(), format!("[mpi]{rest}")),
+        None => (String::new(), mpi.to_string()),
+    };
+    let text = format!(
+        r#"
+{top}
+name = "tiny_mpi"
+repetitions = 1
+[[scenes]]
+path = "scene.toml"
+[[schedulers]]
+kind = "master"
+chunk = ["1", "4"]
+buffer = 2
+[[schedulers]]
+kind = "static"
+chunk = "4"
+{mpi}
+"#
+    );
+    let path = dir.join("tiny_mpi.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[derive(Debug, serde::Deserialize)]
+struct Row {
+    config: String,
+    scheduler: String,
+    workers: usize,
+    repetition: u32,
+    image_hash: String,
+    identical: bool,
+    sources: String,
+    ranks: Option<usize>,
+    transport: Option<String>,
+}
+
+fn rows(path: &Path) -> Vec<Row> {
+    csv::Reader::from_path(path)
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap()
+}
+
+#[test]
+fn mpirun_raysched_run_appends_mpi_rows_per_transport_beside_the_local_baseline() {
+    if !have_mpirun() {
+        return;
+    }
+    let _one = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = scene(dir.path(), 16, 12, 2);
+    let want = serial_hash(&scene_path);
+    let exp = mpi_experiment(
+        dir.path(),
+        "[mpi]\nranks = 3\ntransports = [\"shared_memory\", \"tcp_loopback\"]",
+    );
+    let out = dir.path().join("out");
+    let runs = out.join("tiny_mpi/runs.csv");
+    for (btl, transport, total) in [
+        ("self,vader", "shared_memory", 7),
+        ("self,tcp", "tcp_loopback", 10),
+    ] {
+        let child = mpirun_run(dir.path(), 3, btl, &exp, &out).spawn().unwrap();
+        let o = finish(child, transport);
+        let (stdout, stderr) = text(&o);
+        assert!(
+            o.status.success(),
+            "{transport}\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        let rs = rows(&runs);
+        // serial + 3 local-thread (2 threads) + 3 MPI rows per launch so far, none twice.
+        assert_eq!(rs.len(), total, "{transport}: {rs:#?}");
+        let mut keys: Vec<(&str, u32)> = rs
+            .iter()
+            .map(|r| (r.config.as_str(), r.repetition))
+            .collect();
+        keys.sort();
+        keys.dedup();
+        assert_eq!(keys.len(), total, "a (config, repetition) appears twice");
+        for r in &rs {
+            assert!(
+                r.identical && r.image_hash == want,
+                "{r:?} vs serial {want}"
+            );
+        }
+        let mpi: Vec<&Row> = rs
+            .iter()
+            .filter(|r| r.transport.as_deref() == Some(transport))
+            .collect();
+        assert_eq!(mpi.len(), 3, "{transport}: {rs:#?}");
+        assert!(mpi
+            .iter()
+            .all(|r| r.sources == "mpi" && r.ranks == Some(3) && r.workers == 2));
+        let local: Vec<&Row> = rs
+            .iter()
+            .filter(|r| r.sources == "local" && r.scheduler != "serial")
+            .collect();
+        assert_eq!(local.len(), 3);
+        assert!(local
+            .iter()
+            .all(|r| r.workers == 2 && r.ranks == Some(3) && r.transport.is_none()));
+    }
+    let report = std::fs::read_to_string(out.join("tiny_mpi/report.md")).unwrap();
+    assert!(
+        report.contains("## MPI ranks vs local threads") && report.contains("tcp_loopback"),
+        "{report}"
+    );
+    let plot = |d: &Path| {
+        std::fs::read_dir(d.join("plots"))
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .any(|e| {
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with("mpi_throughput_")
+                    && e.path().extension().is_some_and(|x| x == "png")
+            })
+    };
+    assert!(plot(&out.join("tiny_mpi")));
+    // `raysched plot` redraws it from the CSV alone.
+    std::fs::remove_dir_all(out.join("tiny_mpi/plots")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .arg("plot")
+        .arg(out.join("tiny_mpi"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(plot(&out.join("tiny_mpi")));
+}
+
+#[test]
+fn bad_mpi_experiments_are_clear_errors_naming_file_and_field() {
+    if !have_mpirun() {
+        return;
+    }
+    let _one = serial();
+    let dir = tempfile::tempdir().unwrap();
+    scene(dir.path(), 8, 8, 1);
+    let out = dir.path().join("out");
+    let bin = env!("CARGO_BIN_EXE_raysched");
+    // Without mpirun, and plan-level mistakes (no mpirun needed to find them).
+    let cases = [
+        (
+            "[mpi]\nranks = 3\ntransports = [\"shared_memory\"]",
+            "tiny_mpi.toml: mpi: this experiment needs `mpirun",
+        ),
+        (
+            "[mpi]\nranks = [1, 3]\ntransports = [\"shared_memory\"]",
+            "tiny_mpi.toml: mpi.ranks: must be between 2",
+        ),
+        (
+            "[mpi]\nranks = 3\ntransports = []",
+            "tiny_mpi.toml: mpi.transports: must list",
+        ),
+        (
+            "[mpi]\nranks = 3\ntransports = [\"shared_memory\"]\nsilence_ms = 10",
+            "tiny_mpi.toml: mpi.silence_ms: must be ≥ 1000",
+        ),
+        (
+            "workers = 2\n[mpi]\nranks = 3\ntransports = [\"shared_memory\"]",
+            "tiny_mpi.toml: workers: set by mpi.ranks",
+        ),
+    ];
+    for (mpi, want) in cases {
+        let exp = mpi_experiment(dir.path(), mpi);
+        let o = Command::new(bin)
+            .arg("run")
+            .arg(&exp)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{mpi}: {stderr}");
+        assert!(stderr.contains(want), "{mpi}:\n{stderr}");
+    }
+    // Under mpirun: a launch size the experiment does not list, a transport it does not list.
+    let exp = mpi_experiment(
+        dir.path(),
+        "[mpi]\nranks = 3\ntransports = [\"tcp_loopback\"]",
+    );
+    for (ranks, want) in [
+        (
+            2,
+            "tiny_mpi.toml: mpi.ranks: started with 2 ranks, but the experiment lists [3]",
+        ),
+        (
+            3,
+            "tiny_mpi.toml: mpi.transports: this launch's transport is 'shared_memory'",
+        ),
+    ] {
+        let child = mpirun_run(dir.path(), ranks, "self,vader", &exp, &out)
+            .spawn()
+            .unwrap();
+        let o = finish(child, want);
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains(want), "{stderr}");
+    }
+    assert!(!out.join("tiny_mpi/runs.csv").exists());
+}
+
+/// A rank on another host cannot be checked by pid: with the pid check off, a killed rank is
+/// still found within seconds (a failed MPI call or a missed heartbeat), and a slow rank that
+/// keeps sending heartbeats is not taken for dead.
+#[test]
+fn a_remote_rank_is_found_dead_in_seconds_and_a_slow_one_is_not() {
+    if !have_mpirun() {
+        return;
+    }
+    let _one = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene(dir.path(), 32, 16, 8);
+    let want = serial_hash(&path);
+    let out_img = dir.path().join("out.pfm");
+    let args = [
+        path.to_str().unwrap(),
+        "-o",
+        out_img.to_str().unwrap(),
+        "--scheduler",
+        "master",
+        "--chunk",
+        "4",
+        "--buffer",
+        "2",
+        "--deadline-ms",
+        "50000",
+    ];
+    for kill in [false, true] {
+        let pids = dir.path().join(format!("pids{kill}"));
+        std::fs::create_dir(&pids).unwrap();
+        let env = [
+            ("RAYSCHED_MPI_PID_DIR", pids.to_str().unwrap()),
+            ("RAYSCHED_MPI_NO_PID_CHECK", "1"),
+            // Shorter than the 2 s stall of the slow rank: only heartbeats keep it alive.
+            ("RAYSCHED_MPI_SILENCE_MS", "1000"),
+        ];
+        let child = mpirun(dir.path(), 3, &["--enable-recovery"], &env, &args)
+            .spawn()
+            .unwrap();
+        let mut killed_at = None;
+        if kill {
+            let pid_file = pids.join("rank1.pid");
+            let end = Instant::now() + DEADLINE;
+            let pid = loop {
+                if let Some(pid) = std::fs::read_to_string(&pid_file)
+                    .ok()
+                    .filter(|s| !s.is_empty())
+                {
+                    break pid;
+                }
+                assert!(Instant::now() < end, "rank 1 never wrote its pid");
+                std::thread::sleep(Duration::from_millis(5));
+            };
+            assert!(Command::new("kill")
+                .args(["-9", pid.trim()])
+                .status()
+                .unwrap()
+                .success());
+            killed_at = Some(Instant::now());
+        }
+        let o = finish(child, if kill { "remote kill" } else { "slow rank" });
+        let (stdout, stderr) = text(&o);
+        assert_eq!(
+            image_hash(&stdout).as_deref(),
+            Some(want.as_str()),
+            "kill={kill}\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        assert_eq!(
+            stdout.contains("lost MPI rank 1"),
+            kill,
+            "kill={kill}\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        if let Some(t) = killed_at {
+            // Was 60 s of silence before heartbeats.
+            assert!(
+                t.elapsed() < Duration::from_secs(20),
+                "took {:?}",
+                t.elapsed()
+            );
+        }
+    }
+}

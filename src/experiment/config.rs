@@ -32,7 +32,8 @@ pub struct ExperimentFile {
     pub repetitions: u32,
     #[serde(default)]
     pub warmup: u32,
-    pub workers: WorkersSpec,
+    /// Required, except under `[mpi]` (there `ranks − 1` per launch).
+    pub workers: Option<WorkersSpec>,
     #[serde(default = "default_tracers")]
     pub tracers: Vec<String>,
     #[serde(default = "yes")]
@@ -48,6 +49,27 @@ pub struct ExperimentFile {
     /// convergence: samples of a rendered reference (cached under `<out>/refs/`) where the scene
     /// has no analytic answer.
     pub ref_spp: Option<u32>,
+    /// MPI compute sources (`mpirun -n K raysched run …`): see [`MpiEntry`].
+    pub mpi: Option<MpiEntry>,
+}
+
+/// `[mpi]`: which launches the experiment compares. One `mpirun -n K` with one transport
+/// measures the configurations of (K, transport) plus the local-thread baseline with K − 1
+/// threads; a driver (experiments/mpi_sweep.py) launches every (ranks, transport) pair and each
+/// launch appends to the same runs.csv.
+///
+/// ```toml
+/// [mpi]
+/// ranks = [3]                                   # total ranks; rank 0 is the master
+/// transports = ["shared_memory", "tcp_loopback"] # names a launch's environment maps to
+/// silence_ms = 5000                             # a rank quiet this long with work is lost
+/// ```
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MpiEntry {
+    pub ranks: OneOrMany<i64>,
+    pub transports: Vec<String>,
+    pub silence_ms: Option<i64>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]

@@ -14,8 +14,8 @@ pub mod results;
 pub mod run;
 pub mod summary;
 
-pub use plan::{load_plan, ConfigError, ExperimentPlan};
-pub use run::{run_experiment, RunError, RunOptions, RunOutcome};
+pub use plan::{load_plan, ConfigError, ExperimentPlan, Launch, Sources};
+pub use run::{run_experiment, run_experiment_with, Remote, RunError, RunOptions, RunOutcome};
 
 use std::path::{Path, PathBuf};
 

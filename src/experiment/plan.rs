@@ -3,7 +3,7 @@
 //! file and the field (`experiments/x.toml: schedulers[1].buffer: …`).
 
 use super::config::{
-    ExperimentFile, ExperimentKind, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec,
+    ExperimentFile, ExperimentKind, MpiEntry, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec,
 };
 use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, Wait};
@@ -38,6 +38,32 @@ pub struct Baseline {
     pub build_s: f64,
 }
 
+/// Who renders a configuration's items.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Sources {
+    /// Threads of this process.
+    Local,
+    /// MPI ranks 1…K−1 of an `mpirun -n K` launch whose transport has this name.
+    Mpi { transport: String },
+}
+
+impl Sources {
+    pub fn id(&self) -> &'static str {
+        match self {
+            Self::Local => "local",
+            Self::Mpi { .. } => "mpi",
+        }
+    }
+}
+
+/// One `mpirun -n ranks` with one transport: the unit the MPI part of an experiment is
+/// measured in (see [`RunConfig::in_launch`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Launch {
+    pub ranks: usize,
+    pub transport: String,
+}
+
 /// One configuration to time `repetitions` times.
 #[derive(Clone, Debug)]
 pub struct RunConfig {
@@ -46,7 +72,53 @@ pub struct RunConfig {
     pub baseline: usize,
     /// `None` = the serial baseline (one thread, no scheduler).
     pub spec: Option<SchedulerSpec>,
+    pub sources: Sources,
+    /// The launch size an MPI row or its local-thread baseline belongs to (`None` elsewhere).
+    pub ranks: Option<usize>,
 }
+
+impl RunConfig {
+    /// Is this configuration measured by `launch` (`None`: a run without mpirun)? Serial
+    /// baselines belong to every launch (the first one measures them); the local-thread
+    /// baseline of K ranks to every launch of K ranks; an MPI row to its own launch only.
+    pub fn in_launch(&self, launch: Option<&Launch>) -> bool {
+        match (self.ranks, launch) {
+            (None, _) => true,
+            (Some(_), None) => false,
+            (Some(r), Some(l)) => {
+                r == l.ranks
+                    && match &self.sources {
+                        Sources::Local => true,
+                        Sources::Mpi { transport } => *transport == l.transport,
+                    }
+            }
+        }
+    }
+}
+
+/// The validated `[mpi]` table.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MpiSettings {
+    /// Total ranks per launch (each ≥ 2).
+    pub ranks: Vec<usize>,
+    pub transports: Vec<String>,
+    /// A rank with work outstanding that has sent nothing (not even a heartbeat) this long is
+    /// lost.
+    pub silence_ms: u64,
+}
+
+/// Default silence limit: 25 worker heartbeats (200 ms each) missed in a row. Heartbeats
+/// come from a thread that does not render, so a slow item never looks like a dead rank.
+pub const DEFAULT_SILENCE_MS: u64 = 5000;
+/// The shortest silence limit accepted: 5 heartbeats.
+pub const MIN_SILENCE_MS: u64 = 1000;
+
+/// Scheduler kinds that can hand items to MPI ranks.
+pub const MPI_KINDS: [SchedulerKind; 3] = [
+    SchedulerKind::Master,
+    SchedulerKind::Static,
+    SchedulerKind::SelfScheduling,
+];
 
 pub struct ExperimentPlan {
     pub name: String,
@@ -66,6 +138,8 @@ pub struct ExperimentPlan {
     pub convergence: Option<ConvergenceSettings>,
     /// The largest worker count: the thread budget of tracer builds and convergence renders.
     pub max_workers: usize,
+    /// `Some` when the experiment runs under `mpirun` (`[mpi]`).
+    pub mpi: Option<MpiSettings>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,7 +206,26 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     if file.repetitions == 0 {
         return Err(err("repetitions", "must be ≥ 1 (got 0)".into()));
     }
-    let workers = expand_workers(&file.workers).map_err(|m| err("workers", m))?;
+    let mpi = match &file.mpi {
+        None => None,
+        Some(m) => Some(validate_mpi(m, &file).map_err(|(f, msg)| err(&f, msg))?),
+    };
+    let workers = match (&file.workers, &mpi) {
+        (Some(_), Some(_)) => {
+            return Err(err(
+                "workers",
+                "set by mpi.ranks under [mpi] (ranks − 1 per launch); remove it".into(),
+            ))
+        }
+        (None, Some(m)) => m.ranks.iter().map(|r| r - 1).collect(),
+        (Some(w), None) => expand_workers(w).map_err(|m| err("workers", m))?,
+        (None, None) => {
+            return Err(err(
+                "workers",
+                "missing (e.g. workers = [1, 2] or \"1..max\")".into(),
+            ))
+        }
+    };
     if file.tracers.is_empty() {
         return Err(err("tracers", "must name at least one tracer".into()));
     }
@@ -220,16 +313,39 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
             id: String::new(),
             baseline: bi,
             spec: None,
+            sources: Sources::Local,
+            ranks: None,
         });
     }
     for (bi, _) in baselines.iter().enumerate() {
         for grid in &grids {
             for spec in grid {
-                configs.push(RunConfig {
+                let local = RunConfig {
                     id: String::new(),
                     baseline: bi,
                     spec: Some(spec.clone()),
-                });
+                    sources: Sources::Local,
+                    ranks: None,
+                };
+                let Some(m) = &mpi else {
+                    configs.push(local);
+                    continue;
+                };
+                // Under [mpi], spec.workers = ranks − 1: the local-thread baseline of that
+                // launch size, then one row set per transport.
+                let ranks = Some(spec.workers + 1);
+                configs.push(RunConfig { ranks, ..local });
+                for t in &m.transports {
+                    configs.push(RunConfig {
+                        id: String::new(),
+                        baseline: bi,
+                        spec: Some(spec.clone()),
+                        sources: Sources::Mpi {
+                            transport: t.clone(),
+                        },
+                        ranks,
+                    });
+                }
             }
         }
     }
@@ -246,6 +362,7 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         configs,
         convergence,
         max_workers,
+        mpi,
     };
     let mut seen = std::collections::HashSet::new();
     let mut unique = Vec::new();
@@ -258,6 +375,81 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     }
     plan.configs = unique;
     Ok(plan)
+}
+
+fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, (String, String)> {
+    let f = |field: &str, msg: String| (format!("mpi.{field}"), msg);
+    if file.kind == ExperimentKind::Convergence {
+        return Err((
+            "mpi".into(),
+            "a convergence experiment has no MPI part".into(),
+        ));
+    }
+    let mut ranks = Vec::new();
+    for r in m.ranks.values() {
+        if !(2..=4096).contains(&r) {
+            return Err(f(
+                "ranks",
+                format!(
+                    "must be between 2 and 4096 (got {r}): rank 0 schedules, ranks 1…K−1 render"
+                ),
+            ));
+        }
+        ranks.push(r as usize);
+    }
+    if ranks.is_empty() {
+        return Err(f("ranks", "must list at least one rank count".into()));
+    }
+    ranks.sort_unstable();
+    ranks.dedup();
+    if m.transports.is_empty() {
+        return Err(f(
+            "transports",
+            "must list at least one transport (e.g. [\"shared_memory\", \"tcp_loopback\"])".into(),
+        ));
+    }
+    for t in &m.transports {
+        if t.is_empty()
+            || !t
+                .chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        {
+            return Err(f(
+                "transports",
+                format!("'{t}': use lower-case letters, digits and '_'"),
+            ));
+        }
+    }
+    let silence_ms = match m.silence_ms {
+        None => DEFAULT_SILENCE_MS,
+        Some(v) if v >= MIN_SILENCE_MS as i64 => v as u64,
+        Some(v) => {
+            return Err(f(
+                "silence_ms",
+                format!("must be ≥ {MIN_SILENCE_MS} (5 heartbeats of 200 ms; got {v})"),
+            ))
+        }
+    };
+    for (i, s) in file.schedulers.iter().enumerate() {
+        if let Ok(k) = SchedulerKind::from_id(&s.kind) {
+            if !MPI_KINDS.contains(&k) {
+                return Err((
+                    format!("schedulers[{i}].kind"),
+                    format!(
+                        "'{}' cannot hand items to MPI ranks (use master, static or self_scheduling)",
+                        k.id()
+                    ),
+                ));
+            }
+        }
+    }
+    let mut transports = m.transports.clone();
+    transports.dedup();
+    Ok(MpiSettings {
+        ranks,
+        transports,
+        silence_ms,
+    })
 }
 
 fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {

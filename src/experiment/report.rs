@@ -127,7 +127,11 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
     let _ = writeln!(md, "## Result\n");
     let mut any = false;
     for g in &groups {
-        let in_g: Vec<&Summary> = sums.iter().filter(|s| &s.group() == g).collect();
+        // Thread schedulers only: MPI rows have their own section.
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.sources != "mpi")
+            .collect();
         if let Some(sentence) = per_ray_sentence(g, &in_g) {
             let _ = writeln!(md, "{sentence}\n");
             any = true;
@@ -139,9 +143,14 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             "(No per-ray master configuration in this experiment, so no per-ray comparison.)\n"
         );
     }
+    md += &mpi_section(&groups, sums);
     let _ = writeln!(md, "## Best configuration per scheduler\n");
     for g in &groups {
-        let in_g: Vec<&Summary> = sums.iter().filter(|s| &s.group() == g).collect();
+        // Thread schedulers only: MPI rows have their own section.
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.sources != "mpi")
+            .collect();
         let _ = writeln!(md, "### {g}\n");
         let _ = writeln!(md, "| scheduler | best configuration | workers | median wall (s) | 95 % CI of mean (s) | speedup | efficiency | runs |");
         let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
@@ -185,5 +194,95 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         );
     }
     let _ = writeln!(md, "Data: `runs.csv` (one row per run), `summary.csv` (per configuration), `meta.toml` (machine and build). Regenerate plots and this report with `raysched plot <this folder>`.");
+    md
+}
+
+/// Tiles of at least 16×16 pixels count as "per block" in the MPI comparison.
+pub const BLOCK_PX: u64 = 256;
+
+/// For an MPI experiment: per chunk size, the throughput of each transport against the
+/// local-thread baseline of the same launch size and scheduler (best buffer each), and the
+/// per-block ratio the issue sets a goal for (≥ 90 %).
+pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
+    use crate::plot::throughput;
+    let mut md = String::new();
+    if !sums.iter().any(|s| s.row.sources == "mpi") {
+        return md;
+    }
+    let _ = writeln!(md, "## MPI ranks vs local threads\n");
+    let _ = writeln!(md, "Throughput = rays / median wall time of the scheduler run (rank 0's clock; MPI start-up and scene shipping excluded), best buffer B per chunk. Local = the same scheduler on ranks − 1 threads of rank 0's process, measured in the same launch while the worker ranks slept.\n");
+    for g in groups {
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.ranks.is_some())
+            .collect();
+        // (scheduler, ranks, transport) of every MPI line.
+        let mut lines: Vec<(String, usize, String)> = Vec::new();
+        for s in &in_g {
+            if let (Some(r), Some(t)) = (s.row.ranks, &s.row.transport) {
+                let k = (s.row.scheduler.clone(), r, t.clone());
+                if s.row.sources == "mpi" && !lines.contains(&k) {
+                    lines.push(k);
+                }
+            }
+        }
+        if lines.is_empty() {
+            continue;
+        }
+        let _ = writeln!(md, "### {g}\n");
+        let _ = writeln!(md, "| scheduler | ranks | transport | chunk (px) | MPI Mrays/s | local Mrays/s | MPI / local | MPI items/s |");
+        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+        for (kind, ranks, t) in &lines {
+            let best = |mpi: bool, px: u64| {
+                in_g.iter()
+                    .copied()
+                    .filter(|s| {
+                        s.row.scheduler == *kind
+                            && s.row.ranks == Some(*ranks)
+                            && s.row.chunk_px == Some(px)
+                            && if mpi {
+                                s.row.sources == "mpi" && s.row.transport.as_deref() == Some(t)
+                            } else {
+                                s.row.sources == "local"
+                            }
+                    })
+                    .max_by(|a, b| throughput(a).0.total_cmp(&throughput(b).0))
+            };
+            let mut chunks: Vec<u64> = in_g.iter().filter_map(|s| s.row.chunk_px).collect();
+            chunks.sort_unstable();
+            chunks.dedup();
+            let mut block_ratios = Vec::new();
+            for px in chunks {
+                let Some(m) = best(true, px) else { continue };
+                let (mr, mi) = throughput(m);
+                let (lr, ratio) = match best(false, px) {
+                    Some(l) => {
+                        let lr = throughput(l).0;
+                        (format!("{lr:.3}"), Some(mr / lr))
+                    }
+                    None => ("–".into(), None),
+                };
+                if let (Some(r), true) = (ratio, px >= BLOCK_PX) {
+                    block_ratios.push(r);
+                }
+                let _ = writeln!(
+                    md,
+                    "| {kind} | {ranks} | {t} | {px} | {mr:.3} | {lr} | {} | {mi:.0} |",
+                    ratio.map_or("–".into(), |r| format!("{:.0} %", r * 100.0))
+                );
+            }
+            if !block_ratios.is_empty() {
+                let min = block_ratios.iter().cloned().fold(f64::INFINITY, f64::min);
+                let med = super::summary::median(&block_ratios);
+                let _ = writeln!(
+                    md,
+                    "| **{kind}, {t}: per block (≥ 16² px)** | | | | | | **min {:.0} %, median {:.0} %** (goal ≥ 90 %) | |",
+                    min * 100.0,
+                    med * 100.0
+                );
+            }
+        }
+        let _ = writeln!(md);
+    }
     md
 }

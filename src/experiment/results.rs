@@ -71,7 +71,26 @@ pub struct RunRow {
     pub features_left_out: String,
     pub image_hash: String,
     pub identical: bool,
+    /// Who rendered: `local` (threads) or `mpi` (ranks). The last three columns came with
+    /// MPI; files written before them are read (and rewritten on resume) with these defaults.
+    #[serde(default = "local")]
+    pub sources: String,
+    /// Total ranks of the `mpirun` launch an MPI row, or its local-thread baseline
+    /// (`ranks − 1` threads), belongs to; empty elsewhere.
+    #[serde(default)]
+    pub ranks: Option<usize>,
+    /// The launch's transport (`shared_memory`, `tcp_loopback`, … or `unknown`), MPI rows only.
+    #[serde(default)]
+    pub transport: Option<String>,
 }
+
+fn local() -> String {
+    "local".into()
+}
+
+/// The columns added with MPI, at the end of the row: a header without them is the previous
+/// version's.
+const MPI_COLUMNS: usize = 3;
 
 impl RunRow {
     /// The column names, in order (from serde, so they never drift from the struct).
@@ -133,6 +152,9 @@ impl RunRow {
             features_left_out: String::new(),
             image_hash: String::new(),
             identical: false,
+            sources: local(),
+            ranks: None,
+            transport: None,
         }
     }
 
@@ -153,6 +175,11 @@ impl RunRow {
         r.max_depth = sc.settings.max_depth;
         r.generator_count = ps.overrides.generator_count;
         r.tracer = b.tracer_id.clone();
+        r.sources = c.sources.id().into();
+        r.ranks = c.ranks;
+        if let super::plan::Sources::Mpi { transport } = &c.sources {
+            r.transport = Some(transport.clone());
+        }
         match &c.spec {
             None => {
                 r.scheduler = "serial".into();
@@ -188,7 +215,7 @@ impl RunRow {
     fn config_key(&self) -> String {
         let o = |v: &Option<String>| v.clone().unwrap_or_default();
         let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
-        [
+        let mut key = [
             self.scene_file.clone(),
             self.scene.clone(),
             self.width.to_string(),
@@ -209,7 +236,12 @@ impl RunRow {
             n(self.guided_k),
             self.workers.to_string(),
         ]
-        .join("|")
+        .join("|");
+        // Only rows of an MPI experiment carry these, so every older id stays what it was.
+        if self.ranks.is_some() {
+            key += &format!("|{}|{}|{}", self.sources, n(self.ranks), o(&self.transport));
+        }
+        key
     }
 
     /// One CSV line, newline included.
@@ -258,16 +290,22 @@ pub fn read_runs(path: &Path) -> Result<(Vec<RunRow>, u64), ResultsError> {
 
 /// Parse runs.csv bytes; see [`read_runs`]. A missing or partial header gives no rows and length 0.
 pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
-    let header = RunRow::header().join(",");
+    let columns = RunRow::header();
+    let header = columns.join(",");
     let Some(h_end) = bytes.iter().position(|&b| b == b'\n') else {
         return Ok((vec![], 0));
     };
-    if bytes[..h_end] != *header.as_bytes() {
+    let ncols = if bytes[..h_end] == *header.as_bytes() {
+        columns.len()
+    } else if is_legacy_header(&bytes[..h_end]) {
+        columns.len() - MPI_COLUMNS
+    } else {
         return Err(format!(
             "the header is not this version's columns (expected '{header}'); rerun with --fresh"
         ));
-    }
-    let ncols = RunRow::header().len();
+    };
+    // Fields are matched by name, so the MPI columns a legacy row lacks take their defaults.
+    let names = csv::StringRecord::from(columns[..ncols].to_vec());
     let mut rows = Vec::new();
     let mut valid = h_end as u64 + 1;
     let mut start = h_end + 1;
@@ -289,7 +327,7 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
             if rec.len() != ncols {
                 return None;
             }
-            rec.deserialize::<RunRow>(None).ok()
+            rec.deserialize::<RunRow>(Some(&names)).ok()
         });
         match parsed {
             Some(row) => rows.push(row),
@@ -307,6 +345,12 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
     Ok((rows, valid))
 }
 
+/// The header of runs.csv files written before the MPI columns.
+fn is_legacy_header(line: &[u8]) -> bool {
+    let columns = RunRow::header();
+    line == columns[..columns.len() - MPI_COLUMNS].join(",").as_bytes()
+}
+
 /// runs.csv opened for appending, with the (config, repetition) pairs already in it.
 pub struct RunsFile {
     pub path: PathBuf,
@@ -322,6 +366,27 @@ impl RunsFile {
             (vec![], 0)
         } else {
             read_runs(path)?
+        };
+        let legacy = !fresh
+            && std::fs::read(path)
+                .ok()
+                .and_then(|b| b.split(|&c| c == b'\n').next().map(is_legacy_header))
+                .unwrap_or(false);
+        if legacy {
+            // Rewrite in this version's columns (atomically) before appending to it.
+            let mut text = RunRow::header().join(",").into_bytes();
+            text.push(b'\n');
+            for r in &rows {
+                text.extend(r.to_line());
+            }
+            let tmp = path.with_extension("csv.tmp");
+            std::fs::write(&tmp, &text).map_err(io(&tmp))?;
+            std::fs::rename(&tmp, path).map_err(io(path))?;
+        }
+        let valid = if legacy {
+            std::fs::metadata(path).map_err(io(path))?.len()
+        } else {
+            valid
         };
         let mut done = HashSet::new();
         for r in &rows {
@@ -422,6 +487,39 @@ mod tests {
         b.extend_from_slice(b"x,y\n");
         b.extend(row("c", 0).to_line());
         assert!(parse_runs(&b).unwrap_err().contains("line 4"));
+    }
+
+    #[test]
+    fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {
+        let cols = RunRow::header();
+        let old_header = cols[..cols.len() - MPI_COLUMNS].join(",");
+        let strip = |r: &RunRow| {
+            let line = String::from_utf8(r.to_line()).unwrap();
+            let fields: Vec<&str> = line.trim_end().split(',').collect();
+            fields[..fields.len() - MPI_COLUMNS].join(",") + "\n"
+        };
+        let text = format!(
+            "{old_header}\n{}{}",
+            strip(&row("a", 0)),
+            strip(&row("a", 1))
+        );
+        let (rows, valid) = parse_runs(text.as_bytes()).unwrap();
+        assert_eq!(rows, vec![row("a", 0), row("a", 1)]);
+        assert_eq!(rows[0].sources, "local");
+        assert_eq!(valid, text.len() as u64);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("runs.csv");
+        std::fs::write(&p, &text).unwrap();
+        let (mut f, rows) = RunsFile::open(&p, false).unwrap();
+        assert_eq!(rows.len(), 2);
+        let mut r = row("b", 0);
+        r.sources = "mpi".into();
+        r.ranks = Some(3);
+        r.transport = Some("shared_memory".into());
+        f.append(&r).unwrap();
+        let back = std::fs::read_to_string(&p).unwrap();
+        assert!(back.starts_with(&(cols.join(",") + "\n")), "{back}");
+        assert_eq!(read_runs(&p).unwrap().0, vec![row("a", 0), row("a", 1), r]);
     }
 
     #[test]

@@ -2,11 +2,11 @@
 //! in `runs.csv`, each row appended whole as soon as it is measured.
 
 use super::meta::{self, Meta};
-use super::plan::{hex, ExperimentPlan, RunConfig};
+use super::plan::{hex, ExperimentPlan, Launch, RunConfig, Sources};
 use super::results::{ResultsError, RunRow, RunsFile};
 use super::summary::median;
 use crate::render::{render_serial, Image};
-use crate::sched::{run_scheduler, RunStats, SchedError, WorkerStats};
+use crate::sched::{run_scheduler, RunStats, SchedError, SchedulerSpec, WorkerStats};
 use crate::tracer::Tracer;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::HashMap;
@@ -28,6 +28,21 @@ pub struct RunOutcome {
     pub skipped: usize,
     /// Rows (old and new) whose image differs from the serial baseline's.
     pub mismatches: usize,
+    /// Configurations × repetitions that belong to other `mpirun` launches (not measured here).
+    pub other_launches: usize,
+}
+
+/// Runs the MPI rows of one `mpirun` launch (implemented by `crate::mpi::experiment` on rank
+/// 0); the runner stays free of MPI.
+pub trait Remote {
+    fn launch(&self) -> &Launch;
+    /// One timed run of `spec` on the launch's ranks; only the scheduler's wall time is timed.
+    fn measure(
+        &mut self,
+        plan: &ExperimentPlan,
+        c: &RunConfig,
+        spec: &SchedulerSpec,
+    ) -> Result<(Image, RunStats), RunError>;
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -45,6 +60,9 @@ pub enum RunError {
     },
     #[error("{path}: {msg}")]
     Io { path: String, msg: String },
+    /// The MPI side failed (a rank lost, a scene that did not build on a rank).
+    #[error("{0}")]
+    Mpi(String),
 }
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
@@ -111,6 +129,17 @@ struct SerialInfo {
 }
 
 pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    run_experiment_with(plan, opts, None)
+}
+
+/// [`run_experiment`] inside an `mpirun` launch: `remote` measures the MPI rows of its launch;
+/// configurations of other launches are left for them (their rows may already be in runs.csv).
+pub fn run_experiment_with(
+    plan: &ExperimentPlan,
+    opts: &RunOptions,
+    mut remote: Option<&mut dyn Remote>,
+) -> Result<RunOutcome, RunError> {
+    let launch = remote.as_ref().map(|r| r.launch().clone());
     let dir = opts.out.join(&plan.name);
     std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err(&dir, e))?;
     if plan.timeline {
@@ -159,9 +188,13 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
     }
     let mut mismatches = old_rows.iter().filter(|r| !r.identical).count();
 
+    let mine = |c: &&RunConfig| c.in_launch(launch.as_ref());
+    let other_launches =
+        plan.configs.iter().filter(|c| !mine(c)).count() * plan.repetitions as usize;
     let pending: Vec<(&RunConfig, Vec<u32>)> = plan
         .configs
         .iter()
+        .filter(mine)
         .map(|c| {
             let reps = (0..plan.repetitions)
                 .filter(|&k| !runs.is_done(&c.id, k))
@@ -175,6 +208,7 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
         .map(|(_, reps)| (plan.warmup as usize + reps.len()) as u64)
         .sum();
     let skipped = plan.configs.len() * plan.repetitions as usize
+        - other_launches
         - pending.iter().map(|(_, r)| r.len()).sum::<usize>();
     let bar = if opts.quiet {
         ProgressBar::hidden()
@@ -190,17 +224,23 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
     for (c, reps) in pending {
         let b = &plan.baselines[c.baseline];
         let ps = plan.scene_of(c);
-        let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
-            format!("{} ×{}", s.label(), s.workers)
-        });
+        let label = c
+            .spec
+            .as_ref()
+            .map_or("serial".to_string(), |s| match &c.sources {
+                Sources::Local => format!("{} ×{}", s.label(), s.workers),
+                Sources::Mpi { transport } => {
+                    format!("{} over {} ranks ({transport})", s.label(), s.workers)
+                }
+            });
         bar.set_message(format!("{} · {} · {label}", ps.scene.name, b.tracer_id));
         for _ in 0..plan.warmup {
-            measure(plan, c, false)?;
+            measure(plan, c, false, &mut remote)?;
             bar.inc(1);
         }
         for rep in reps {
             let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
-            let (image, stats) = measure(plan, c, want_timeline)?;
+            let (image, stats) = measure(plan, c, want_timeline, &mut remote)?;
             let hash = hex(image.hash());
             let mut row = RunRow::for_config(plan, c);
             row.repetition = rep;
@@ -260,6 +300,7 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
         measured,
         skipped,
         mismatches,
+        other_launches,
     })
 }
 
@@ -269,6 +310,7 @@ fn measure(
     plan: &ExperimentPlan,
     c: &RunConfig,
     timeline: bool,
+    remote: &mut Option<&mut dyn Remote>,
 ) -> Result<(Image, RunStats), RunError> {
     let b = &plan.baselines[c.baseline];
     let scene = &plan.scene_of(c).scene;
@@ -301,6 +343,17 @@ fn measure(
                     ..stats
                 },
             ))
+        }
+        Some(spec) if c.sources != Sources::Local => {
+            let mut spec = spec.clone();
+            spec.timeline = timeline;
+            let r = remote.as_deref_mut().ok_or_else(|| {
+                RunError::Mpi(format!(
+                    "{}: MPI configuration outside an mpirun launch",
+                    c.id
+                ))
+            })?;
+            r.measure(plan, c, &spec)
         }
         Some(spec) => {
             let mut spec = spec.clone();

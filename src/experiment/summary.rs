@@ -164,6 +164,9 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "imbalance_s_median",
         "imbalance_median",
         "identical",
+        "sources",
+        "ranks",
+        "transport",
     ])?;
     let o = |v: &Option<String>| v.clone().unwrap_or_default();
     let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
@@ -209,6 +212,9 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
             f(s.imbalance_s_median),
             f(s.imbalance_median),
             s.identical.to_string(),
+            r.sources.clone(),
+            n(r.ranks),
+            o(&r.transport),
         ])?;
     }
     w.flush()?;

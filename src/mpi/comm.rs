@@ -25,6 +25,11 @@ pub mod tag {
     pub const READY: i32 = 4;
     /// worker → rank 0: acknowledges STOP, nothing of it follows.
     pub const BYE: i32 = 5;
+    /// rank 0 → worker: an encoded `ScenePackage` to build (replacing the current scene);
+    /// answered with READY. `raysched run` sends one per (scene, tracer).
+    pub const SCENE: i32 = 6;
+    /// worker → rank 0: alive and busy (empty), sent while an item takes long.
+    pub const HEARTBEAT: i32 = 7;
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -48,6 +53,21 @@ pub struct Comm {
     pub rank: i32,
     pub size: i32,
     _not_send: PhantomData<*const ()>,
+}
+
+/// A send in flight; its buffer lives until MPI says the send is done.
+pub struct SendReq {
+    req: ffi::MPI_Request,
+    buf: Option<Box<[u8]>>,
+}
+
+impl Drop for SendReq {
+    fn drop(&mut self) {
+        // Never completed (a dead rank): MPI may still read the buffer, so leak it.
+        if let Some(b) = self.buf.take() {
+            std::mem::forget(b);
+        }
+    }
 }
 
 /// A message waiting to be received.
@@ -105,6 +125,50 @@ impl Comm {
                 ffi::RSMPI_COMM_WORLD,
             )
         })
+    }
+
+    /// Non-blocking send of `bytes` to `dest`: the hub must never block on a rank that died
+    /// (measured: OpenMPI 4.1's blocking `MPI_Send` to a `kill -9`ed rank over tcp hangs
+    /// forever, even under `--enable-recovery`).
+    pub fn isend(&self, dest: i32, tag: i32, bytes: Vec<u8>) -> Result<SendReq, MpiError> {
+        let buf = bytes.into_boxed_slice();
+        let mut req = std::mem::MaybeUninit::<ffi::MPI_Request>::uninit();
+        // SAFETY: `buf` is heap memory owned by the returned SendReq, which keeps it alive
+        // (or leaks it) until MPI reports the send complete; the handles are valid.
+        check("Isend", unsafe {
+            ffi::MPI_Isend(
+                buf.as_ptr().cast(),
+                buf.len() as c_int,
+                ffi::RSMPI_UINT8_T,
+                dest,
+                tag,
+                ffi::RSMPI_COMM_WORLD,
+                req.as_mut_ptr(),
+            )
+        })?;
+        Ok(SendReq {
+            // SAFETY: MPI_Isend succeeded and wrote the request.
+            req: unsafe { req.assume_init() },
+            buf: Some(buf),
+        })
+    }
+
+    /// Has the send completed? (Then its buffer is released.)
+    pub fn test(&self, s: &mut SendReq) -> Result<bool, MpiError> {
+        if s.buf.is_none() {
+            return Ok(true);
+        }
+        let mut flag = 0;
+        let mut status = std::mem::MaybeUninit::<ffi::MPI_Status>::zeroed();
+        // SAFETY: `s.req` is an active request from MPI_Isend; flag and status are valid
+        // out-pointers.
+        check("Test", unsafe {
+            ffi::MPI_Test(&mut s.req, &mut flag, status.as_mut_ptr())
+        })?;
+        if flag != 0 {
+            s.buf = None;
+        }
+        Ok(flag != 0)
     }
 
     fn pending_of(status: &ffi::MPI_Status) -> Result<Pending, MpiError> {

@@ -14,6 +14,7 @@
 //! `MPI_Finalize`.
 
 pub mod comm;
+pub mod experiment;
 pub mod pull;
 pub mod run;
 pub mod scene;

@@ -17,10 +17,12 @@ use std::time::{Duration, Instant};
 /// How long a worker may take to build its scene and tracer.
 const READY_WAIT: Duration = Duration::from_secs(600);
 /// How long rank 0 waits for the workers' goodbyes after STOP.
-const STOP_WAIT: Duration = Duration::from_secs(10);
+pub(crate) const STOP_WAIT: Duration = Duration::from_secs(10);
 /// A rank with work outstanding that says nothing this long is lost (env
 /// `RAYSCHED_MPI_SILENCE_MS`); local ranks are also checked by pid, which is much faster.
-const SILENCE: Duration = Duration::from_secs(60);
+/// Busy workers send a heartbeat every 200 ms from a thread that does not render, so a
+/// slow item does not count as silence (it was 60 s before heartbeats).
+const SILENCE: Duration = Duration::from_millis(crate::experiment::plan::DEFAULT_SILENCE_MS);
 
 /// Every rank enters here; only rank 0 returns from MPI's point of view — all ranks end the
 /// process themselves (with or without `MPI_Finalize`, see [`Comm::shutdown`]).
@@ -182,7 +184,7 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
 
 /// Wait for every worker's READY; a rank that could not build the scene stops the run with
 /// its own message.
-fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
+pub(crate) fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
     let mut peers: Vec<Option<Peer>> = vec![None; comm.size as usize];
     let mut errors = Vec::new();
     let end = Instant::now() + READY_WAIT;

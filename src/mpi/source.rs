@@ -8,7 +8,7 @@
 //! [`LIVENESS_EVERY`]), or when it has had work outstanding and said nothing for `silence`
 //! (the only signal for a remote rank that died without MPI noticing).
 
-use super::comm::{tag, Comm, Pending};
+use super::comm::{tag, Comm, Pending, SendReq};
 use super::wire::decode_result;
 use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
@@ -23,6 +23,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 pub const LIVENESS_EVERY: Duration = Duration::from_millis(20);
+/// Test hook: do not check local ranks by pid, so a killed rank is found the way a remote
+/// one is (a failed MPI call or silence).
+pub const ENV_NO_PID_CHECK: &str = "RAYSCHED_MPI_NO_PID_CHECK";
 
 pub struct Cmd {
     rank: i32,
@@ -115,6 +118,8 @@ pub struct Hub<'c> {
     silence: Duration,
     report: HubReport,
     buf: Vec<u8>,
+    /// Item sends in flight: (rank, request, when sent).
+    sends: Vec<(i32, SendReq, Instant)>,
 }
 
 /// A worker rank as rank 0 knows it after READY.
@@ -136,6 +141,7 @@ impl<'c> Hub<'c> {
     ) -> (Self, Vec<Box<dyn ComputeSource>>) {
         let (tx, rx) = crossbeam::channel::unbounded();
         let me = super::worker::hostname();
+        let pid_check = std::env::var_os(ENV_NO_PID_CHECK).is_none();
         let mut ranks = Vec::new();
         let mut sources: Vec<Box<dyn ComputeSource>> = Vec::new();
         for (k, p) in peers.iter().enumerate() {
@@ -154,7 +160,7 @@ impl<'c> Hub<'c> {
                 outstanding: HashMap::new(),
                 pending: 0,
                 last_heard: Instant::now(),
-                local_pid: (p.host == me && !me.is_empty()).then_some(p.pid),
+                local_pid: (pid_check && p.host == me && !me.is_empty()).then_some(p.pid),
                 lost: None,
             });
         }
@@ -166,6 +172,7 @@ impl<'c> Hub<'c> {
             silence,
             report: HubReport::default(),
             buf: Vec::new(),
+            sends: Vec::new(),
         };
         (hub, sources)
     }
@@ -209,10 +216,13 @@ impl<'c> Hub<'c> {
             drop(done); // fails the result as lost
             return;
         }
-        if let Err(e) = self.comm.send(rank, tag::ITEM, &self.buf) {
-            drop(done);
-            self.lose(rank, format!("sending an item failed: {e}"));
-            return;
+        match self.comm.isend(rank, tag::ITEM, self.buf.clone()) {
+            Ok(req) => self.sends.push((rank, req, Instant::now())),
+            Err(e) => {
+                drop(done);
+                self.lose(rank, format!("sending an item failed: {e}"));
+                return;
+            }
         }
         self.report.messages += 1;
         let st = self.state(rank).expect("rank checked above");
@@ -312,6 +322,30 @@ impl<'c> Hub<'c> {
     fn check_liveness(&mut self) {
         let now = Instant::now();
         let mut dead = Vec::new();
+        // Sends that completed are done with; one stuck for the silence limit means the
+        // receiver is gone (a live worker drains its messages within a heartbeat).
+        let mut sends = std::mem::take(&mut self.sends);
+        sends.retain_mut(|(rank, req, at)| match self.comm.test(req) {
+            Ok(true) => false,
+            Ok(false) if now - *at > self.silence => {
+                dead.push((
+                    *rank,
+                    format!(
+                        "an item sent to it was not taken for {:.1} s",
+                        self.silence.as_secs_f64()
+                    ),
+                ));
+                true
+            }
+            Ok(false) => true,
+            Err(e) => {
+                dead.push((*rank, format!("sending an item failed: {e}")));
+                false
+            }
+        });
+        let lost: Vec<i32> = dead.iter().map(|d| d.0).collect();
+        sends.retain(|(r, _, _)| !lost.contains(r));
+        self.sends = sends;
         for st in self.ranks.iter().filter(|r| r.lost.is_none()) {
             if let Some(pid) = st.local_pid {
                 if !process_alive(pid) {
@@ -323,7 +357,7 @@ impl<'c> Hub<'c> {
                 dead.push((
                     st.rank,
                     format!(
-                        "silent for {:.1} s with work outstanding",
+                        "sent nothing, not even a heartbeat, for {:.1} s with work outstanding",
                         self.silence.as_secs_f64()
                     ),
                 ));
@@ -337,6 +371,31 @@ impl<'c> Hub<'c> {
     /// Serve the sources until every one of them is dropped (the master is done), then stop
     /// the live workers and wait (at most `stop_wait`) for their goodbyes.
     pub fn serve(mut self, stop_wait: Duration) -> HubReport {
+        self.serve_sources();
+        self.stop(stop_wait);
+        self.report
+    }
+
+    /// Serve one run and leave the workers running for the next: after the master is done,
+    /// wait until every live rank has answered every item it was sent (re-issued copies
+    /// included), so no result of this run can be taken for one of the next (item ids repeat).
+    pub fn serve_run(mut self) -> HubReport {
+        self.serve_sources();
+        let mut last_check = Instant::now();
+        let mut idle = 0u32;
+        while self.ranks.iter().any(|r| r.lost.is_none() && r.pending > 0) {
+            let busy = self.poll();
+            if last_check.elapsed() >= LIVENESS_EVERY {
+                self.check_liveness();
+                last_check = Instant::now();
+            }
+            idle = if busy { 0 } else { idle.saturating_add(1) };
+            backoff(idle);
+        }
+        self.report
+    }
+
+    fn serve_sources(&mut self) {
         let mut last_check = Instant::now();
         let mut idle = 0u32;
         let mut open = true;
@@ -363,8 +422,6 @@ impl<'c> Hub<'c> {
             idle = if busy { 0 } else { idle.saturating_add(1) };
             backoff(idle);
         }
-        self.stop(stop_wait);
-        self.report
     }
 
     fn stop(&mut self, stop_wait: Duration) {
@@ -410,16 +467,20 @@ pub fn stop_ranks(comm: &Comm, ranks: &[i32], finalize: bool, wait: Duration) {
     }
 }
 
-/// Poll hard while messages flow, then yield, then sleep briefly: a hub that only spun would
-/// take a core from the renderers on a small machine.
-fn backoff(idle: u32) {
+/// Poll hard while messages flow, then yield, then sleep briefly, and longer once idle for
+/// long (a worker between runs while rank 0 times local threads): a loop that only spun
+/// would take a core from the renderers on a small machine. The 200 µs sleep bounds the
+/// extra start latency of a run at 0.2 ms.
+pub fn backoff(idle: u32) {
     if idle == 0 {
     } else if idle < 64 {
         std::hint::spin_loop();
     } else if idle < 4096 {
         std::thread::yield_now();
-    } else {
+    } else if idle < 20_000 {
         std::thread::sleep(Duration::from_micros(50));
+    } else {
+        std::thread::sleep(Duration::from_micros(200));
     }
 }
 

@@ -4,7 +4,7 @@
 
 mod charts;
 
-pub use charts::Figure;
+pub use charts::{mpi_line, throughput, Figure};
 
 use crate::experiment::summary::Summary;
 use std::path::Path;
