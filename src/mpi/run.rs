@@ -145,8 +145,8 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let image =
         assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
     let wall = t0.elapsed().as_secs_f64();
-    let wrote = crate::cli::save_render(&args.output, &image, scene.frames())
-        .map_err(CliError::runtime)?;
+    let wrote =
+        crate::cli::save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
     crate::cli::print_render_header(
         &scene,
         &format!(

@@ -47,7 +47,9 @@ impl Image {
             return frames.pop().expect("one frame");
         }
         let (width, height) = (frames[0].width, frames[0].height);
-        assert!(frames.iter().all(|f| f.width == width && f.height == height));
+        assert!(frames
+            .iter()
+            .all(|f| f.width == width && f.height == height));
         Image {
             width,
             height: height * frames.len() as u32,
@@ -60,7 +62,11 @@ impl Image {
     /// # Panics
     /// If `n` is 0 or does not divide the height.
     pub fn unstack(&self, n: u32) -> Vec<Image> {
-        assert!(n > 0 && self.height % n == 0, "{n} frames in {} rows", self.height);
+        assert!(
+            n > 0 && self.height % n == 0,
+            "{n} frames in {} rows",
+            self.height
+        );
         let h = self.height / n;
         let len = (self.width * h) as usize;
         self.data

@@ -1,7 +1,9 @@
 //! Stage two of loading: validate every field of a [`SceneFile`] and build the render-space
 //! [`Scene`]. Every error names the file and the field (and the line for TOML syntax errors).
 
-use super::format::{AnimationSpec, LightSpec, MaterialSpec, ScaleSpec, SceneFile, ShapeSpec, TransformStep};
+use super::format::{
+    AnimationSpec, LightSpec, MaterialSpec, ScaleSpec, SceneFile, ShapeSpec, TransformStep,
+};
 use super::generators::{self, Generated, GeneratorParams};
 use super::{
     Camera, Features, Fnv64, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings, Scene,

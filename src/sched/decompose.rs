@@ -141,21 +141,36 @@ mod tests {
 
     #[test]
     fn frames_are_covered_once_each_in_frame_order() {
-        for chunk in [Chunk::Tile { w: 1, h: 1 }, Chunk::Tile { w: 4, h: 3 }, Chunk::Frame] {
+        for chunk in [
+            Chunk::Tile { w: 1, h: 1 },
+            Chunk::Tile { w: 4, h: 3 },
+            Chunk::Frame,
+        ] {
             let one = decompose(9, 7, chunk, Order::Hilbert);
             let items = decompose_frames(9, 7, 3, chunk, Order::Hilbert);
             assert_eq!(items.len(), 3 * one.len());
-            assert_eq!(&items[..one.len()], &one[..], "frame 0 is the static decomposition");
+            assert_eq!(
+                &items[..one.len()],
+                &one[..],
+                "frame 0 is the static decomposition"
+            );
             for f in 0..3 {
-                let of_f: Vec<WorkItem> = items.iter().filter(|it| it.frame == f).cloned().collect();
-                assert!(coverage(9, 7, &of_f).iter().all(|&c| c == 1), "{chunk} frame {f}");
+                let of_f: Vec<WorkItem> =
+                    items.iter().filter(|it| it.frame == f).cloned().collect();
+                assert!(
+                    coverage(9, 7, &of_f).iter().all(|&c| c == 1),
+                    "{chunk} frame {f}"
+                );
             }
             for (i, it) in items.iter().enumerate() {
                 assert_eq!(it.id, i as u32);
                 assert_eq!(it.frame, i as u32 / one.len() as u32, "frame-major");
             }
         }
-        assert_eq!(decompose_frames(9, 7, 2, Chunk::Frame, Order::Scanline).len(), 2);
+        assert_eq!(
+            decompose_frames(9, 7, 2, Chunk::Frame, Order::Scanline).len(),
+            2
+        );
     }
 
     #[test]
