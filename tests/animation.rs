@@ -65,7 +65,7 @@ fn every_scheduler_and_chunk_gives_the_serial_frames() {
     let scene = Arc::new(load(&dolly_text(), &small()));
     assert_eq!(scene.frames(), 4);
     let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
-    let (serial, _) = render_serial_frames(&*scene, &*tracer);
+    let (serial, _) = render_serial_frames(&scene, &*tracer);
     assert_eq!(serial.len(), 4);
     for k in 1..4 {
         assert_ne!(serial[0], serial[k], "frame {k} equals frame 0");
@@ -93,7 +93,7 @@ fn every_scheduler_and_chunk_gives_the_serial_frames() {
     let spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
     let (strip, _) = run_scheduler(&spec, &scene, &tracer).unwrap();
     assert_eq!(strip.unstack(4), serial);
-    assert_eq!(render_serial(&*scene, &*tracer).0, strip);
+    assert_eq!(render_serial(&scene, &*tracer).0, strip);
 }
 
 #[test]

@@ -63,7 +63,7 @@ impl Image {
     /// If `n` is 0 or does not divide the height.
     pub fn unstack(&self, n: u32) -> Vec<Image> {
         assert!(
-            n > 0 && self.height % n == 0,
+            n > 0 && self.height.is_multiple_of(n),
             "{n} frames in {} rows",
             self.height
         );
