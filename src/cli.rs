@@ -119,7 +119,8 @@ pub struct RenderArgs {
     /// self_scheduling, guided.
     #[arg(long, default_value = "work_stealing")]
     pub scheduler: String,
-    /// Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame.
+    /// Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias frames: one whole
+    /// frame per item; an animation is cut frame by frame for every size).
     #[arg(long, default_value = "16")]
     pub chunk: String,
     /// Hand-out order of the items: scanline, morton, hilbert.

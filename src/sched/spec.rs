@@ -99,7 +99,7 @@ impl Chunk {
             match t.trim().parse::<u32>() {
                 Ok(0) => Err(bad("sizes must be ≥ 1 (chunk 0 has no pixels)")),
                 Ok(v) => Ok(v),
-                Err(_) => Err(bad("expected N, WxH, rows:N or frame")),
+                Err(_) => Err(bad("expected N, WxH, rows:N, frame or frames")),
             }
         };
         let s = s.trim();
