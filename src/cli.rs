@@ -119,7 +119,8 @@ pub struct RenderArgs {
     /// self_scheduling, guided.
     #[arg(long, default_value = "work_stealing")]
     pub scheduler: String,
-    /// Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame.
+    /// Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias frames: one whole
+    /// frame per item; an animation is cut frame by frame for every size).
     #[arg(long, default_value = "16")]
     pub chunk: String,
     /// Hand-out order of the items: scanline, morton, hilbert.
@@ -497,9 +498,7 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
             _ => CliError::runtime(e),
         })?;
     let (wall, rays, nonfinite) = (stats.wall_s, stats.rays, stats.nonfinite);
-    let png = image
-        .save_with_preview(&args.output)
-        .map_err(CliError::runtime)?;
+    let wrote = save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
     print_render_header(
         &scene,
         &format!(
@@ -527,8 +526,37 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
         used.join(","),
         left_out.join(",")
     );
-    println!("wrote {} and {}", args.output.display(), png.display());
+    println!("wrote {wrote}");
     Ok(())
+}
+
+/// `name_fNNNN.ext` beside `output = name.ext`: the file of frame `frame` of an animation.
+pub fn frame_path(output: &std::path::Path, frame: u32) -> std::path::PathBuf {
+    let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = output.extension().unwrap_or_default().to_string_lossy();
+    output.with_file_name(format!("{stem}_f{frame:04}.{ext}"))
+}
+
+/// Write a render and its PNG preview: `output` for a static scene, [`frame_path`] per frame
+/// for an animation (`image` is then the film strip of [`crate::render::Image::stack`]).
+/// Returns what was written, for the report.
+pub(crate) fn save_render(
+    output: &std::path::Path,
+    image: &crate::render::Image,
+    frames: u32,
+) -> Result<String, crate::render::image::ImageError> {
+    if frames <= 1 {
+        let png = image.save_with_preview(output)?;
+        return Ok(format!("{} and {}", output.display(), png.display()));
+    }
+    for (k, frame) in image.unstack(frames).iter().enumerate() {
+        frame.save_with_preview(&frame_path(output, k as u32))?;
+    }
+    Ok(format!(
+        "{frames} frames {} … {} (each with a .png preview)",
+        frame_path(output, 0).display(),
+        frame_path(output, frames - 1).display()
+    ))
 }
 
 /// The first two lines of a render's report, shared by the local and the MPI path (tests read
@@ -540,10 +568,15 @@ pub(crate) fn print_render_header(
     image: &crate::render::Image,
 ) {
     println!(
-        "scene {} ({}×{}, {} spp, max_depth {}), tracer {tracer}",
+        "scene {} ({}×{}{}, {} spp, max_depth {}), tracer {tracer}",
         scene.name,
         scene.width(),
         scene.height(),
+        if scene.frames() > 1 {
+            format!(" × {} frames", scene.frames())
+        } else {
+            String::new()
+        },
         scene.settings.spp,
         scene.settings.max_depth,
     );

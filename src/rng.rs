@@ -12,6 +12,14 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The seed frame `frame` of an animation samples with: `seed` itself for frame 0 (SplitMix's
+/// finaliser maps 0 to 0), so static scenes keep their images bit for bit, and a scrambled one
+/// for every later frame. Rendering the static scene with frame k's camera and this seed gives
+/// frame k's random numbers exactly.
+pub fn frame_seed(seed: u64, frame: u32) -> u64 {
+    seed ^ mix64(frame as u64)
+}
+
 /// The random stream of one (seed, pixel, sample) triple; `next` advances the dimension.
 #[derive(Clone, Debug)]
 pub struct Sampler {
@@ -71,6 +79,13 @@ mod tests {
             .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
+    }
+
+    #[test]
+    fn frame_0_keeps_the_seed_and_frames_differ() {
+        assert_eq!(frame_seed(12345, 0), 12345);
+        let seeds: std::collections::HashSet<u64> = (0..100).map(|f| frame_seed(7, f)).collect();
+        assert_eq!(seeds.len(), 100);
     }
 
     #[test]

@@ -157,6 +157,16 @@ fn each_bad_scene_is_a_one_line_error_naming_file_and_field() {
             GOOD.replace("path = \"tri.obj\"", "path = \"tri.obj\"\nradius = 2"),
             "shapes[1].radius",
         ),
+        (
+            "animation frames 0",
+            format!("{GOOD}\n[animation]\nframes = 0\n"),
+            "animation.frames",
+        ),
+        (
+            "animation key out of range",
+            format!("{GOOD}\n[animation]\nframes = 2\n[[animation.keys]]\nframe = 2\n"),
+            "animation.keys[0].frame",
+        ),
     ];
     for (what, text, needle) in cases {
         let (code, stderr, written) = run(dir.path(), text, &[]);

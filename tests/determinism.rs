@@ -41,6 +41,7 @@ fn shuffled_pixel_subsets_on_threads_are_bit_identical_to_the_serial_render() {
             subsets.push(WorkItem {
                 id: subsets.len() as u32,
                 region: Region::Pixels(order[start..end].to_vec()),
+                frame: 0,
             });
             start = end;
         }

@@ -319,17 +319,18 @@ fn measure(
             let t0 = Instant::now();
             let (image, counters) = render_serial(scene.as_ref(), b.tracer.as_ref());
             let wall_s = t0.elapsed().as_secs_f64();
+            let rows = scene.height() as u64 * scene.frames() as u64; // render_serial's items
             let stats = RunStats {
                 wall_s,
                 workers: vec![WorkerStats {
                     busy_s: wall_s,
                     idle_s: 0.0,
-                    items: scene.height() as u64,
-                    pixels: scene.pixel_count() as u64,
+                    items: rows,
+                    pixels: scene.pixel_count() as u64 * scene.frames() as u64,
                     rays: counters.rays,
                 }],
-                items: scene.height() as u64,
-                issued: scene.height() as u64,
+                items: rows,
+                issued: rows,
                 rays: counters.rays,
                 nonfinite: counters.nonfinite,
                 ..Default::default()

@@ -7,7 +7,7 @@ use super::wire::Ready;
 use crate::cli::{CliError, RenderArgs};
 use crate::scene::SceneOverrides;
 use crate::sched::{
-    assemble, decompose, master, render_job, RunOptions, SchedError, SchedulerKind,
+    assemble, decompose_frames, master, render_job, RunOptions, SchedError, SchedulerKind,
 };
 use crate::source::{ComputeSource, LocalThreadSource, Probe};
 use crate::tracer::AnyTracer;
@@ -120,7 +120,8 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         }
     }
     let labels: Vec<String> = sources.iter().map(|s| s.label()).collect();
-    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
+    let (w, h) = (scene.width(), scene.height());
+    let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
     let opts = RunOptions {
         stats: !args.stats_off,
         deadline: args.deadline_ms.map(Duration::from_millis),
@@ -146,9 +147,8 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let image =
         assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
     let wall = t0.elapsed().as_secs_f64();
-    let png = image
-        .save_with_preview(&args.output)
-        .map_err(CliError::runtime)?;
+    let wrote =
+        crate::cli::save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
     crate::cli::print_render_header(
         &scene,
         &format!(
@@ -178,7 +178,7 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     for (r, why) in &hub_report.lost {
         println!("  lost MPI rank {r}: {why}");
     }
-    println!("wrote {} and {}", args.output.display(), png.display());
+    println!("wrote {wrote}");
     Ok(())
 }
 

@@ -69,6 +69,7 @@ pub fn put_bytes(out: &mut Vec<u8>, b: &[u8]) {
 pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
     let mut r = Reader::new(bytes, "item");
     let id = r.u32()?;
+    let frame = r.u32()?;
     let region = match r.u8()? {
         0 => Region::Rect {
             x: r.u32()?,
@@ -93,7 +94,7 @@ pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
             })
         }
     };
-    Ok(WorkItem { id, region })
+    Ok(WorkItem { id, region, frame })
 }
 
 /// Inverse of [`crate::sched::wire::encode_result`]; returns the bytes that follow it.
@@ -223,9 +224,11 @@ mod tests {
     fn items_and_results_round_trip() {
         for item in [
             WorkItem::rect(3, 1, 2, 16, 16),
+            WorkItem::rect(3, 1, 2, 16, 16).in_frame(5),
             WorkItem {
                 id: 9,
                 region: Region::Pixels(vec![1, 5, 7]),
+                frame: 1,
             },
         ] {
             let mut b = Vec::new();

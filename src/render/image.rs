@@ -36,6 +36,49 @@ impl Image {
         }
     }
 
+    /// Frames stacked top to bottom into one film strip (frame k = rows k·h .. (k+1)·h): how a
+    /// single-image API (experiment hashes, saved images) carries an animation. One frame is
+    /// returned as it is.
+    ///
+    /// # Panics
+    /// If `frames` is empty or the frames differ in size.
+    pub fn stack(mut frames: Vec<Image>) -> Image {
+        if frames.len() == 1 {
+            return frames.pop().expect("one frame");
+        }
+        let (width, height) = (frames[0].width, frames[0].height);
+        assert!(frames
+            .iter()
+            .all(|f| f.width == width && f.height == height));
+        Image {
+            width,
+            height: height * frames.len() as u32,
+            data: frames.into_iter().flat_map(|f| f.data).collect(),
+        }
+    }
+
+    /// Inverse of [`Image::stack`]: cut a film strip into `n` frames.
+    ///
+    /// # Panics
+    /// If `n` is 0 or does not divide the height.
+    pub fn unstack(&self, n: u32) -> Vec<Image> {
+        assert!(
+            n > 0 && self.height.is_multiple_of(n),
+            "{n} frames in {} rows",
+            self.height
+        );
+        let h = self.height / n;
+        let len = (self.width * h) as usize;
+        self.data
+            .chunks_exact(len)
+            .map(|c| Image {
+                width: self.width,
+                height: h,
+                data: c.to_vec(),
+            })
+            .collect()
+    }
+
     pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
         self.data[(y * self.width + x) as usize]
     }
@@ -193,6 +236,17 @@ mod tests {
             Err(ImageError::Extension { .. })
         ));
         assert!(!path.exists() && !dir.path().join("x.png").exists());
+    }
+
+    #[test]
+    fn stack_and_unstack_are_inverse_and_one_frame_is_unchanged() {
+        let (a, mut b) = (gradient(), gradient());
+        b.data[0] = [9.0; 3];
+        let strip = Image::stack(vec![a.clone(), b.clone()]);
+        assert_eq!((strip.width, strip.height), (5, 6));
+        assert_eq!(strip.get(0, 3), [9.0; 3], "frame 1 starts at row 3");
+        assert_eq!(strip.unstack(2), vec![a.clone(), b]);
+        assert_eq!(Image::stack(vec![a.clone()]), a);
     }
 
     #[test]

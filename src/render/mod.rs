@@ -1,16 +1,16 @@
 //! `render_item`: the pure function every scheduler and compute source calls.
 //!
-//! A pixel's value depends only on (scene, tracer, pixel, seed): each sample draws from a
-//! counter-based [`Sampler`] keyed by (seed, pixel, sample), and samples are summed in a fixed
-//! order. Who renders a pixel, when, and with which other pixels never changes its bits.
+//! A pixel's value depends only on (scene, tracer, frame, pixel, seed): each sample draws from
+//! a counter-based [`Sampler`] keyed by ([`frame_seed`]`(seed, frame)`, pixel, sample), and
+//! samples are summed in a fixed order. Who renders a pixel, when, and with which other pixels never changes its bits.
 
 pub mod image;
 pub mod integrator;
 
 pub use image::Image;
 
-use crate::rng::Sampler;
-use crate::scene::Scene;
+use crate::rng::{frame_seed, Sampler};
+use crate::scene::{Camera, Scene};
 use crate::tracer::Tracer;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -25,18 +25,29 @@ pub enum Region {
     Pixels(Vec<u32>),
 }
 
+/// A region of one frame of the scene (frame 0 for a static scene).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct WorkItem {
     pub id: u32,
     pub region: Region,
+    /// Animation frame the region belongs to.
+    #[serde(default)]
+    pub frame: u32,
 }
 
 impl WorkItem {
+    /// A rectangle of frame 0.
     pub fn rect(id: u32, x: u32, y: u32, w: u32, h: u32) -> Self {
         Self {
             id,
             region: Region::Rect { x, y, w, h },
+            frame: 0,
         }
+    }
+
+    /// The same region in frame `frame`.
+    pub fn in_frame(self, frame: u32) -> Self {
+        Self { frame, ..self }
     }
 
     pub fn pixel_count(&self) -> usize {
@@ -69,8 +80,8 @@ pub struct TileResult {
     pub nonfinite: u64,
 }
 
-/// One radiance sample of pixel `idx` (`y·width + x`): jittered camera ray, then a path.
-/// Its value depends only on (scene, tracer, pixel, sample, seed).
+/// One radiance sample of pixel `idx` (`y·width + x`) of frame 0: jittered camera ray, then a
+/// path. Its value depends only on (scene, tracer, pixel, sample, seed).
 #[inline]
 pub fn sample_pixel<T: Tracer + ?Sized>(
     scene: &Scene,
@@ -79,22 +90,33 @@ pub fn sample_pixel<T: Tracer + ?Sized>(
     sample: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    sample_pixel_with::<T, integrator::FullFeatures>(scene, tracer, idx, sample, rays)
+    sample_pixel_with::<T, integrator::FullFeatures>(
+        scene,
+        tracer,
+        &scene.camera,
+        scene.settings.seed,
+        idx,
+        sample,
+        rays,
+    )
 }
 
-/// [`sample_pixel`] through the path specialised to feature set `F`.
+/// [`sample_pixel`] of the frame seen by `cam` and sampled with `seed` (its
+/// [`frame_seed`]) through the path specialised to `F`.
 #[inline(always)]
 fn sample_pixel_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
     scene: &Scene,
     tracer: &T,
+    cam: &Camera,
+    seed: u64,
     idx: u32,
     sample: u32,
     rays: &mut u64,
 ) -> Vec3 {
     let width = scene.width();
-    let mut s = Sampler::new(scene.settings.seed, idx as u64, sample as u64);
+    let mut s = Sampler::new(seed, idx as u64, sample as u64);
     let (jx, jy) = s.next2();
-    let ray = scene.camera.pixel_ray(idx % width, idx / width, jx, jy);
+    let ray = cam.pixel_ray(idx % width, idx / width, jx, jy);
     integrator::radiance_with::<T, F>(scene, tracer, ray, &mut s, rays)
 }
 
@@ -176,12 +198,14 @@ fn moments_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
         counts: Vec::with_capacity(n),
         ..Default::default()
     };
+    let cam = scene.frame_camera(item.frame);
+    let seed = frame_seed(scene.settings.seed, item.frame);
     for idx in item.pixels(scene.width()) {
         let mut sum = [0.0f64; 3];
         let mut sq = [0.0f64; 3];
         let mut count = 0u32;
         for sample in samples.clone() {
-            let l = sample_pixel_with::<T, F>(scene, tracer, idx, sample, &mut m.rays);
+            let l = sample_pixel_with::<T, F>(scene, tracer, cam, seed, idx, sample, &mut m.rays);
             if l.is_finite() {
                 for c in 0..3 {
                     let v = l[c] as f64;
@@ -232,21 +256,36 @@ pub struct RenderCounters {
     pub nonfinite: u64,
 }
 
-/// Serial reference render: one item per row, on the calling thread.
+/// Serial reference render: one item per row, on the calling thread. An animation's frames
+/// come back as one film strip ([`Image::stack`]); [`render_serial_frames`] keeps them apart.
 pub fn render_serial<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> (Image, RenderCounters) {
-    let mut image = Image::new(scene.width(), scene.height());
-    let mut counters = RenderCounters::default();
-    for y in 0..scene.height() {
-        let item = WorkItem::rect(y, 0, y, scene.width(), 1);
-        let r = render_item(scene, tracer, &item);
-        counters.rays += r.rays;
-        counters.nonfinite += r.nonfinite;
-        image.put(&item, &r.pixels);
-    }
-    (image, counters)
+    let (frames, counters) = render_serial_frames(scene, tracer);
+    (Image::stack(frames), counters)
 }
 
-/// Row-parallel render on a rayon pool of `threads` workers (the `render` command's default).
+/// Serial reference render of every frame, one image per frame.
+pub fn render_serial_frames<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+) -> (Vec<Image>, RenderCounters) {
+    let mut counters = RenderCounters::default();
+    let mut frames = Vec::with_capacity(scene.frames() as usize);
+    for f in 0..scene.frames() {
+        let mut image = Image::new(scene.width(), scene.height());
+        for y in 0..scene.height() {
+            let item = WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f);
+            let r = render_item(scene, tracer, &item);
+            counters.rays += r.rays;
+            counters.nonfinite += r.nonfinite;
+            image.put(&item, &r.pixels);
+        }
+        frames.push(image);
+    }
+    (frames, counters)
+}
+
+/// Row-parallel render on a rayon pool of `threads` workers; an animation comes back as a film
+/// strip ([`Image::stack`]).
 pub fn render_parallel<T: Tracer + ?Sized>(
     scene: &Scene,
     tracer: &T,
@@ -256,22 +295,25 @@ pub fn render_parallel<T: Tracer + ?Sized>(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
+    let h = scene.height();
     let results: Vec<(WorkItem, TileResult)> = pool.install(|| {
-        (0..scene.height())
+        (0..h * scene.frames())
             .into_par_iter()
-            .map(|y| {
-                let item = WorkItem::rect(y, 0, y, scene.width(), 1);
+            .map(|i| {
+                let item = WorkItem::rect(i, 0, i % h, scene.width(), 1).in_frame(i / h);
                 let r = render_item(scene, tracer, &item);
                 (item, r)
             })
             .collect()
     });
-    let mut image = Image::new(scene.width(), scene.height());
+    let mut frames: Vec<Image> = (0..scene.frames())
+        .map(|_| Image::new(scene.width(), h))
+        .collect();
     let mut counters = RenderCounters::default();
     for (item, r) in &results {
         counters.rays += r.rays;
         counters.nonfinite += r.nonfinite;
-        image.put(item, &r.pixels);
+        frames[item.frame as usize].put(item, &r.pixels);
     }
-    Ok((image, counters))
+    Ok((Image::stack(frames), counters))
 }

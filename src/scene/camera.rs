@@ -1,4 +1,6 @@
-//! Pinhole camera exactly as REFERENCE_SCENES.md defines it. It sits at the render-space origin.
+//! Pinhole camera exactly as REFERENCE_SCENES.md defines it. A static scene's camera sits at the
+//! render-space origin; a later frame of an animation sits at `eye` (its offset from frame 0's
+//! camera, computed in f64 and rounded once).
 
 use crate::geometry::Ray;
 use glam::{DVec3, Vec3};
@@ -12,6 +14,8 @@ pub struct Camera {
     forward: Vec3,
     /// tan(fov/2)·(ax, ay): the film half-extent at distance 1.
     half: (f32, f32),
+    /// Position in render space: zero for frame 0 (and every static scene).
+    eye: Vec3,
 }
 
 impl Camera {
@@ -34,7 +38,17 @@ impl Camera {
             up: true_up.as_vec3(),
             forward: forward.as_vec3(),
             half: ((tan * ax) as f32, (tan * ay) as f32),
+            eye: Vec3::ZERO,
         }
+    }
+
+    /// The same camera placed at `eye` in render space.
+    pub fn with_eye(self, eye: Vec3) -> Self {
+        Self { eye, ..self }
+    }
+
+    pub fn eye(&self) -> Vec3 {
+        self.eye
     }
 
     /// Primary ray through film position (u, v) ∈ [0,1]², u to the right, v downward.
@@ -43,7 +57,7 @@ impl Camera {
         let x = (2.0 * u - 1.0) * self.half.0;
         let y = (1.0 - 2.0 * v) * self.half.1;
         let d = (self.right * x + self.up * y + self.forward).normalize();
-        Ray::new(Vec3::ZERO, d)
+        Ray::new(self.eye, d)
     }
 
     /// Primary ray for pixel (px, py) with a jitter (jx, jy) ∈ [0,1)² inside it (box filter).

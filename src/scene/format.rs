@@ -28,12 +28,21 @@
 //! [[lights]]
 //! type = "environment"
 //! radiance = [1, 1, 1]
+//!
+//! # optional: an animation. `[camera]` is the pose of frame 0; each key sets the pose at its
+//! # frame (fields it leaves out keep the previous key's value); frames between keys are
+//! # linear interpolations, frames after the last key hold it.
+//! [animation]
+//! frames = 8
+//! [[animation.keys]]
+//! frame = 7
+//! origin = [0, 0, 2.9]
 //! ```
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-#[derive(Clone, Debug, Deserialize, Serialize)]
+#[derive(Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -47,6 +56,51 @@ pub struct SceneFile {
     pub shapes: Vec<ShapeSpec>,
     #[serde(default)]
     pub lights: Vec<LightSpec>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation: Option<AnimationSpec>,
+}
+
+// By hand, not derived: the scene hash is FNV over this text, and a scene without
+// `[animation]` must keep the hash it had before animations existed (results CSVs key on it).
+impl std::fmt::Debug for SceneFile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("SceneFile");
+        d.field("name", &self.name)
+            .field("camera", &self.camera)
+            .field("render", &self.render)
+            .field("materials", &self.materials)
+            .field("shapes", &self.shapes)
+            .field("lights", &self.lights);
+        if let Some(a) = &self.animation {
+            d.field("animation", a);
+        }
+        d.finish()
+    }
+}
+
+/// A camera path: `frames` frames, frame 0 posed by `[camera]`, later poses by `keys`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnimationSpec {
+    pub frames: u32,
+    #[serde(default)]
+    pub keys: Vec<CameraKeySpec>,
+}
+
+/// The camera pose at frame `frame`; a field left out keeps the previous key's value (the
+/// first key's previous is `[camera]`).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraKeySpec {
+    pub frame: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub up: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov_deg: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]

@@ -1,7 +1,9 @@
 //! Stage two of loading: validate every field of a [`SceneFile`] and build the render-space
 //! [`Scene`]. Every error names the file and the field (and the line for TOML syntax errors).
 
-use super::format::{LightSpec, MaterialSpec, ScaleSpec, SceneFile, ShapeSpec, TransformStep};
+use super::format::{
+    AnimationSpec, LightSpec, MaterialSpec, ScaleSpec, SceneFile, ShapeSpec, TransformStep,
+};
 use super::generators::{self, Generated, GeneratorParams};
 use super::{
     Camera, Features, Fnv64, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings, Scene,
@@ -143,6 +145,16 @@ fn build_scene(
         return Err(cx.err("camera.up", "is parallel to the view direction (or zero)"));
     }
     let camera = Camera::new(forward, up, fov, cam.width, cam.height);
+    let pose0 = Pose {
+        origin,
+        target,
+        up,
+        fov,
+    };
+    let cameras = match &file.animation {
+        None => vec![camera],
+        Some(a) => animation_cameras(&cx, a, pose0, camera)?,
+    };
 
     // Render settings.
     let r = &file.render;
@@ -407,6 +419,7 @@ fn build_scene(
         hash: hash.finish(),
         origin,
         camera,
+        cameras,
         settings,
         materials,
         geometry: g,
@@ -415,6 +428,132 @@ fn build_scene(
         features,
         load_stats: stats,
     })
+}
+
+/// The most frames an animation may have (a sanity bound: every frame keeps a camera, and a
+/// 1-pixel decomposition makes frames·width·height items).
+pub const MAX_FRAMES: u32 = 100_000;
+
+/// A camera pose in world space (f64), as written in the scene.
+#[derive(Clone, Copy, Debug)]
+struct Pose {
+    origin: DVec3,
+    target: DVec3,
+    up: DVec3,
+    fov: f64,
+}
+
+impl Pose {
+    /// `a·(1−t) + b·t` per field: exactly `a` at t = 0 and exactly `b` at t = 1.
+    fn lerp(a: &Pose, b: &Pose, t: f64) -> Pose {
+        let l3 = |x: DVec3, y: DVec3| x * (1.0 - t) + y * t;
+        Pose {
+            origin: l3(a.origin, b.origin),
+            target: l3(a.target, b.target),
+            up: l3(a.up, b.up),
+            fov: a.fov * (1.0 - t) + b.fov * t,
+        }
+    }
+
+    /// Why this pose has no camera (`None` when it is fine).
+    fn problem(&self) -> Option<String> {
+        let forward = self.target - self.origin;
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            Some(format!("fov_deg must be in (0, 180) (got {})", self.fov))
+        } else if forward.length() == 0.0 {
+            Some("target equals origin: no view direction".into())
+        } else if self.up.length() == 0.0
+            || forward.normalize().cross(self.up.normalize()).length() < 1e-9
+        {
+            Some("up is parallel to the view direction (or zero)".into())
+        } else {
+            None
+        }
+    }
+}
+
+/// One camera per frame. Frame 0 is `[camera]` (passed in as `first`, so a static scene and
+/// frame 0 of an animation are the same camera bit for bit); later frames interpolate the keys
+/// linearly in world space (f64) and sit at `eye` = their origin minus frame 0's, rounded to
+/// f32 once: render space stays anchored at frame 0's camera, so one geometry (one BVH) serves
+/// every frame, and precision is that of the camera path's extent, not of the world position.
+fn animation_cameras(
+    cx: &Ctx,
+    a: &AnimationSpec,
+    pose0: Pose,
+    first: Camera,
+) -> Result<Vec<Camera>, SceneError> {
+    if a.frames == 0 || a.frames > MAX_FRAMES {
+        return Err(cx.err(
+            "animation.frames",
+            format!("must be in 1..={MAX_FRAMES} (got {})", a.frames),
+        ));
+    }
+    let mut keys = vec![(0u32, pose0)];
+    for (i, k) in a.keys.iter().enumerate() {
+        let at = format!("animation.keys[{i}]");
+        let prev = keys.last().expect("frame 0 is a key").1;
+        if k.frame <= keys.last().unwrap().0 || k.frame >= a.frames {
+            return Err(cx.err(
+                format!("{at}.frame"),
+                format!(
+                    "must be after the previous key's frame {} and < animation.frames = {} \
+                     (keys sorted, frame 0 is [camera]; got {})",
+                    keys.last().unwrap().0,
+                    a.frames,
+                    k.frame
+                ),
+            ));
+        }
+        let v = |name: &str, v: Option<[f64; 3]>, old: DVec3| match v {
+            Some(v) => cx.vec3(&format!("{at}.{name}"), v),
+            None => Ok(old),
+        };
+        let pose = Pose {
+            origin: v("origin", k.origin, prev.origin)?,
+            target: v("target", k.target, prev.target)?,
+            up: v("up", k.up, prev.up)?,
+            fov: match k.fov_deg {
+                Some(f) => cx.finite(&format!("{at}.fov_deg"), f)?,
+                None => prev.fov,
+            },
+        };
+        if let Some(p) = pose.problem() {
+            return Err(cx.err(at, p));
+        }
+        keys.push((k.frame, pose));
+    }
+    let mut cameras = Vec::with_capacity(a.frames as usize);
+    cameras.push(first);
+    let mut next = 1; // index of the first key at or after the current frame
+    for f in 1..a.frames {
+        while next < keys.len() && keys[next].0 < f {
+            next += 1;
+        }
+        let pose = if next == keys.len() {
+            keys[next - 1].1 // after the last key: hold it
+        } else if keys[next].0 == f {
+            keys[next].1 // exactly on a key: no arithmetic at all
+        } else {
+            let ((fa, pa), (fb, pb)) = (keys[next - 1], keys[next]);
+            Pose::lerp(&pa, &pb, (f - fa) as f64 / (fb - fa) as f64)
+        };
+        if let Some(p) = pose.problem() {
+            return Err(cx.err(
+                format!("animation.keys[{}]", next - 1),
+                format!("the interpolated camera of frame {f} is unusable: {p}"),
+            ));
+        }
+        let cam = Camera::new(
+            pose.target - pose.origin,
+            pose.up,
+            pose.fov,
+            first.width,
+            first.height,
+        );
+        cameras.push(cam.with_eye((pose.origin - pose0.origin).as_vec3()));
+    }
+    Ok(cameras)
 }
 
 fn albedo(cx: &Ctx, field: &str, c: [f64; 3]) -> Result<Vec3, SceneError> {

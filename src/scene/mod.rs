@@ -4,6 +4,10 @@
 //! [`load`] checks every field and builds a [`Scene`] in *render space*: world coordinates
 //! minus the camera origin, computed in f64 and only then rounded to f32. A scene placed at 1e8
 //! therefore renders exactly like the same scene at the origin (pbrt-v4's camera-world space).
+//!
+//! An animated scene (`[animation]`) has one camera per frame over one geometry: render space
+//! stays anchored at frame 0's camera and later cameras sit at their offset from it (see
+//! `load::animation_cameras`), so frame 0 is bit-identical to the static scene.
 
 pub mod camera;
 pub mod format;
@@ -219,9 +223,12 @@ pub struct Scene {
     pub name: String,
     /// FNV-1a of the canonical scene text (after overrides) and every mesh file it reads.
     pub hash: u64,
-    /// World position of the render-space origin (the camera position).
+    /// World position of the render-space origin (the camera position of frame 0).
     pub origin: DVec3,
+    /// The camera of frame 0 (of the only frame of a static scene).
     pub camera: Camera,
+    /// One camera per frame (≥ 1); `cameras[0] == camera`.
+    pub cameras: Vec<Camera>,
     pub settings: RenderSettings,
     pub materials: Vec<Material>,
     pub geometry: Geometry,
@@ -239,8 +246,20 @@ impl Scene {
     pub fn height(&self) -> u32 {
         self.camera.height
     }
+    /// Pixels of one frame.
     pub fn pixel_count(&self) -> usize {
         self.camera.width as usize * self.camera.height as usize
+    }
+    /// Frames of the animation (1 for a static scene).
+    pub fn frames(&self) -> u32 {
+        self.cameras.len() as u32
+    }
+    /// The camera of frame `frame`.
+    ///
+    /// # Panics
+    /// If `frame ≥ frames()` (items come from a decomposition of this scene).
+    pub fn frame_camera(&self, frame: u32) -> &Camera {
+        &self.cameras[frame as usize]
     }
     /// Radiance of the environment in direction-independent form (zero without one).
     pub fn environment_radiance(&self) -> Vec3 {

@@ -3,6 +3,10 @@
 //! Items are axis-aligned rectangles on a grid of cells (tiles, row bands or the frame); the
 //! order sorts the grid cells by scanline, Morton (Z) or Hilbert index. Ids are 0..n in hand-out
 //! order and every pixel lies in exactly one item.
+//!
+//! An animation is cut frame by frame ([`decompose_frames`]): all items of frame 0 in the
+//! order's sequence, then those of frame 1, … With chunk `frame` one item is one whole frame,
+//! the coarsest item there is.
 
 use super::spec::{Chunk, Order};
 use crate::render::WorkItem;
@@ -33,6 +37,27 @@ pub fn decompose(width: u32, height: u32, chunk: Chunk, order: Order) -> Vec<Wor
         .map(|(id, (cx, cy))| {
             let (x, y) = (cx * cw, cy * ch);
             WorkItem::rect(id as u32, x, y, cw.min(width - x), ch.min(height - y))
+        })
+        .collect()
+}
+
+/// Items covering every pixel of `frames` frames of a `width`×`height` animation, frame-major,
+/// ids 0..n in hand-out order. One frame gives exactly [`decompose`]'s items.
+pub fn decompose_frames(
+    width: u32,
+    height: u32,
+    frames: u32,
+    chunk: Chunk,
+    order: Order,
+) -> Vec<WorkItem> {
+    let one = decompose(width, height, chunk, order);
+    let n = one.len() as u32;
+    (0..frames)
+        .flat_map(|f| {
+            one.iter().map(move |it| WorkItem {
+                id: f * n + it.id,
+                ..it.clone().in_frame(f)
+            })
         })
         .collect()
 }
@@ -112,6 +137,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn frames_are_covered_once_each_in_frame_order() {
+        for chunk in [
+            Chunk::Tile { w: 1, h: 1 },
+            Chunk::Tile { w: 4, h: 3 },
+            Chunk::Frame,
+        ] {
+            let one = decompose(9, 7, chunk, Order::Hilbert);
+            let items = decompose_frames(9, 7, 3, chunk, Order::Hilbert);
+            assert_eq!(items.len(), 3 * one.len());
+            assert_eq!(
+                &items[..one.len()],
+                &one[..],
+                "frame 0 is the static decomposition"
+            );
+            for f in 0..3 {
+                let of_f: Vec<WorkItem> =
+                    items.iter().filter(|it| it.frame == f).cloned().collect();
+                assert!(
+                    coverage(9, 7, &of_f).iter().all(|&c| c == 1),
+                    "{chunk} frame {f}"
+                );
+            }
+            for (i, it) in items.iter().enumerate() {
+                assert_eq!(it.id, i as u32);
+                assert_eq!(it.frame, i as u32 / one.len() as u32, "frame-major");
+            }
+        }
+        assert_eq!(
+            decompose_frames(9, 7, 2, Chunk::Frame, Order::Scanline).len(),
+            2
+        );
     }
 
     #[test]

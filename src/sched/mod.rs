@@ -12,7 +12,7 @@ pub mod spec;
 pub mod stats;
 pub mod wire;
 
-pub use decompose::decompose;
+pub use decompose::{decompose, decompose_frames};
 pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
 pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
@@ -88,18 +88,33 @@ pub fn run_scheduler<T: Tracer + 'static>(
     run_scheduler_with(spec, scene, tracer, &RunOptions::default())
 }
 
+/// [`run_scheduler_frames`] with an animation's frames stacked into one film strip
+/// ([`Image::stack`]); a static scene's image as it is.
 pub fn run_scheduler_with<T: Tracer + 'static>(
     spec: &SchedulerSpec,
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
     opts: &RunOptions,
 ) -> Result<(Image, RunStats), SchedError> {
+    let (frames, stats) = run_scheduler_frames(spec, scene, tracer, opts)?;
+    Ok((Image::stack(frames), stats))
+}
+
+/// Render every frame of `scene` under `spec`, one image per frame: the items of all frames
+/// form one decomposition ([`decompose_frames`]), so whole frames are handed out like tiles.
+pub fn run_scheduler_frames<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    opts: &RunOptions,
+) -> Result<(Vec<Image>, RunStats), SchedError> {
     spec.validate()?;
-    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
+    let (w, h) = (scene.width(), scene.height());
+    let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
     let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
-    let image = assemble(scene.width(), scene.height(), &items, &results)?;
+    let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.features.report(tracer.accelerated());
-    Ok((image, stats))
+    Ok((frames, stats))
 }
 
 /// Run `job` over `items` under `spec`; results come back indexed by item id.
@@ -138,22 +153,39 @@ pub fn make_sources(
     }
 }
 
-/// Put each item's result into an image; a missing result is an error.
+/// Put each item's result into an image; a missing result is an error. Items of several
+/// frames give the frames as one film strip ([`Image::stack`]).
 pub fn assemble(
     width: u32,
     height: u32,
     items: &[WorkItem],
     results: &[Option<TileResult>],
 ) -> Result<Image, SchedError> {
-    let mut image = Image::new(width, height);
+    let frames = items.iter().map(|it| it.frame + 1).max().unwrap_or(1);
+    Ok(Image::stack(assemble_frames(
+        width, height, frames, items, results,
+    )?))
+}
+
+/// Put each item's result into the image of its frame (`frames` images).
+pub fn assemble_frames(
+    width: u32,
+    height: u32,
+    frames: u32,
+    items: &[WorkItem],
+    results: &[Option<TileResult>],
+) -> Result<Vec<Image>, SchedError> {
+    let mut images: Vec<Image> = (0..frames.max(1))
+        .map(|_| Image::new(width, height))
+        .collect();
     for item in items {
         let r = results
             .get(item.id as usize)
             .and_then(Option::as_ref)
             .ok_or(SchedError::Missing { item: item.id })?;
-        image.put(item, &r.pixels);
+        images[item.frame as usize].put(item, &r.pixels);
     }
-    Ok(image)
+    Ok(images)
 }
 
 /// First result per item wins; later ones are counted as duplicates and dropped.

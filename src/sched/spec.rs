@@ -85,23 +85,25 @@ pub enum Chunk {
     Tile { w: u32, h: u32 },
     /// Bands of `n` full rows.
     Rows(u32),
-    /// The whole image as one item.
+    /// The whole image as one item: one item per frame of an animation (the coarsest item).
+    /// Parsed from `frame` or `frames`.
     Frame,
 }
 
 impl Chunk {
-    /// `1`, `16` (16×16), `8x4`, `rows:4`, `frame`.
+    /// `1`, `16` (16×16), `8x4`, `rows:4`, `frame` (alias `frames`: one whole frame per item
+    /// is what `frame` already means on an animation; one id is written to CSVs).
     pub fn parse(s: &str) -> Result<Self, SpecError> {
         let bad = |m: &str| err("chunk", format!("'{s}': {m}"));
         let pos = |t: &str| -> Result<u32, SpecError> {
             match t.trim().parse::<u32>() {
                 Ok(0) => Err(bad("sizes must be ≥ 1 (chunk 0 has no pixels)")),
                 Ok(v) => Ok(v),
-                Err(_) => Err(bad("expected N, WxH, rows:N or frame")),
+                Err(_) => Err(bad("expected N, WxH, rows:N, frame or frames")),
             }
         };
         let s = s.trim();
-        if s == "frame" {
+        if s == "frame" || s == "frames" {
             Ok(Self::Frame)
         } else if let Some(n) = s.strip_prefix("rows:") {
             Ok(Self::Rows(pos(n)?))
@@ -326,6 +328,7 @@ mod tests {
         assert_eq!(Chunk::parse("8x4").unwrap(), Chunk::Tile { w: 8, h: 4 });
         assert_eq!(Chunk::parse("rows:3").unwrap(), Chunk::Rows(3));
         assert_eq!(Chunk::parse("frame").unwrap(), Chunk::Frame);
+        assert_eq!(Chunk::parse("frames").unwrap(), Chunk::Frame);
         for bad in ["0", "0x4", "rows:0", "x", ""] {
             assert!(Chunk::parse(bad).is_err(), "{bad}");
         }

@@ -3,8 +3,8 @@
 //! the sizes are checked against real bytes in the tests; the schedulers only need the sizes.
 //!
 //! ```text
-//! WorkItem  Rect:   id u32 | tag u8 = 0 | x u32 | y u32 | w u32 | h u32          = 21 bytes
-//!           Pixels: id u32 | tag u8 = 1 | n u32 | n × u32                        = 9 + 4n
+//! WorkItem  Rect:   id u32 | frame u32 | tag u8 = 0 | x u32 | y u32 | w u32 | h u32 = 25 bytes
+//!           Pixels: id u32 | frame u32 | tag u8 = 1 | n u32 | n × u32             = 13 + 4n
 //! TileResult:       item u32 | n u32 | n × [f32; 3] | rays u64 | nonfinite u64   = 24 + 12n
 //! ```
 
@@ -12,8 +12,8 @@ use crate::render::{Region, TileResult, WorkItem};
 
 pub fn item_bytes(item: &WorkItem) -> u64 {
     match &item.region {
-        Region::Rect { .. } => 21,
-        Region::Pixels(p) => 9 + 4 * p.len() as u64,
+        Region::Rect { .. } => 25,
+        Region::Pixels(p) => 13 + 4 * p.len() as u64,
     }
 }
 
@@ -23,6 +23,7 @@ pub fn result_bytes(result: &TileResult) -> u64 {
 
 pub fn encode_item(item: &WorkItem, out: &mut Vec<u8>) {
     out.extend_from_slice(&item.id.to_le_bytes());
+    out.extend_from_slice(&item.frame.to_le_bytes());
     match &item.region {
         Region::Rect { x, y, w, h } => {
             out.push(0);
@@ -60,15 +61,19 @@ mod tests {
     fn sizes_match_the_encoded_bytes() {
         for item in [
             WorkItem::rect(3, 1, 2, 16, 16),
+            WorkItem::rect(3, 1, 2, 16, 16).in_frame(7),
             WorkItem {
                 id: 9,
                 region: Region::Pixels(vec![1, 5, 7]),
+                frame: 2,
             },
         ] {
             let mut b = Vec::new();
             encode_item(&item, &mut b);
             assert_eq!(b.len() as u64, item_bytes(&item));
+            assert_eq!(b[4..8], item.frame.to_le_bytes(), "frame follows the id");
         }
+        assert_eq!(item_bytes(&WorkItem::rect(0, 0, 0, 1, 1)), 25);
         let r = TileResult {
             item: 3,
             pixels: vec![[1.0, 2.0, 3.0]; 256],

@@ -35,6 +35,10 @@ pub fn transform_file(file: &mut SceneFile, s: f64, t: f64) {
     }
     file.camera.origin = apply(file.camera.origin);
     file.camera.target = apply(file.camera.target);
+    for key in file.animation.iter_mut().flat_map(|a| &mut a.keys) {
+        key.origin = key.origin.map(apply);
+        key.target = key.target.map(apply);
+    }
     for light in &mut file.lights {
         if let LightSpec::Point {
             position,
