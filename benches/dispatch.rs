@@ -62,7 +62,11 @@ fn run_group(c: &mut Criterion, group: &str, items: &[WorkItem], stats_both: boo
     g.warm_up_time(Duration::from_millis(300));
     g.measurement_time(Duration::from_millis(1500));
     for (name, spec) in specs() {
-        for stats in if stats_both { &[true, false][..] } else { &[true][..] } {
+        for stats in if stats_both {
+            &[true, false][..]
+        } else {
+            &[true][..]
+        } {
             let opts = RunOptions {
                 stats: *stats,
                 ..Default::default()
