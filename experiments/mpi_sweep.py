@@ -18,12 +18,37 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 TRANSPORT_ENV = {
     "shared_memory": {"OMPI_MCA_btl": "self,vader"},
     "tcp_loopback": {"OMPI_MCA_btl": "self,tcp", "OMPI_MCA_btl_tcp_if_include": "lo"},
+    "tcp_netem": {"OMPI_MCA_btl": "self,tcp", "OMPI_MCA_btl_tcp_if_include": "lo",
+                  "RAYSCHED_MPI_TRANSPORT": "tcp_netem"},
 }
 DEADLINE_S = 900
+# tcp_netem: every rank inside one scratch network namespace whose loopback delays each packet
+# by this much (`tc netem`), a stand-in for a cluster link.
+NETEM_NS = "raysched_netem"
+NETEM_DELAY_MS = 0.5
 
 
-def launch(ranks, transport, experiment, out, fresh):
-    cmd = ["mpirun", "-n", str(ranks), str(BIN), "run", str(experiment), "--out", str(out), "--quiet"]
+def netem_setup():
+    """(command prefix, None) when the delayed namespace is ready, else (None, the refusal)."""
+    subprocess.run(["ip", "netns", "del", NETEM_NS], capture_output=True)
+    r = subprocess.run(["ip", "netns", "add", NETEM_NS], capture_output=True, text=True)
+    if r.returncode != 0:
+        return None, "cannot create a network namespace: " + (r.stderr.strip() or "ip netns add failed")
+    subprocess.run(["ip", "-n", NETEM_NS, "link", "set", "lo", "up"], capture_output=True)
+    r = subprocess.run(["ip", "netns", "exec", NETEM_NS, "tc", "qdisc", "add", "dev", "lo", "root",
+                        "netem", "delay", f"{NETEM_DELAY_MS}ms"], capture_output=True, text=True)
+    if r.returncode != 0:
+        netem_teardown()
+        return None, "the kernel refuses netem: " + (r.stderr.strip() or "tc qdisc add failed")
+    return ["ip", "netns", "exec", NETEM_NS], None
+
+
+def netem_teardown():
+    subprocess.run(["ip", "netns", "del", NETEM_NS], capture_output=True)
+
+
+def launch(ranks, transport, experiment, out, fresh, prefix=()):
+    cmd = [*prefix, "mpirun", "-n", str(ranks), str(BIN), "run", str(experiment), "--out", str(out), "--quiet"]
     if fresh:
         cmd.append("--fresh")
     env = dict(ENV, **TRANSPORT_ENV[transport])
@@ -53,7 +78,17 @@ def main():
             if t not in TRANSPORT_ENV:
                 print(f"{t}: skipped, this driver cannot set it up (launch by hand with RAYSCHED_MPI_TRANSPORT={t})")
                 continue
-            rc = launch(k, t, a.experiment, a.out, fresh)
+            prefix = ()
+            if t == "tcp_netem":
+                prefix, refusal = netem_setup()
+                if refusal:
+                    print(f"{t}: skipped, {refusal}", flush=True)
+                    continue
+            try:
+                rc = launch(k, t, a.experiment, a.out, fresh, prefix)
+            finally:
+                if t == "tcp_netem":
+                    netem_teardown()
             fresh = False
             if rc != 0:
                 failed += 1
