@@ -2,10 +2,12 @@
 //! the forced-full path, and brute force against a BVH on tiny scenes (the crossover behind
 //! `tracer::bvh::BVH_MIN_PRIMS`). Short on purpose: `cargo bench --bench features`.
 //!
-//! Measured 2026-11-23 on the shared 2-core machine while other builds ran (noisy):
-//! diffuse-only `simple` 32×32×2 spp: pruned 393 µs, forced-full 912 µs (2.3× faster).
-//! Closest hit, 256 rays, brute/bvh: 1 prim 12.8/28.6 µs, 2: 16.1/36.0, 4: 7.4/19.4,
-//! 8: 14.1/15.1, 16: 35.1/12.7 → the BVH pays off from about 8 primitives.
+//! Measured 2026-11-23 on the quiet 2-core machine (the first numbers, taken while other builds
+//! ran, were 393 vs 912 µs and did not reproduce): diffuse-only `simple` 32×32×2 spp, three runs:
+//! pruned 182.3 / 183.3 / 176.9 µs, forced-full 183.6 / 179.5 / 179.2 µs — no gain beyond the
+//! ±2 % noise on this scene: the unused branches it prunes are well predicted.
+//! Closest hit, 256 rays, brute/bvh (4-wide BVH): 1 prim 1.99/2.72 µs, 2: 2.80/2.99,
+//! 4: 4.93/3.20, 8: 9.30/4.09, 16: 19.1/5.67 → the BVH pays off from 4 primitives.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use raysched::render::{render_sums, render_sums_full, WorkItem};

@@ -19,9 +19,30 @@ enum LeafPrim {
 
 /// Below this many primitives a BVH costs more than it saves: the tracer then tests every
 /// primitive in id order (exactly `brute`) and builds nothing. Measured with
-/// `cargo bench --bench features` (256 camera rays, spheres; other builds running): brute vs
-/// bvh 12.8/28.6 µs at 1 prim, 16.1/36.0 at 2, 7.4/19.4 at 4, 14.1/15.1 at 8, 35.1/12.7 at 16.
-pub const BVH_MIN_PRIMS: usize = 8;
+/// `cargo bench --bench features` (256 camera rays, spheres; quiet machine, 4-wide BVH): brute
+/// vs bvh 1.99/2.72 µs at 1 prim, 2.80/2.99 at 2, 4.93/3.20 at 4, 9.30/4.09 at 8. (With the
+/// earlier CWBVH traversal the crossover was at 8.)
+pub const BVH_MIN_PRIMS: usize = 4;
+
+/// obvhs' `medium_build` (PLOC, reinsertion, leaves of ≤ 8 by SAH collapse) with the collapse's
+/// node-to-primitive cost lowered from 3 to 2.5: our node test is cheap, and at 3 the Cornell
+/// box's large overlapping triangles merged into big leaves. `examples/tracer_ab` and a
+/// 1-thread Cornell render (128², 32 spp, max_depth 8), quiet machine:
+///
+/// | cost | Cornell wall | 1 M-tri displaced sphere, 256² primary rays, bvh / embree |
+/// |------|--------------|-------------------------------------------------------------|
+/// | 3    | 0.68 s       | 3.33 / 5.59 Mrays/s (60 %)                                  |
+/// | 2.5  | 0.42 s       | 3.32 / 5.58 (59.5 %)                                        |
+/// | 2    | 0.40 s       | 3.18 / 5.51 (58 %)                                          |
+/// | 1    | 0.41 s       | 3.10 (≈ 56 %)                                               |
+///
+/// Maximum leaf size at cost 3 (Cornell / 1 M): 8 → 0.68 s / 3.61, 4 → 0.57 / 3.41,
+/// 2 → 0.40 / 3.12, 1 → 0.40 / 2.81 Mrays/s.
+pub const BUILD_PARAMS: BvhBuildParams = {
+    let mut p = BvhBuildParams::medium_build();
+    p.collapse_traversal_cost = 2.5;
+    p
+};
 
 pub struct BvhTracer {
     bvh: Option<Bvh4>,
@@ -45,12 +66,12 @@ impl BvhTracer {
                 build_time: Duration::ZERO,
             };
         }
-        Self::with_params(geometry, BvhBuildParams::medium_build())
+        Self::with_params(geometry, BUILD_PARAMS)
     }
 
     /// Always a BVH, whatever the primitive count (for measuring the crossover).
     pub fn forced(geometry: &Geometry) -> Self {
-        Self::with_params(geometry, BvhBuildParams::medium_build())
+        Self::with_params(geometry, BUILD_PARAMS)
     }
 
     /// Whether a BVH was built (false: too few primitives to be worth it, or none at all).
