@@ -12,7 +12,8 @@ message (launch it by hand with RAYSCHED_MPI_TRANSPORT=<name>)."""
 import argparse, os, pathlib, signal, subprocess, sys, tomllib
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-BIN = ROOT / "target" / "debug" / "raysched"
+# RAYSCHED_BIN picks the binary (e.g. target/release/raysched built with --features mpi).
+BIN = pathlib.Path(os.environ.get("RAYSCHED_BIN", ROOT / "target" / "debug" / "raysched"))
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1")
 TRANSPORT_ENV = {
