@@ -148,6 +148,27 @@ fn image_hash(stdout: &str) -> Option<String> {
         .map(|s| s.split_whitespace().next().unwrap_or("").to_string())
 }
 
+/// Wait (within the deadline) for rank 1 to write its pid into `pids`, then `kill -9` it.
+fn kill_rank1(pids: &std::path::Path) {
+    let pid_file = pids.join("rank1.pid");
+    let end = Instant::now() + DEADLINE;
+    let pid = loop {
+        if let Some(pid) = std::fs::read_to_string(&pid_file)
+            .ok()
+            .filter(|s| !s.is_empty())
+        {
+            break pid;
+        }
+        assert!(Instant::now() < end, "rank 1 never wrote its pid");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert!(Command::new("kill")
+        .args(["-9", pid.trim()])
+        .status()
+        .unwrap()
+        .success());
+}
+
 #[test]
 fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
     if !have_mpirun() {
@@ -253,23 +274,7 @@ fn a_rank_killed_mid_run_loses_no_work() {
         .spawn()
         .unwrap();
     // Rank 1 writes its pid after its first result: it is mid-run when it dies.
-    let pid_file = pids.join("rank1.pid");
-    let end = Instant::now() + DEADLINE;
-    let pid = loop {
-        if let Some(pid) = std::fs::read_to_string(&pid_file)
-            .ok()
-            .filter(|s| !s.is_empty())
-        {
-            break pid;
-        }
-        assert!(Instant::now() < end, "rank 1 never wrote its pid");
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    assert!(Command::new("kill")
-        .args(["-9", pid.trim()])
-        .status()
-        .unwrap()
-        .success());
+    kill_rank1(&pids);
     let o = finish(child, "kill test");
     let (stdout, stderr) = text(&o);
     assert_eq!(
@@ -619,23 +624,7 @@ fn a_remote_rank_is_found_dead_in_seconds_and_a_slow_one_is_not() {
             .unwrap();
         let mut killed_at = None;
         if kill {
-            let pid_file = pids.join("rank1.pid");
-            let end = Instant::now() + DEADLINE;
-            let pid = loop {
-                if let Some(pid) = std::fs::read_to_string(&pid_file)
-                    .ok()
-                    .filter(|s| !s.is_empty())
-                {
-                    break pid;
-                }
-                assert!(Instant::now() < end, "rank 1 never wrote its pid");
-                std::thread::sleep(Duration::from_millis(5));
-            };
-            assert!(Command::new("kill")
-                .args(["-9", pid.trim()])
-                .status()
-                .unwrap()
-                .success());
+            kill_rank1(&pids);
             killed_at = Some(Instant::now());
         }
         let o = finish(child, if kill { "remote kill" } else { "slow rank" });

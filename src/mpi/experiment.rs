@@ -9,7 +9,7 @@
 //! answers READY. While rank 0 times local threads the workers sleep in 200 µs steps.
 
 use super::comm::{tag, Comm};
-use super::run::{gather_ready, STOP_WAIT};
+use super::run::{gather_ready, input, lead, STOP_WAIT};
 use super::source::{stop_ranks, Hub, Peer};
 use crate::cli::{CliError, RunArgs};
 use crate::experiment::plan::RunConfig;
@@ -76,19 +76,7 @@ pub fn run(args: RunArgs) -> ! {
     if comm.rank != 0 {
         super::worker::serve(comm, None)
     }
-    let mut lost = false;
-    let code = match rank0(&comm, &args, &mut lost) {
-        Ok(()) => 0,
-        Err(e) => {
-            eprintln!("error: {:#}", e.error);
-            e.code as i32
-        }
-    };
-    comm.shutdown(!lost, code)
-}
-
-fn input(msg: String) -> CliError {
-    CliError::input(anyhow::anyhow!(msg))
+    lead(comm, |comm, lost| rank0(comm, &args, lost))
 }
 
 fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {

@@ -31,8 +31,14 @@ pub fn render(args: RenderArgs) -> Result<(), CliError> {
     if comm.rank != 0 {
         super::worker::run(comm)
     }
+    lead(comm, |comm, lost| rank0(comm, &args, lost))
+}
+
+/// Rank 0's end of a job: run `body`, print its error, and end the process with its exit code
+/// (finalizing MPI only when no rank was lost: `body` sets the flag).
+pub(crate) fn lead(comm: Comm, body: impl FnOnce(&Comm, &mut bool) -> Result<(), CliError>) -> ! {
     let mut lost = false;
-    let code = match rank0(&comm, &args, &mut lost) {
+    let code = match body(&comm, &mut lost) {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {:#}", e.error);
@@ -42,7 +48,7 @@ pub fn render(args: RenderArgs) -> Result<(), CliError> {
     comm.shutdown(!lost, code)
 }
 
-fn input(msg: String) -> CliError {
+pub(crate) fn input(msg: String) -> CliError {
     CliError::input(anyhow::anyhow!(msg))
 }
 
