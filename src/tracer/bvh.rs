@@ -48,9 +48,8 @@ pub struct BvhTracer {
     bvh: Option<Bvh4>,
     /// Set when the scene is below [`BVH_MIN_PRIMS`]: primitives tested linearly instead.
     linear: Option<Geometry>,
+    /// Primitives in the BVH's leaf order (scene ids: [`Bvh4::order`]).
     prims: Vec<LeafPrim>,
-    /// Scene primitive id of each leaf slot.
-    ids: Vec<u32>,
     pub build_time: Duration,
 }
 
@@ -62,7 +61,6 @@ impl BvhTracer {
                 bvh: None,
                 linear: Some(geometry.clone()),
                 prims: Vec::new(),
-                ids: Vec::new(),
                 build_time: Duration::ZERO,
             };
         }
@@ -86,7 +84,6 @@ impl BvhTracer {
                 bvh: None,
                 linear: None,
                 prims: Vec::new(),
-                ids: Vec::new(),
                 build_time: start.elapsed(),
             };
         }
@@ -98,8 +95,8 @@ impl BvhTracer {
             .collect();
         let bvh = Bvh4::build(&aabbs, params);
         let ns = geometry.spheres.len() as u32;
-        let ids = bvh.order.clone();
-        let prims = ids
+        let prims = bvh
+            .order
             .iter()
             .map(|&p| {
                 if p < ns {
@@ -113,7 +110,6 @@ impl BvhTracer {
             bvh: Some(bvh),
             linear: None,
             prims,
-            ids,
             build_time: start.elapsed(),
         }
     }
@@ -162,7 +158,7 @@ impl Tracer for BvhTracer {
             best
         })
         .map(|h| Hit {
-            prim: self.ids[h.prim as usize],
+            prim: bvh.order[h.prim as usize],
             ..h
         })
     }

@@ -58,19 +58,17 @@ impl RaySlabs {
     fn new(ray: &Ray) -> Self {
         // A zero (or subnormal) component would make 1/d infinite and 0·∞ a NaN in the slab
         // test; 1e-30 keeps every product finite or ±∞ and moves the ray by < 1e-30·t.
-        let inv = |d: f32| {
+        let inv = [ray.d.x, ray.d.y, ray.d.z].map(|d| {
             1.0 / if d.abs() < 1e-30 {
                 1e-30f32.copysign(d)
             } else {
                 d
             }
-        };
-        let d = [ray.d.x, ray.d.y, ray.d.z];
-        let o = [ray.o.x, ray.o.y, ray.o.z];
+        });
         Self {
-            o: o.map(Vec4::splat),
-            inv: d.map(|c| Vec4::splat(inv(c))),
-            neg: d.map(|c| inv(c) < 0.0),
+            o: [ray.o.x, ray.o.y, ray.o.z].map(Vec4::splat),
+            inv: inv.map(Vec4::splat),
+            neg: inv.map(|i| i < 0.0),
         }
     }
 
@@ -105,21 +103,18 @@ pub struct Bvh4 {
     root: u32,
     /// Scene primitive ids in leaf order: a leaf is the range `first .. first + count`.
     pub order: Vec<u32>,
-    pub build_time: Duration,
 }
 
 impl Bvh4 {
     /// Build over primitive boxes `aabbs` (indexed by scene primitive id).
     pub fn build(aabbs: &[Aabb], params: BvhBuildParams) -> Self {
-        let start = std::time::Instant::now();
         let mut params = params;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
         let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
         let mut out = Self {
             nodes: Vec::with_capacity(bvh2.nodes.len() / 2 + 1),
             root: 0,
-            order: bvh2.primitive_indices.clone(),
-            build_time: Duration::ZERO,
+            order: Vec::new(),
         };
         let root = &bvh2.nodes[0];
         if root.prim_count > 0 {
@@ -127,7 +122,7 @@ impl Bvh4 {
         } else {
             out.collapse(&bvh2, 0);
         }
-        out.build_time = start.elapsed();
+        out.order = bvh2.primitive_indices;
         out
     }
 
