@@ -297,13 +297,7 @@ impl<'c> Hub<'c> {
                 Ok(None) => return any,
                 Err(_) => {
                     // Some rank is broken: probe them one by one to find it.
-                    let live: Vec<i32> = self
-                        .ranks
-                        .iter()
-                        .filter(|r| r.lost.is_none())
-                        .map(|r| r.rank)
-                        .collect();
-                    for r in live {
+                    for r in self.live_ranks() {
                         match self.comm.iprobe(Some(r)) {
                             Ok(Some(p)) => match self.comm.recv(p) {
                                 Ok(body) => self.on_message(p, body),
@@ -426,13 +420,16 @@ impl<'c> Hub<'c> {
 
     fn stop(&mut self, stop_wait: Duration) {
         let finalize = self.report.lost.is_empty() as u8;
-        let live: Vec<i32> = self
-            .ranks
+        stop_ranks(self.comm, &self.live_ranks(), finalize == 1, stop_wait);
+    }
+
+    /// Ranks not (yet) declared lost.
+    fn live_ranks(&self) -> Vec<i32> {
+        self.ranks
             .iter()
             .filter(|r| r.lost.is_none())
             .map(|r| r.rank)
-            .collect();
-        stop_ranks(self.comm, &live, finalize == 1, stop_wait);
+            .collect()
     }
 
     pub fn any_lost(&self) -> bool {

@@ -200,18 +200,6 @@ fn line_chart<DB: DrawingBackend>(
     Ok(())
 }
 
-fn one_chart<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    title: &str,
-    x_desc: &str,
-    y_desc: &str,
-    data: &Series,
-    log2_x: bool,
-    ideal: bool,
-) -> R {
-    line_chart(root, title, x_desc, y_desc, data, log2_x, ideal)
-}
-
 fn two_charts<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     titles: (&str, &str),
@@ -433,7 +421,7 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             both!(
                 stem,
                 SIZE,
-                one_chart(
+                line_chart(
                     &title,
                     "worker threads",
                     "speedup (t_serial / t)",
@@ -500,7 +488,7 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             both!(
                 stem,
                 SIZE,
-                one_chart(
+                line_chart(
                     &title,
                     "items outstanding per worker, B (log₂ scale)",
                     "speedup (t_serial / t)",
