@@ -29,7 +29,8 @@ fn tracer(scene: &Scene) -> Result<AnyTracer, String> {
     AnyTracer::build("bvh", scene, 1).map_err(|e| e.to_string())
 }
 
-fn failed(group: &str, case: &str, msg: String) -> CaseResult {
+/// A case that could not run: a required failure carrying the reason.
+pub(super) fn failed(group: &str, case: &str, msg: String) -> CaseResult {
     CaseResult {
         group: group.into(),
         case: case.into(),

@@ -4,6 +4,7 @@
 //! rows show the difference. Reported, not required (no tracer here promises watertightness
 //! except `embree_robust`).
 
+use super::cases::failed;
 use super::{count_case, CaseResult};
 use crate::geometry::Ray;
 use crate::scene::{load_scene_str, Scene, SceneOverrides};
@@ -82,11 +83,7 @@ pub fn watertight_cases(count: u64, out: &mut Vec<CaseResult>) {
     let case = |id: &str| format!("{id}: rays at vertices and edge midpoints of a closed mesh");
     let scene = match mesh_scene(count) {
         Ok(s) => s,
-        Err(e) => {
-            let mut r = count_case("watertight", &case("all"), 0, 1, &e);
-            r.pass = false;
-            return out.push(r);
-        }
+        Err(e) => return out.push(failed("watertight", &case("all"), e)),
     };
     let rays = probe_rays(&scene);
     for (id, _) in TRACER_IDS {
@@ -107,11 +104,7 @@ pub fn watertight_cases(count: u64, out: &mut Vec<CaseResult>) {
                     .count();
                 count_case("watertight", &case(id), 0, leaks as u64, &note)
             }
-            Err(e) => {
-                let mut r = count_case("watertight", &case(id), 0, 0, &e.to_string());
-                r.pass = false;
-                r
-            }
+            Err(e) => failed("watertight", &case(id), e.to_string()),
         };
         row.required = false;
         out.push(row);
