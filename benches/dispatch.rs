@@ -70,12 +70,6 @@ fn run_group(c: &mut Criterion, group: &str, items: &[WorkItem], stats_both: boo
     g.warm_up_time(Duration::from_millis(300));
     g.measurement_time(Duration::from_millis(1500));
     for (name, spec) in specs() {
-        // A spinning master (3 busy threads on 2 cores) took ~7 s per run of 2¹⁸ items (27 µs an
-        // item) but 0.77 ms per 2¹² items (188 ns): it has its own, smaller group. Not explained
-        // yet; the scheduler's preemption of a spinning master is the suspect.
-        if (spec.wait == Wait::Spin) != (group == "dispatch_spin") {
-            continue;
-        }
         for stats in if stats_both {
             &[true, false][..]
         } else {
@@ -98,11 +92,6 @@ fn dispatch(c: &mut Criterion) {
     let items = decompose(SIDE, SIDE, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
     assert_eq!(items.len(), 1 << 18);
     run_group(c, "dispatch", &items, true);
-}
-
-fn dispatch_spin(c: &mut Criterion) {
-    let items = decompose(64, 64, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
-    run_group(c, "dispatch_spin", &items, true);
 }
 
 fn dispatch_fixed(c: &mut Criterion) {
@@ -180,11 +169,5 @@ fn instrumentation(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(
-    benches,
-    dispatch,
-    dispatch_spin,
-    dispatch_fixed,
-    instrumentation
-);
+criterion_group!(benches, dispatch, dispatch_fixed, instrumentation);
 criterion_main!(benches);

@@ -9,8 +9,8 @@
 
 use crate::render::TileResult;
 use crate::render::WorkItem;
-use crate::sched::{wire, MasterStats, RunStats, SchedError, SchedulerKind, SchedulerSpec};
-use crate::source::{ComputeSource, DelayedResult, Notifier, Probe};
+use crate::sched::{wire, MasterStats, RunStats, SchedError, SchedulerKind, SchedulerSpec, Wait};
+use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
 use std::time::{Duration, Instant};
 
 pub fn run_pull(
@@ -22,9 +22,9 @@ pub fn run_pull(
 ) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
     let t0 = Instant::now();
     let (n, k) = (items.len(), sources.len());
-    let (tx, rx) = crossbeam::channel::unbounded();
+    let bell = Doorbell::default();
     for s in sources.iter_mut() {
-        s.set_notifier(Notifier(tx.clone()));
+        s.set_notifier(bell.notifier());
     }
     let mut stats = RunStats {
         items: n as u64,
@@ -105,8 +105,9 @@ pub fn run_pull(
             }
         }
         let tw = Instant::now();
-        let _ = rx.recv_timeout(Duration::from_millis(2));
-        while rx.try_recv().is_ok() {}
+        bell.wait(Duration::from_millis(2), Wait::Block, || {
+            out.iter().flatten().any(DelayedResult::is_ready)
+        });
         m.wait_s += tw.elapsed().as_secs_f64();
     };
     drop(out);

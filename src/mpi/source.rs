@@ -189,16 +189,16 @@ impl<'c> Hub<'c> {
         }
         st.shared.lost.store(true, Ordering::SeqCst);
         let id = st.id;
-        for (item, q) in st.outstanding.drain() {
+        for (_, q) in st.outstanding.drain() {
             for done in q {
                 done.complete(Err(SourceFailure::Lost {
                     source_id: id,
                     reason: why.clone(),
                 }));
             }
-            if let Some(n) = st.shared.notifier.get() {
-                n.ring(id, item);
-            }
+        }
+        if let Some(n) = st.shared.notifier.get() {
+            n.ring();
         }
         st.pending = 0;
         st.lost = Some(why.clone());
@@ -278,7 +278,7 @@ impl<'c> Hub<'c> {
         }
         done.complete(Ok(result));
         if let Some(n) = st.shared.notifier.get() {
-            n.ring(st.id, item);
+            n.ring();
         }
     }
 

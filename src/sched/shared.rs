@@ -8,6 +8,7 @@ use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
 use crate::source::Probe;
 use crossbeam::deque::{Steal, Stealer, Worker};
+use crossbeam::utils::CachePadded;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
@@ -124,7 +125,7 @@ pub(super) fn run_shared(
             }
         })?,
         SchedulerKind::SelfScheduling => {
-            let next = AtomicUsize::new(0);
+            let next = CachePadded::new(AtomicUsize::new(0));
             spawn_workers(units, &probe, expect, |_, (), l| loop {
                 let s = next.fetch_add(grab, Ordering::Relaxed);
                 if s >= n {

@@ -91,16 +91,23 @@ impl ComputeSource for FaultySource {
         format!("faulty({})", self.inner.label())
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let (id, src) = (item.id, self.inner.id());
-        let n = self.submitted;
-        self.submitted += 1;
-        let d = self.inner.submit(item);
-        if unit(self.plan.seed, src as u64, id as u64, n) < self.plan.drop_fraction {
-            self.dropped += 1;
-            drop(d); // the worker still renders it; the result just never comes back
-            return DelayedResult::never(id, src);
+        let mut out = Vec::with_capacity(1);
+        self.submit_batch(vec![item], &mut out);
+        out.pop().expect("one result per item")
+    }
+    fn submit_batch(&mut self, items: Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        let first = out.len();
+        self.inner.submit_batch(items, out);
+        let src = self.inner.id();
+        for d in &mut out[first..] {
+            let n = self.submitted;
+            self.submitted += 1;
+            if unit(self.plan.seed, src as u64, d.item() as u64, n) < self.plan.drop_fraction {
+                self.dropped += 1;
+                // The worker still renders it; the result just never comes back.
+                *d = DelayedResult::never(d.item(), src);
+            }
         }
-        d
     }
     fn is_lost(&self) -> bool {
         self.inner.is_lost()

@@ -7,12 +7,12 @@ use super::{
 };
 use crate::render::WorkItem;
 use crate::sched::Span;
-use crossbeam::channel::{unbounded, Sender};
+use crossbeam::channel::{unbounded, Receiver, Sender};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::Duration;
 
 struct Shared {
     lost: AtomicBool,
@@ -22,14 +22,17 @@ struct Shared {
 
 pub struct LocalThreadSource {
     id: u32,
-    inbox: Option<Sender<(WorkItem, Completer)>>,
+    inbox: Option<Sender<Batch>>,
     shared: Arc<Shared>,
     handle: Option<JoinHandle<SourceReport>>,
 }
 
+/// One inbox message: the items of one hand-out, each with the completer of its result.
+type Batch = Vec<(WorkItem, Completer)>;
+
 impl LocalThreadSource {
     pub fn spawn(id: u32, job: Job, probe: Probe) -> Self {
-        let (tx, rx) = unbounded::<(WorkItem, Completer)>();
+        let (tx, rx) = unbounded::<Batch>();
         let shared = Arc::new(Shared {
             lost: AtomicBool::new(false),
             cancel: AtomicBool::new(false),
@@ -38,59 +41,7 @@ impl LocalThreadSource {
         let sh = shared.clone();
         let handle = std::thread::Builder::new()
             .name(format!("source-{id}"))
-            .spawn(move || {
-                let mut report = SourceReport::default();
-                let ring = |item: u32| {
-                    if let Some(n) = sh.notifier.get() {
-                        n.ring(id, item);
-                    }
-                };
-                while let Ok((item, done)) = rx.recv() {
-                    if sh.cancel.load(Ordering::Relaxed) {
-                        done.complete(Err(SourceFailure::Cancelled { item: item.id }));
-                        continue;
-                    }
-                    let t0 = probe.stats.then(Instant::now);
-                    match catch_unwind(AssertUnwindSafe(|| job(&item))) {
-                        Ok(r) => {
-                            if let Some(t0) = t0 {
-                                let t1 = Instant::now();
-                                report.stats.busy_s += (t1 - t0).as_secs_f64();
-                                if probe.timeline {
-                                    report.spans.push(Span {
-                                        worker: id,
-                                        item: item.id,
-                                        start_ns: (t0 - probe.epoch).as_nanos() as u64,
-                                        end_ns: (t1 - probe.epoch).as_nanos() as u64,
-                                    });
-                                }
-                            }
-                            report.stats.items += 1;
-                            report.stats.pixels += item.pixel_count() as u64;
-                            report.stats.rays += r.rays;
-                            done.complete(Ok(r));
-                            ring(item.id);
-                        }
-                        Err(panic) => {
-                            // The source is lost: fail this item and everything queued behind it.
-                            sh.lost.store(true, Ordering::SeqCst);
-                            let reason = panic_message(&panic);
-                            let lost = || SourceFailure::Lost {
-                                source_id: id,
-                                reason: format!("worker panicked: {reason}"),
-                            };
-                            done.complete(Err(lost()));
-                            ring(item.id);
-                            while let Ok((it, c)) = rx.try_recv() {
-                                c.complete(Err(lost()));
-                                ring(it.id);
-                            }
-                            break;
-                        }
-                    }
-                }
-                report
-            })
+            .spawn(move || serve(id, &job, probe, &sh, &rx))
             .expect("spawning a source thread");
         Self {
             id,
@@ -99,6 +50,82 @@ impl LocalThreadSource {
             handle: Some(handle),
         }
     }
+}
+
+/// The source's thread: run every message's items in order until the inbox closes or the
+/// job panics (then this item and everything still queued fail as lost).
+fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) -> SourceReport {
+    let mut report = SourceReport::default();
+    let mut busy = Duration::ZERO;
+    let ring = || {
+        if let Some(n) = sh.notifier.get() {
+            n.ring();
+        }
+    };
+    let mut failure: Option<SourceFailure> = None;
+    while let Ok(batch) = rx.recv() {
+        // One clock read per item: a span runs from the end of the previous item of this
+        // message (or its arrival) to the item's end; waiting for a message never counts.
+        let mut last = if probe.stats {
+            quanta::Instant::now()
+        } else {
+            probe.tsc_epoch
+        };
+        for (item, done) in batch {
+            if let Some(f) = &failure {
+                done.complete(Err(f.clone()));
+                continue;
+            }
+            if sh.cancel.load(Ordering::Relaxed) {
+                done.complete(Err(SourceFailure::Cancelled { item: item.id }));
+                continue;
+            }
+            match catch_unwind(AssertUnwindSafe(|| job(&item))) {
+                Ok(r) => {
+                    if probe.stats {
+                        let t1 = quanta::Instant::now();
+                        busy += t1 - last;
+                        if probe.timeline {
+                            let e = probe.tsc_epoch;
+                            report.spans.push(Span {
+                                worker: id,
+                                item: item.id,
+                                start_ns: (last - e).as_nanos() as u64,
+                                end_ns: (t1 - e).as_nanos() as u64,
+                            });
+                        }
+                        last = t1;
+                    }
+                    report.stats.items += 1;
+                    report.stats.pixels += item.pixel_count() as u64;
+                    report.stats.rays += r.rays;
+                    done.complete(Ok(r));
+                }
+                Err(panic) => {
+                    sh.lost.store(true, Ordering::SeqCst);
+                    let f = SourceFailure::Lost {
+                        source_id: id,
+                        reason: format!("worker panicked: {}", panic_message(&panic)),
+                    };
+                    done.complete(Err(f.clone()));
+                    failure = Some(f);
+                }
+            }
+            ring();
+        }
+        if let Some(f) = &failure {
+            // The source is lost: everything queued behind the panicking item fails too.
+            while let Ok(batch) = rx.try_recv() {
+                for (_, done) in batch {
+                    done.complete(Err(f.clone()));
+                }
+            }
+            ring();
+            break;
+        }
+    }
+    report.stats.busy_s = busy.as_secs_f64();
+    report
 }
 
 pub fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
@@ -116,12 +143,23 @@ impl ComputeSource for LocalThreadSource {
         format!("local-thread-{}", self.id)
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let (d, c) = DelayedResult::pending(item.id, self.id);
+        let mut out = Vec::with_capacity(1);
+        self.submit_batch(vec![item], &mut out);
+        out.pop().expect("one result per item")
+    }
+    fn submit_batch(&mut self, items: Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        let batch: Batch = items
+            .into_iter()
+            .map(|item| {
+                let (d, c) = DelayedResult::pending(item.id, self.id);
+                out.push(d);
+                (item, c)
+            })
+            .collect();
         if let Some(tx) = &self.inbox {
-            // A failed send drops the completer, which fails the result: the thread is gone.
-            let _ = tx.send((item, c));
+            // A failed send drops the completers, which fails the results: the thread is gone.
+            let _ = tx.send(batch);
         }
-        d
     }
     fn is_lost(&self) -> bool {
         self.shared.lost.load(Ordering::SeqCst)

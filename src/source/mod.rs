@@ -39,15 +39,42 @@ struct Cell {
     inner: Mutex<CellInner>,
 }
 
+/// Spare result cells of this thread (the master's): a cell whose result was taken and whose
+/// completer is gone is reused, so handing out an item allocates nothing. A fresh allocation
+/// and its free cost the master ~35 ns per one-pixel item (glibc, 2-core VM).
+const SPARE_CELLS: usize = 4096;
+
+thread_local! {
+    static SPARE: std::cell::RefCell<Vec<Arc<Cell>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 impl Cell {
     fn new() -> Arc<Self> {
-        Arc::new(Cell {
-            ready: AtomicBool::new(false),
-            inner: Mutex::new(CellInner {
-                value: None,
-                waiter: None,
-            }),
+        SPARE.with(|s| s.borrow_mut().pop()).unwrap_or_else(|| {
+            Arc::new(Cell {
+                ready: AtomicBool::new(false),
+                inner: Mutex::new(CellInner {
+                    value: None,
+                    waiter: None,
+                }),
+            })
         })
+    }
+
+    /// Keep `cell` for reuse if nobody else holds it any more.
+    fn recycle(cell: &mut Arc<Self>) {
+        let Some(c) = Arc::get_mut(cell) else { return };
+        *c.ready.get_mut() = false;
+        c.inner.clear_poison();
+        let inner = c.inner.get_mut().unwrap_or_else(|e| e.into_inner());
+        inner.value = None;
+        inner.waiter = None;
+        SPARE.with(|s| {
+            let mut s = s.borrow_mut();
+            if s.len() < SPARE_CELLS {
+                s.push(cell.clone());
+            }
+        });
     }
 }
 
@@ -116,7 +143,7 @@ impl DelayedResult {
     }
 
     pub fn is_ready(&self) -> bool {
-        self.cell.ready.load(Ordering::Acquire)
+        self.cell.ready.load(Ordering::SeqCst)
     }
 
     /// The outcome if it is ready, else the handle back.
@@ -170,6 +197,12 @@ impl DelayedResult {
     }
 }
 
+impl Drop for DelayedResult {
+    fn drop(&mut self) {
+        Cell::recycle(&mut self.cell);
+    }
+}
+
 impl Completer {
     pub fn item(&self) -> u32 {
         self.item
@@ -185,7 +218,8 @@ fn fill(cell: &Cell, outcome: Outcome) {
     let waiter = {
         let mut g = cell.inner.lock().unwrap_or_else(|e| e.into_inner());
         g.value = Some(outcome);
-        cell.ready.store(true, Ordering::Release);
+        // SeqCst: pairs with the master's arming in `Doorbell::wait` (see `Notifier::ring`).
+        cell.ready.store(true, Ordering::SeqCst);
         g.waiter.take()
     };
     if let Some(t) = waiter {
@@ -208,14 +242,77 @@ impl Drop for Completer {
     }
 }
 
-/// How a source wakes a blocked master: it sends (source, item) after completing a result.
+/// How a source wakes a waiting master: [`Notifier::ring`] after completing a result. It sends
+/// only while the master is armed (about to block), so a busy master pays nothing per item —
+/// one channel message per item was ~20 % of the master's dispatch cost at one-pixel items.
 /// A hint only: the master always polls the results themselves.
 #[derive(Clone, Debug)]
-pub struct Notifier(pub crossbeam::channel::Sender<(u32, u32)>);
+pub struct Notifier {
+    tx: crossbeam::channel::Sender<()>,
+    armed: Arc<AtomicBool>,
+}
 
 impl Notifier {
-    pub fn ring(&self, source: u32, item: u32) {
-        let _ = self.0.send((source, item));
+    /// Call after the result is visible (its cell filled): the SeqCst pair with
+    /// [`Doorbell::wait`] makes sure one side sees the other, so no wake-up is lost.
+    pub fn ring(&self) {
+        if self.armed.load(Ordering::SeqCst) && self.armed.swap(false, Ordering::SeqCst) {
+            let _ = self.tx.send(());
+        }
+    }
+}
+
+/// The master's side of its sources' [`Notifier`]s.
+#[derive(Debug)]
+pub struct Doorbell {
+    tx: crossbeam::channel::Sender<()>,
+    rx: crossbeam::channel::Receiver<()>,
+    armed: Arc<AtomicBool>,
+}
+
+impl Default for Doorbell {
+    fn default() -> Self {
+        let (tx, rx) = crossbeam::channel::unbounded();
+        Self {
+            tx,
+            rx,
+            armed: Arc::new(AtomicBool::new(false)),
+        }
+    }
+}
+
+impl Doorbell {
+    pub fn notifier(&self) -> Notifier {
+        Notifier {
+            tx: self.tx.clone(),
+            armed: self.armed.clone(),
+        }
+    }
+
+    /// Wait until a source rings or `timeout` passes, unless `ready()` already holds after
+    /// arming (a result that landed before arming rang nobody). `wait` picks how.
+    pub fn wait(&self, timeout: Duration, wait: crate::sched::Wait, ready: impl Fn() -> bool) {
+        use crate::sched::Wait;
+        self.armed.store(true, Ordering::SeqCst);
+        if !ready() {
+            match wait {
+                Wait::Block => {
+                    let _ = self.rx.recv_timeout(timeout);
+                }
+                Wait::Spin | Wait::Yield => {
+                    let end = Instant::now() + timeout;
+                    while self.rx.try_recv().is_err() && Instant::now() < end {
+                        if wait == Wait::Spin {
+                            std::hint::spin_loop();
+                        } else {
+                            std::thread::yield_now();
+                        }
+                    }
+                }
+            }
+        }
+        self.armed.store(false, Ordering::SeqCst);
+        while self.rx.try_recv().is_ok() {}
     }
 }
 
@@ -255,6 +352,11 @@ pub trait ComputeSource: Send {
     fn label(&self) -> String;
     /// Hand an item over; returns at once. A lost source returns an already failed result.
     fn submit(&mut self, item: WorkItem) -> DelayedResult;
+    /// Hand several items over at once (one message where the source can; a local thread
+    /// then wakes once per hand-out, not per item); their results are pushed to `out` in order.
+    fn submit_batch(&mut self, items: Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        out.extend(items.into_iter().map(|it| self.submit(it)));
+    }
     /// The source is gone: none of its outstanding results will arrive.
     fn is_lost(&self) -> bool;
     /// Where to ring after each completed result (sources that cannot simply never ring; the
@@ -304,5 +406,81 @@ mod tests {
         ));
         let n = DelayedResult::never(1, 0);
         assert!(n.wait_timeout(Duration::from_millis(10)).is_err());
+    }
+
+    #[test]
+    fn a_recycled_cell_starts_empty_and_a_held_one_is_never_reused() {
+        // Taken with its completer gone: the cell goes back to this thread's spares.
+        let d = DelayedResult::ready(1, 0, Ok(result(1)));
+        assert_eq!(d.try_take().unwrap().unwrap().item, 1);
+        let (d, c) = DelayedResult::pending(2, 0);
+        assert!(!d.is_ready(), "a reused cell must not carry the old result");
+        let d = d.try_take().unwrap_err();
+        // Dropped while its completer lives: not recycled, so the completer fills its own cell.
+        let (d2, c2) = DelayedResult::pending(3, 0);
+        drop(d2);
+        let fresh: Vec<_> = (0..8).map(|i| DelayedResult::pending(10 + i, 0)).collect();
+        c2.complete(Ok(result(3)));
+        assert!(fresh.iter().all(|(d, _)| !d.is_ready()));
+        c.complete(Ok(result(2)));
+        assert_eq!(d.try_take().unwrap().unwrap().item, 2);
+    }
+
+    #[test]
+    fn batch_results_come_back_in_order_and_a_panic_fails_the_rest_as_lost() {
+        let job: Job = Arc::new(|it: &WorkItem| {
+            assert!(it.id != 5, "item 5 panics");
+            result(it.id)
+        });
+        let mut src = LocalThreadSource::spawn(0, job, Probe::new(true, false));
+        let mut out = Vec::new();
+        src.submit_batch(
+            (0..8).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect(),
+            &mut out,
+        );
+        let later = src.submit(WorkItem::rect(8, 0, 0, 1, 1));
+        let got: Vec<_> = out
+            .into_iter()
+            .map(|d| (d.item(), d.wait_timeout(Duration::from_secs(10)).ok()))
+            .collect();
+        for (i, (item, o)) in got.iter().enumerate() {
+            assert_eq!(*item, i as u32);
+            match o {
+                Some(Ok(r)) => assert!(i < 5 && r.item == i as u32),
+                Some(Err(SourceFailure::Lost { .. })) => assert!(i >= 5),
+                other => panic!("item {i}: {other:?}"),
+            }
+        }
+        let later = later.wait_timeout(Duration::from_secs(10));
+        assert!(matches!(later, Ok(Err(SourceFailure::Lost { .. }))));
+        assert!(src.is_lost());
+        assert_eq!(Box::new(src).finish().stats.items, 5);
+    }
+
+    /// The master arms the bell, re-checks, and sleeps; a worker fills a cell and rings. If a
+    /// wake-up could be lost, some wait would run to its (long) timeout.
+    #[test]
+    fn the_doorbell_loses_no_wake_up() {
+        let bell = Doorbell::default();
+        let ring = bell.notifier();
+        let (tx, rx) = crossbeam::channel::unbounded::<Completer>();
+        let worker = std::thread::spawn(move || {
+            for c in rx {
+                c.complete(Ok(result(0)));
+                ring.ring();
+            }
+        });
+        let timeout = Duration::from_secs(5);
+        for i in 0..2000 {
+            let (d, c) = DelayedResult::pending(i, 0);
+            tx.send(c).unwrap();
+            let t = Instant::now();
+            while !d.is_ready() {
+                bell.wait(timeout, crate::sched::Wait::Block, || d.is_ready());
+            }
+            assert!(t.elapsed() < timeout, "round {i}: the ring was lost");
+        }
+        drop(tx);
+        worker.join().unwrap();
     }
 }
