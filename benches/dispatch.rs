@@ -11,16 +11,25 @@
 //! steady-state cost of handing items out. `stats_on`/`stats_off` toggles `RunOptions::stats`
 //! (per-item clocks); the difference is the instrumentation's cost per item.
 //!
-//! Measured 2026-11-23, quiet machine, ns per item (stats on / off), 2¹⁸ items, 2 workers:
-//! static 10.7 / 8.7, static_cyclic 12.0 / 8.8, guided 11.0 / 8.8, work_stealing_deque
-//! 13.3 / 13.6, self_scheduling 18.9–25.8 / 19.1–24.8 over four runs (target ≤ 20: met in one),
-//! master blocking B=64 160–167 / 165–370 (target ≤ 150: missed; the off runs are bimodal,
-//! depending on whether the workers fall asleep between hand-outs).
+//! Measured 2026-11-24, quiet machine, ns per item (stats on / off), 2¹⁸ items, 2 workers,
+//! two runs each: static 10.9–11.0 / 8.3–8.5, static_cyclic 11.1–11.2 / 8.5–8.8, guided 10.5 /
+//! 8.4–8.8, work_stealing_deque 14.0–15.9 / 13.2–13.9, work_stealing (rayon) 56–58 / 57–62,
+//! **master blocking B=64 103–111 / 106** (target ≤ 150 met; was 160–370 and bimodal before
+//! batched hand-outs, reused result cells and rings only to a sleeping master), master spinning
+//! B=64 107–118 / 110–111 (was ~27 µs: per-item rings to a spinning master), master blocking B=2
+//! 405–440 (a ping-pong of two items per worker), **self_scheduling 24.8–26.1 / 24.9–26.1**
+//! (target ≤ 20 missed), at grab 2 16.3–17.2, at grab 4 13.1–13.8.
+//! Why self-scheduling at grab 1 stays above 20: `shared_counter_only` (the bare contended
+//! `fetch_add`, 7.5–7.9) plus `static` (the same per-item work without a counter, 8.3–8.5)
+//! is ~16, but with work between two grabs every grab moves the counter's cache line between
+//! the cores (a standalone test, two threads with ~6 ns of work per grab: 19–21 ns per item
+//! vs 7.6 on one thread), so the sum is super-additive on this 2-vCPU VM.
 //!
 //! `cargo bench --bench dispatch` (~2 min)
 //! `cargo bench --bench dispatch -- self_scheduling` for one scheduler
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
@@ -28,6 +37,8 @@ use raysched::sched::{
     SchedulerSpec, Wait,
 };
 use raysched::tracer::AnyTracer;
+use std::hint::black_box;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -43,8 +54,8 @@ fn nothing() -> Job {
     })
 }
 
-/// Every scheduler at grab 1 and the master in three settings (blocking B = 64 is the one the
-/// issue's target refers to).
+/// Every scheduler at grab 1, self-scheduling also at grabs 2 and 4, and the master in three
+/// settings (blocking B = 64 is the one the target refers to).
 fn specs() -> Vec<(String, SchedulerSpec)> {
     let px = Chunk::Tile { w: 1, h: 1 };
     let mut specs: Vec<(String, SchedulerSpec)> = SchedulerKind::ALL
@@ -52,6 +63,11 @@ fn specs() -> Vec<(String, SchedulerSpec)> {
         .filter(|k| *k != SchedulerKind::Master)
         .map(|k| (k.id().to_string(), SchedulerSpec::new(k, px, 2)))
         .collect();
+    for grab in [2, 4] {
+        let mut s = SchedulerSpec::new(SchedulerKind::SelfScheduling, px, 2);
+        s.grab = grab;
+        specs.push((format!("self_scheduling_grab{grab}"), s));
+    }
     for (wait, buffer) in [(Wait::Block, 64), (Wait::Spin, 64), (Wait::Block, 2)] {
         let mut s = SchedulerSpec::new(SchedulerKind::Master, px, 2);
         s.wait = wait;
@@ -92,6 +108,37 @@ fn dispatch(c: &mut Criterion) {
     let items = decompose(SIDE, SIDE, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
     assert_eq!(items.len(), 1 << 18);
     run_group(c, "dispatch", &items, true);
+}
+
+/// The floor under `self_scheduling` at grab 1: two threads that do nothing but take the next
+/// index from one shared counter (`fetch_add`, the same padded atomic). Every grab moves the
+/// counter's cache line between the two cores; with an item's work between two grabs the
+/// hardware can no longer batch grabs on one core, which is why `self_scheduling` costs more
+/// than this plus `static` (the same per-item work without the counter).
+fn shared_counter(c: &mut Criterion) {
+    let n = 1usize << 18;
+    let mut g = c.benchmark_group("dispatch");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(10);
+    g.warm_up_time(Duration::from_millis(300));
+    g.measurement_time(Duration::from_millis(1500));
+    g.bench_function("shared_counter_only", |b| {
+        b.iter(|| {
+            let next = CachePadded::new(AtomicUsize::new(0));
+            std::thread::scope(|s| {
+                for _ in 0..2 {
+                    s.spawn(|| {
+                        let mut taken = 0usize;
+                        while next.fetch_add(1, Ordering::Relaxed) < n {
+                            taken += 1;
+                        }
+                        black_box(taken)
+                    });
+                }
+            });
+        })
+    });
+    g.finish();
 }
 
 fn dispatch_fixed(c: &mut Criterion) {
@@ -169,5 +216,11 @@ fn instrumentation(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, dispatch, dispatch_fixed, instrumentation);
+criterion_group!(
+    benches,
+    dispatch,
+    shared_counter,
+    dispatch_fixed,
+    instrumentation
+);
 criterion_main!(benches);

@@ -109,7 +109,7 @@ pub struct RenderArgs {
     /// Worker threads.
     #[arg(long, default_value_t = default_threads())]
     pub threads: usize,
-    /// Tracer: bvh (native CWBVH), brute (reference), embree (feature `embree`).
+    /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree (feature `embree`).
     #[arg(long, default_value = "bvh")]
     pub tracer: String,
     /// Output image; the format follows the extension (.exr or .pfm).
