@@ -92,10 +92,10 @@ impl ComputeSource for FaultySource {
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
         let mut out = Vec::with_capacity(1);
-        self.submit_batch(vec![item], &mut out);
+        self.submit_batch(&mut vec![item], &mut out);
         out.pop().expect("one result per item")
     }
-    fn submit_batch(&mut self, items: Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+    fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
         let first = out.len();
         self.inner.submit_batch(items, out);
         let src = self.inner.id();

@@ -27,8 +27,26 @@ pub struct LocalThreadSource {
     handle: Option<JoinHandle<SourceReport>>,
 }
 
-/// One inbox message: the items of one hand-out, each with the completer of its result.
-type Batch = Vec<(WorkItem, Completer)>;
+/// One inbox message: the items of one hand-out, each with the completer of its result. A
+/// single item travels without a `Vec`: at buffer 2 most hand-outs are one item, and a `Vec`
+/// allocated by the master and freed by the worker cost both sides glibc's arena lock.
+enum Batch {
+    One((WorkItem, Completer)),
+    Many(Vec<(WorkItem, Completer)>),
+}
+
+impl IntoIterator for Batch {
+    type Item = (WorkItem, Completer);
+    type IntoIter =
+        std::iter::Chain<std::option::IntoIter<Self::Item>, std::vec::IntoIter<Self::Item>>;
+    fn into_iter(self) -> Self::IntoIter {
+        let (one, many) = match self {
+            Batch::One(x) => (Some(x), Vec::new()),
+            Batch::Many(v) => (None, v),
+        };
+        one.into_iter().chain(many)
+    }
+}
 
 impl LocalThreadSource {
     pub fn spawn(id: u32, job: Job, probe: Probe) -> Self {
@@ -135,6 +153,15 @@ pub fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "non-string panic payload".into())
 }
 
+impl LocalThreadSource {
+    fn send(&self, batch: Batch) {
+        if let Some(tx) = &self.inbox {
+            // A failed send drops the completers, which fails the results: the thread is gone.
+            let _ = tx.send(batch);
+        }
+    }
+}
+
 impl ComputeSource for LocalThreadSource {
     fn id(&self) -> u32 {
         self.id
@@ -143,23 +170,24 @@ impl ComputeSource for LocalThreadSource {
         format!("local-thread-{}", self.id)
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let mut out = Vec::with_capacity(1);
-        self.submit_batch(vec![item], &mut out);
-        out.pop().expect("one result per item")
+        let (d, c) = DelayedResult::pending(item.id, self.id);
+        self.send(Batch::One((item, c)));
+        d
     }
-    fn submit_batch(&mut self, items: Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
-        let batch: Batch = items
-            .into_iter()
+    fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        if items.len() == 1 {
+            out.extend(items.pop().map(|it| self.submit(it)));
+            return;
+        }
+        let batch = items
+            .drain(..)
             .map(|item| {
                 let (d, c) = DelayedResult::pending(item.id, self.id);
                 out.push(d);
                 (item, c)
             })
             .collect();
-        if let Some(tx) = &self.inbox {
-            // A failed send drops the completers, which fails the results: the thread is gone.
-            let _ = tx.send(batch);
-        }
+        self.send(Batch::Many(batch));
     }
     fn is_lost(&self) -> bool {
         self.shared.lost.load(Ordering::SeqCst)
