@@ -11,16 +11,21 @@
 //! steady-state cost of handing items out. `stats_on`/`stats_off` toggles `RunOptions::stats`
 //! (per-item clocks); the difference is the instrumentation's cost per item.
 //!
-//! Measured 2026-11-24, quiet machine, ns per item (stats on / off), 2¹⁸ items, 2 workers,
-//! two runs each: static 10.9–11.0 / 8.3–8.5, static_cyclic 11.1–11.2 / 8.5–8.8, guided 10.5 /
-//! 8.4–8.8, work_stealing_deque 14.0–15.9 / 13.2–13.9, work_stealing (rayon) 56–58 / 57–62,
-//! **master blocking B=64 103–111 / 106** (target ≤ 150 met; was 160–370 and bimodal before
+//! Measured 2026-11-24, quiet machine, ns per item (stats on / off), 2¹⁸ items, 2 workers:
+//! static 9.6–13.5 / 7.3–12.8, static_cyclic 10.3 / 8.1–8.3, guided 9.5–9.6 / 7.0–9.1,
+//! work_stealing_deque 12.3–12.9 / 11.0–11.4, work_stealing (rayon) 51–52 / 52–53,
+//! **master blocking B=64 93.5–94.9 / 92.6** (target ≤ 150 met; 160–370 and bimodal before
 //! batched hand-outs, reused result cells and rings only to a sleeping master), master spinning
-//! B=64 107–118 / 110–111 (was ~27 µs: per-item rings to a spinning master), master blocking B=2
-//! 405–440 (a ping-pong of two items per worker), **self_scheduling 24.8–26.1 / 24.9–26.1**
-//! (target ≤ 20 missed), at grab 2 16.3–17.2, at grab 4 13.1–13.8.
+//! B=64 91.3–91.6 (was ~27 µs: a ring per item to a spinning master), master blocking B=2
+//! 273–280 (a ping-pong of two items per worker; 251–270 before, the same within noise),
+//! **self_scheduling 22.4–23.5 / 22.0–23.1** (target ≤ 20 missed), at grab 2 13.9–14.7, at grab
+//! 4 11.2–11.8.
+//! This VM has a second, slow state that comes and goes within minutes: every cross-thread
+//! hand-off then costs ~3× (the master at B=64 227–234, B=2 820–860; the code before batching
+//! 400–415 and 800–830 in the same state, interleaved). The numbers above are the fast state;
+//! a run that straddles both shows a jump between consecutive rows.
 //! Why self-scheduling at grab 1 stays above 20: `shared_counter_only` (the bare contended
-//! `fetch_add`, 7.5–7.9) plus `static` (the same per-item work without a counter, 8.3–8.5)
+//! `fetch_add`, 7.6–7.8) plus `static` (the same per-item work without a counter, 7–10)
 //! is ~16, but with work between two grabs every grab moves the counter's cache line between
 //! the cores (a standalone test, two threads with ~6 ns of work per grab: 19–21 ns per item
 //! vs 7.6 on one thread), so the sum is super-additive on this 2-vCPU VM.
