@@ -3,7 +3,7 @@
 //! its whole process group is killed past it.
 #![cfg(feature = "mpi")]
 
-use raysched::render::render_serial;
+use raysched::render::{render_serial, render_serial_frames, Image};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::tracer::AnyTracer;
 use std::os::unix::process::CommandExt;
@@ -293,6 +293,56 @@ fn a_rank_killed_mid_run_loses_no_work() {
         .and_then(|n| n.parse().ok())
         .unwrap();
     assert!(lost >= 1, "{stdout}");
+}
+
+/// An animated scene travels to the ranks with its camera path: whole frames and tiles cut
+/// per frame give the serial film strip (every frame, its own camera and seed).
+#[test]
+fn three_ranks_render_an_animation_like_the_serial_frames() {
+    if !have_mpirun() {
+        return;
+    }
+    let _one = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let still = scene(dir.path(), 16, 12, 2);
+    let animated = std::fs::read_to_string(&still).unwrap()
+        + "[animation]\nframes = 3\n[[animation.keys]]\nframe = 2\norigin = [0.4, 0.1, 3.5]\n";
+    let path = dir.path().join("animated.toml");
+    std::fs::write(&path, animated).unwrap();
+    let scene = load_scene(&path, &SceneOverrides::default()).unwrap();
+    assert_eq!(scene.frames(), 3);
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let frames = render_serial_frames(&scene, &tracer).0;
+    assert_ne!(frames[0].hash(), frames[2].hash(), "the camera moves");
+    let want = format!("{:016x}", Image::stack(frames).hash());
+    let out_img = dir.path().join("out.pfm");
+    for case in [
+        ["--scheduler", "master", "--chunk", "frame", "--buffer", "1"],
+        [
+            "--scheduler",
+            "self_scheduling",
+            "--chunk",
+            "4",
+            "--grab",
+            "3",
+        ],
+    ] {
+        let mut args = vec![path.to_str().unwrap(), "-o", out_img.to_str().unwrap()];
+        args.extend_from_slice(&case);
+        let child = mpirun(dir.path(), 3, &[], &[], &args).spawn().unwrap();
+        let o = finish(child, &case.join(" "));
+        let (stdout, stderr) = text(&o);
+        assert!(
+            o.status.success(),
+            "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+        );
+        assert!(stdout.contains("× 3 frames"), "{stdout}");
+        assert_eq!(
+            image_hash(&stdout).as_deref(),
+            Some(want.as_str()),
+            "{case:?}\n{stdout}"
+        );
+    }
 }
 
 #[test]
