@@ -129,18 +129,18 @@ pub fn run_master(
                 alive[s] = false;
             }
         }
-        if c.done == n {
+        if c.tally.done == n {
             break Ok(());
         }
         let live = alive.iter().filter(|a| **a).count();
         if live == 0 {
             break Err(SchedError::AllSourcesLost {
                 sources: sources.len() as u64,
-                remaining: (n - c.done) as u64,
+                remaining: (n - c.tally.done) as u64,
                 total: n as u64,
             });
         }
-        if spec.requeue == Requeue::Never && c.done as u64 + known_lost == n as u64 {
+        if spec.requeue == Requeue::Never && c.tally.done as u64 + known_lost == n as u64 {
             break Err(SchedError::LostItems {
                 lost: known_lost,
                 total: n as u64,
@@ -148,7 +148,7 @@ pub fn run_master(
         }
         if let Some(dl) = opts.deadline {
             if t0.elapsed() >= dl {
-                let (done, total) = (c.done as u64, n as u64);
+                let (done, total) = (c.tally.done as u64, n as u64);
                 break Err(match spec.requeue {
                     Requeue::Never => SchedError::LostItems {
                         lost: total - done,
@@ -249,10 +249,7 @@ pub fn run_master(
         stats.timeline = Some(spans);
     }
     stats.wall_s = t0.elapsed().as_secs_f64();
-    stats.duplicates = c.duplicates;
-    stats.bytes += c.bytes;
-    stats.rays = c.rays;
-    stats.nonfinite = c.nonfinite;
+    c.tally.record(&mut stats);
     stats.master = Some(m);
     Ok((c.results, stats))
 }

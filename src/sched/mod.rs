@@ -188,9 +188,9 @@ pub fn assemble_frames(
     Ok(images)
 }
 
-/// First result per item wins; later ones are counted as duplicates and dropped.
-pub(crate) struct Collector {
-    pub results: Vec<Option<TileResult>>,
+/// What collecting results counted, apart from the results themselves.
+#[derive(Debug, Default)]
+pub(crate) struct Tally {
     pub done: usize,
     pub duplicates: u64,
     pub bytes: u64,
@@ -198,23 +198,10 @@ pub(crate) struct Collector {
     pub nonfinite: u64,
 }
 
-impl Collector {
-    pub fn new(n: usize) -> Self {
-        Self {
-            results: (0..n).map(|_| None).collect(),
-            done: 0,
-            duplicates: 0,
-            bytes: 0,
-            rays: 0,
-            nonfinite: 0,
-        }
-    }
-    pub fn is_done(&self, item: u32) -> bool {
-        self.results[item as usize].is_some()
-    }
-    pub fn accept(&mut self, r: TileResult) {
+impl Tally {
+    /// `r` into its `slot`: the first result wins, a later one is a duplicate and dropped.
+    pub fn put(&mut self, slot: &mut Option<TileResult>, r: TileResult) {
         self.bytes += wire::result_bytes(&r);
-        let slot = &mut self.results[r.item as usize];
         if slot.is_some() {
             self.duplicates += 1;
         } else {
@@ -223,5 +210,34 @@ impl Collector {
             *slot = Some(r);
             self.done += 1;
         }
+    }
+    /// Duplicates, result bytes, rays and non-finite samples into the run's statistics.
+    pub fn record(&self, stats: &mut RunStats) {
+        stats.duplicates = self.duplicates;
+        stats.bytes += self.bytes;
+        stats.rays = self.rays;
+        stats.nonfinite = self.nonfinite;
+    }
+}
+
+/// Results indexed by item; see [`Tally::put`].
+pub(crate) struct Collector {
+    pub results: Vec<Option<TileResult>>,
+    pub tally: Tally,
+}
+
+impl Collector {
+    pub fn new(n: usize) -> Self {
+        Self {
+            results: (0..n).map(|_| None).collect(),
+            tally: Tally::default(),
+        }
+    }
+    pub fn is_done(&self, item: u32) -> bool {
+        self.results[item as usize].is_some()
+    }
+    pub fn accept(&mut self, r: TileResult) {
+        let slot = &mut self.results[r.item as usize];
+        self.tally.put(slot, r);
     }
 }
