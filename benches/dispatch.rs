@@ -115,11 +115,10 @@ fn dispatch(c: &mut Criterion) {
     run_group(c, "dispatch", &items, true);
 }
 
-/// The floor under `self_scheduling` at grab 1: two threads that do nothing but take the next
-/// index from one shared counter (`fetch_add`, the same padded atomic). Every grab moves the
-/// counter's cache line between the two cores; with an item's work between two grabs the
-/// hardware can no longer batch grabs on one core, which is why `self_scheduling` costs more
-/// than this plus `static` (the same per-item work without the counter).
+/// The floor under `self_scheduling` at grab 1: two threads that take the next index from one
+/// shared counter (`fetch_add`, the same padded atomic), with no or a little work per grab.
+/// Every grab moves the counter's cache line between the two cores; with work between two
+/// grabs the hardware can no longer batch grabs on one core, so the cost is super-additive.
 fn shared_counter(c: &mut Criterion) {
     let n = 1usize << 18;
     let mut g = c.benchmark_group("dispatch");
@@ -127,22 +126,41 @@ fn shared_counter(c: &mut Criterion) {
     g.sample_size(10);
     g.warm_up_time(Duration::from_millis(300));
     g.measurement_time(Duration::from_millis(1500));
-    g.bench_function("shared_counter_only", |b| {
-        b.iter(|| {
-            let next = CachePadded::new(AtomicUsize::new(0));
-            std::thread::scope(|s| {
-                for _ in 0..2 {
-                    s.spawn(|| {
-                        let mut taken = 0usize;
-                        while next.fetch_add(1, Ordering::Relaxed) < n {
-                            taken += 1;
+    // `work` dependent multiply-adds per grab stand in for an item's bookkeeping: 0 is the
+    // bare counter; 16 (~6 ns on one thread) is less than any scheduler's per-item work here
+    // (calling the job, storing its result), so its time is a floor for self-scheduling at
+    // grab 1 on this machine.
+    for work in [0u32, 16] {
+        g.bench_function(
+            BenchmarkId::new("shared_counter", format!("work{work}")),
+            |b| {
+                b.iter(|| {
+                    let next = CachePadded::new(AtomicUsize::new(0));
+                    std::thread::scope(|s| {
+                        for _ in 0..2 {
+                            s.spawn(|| {
+                                let mut acc = 0u64;
+                                loop {
+                                    let i = next.fetch_add(1, Ordering::Relaxed);
+                                    if i >= n {
+                                        break;
+                                    }
+                                    let mut x = i as u64;
+                                    for _ in 0..work {
+                                        x = black_box(
+                                            x.wrapping_mul(6364136223846793005).wrapping_add(1),
+                                        );
+                                    }
+                                    acc ^= x;
+                                }
+                                black_box(acc)
+                            });
                         }
-                        black_box(taken)
                     });
-                }
-            });
-        })
-    });
+                })
+            },
+        );
+    }
     g.finish();
 }
 
