@@ -18,17 +18,21 @@
 //! batched hand-outs, reused result cells and rings only to a sleeping master), master spinning
 //! B=64 91.3–91.6 (was ~27 µs: a ring per item to a spinning master), master blocking B=2
 //! 273–280 (a ping-pong of two items per worker; 251–270 before, the same within noise),
-//! **self_scheduling 22.4–23.5 / 22.0–23.1** (target ≤ 20 missed), at grab 2 13.9–14.7, at grab
-//! 4 11.2–11.8.
+//! **self_scheduling 20.5–23.5 / 21.1–23.1** over five runs (target ≤ 20 missed), at grab 2
+//! 13.9–14.7, at grab 4 11.2–11.8.
 //! This VM has a second, slow state that comes and goes within minutes: every cross-thread
 //! hand-off then costs ~3× (the master at B=64 227–234, B=2 820–860; the code before batching
 //! 400–415 and 800–830 in the same state, interleaved). The numbers above are the fast state;
 //! a run that straddles both shows a jump between consecutive rows.
-//! Why self-scheduling at grab 1 stays above 20: `shared_counter_only` (the bare contended
-//! `fetch_add`, 7.6–7.8) plus `static` (the same per-item work without a counter, 7–10)
-//! is ~16, but with work between two grabs every grab moves the counter's cache line between
-//! the cores (a standalone test, two threads with ~6 ns of work per grab: 19–21 ns per item
-//! vs 7.6 on one thread), so the sum is super-additive on this 2-vCPU VM.
+//! Why self-scheduling at grab 1 stays above 20: the counter itself. `shared_counter/work0`
+//! (two threads doing nothing but `fetch_add`) 7.4–7.8; `shared_counter/work16` (16 dependent
+//! multiply-adds per grab, ~6 ns on one thread) 16.1–16.5: with work between two grabs every
+//! grab moves the counter's line between the cores, so the cost is super-additive. Calling the
+//! job and storing its result is more than that stand-in; what is left above it (~5 ns) is the
+//! serial scatter of the results after the join (1.7–2.7 ms per 2¹⁸ items). Tried and dropped,
+//! each within noise: a padded counter (kept: the textbook layout), a k-way in-order merge
+//! (slower: unpredictable branches), a two-thread merge, laying out the result slots while
+//! the workers run, and a 40-byte `TileResult` (boxed pixel slice).
 //!
 //! `cargo bench --bench dispatch` (~2 min)
 //! `cargo bench --bench dispatch -- self_scheduling` for one scheduler
