@@ -33,9 +33,10 @@ fn stale_after(requeue: Requeue, slowest: Duration) -> Duration {
     }
 }
 
-/// Submit the items collected for one source as one message and keep their slots. Batching
-/// halved the master's cost per one-pixel item at B = 64 (160–370 → ~105 ns); sending an idle
-/// source's first item alone (the caller's job) keeps B = 2 from waiting for the whole scan.
+/// Submit the items collected for one source as one message and keep their slots. Batching,
+/// with reused result cells and rings only to a sleeping master, took the master from 160–370
+/// to 93–95 ns per one-pixel item at B = 64; sending an idle source's first item alone (the
+/// caller's job) keeps B = 2 from waiting for the whole scan (430 → 270–280 ns).
 fn hand_out(
     src: &mut Box<dyn ComputeSource>,
     batch: &mut Vec<WorkItem>,
