@@ -67,6 +67,22 @@ pub fn put_bytes(out: &mut Vec<u8>, b: &[u8]) {
 
 /// Inverse of [`crate::sched::wire::encode_item`].
 pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
+    decode_item_prefix(bytes).map(|(item, _)| item)
+}
+
+/// An ITEM message: one or more items back to back (one hand-out of the master).
+pub fn decode_items(mut bytes: &[u8]) -> Result<Vec<WorkItem>, WireError> {
+    let mut items = Vec::new();
+    while !bytes.is_empty() {
+        let (item, rest) = decode_item_prefix(bytes)?;
+        items.push(item);
+        bytes = rest;
+    }
+    Ok(items)
+}
+
+/// One item from the front of `bytes`, and the bytes after it.
+fn decode_item_prefix(bytes: &[u8]) -> Result<(WorkItem, &[u8]), WireError> {
     let mut r = Reader::new(bytes, "item");
     let id = r.u32()?;
     let frame = r.u32()?;
@@ -94,7 +110,20 @@ pub fn decode_item(bytes: &[u8]) -> Result<WorkItem, WireError> {
             })
         }
     };
-    Ok(WorkItem { id, region, frame })
+    Ok((WorkItem { id, region, frame }, r.rest()))
+}
+
+/// A RESULT message: one or more entries back to back, each a result
+/// ([`crate::sched::wire::encode_result`]) followed by the worker's busy time in ns (u64).
+pub fn decode_results(mut bytes: &[u8]) -> Result<Vec<(TileResult, u64)>, WireError> {
+    let mut out = Vec::new();
+    while !bytes.is_empty() {
+        let (r, rest) = decode_result(bytes)?;
+        let mut busy = Reader::new(rest, "result busy time");
+        out.push((r, busy.u64()?));
+        bytes = busy.rest();
+    }
+    Ok(out)
 }
 
 /// Inverse of [`crate::sched::wire::encode_result`]; returns the bytes that follow it.
@@ -249,6 +278,47 @@ mod tests {
         assert_eq!(back, r);
         assert_eq!(rest, 42u64.to_le_bytes());
         assert!(decode_result(&b[..10]).is_err());
+    }
+
+    #[test]
+    fn several_items_and_results_share_one_message() {
+        let items = [
+            WorkItem::rect(0, 0, 0, 1, 1),
+            WorkItem {
+                id: 1,
+                region: Region::Pixels(vec![4, 2]),
+                frame: 3,
+            },
+            WorkItem::rect(2, 5, 6, 7, 8),
+        ];
+        let mut b = Vec::new();
+        for it in &items {
+            encode_item(it, &mut b);
+        }
+        assert_eq!(decode_items(&b).unwrap(), items);
+        assert!(decode_items(&b[..b.len() - 2]).is_err(), "a torn last item");
+        let results: Vec<_> = (0..3u32)
+            .map(|i| TileResult {
+                item: i,
+                pixels: vec![[i as f32, 0.5, -1.0]; i as usize],
+                rays: 10 + i as u64,
+                nonfinite: i as u64,
+            })
+            .collect();
+        let mut b = Vec::new();
+        for (i, r) in results.iter().enumerate() {
+            encode_result(r, &mut b);
+            b.extend_from_slice(&(100 + i as u64).to_le_bytes());
+        }
+        let back = decode_results(&b).unwrap();
+        assert_eq!(back.len(), 3);
+        for (i, (r, busy)) in back.into_iter().enumerate() {
+            assert_eq!((r, busy), (results[i].clone(), 100 + i as u64));
+        }
+        assert!(
+            decode_results(&b[..b.len() - 3]).is_err(),
+            "a torn busy time"
+        );
     }
 
     #[test]

@@ -7,8 +7,8 @@
 //! never silences the rank, and rank 0 can treat a short silence as death.
 
 use super::comm::{tag, Comm, Pending};
-use super::wire::{decode_item, Ready, ScenePackage};
-use crate::render::{render_item, TileResult};
+use super::wire::{decode_items, Ready, ScenePackage};
+use crate::render::{render_item, TileResult, WorkItem};
 use crate::sched::wire::encode_result;
 use crate::tracer::AnyTracer;
 use crossbeam::channel::{Receiver, Sender};
@@ -66,7 +66,7 @@ pub fn run(comm: Comm) -> ! {
 /// Work for the render thread, and what it hands back for the MPI thread to send.
 enum Job {
     Scene(Vec<u8>),
-    Item(Vec<u8>),
+    Item(WorkItem),
 }
 
 /// Build scenes and render items until the MPI thread goes away (the process exits).
@@ -101,16 +101,9 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                     return;
                 }
             }
-            Job::Item(body) => {
+            Job::Item(item) => {
                 let Ok((scene, tracer)) = &built else {
                     continue;
-                };
-                let item = match decode_item(&body) {
-                    Ok(i) => i,
-                    Err(e) => {
-                        eprintln!("rank {rank}: {e}");
-                        continue;
-                    }
                 };
                 let t0 = Instant::now();
                 let r = if zero_work {
@@ -184,10 +177,16 @@ pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
             };
             any = true;
             match p.tag {
-                tag::ITEM => {
-                    busy += 1;
-                    let _ = job_tx.send(Job::Item(body));
-                }
+                tag::ITEM => match decode_items(&body) {
+                    // One hand-out of the master: one or more items.
+                    Ok(items) => {
+                        for item in items {
+                            busy += 1;
+                            let _ = job_tx.send(Job::Item(item));
+                        }
+                    }
+                    Err(e) => eprintln!("rank {rank}: {e}"),
+                },
                 tag::SCENE => {
                     busy += 1;
                     let _ = job_tx.send(Job::Scene(body));
@@ -200,13 +199,30 @@ pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
                 _ => {} // nothing else is sent to a worker
             }
         }
-        // 2. Whatever the render thread finished.
+        // 2. Whatever the render thread finished; results waiting together go as one message
+        //    (per-ray items: one message per result was the cost over MPI).
+        //    Anything else (READY) goes in order, after the results before it.
+        let mut results = Vec::new();
+        let mut sent = false;
         while let Ok((t, msg)) = out_rx.try_recv() {
             any = true;
+            sent = true;
             busy = busy.saturating_sub(1);
-            if comm.send(0, t, &msg).is_err() {
+            if t == tag::RESULT {
+                results.extend_from_slice(&msg);
+                continue;
+            }
+            let results_first = !results.is_empty() && comm.send(0, tag::RESULT, &results).is_err();
+            results.clear();
+            if results_first || comm.send(0, t, &msg).is_err() {
                 comm.shutdown(false, 1)
             }
+        }
+        if !results.is_empty() && comm.send(0, tag::RESULT, &results).is_err() {
+            comm.shutdown(false, 1)
+        }
+        // Only what this rank sent counts: rank 0 keeps handing items to a slow rank.
+        if sent {
             last_sent = Instant::now();
         }
         // 3. Alive, though busy with a long item.
