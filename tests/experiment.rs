@@ -52,6 +52,21 @@ fn run(args: &[&str], cwd: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// Each `(from, to, field)`: the experiment `good` with `from` replaced by `to` exits 2 with
+/// an error naming the file and `field`.
+fn assert_bad_configs(dir: &Path, good: &str, cases: &[(&str, &str, &str)]) {
+    for (from, to, field) in cases {
+        std::fs::write(dir.join("bad.toml"), good.replacen(from, to, 1)).unwrap();
+        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(field),
+            "{to:?}: {err}"
+        );
+    }
+}
+
 #[test]
 fn bad_configs_exit_2_naming_file_and_field() {
     let dir = tempfile::tempdir().unwrap();
@@ -406,20 +421,15 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
     );
     assert!(dir.path().join("res/conv/convergence.png").exists());
 
-    for (from, to, field) in [
-        ("max_spp = 8\n", "", "max_spp"),
-        ("max_spp = 8", "max_spp = 0", "max_spp"),
-        ("kind = \"convergence\"\n", "", "schedulers"),
-    ] {
-        std::fs::write(dir.path().join("bad.toml"), good.replacen(from, to, 1)).unwrap();
-        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir.path());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
-        assert!(
-            err.contains("bad.toml") && err.contains(field),
-            "{to:?}: {err}"
-        );
-    }
+    assert_bad_configs(
+        dir.path(),
+        &good,
+        &[
+            ("max_spp = 8\n", "", "max_spp"),
+            ("max_spp = 8", "max_spp = 0", "max_spp"),
+            ("kind = \"convergence\"\n", "", "schedulers"),
+        ],
+    );
 }
 
 /// Issue 6: schedulers are a dimension of a convergence experiment. One row set per
@@ -496,30 +506,25 @@ fn convergence_per_scheduler_same_errors_and_budget_winner() {
         assert!(dir.path().join("res/conv").join(p).exists(), "{p}");
     }
 
-    for (from, to, field) in [
-        (
-            "kind = \"master\"",
-            "kind = \"fastest\"",
-            "schedulers[0].kind",
-        ),
-        (
-            "chunk = \"rows:1\"",
-            "chunk = \"rows:0\"",
-            "schedulers[2].chunk",
-        ),
-        (
-            "chunk = \"1\"\n",
-            "chunk = \"1\"\nguided_k = 2\n",
-            "schedulers[0].guided_k",
-        ),
-    ] {
-        std::fs::write(dir.path().join("bad.toml"), good.replacen(from, to, 1)).unwrap();
-        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir.path());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
-        assert!(
-            err.contains("bad.toml") && err.contains(field),
-            "{to:?}: {err}"
-        );
-    }
+    assert_bad_configs(
+        dir.path(),
+        &good,
+        &[
+            (
+                "kind = \"master\"",
+                "kind = \"fastest\"",
+                "schedulers[0].kind",
+            ),
+            (
+                "chunk = \"rows:1\"",
+                "chunk = \"rows:0\"",
+                "schedulers[2].chunk",
+            ),
+            (
+                "chunk = \"1\"\n",
+                "chunk = \"1\"\nguided_k = 2\n",
+                "schedulers[0].guided_k",
+            ),
+        ],
+    );
 }

@@ -148,6 +148,46 @@ fn image_hash(stdout: &str) -> Option<String> {
         .map(|s| s.split_whitespace().next().unwrap_or("").to_string())
 }
 
+/// `mpirun -n 3 raysched render SCENE -o OUT CASE…` must succeed with the image hash `want`;
+/// returns its stdout for further checks.
+fn render_matches(dir: &Path, scene: &Path, case: &[&str], want: &str) -> String {
+    let out_img = dir.join("out.pfm");
+    let mut args = vec![scene.to_str().unwrap(), "-o", out_img.to_str().unwrap()];
+    args.extend_from_slice(case);
+    let child = mpirun(dir, 3, &[], &[], &args).spawn().unwrap();
+    let o = finish(child, &case.join(" "));
+    let (stdout, stderr) = text(&o);
+    assert!(
+        o.status.success(),
+        "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
+    );
+    assert_eq!(
+        image_hash(&stdout).as_deref(),
+        Some(want),
+        "{case:?}\n{stdout}"
+    );
+    stdout
+}
+
+/// The render of the fault tests: the master on 4² tiles, B = 2, a 50 s deadline, plus `extra`.
+fn fault_args<'a>(scene: &'a Path, out: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--scheduler",
+        "master",
+        "--chunk",
+        "4",
+        "--buffer",
+        "2",
+        "--deadline-ms",
+        "50000",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
 /// Wait (within the deadline) for rank 1 to write its pid into `pids`, then `kill -9` it.
 fn kill_rank1(pids: &std::path::Path) {
     let pid_file = pids.join("rank1.pid");
@@ -178,7 +218,6 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path(), 24, 16, 4);
     let want = serial_hash(&path);
-    let p = path.to_str().unwrap();
     let cases: &[&[&str]] = &[
         &["--scheduler", "master", "--chunk", "1", "--buffer", "4"],
         &["--scheduler", "master", "--chunk", "8", "--buffer", "2"],
@@ -203,21 +242,7 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
         ],
     ];
     for case in cases {
-        let out_img = dir.path().join("out.pfm");
-        let mut args = vec![p, "-o", out_img.to_str().unwrap()];
-        args.extend_from_slice(case);
-        let child = mpirun(dir.path(), 3, &[], &[], &args).spawn().unwrap();
-        let o = finish(child, &case.join(" "));
-        let (stdout, stderr) = text(&o);
-        assert!(
-            o.status.success(),
-            "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
-        );
-        assert_eq!(
-            image_hash(&stdout).as_deref(),
-            Some(want.as_str()),
-            "{case:?}\n{stdout}"
-        );
+        let stdout = render_matches(dir.path(), &path, case, &want);
         assert!(
             stdout.contains("source 0 = mpi-rank-1") && stdout.contains("source 1 = mpi-rank-2"),
             "{stdout}"
@@ -254,21 +279,7 @@ fn a_rank_killed_mid_run_loses_no_work() {
     let pids = dir.path().join("pids");
     std::fs::create_dir(&pids).unwrap();
     let out_img = dir.path().join("out.pfm");
-    let args = [
-        path.to_str().unwrap(),
-        "-o",
-        out_img.to_str().unwrap(),
-        "--scheduler",
-        "master",
-        "--chunk",
-        "4",
-        "--buffer",
-        "2",
-        "--requeue",
-        "timeout:300",
-        "--deadline-ms",
-        "50000",
-    ];
+    let args = fault_args(&path, &out_img, &["--requeue", "timeout:300"]);
     let env = [("RAYSCHED_MPI_PID_DIR", pids.to_str().unwrap())];
     let child = mpirun(dir.path(), 3, &["--enable-recovery"], &env, &args)
         .spawn()
@@ -315,7 +326,6 @@ fn three_ranks_render_an_animation_like_the_serial_frames() {
     let frames = render_serial_frames(&scene, &tracer).0;
     assert_ne!(frames[0].hash(), frames[2].hash(), "the camera moves");
     let want = format!("{:016x}", Image::stack(frames).hash());
-    let out_img = dir.path().join("out.pfm");
     for case in [
         ["--scheduler", "master", "--chunk", "frame", "--buffer", "1"],
         [
@@ -327,21 +337,8 @@ fn three_ranks_render_an_animation_like_the_serial_frames() {
             "3",
         ],
     ] {
-        let mut args = vec![path.to_str().unwrap(), "-o", out_img.to_str().unwrap()];
-        args.extend_from_slice(&case);
-        let child = mpirun(dir.path(), 3, &[], &[], &args).spawn().unwrap();
-        let o = finish(child, &case.join(" "));
-        let (stdout, stderr) = text(&o);
-        assert!(
-            o.status.success(),
-            "{case:?} failed\nstdout:\n{stdout}\nstderr:\n{stderr}"
-        );
+        let stdout = render_matches(dir.path(), &path, &case, &want);
         assert!(stdout.contains("× 3 frames"), "{stdout}");
-        assert_eq!(
-            image_hash(&stdout).as_deref(),
-            Some(want.as_str()),
-            "{case:?}\n{stdout}"
-        );
     }
 }
 
@@ -647,19 +644,7 @@ fn a_remote_rank_is_found_dead_in_seconds_and_a_slow_one_is_not() {
     let path = scene(dir.path(), 32, 16, 8);
     let want = serial_hash(&path);
     let out_img = dir.path().join("out.pfm");
-    let args = [
-        path.to_str().unwrap(),
-        "-o",
-        out_img.to_str().unwrap(),
-        "--scheduler",
-        "master",
-        "--chunk",
-        "4",
-        "--buffer",
-        "2",
-        "--deadline-ms",
-        "50000",
-    ];
+    let args = fault_args(&path, &out_img, &[]);
     for kill in [false, true] {
         let pids = dir.path().join(format!("pids{kill}"));
         std::fs::create_dir(&pids).unwrap();

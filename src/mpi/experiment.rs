@@ -316,48 +316,27 @@ mod tests {
 
     #[test]
     fn the_transport_is_read_from_the_launch_environment() {
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "self,vader")]), true),
-            "shared_memory"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "vader,self")]), true),
-            "shared_memory"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "self,tcp")]), true),
-            "tcp_loopback"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "tcp,self")]), false),
-            "tcp"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "self,vader,tcp")]), true),
-            "shared_memory"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "self,vader,tcp")]), false),
-            "unknown"
-        );
-        assert_eq!(
-            transport(env(&[("OMPI_MCA_btl", "^openib")]), true),
-            "unknown"
-        );
-        assert_eq!(transport(env(&[]), true), "unknown");
-        assert_eq!(
-            transport(
-                env(&[("OMPI_MCA_btl", "self,vader"), ("OMPI_MCA_pml", "ucx")]),
-                true
-            ),
-            "unknown"
-        );
-        assert_eq!(
-            transport(
-                env(&[("OMPI_MCA_btl", "self,vader"), (super::ENV_TRANSPORT, "ib")]),
-                true
-            ),
-            "ib"
-        );
+        let vader = ("OMPI_MCA_btl", "self,vader");
+        // (environment, all ranks on one host, transport)
+        type Vars<'a> = &'a [(&'a str, &'a str)];
+        let cases: &[(Vars, bool, &str)] = &[
+            (&[vader], true, "shared_memory"),
+            (&[("OMPI_MCA_btl", "vader,self")], true, "shared_memory"),
+            (&[("OMPI_MCA_btl", "self,tcp")], true, "tcp_loopback"),
+            (&[("OMPI_MCA_btl", "tcp,self")], false, "tcp"),
+            (&[("OMPI_MCA_btl", "self,vader,tcp")], true, "shared_memory"),
+            (&[("OMPI_MCA_btl", "self,vader,tcp")], false, "unknown"),
+            (&[("OMPI_MCA_btl", "^openib")], true, "unknown"),
+            (&[], true, "unknown"),
+            (&[vader, ("OMPI_MCA_pml", "ucx")], true, "unknown"),
+            (&[vader, (super::ENV_TRANSPORT, "ib")], true, "ib"),
+        ];
+        for (vars, one_host, want) in cases {
+            assert_eq!(
+                transport(env(vars), *one_host),
+                *want,
+                "{vars:?} {one_host}"
+            );
+        }
     }
 }
