@@ -14,7 +14,8 @@ use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
 use crate::sched::Span;
 use crate::source::{
-    Completer, ComputeSource, DelayedResult, Notifier, Probe, SourceFailure, SourceReport,
+    submit_one, Completer, ComputeSource, DelayedResult, Notifier, Probe, SourceFailure,
+    SourceReport,
 };
 use crossbeam::channel::{Receiver, Sender, TryRecvError};
 use std::collections::{HashMap, VecDeque};
@@ -56,9 +57,7 @@ impl ComputeSource for MpiRankSource {
         format!("mpi-rank-{}", self.rank)
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let mut out = Vec::with_capacity(1);
-        self.submit_batch(&mut vec![item], &mut out);
-        out.pop().expect("one result per item")
+        submit_one(self, item)
     }
     /// One MPI message for the whole hand-out (per-ray items over TCP: ~14–16 µs per message
     /// through rank 0's MPI thread, the per-ray bottleneck).
@@ -130,7 +129,6 @@ pub struct Hub<'c> {
     probe: Probe,
     silence: Duration,
     report: HubReport,
-    buf: Vec<u8>,
     /// Item sends in flight: (rank, request, when sent).
     sends: Vec<(i32, SendReq, Instant)>,
 }
@@ -184,7 +182,6 @@ impl<'c> Hub<'c> {
             probe,
             silence,
             report: HubReport::default(),
-            buf: Vec::new(),
             sends: Vec::new(),
         };
         (hub, sources)
@@ -225,11 +222,12 @@ impl<'c> Hub<'c> {
         if lost {
             return; // dropping the completers fails the results as lost
         }
-        self.buf.clear();
+        // The message owns its bytes until MPI is done with them (`isend`).
+        let mut msg = Vec::new();
         for (item, _) in &items {
-            encode_item(item, &mut self.buf);
+            encode_item(item, &mut msg);
         }
-        match self.comm.isend(rank, tag::ITEM, self.buf.clone()) {
+        match self.comm.isend(rank, tag::ITEM, msg) {
             Ok(req) => self.sends.push((rank, req, Instant::now())),
             Err(e) => {
                 drop(items);

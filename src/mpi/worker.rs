@@ -6,7 +6,7 @@
 //! thread builds scenes and renders items one at a time, in arrival order. A slow item thus
 //! never silences the rank, and rank 0 can treat a short silence as death.
 
-use super::comm::{tag, Comm, Pending};
+use super::comm::{tag, Comm, MpiError, Pending};
 use super::wire::{decode_items, Ready, ScenePackage};
 use crate::render::{render_item, TileResult, WorkItem};
 use crate::sched::wire::encode_result;
@@ -139,6 +139,15 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
     }
 }
 
+/// Send the results gathered so far as one RESULT message (none when there are none).
+fn flush_results(comm: &Comm, results: &mut Vec<u8>) -> Result<(), MpiError> {
+    if !results.is_empty() {
+        comm.send(0, tag::RESULT, results)?;
+        results.clear();
+    }
+    Ok(())
+}
+
 /// Serve rank 0 until it says STOP; never returns. `scene`: a package to build first.
 pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
     let rank = comm.rank;
@@ -212,13 +221,11 @@ pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
                 results.extend_from_slice(&msg);
                 continue;
             }
-            let results_first = !results.is_empty() && comm.send(0, tag::RESULT, &results).is_err();
-            results.clear();
-            if results_first || comm.send(0, t, &msg).is_err() {
+            if flush_results(&comm, &mut results).is_err() || comm.send(0, t, &msg).is_err() {
                 comm.shutdown(false, 1)
             }
         }
-        if !results.is_empty() && comm.send(0, tag::RESULT, &results).is_err() {
+        if flush_results(&comm, &mut results).is_err() {
             comm.shutdown(false, 1)
         }
         // Only what this rank sent counts: rank 0 keeps handing items to a slow rank.

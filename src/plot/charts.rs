@@ -66,6 +66,21 @@ fn colour(kind: &str) -> RGBColor {
 /// (name, best value) lines: for each scheduler kind, `pick` over the configs at each x.
 type Series = Vec<(String, Vec<(f64, f64)>)>;
 
+/// x of the granularity charts: log₂ of the pixels per item.
+fn log2_chunk(s: &Summary) -> Option<f64> {
+    s.row.chunk_px.map(|c| (c as f64).log2())
+}
+
+/// `better` of [`series`] for speedup and throughput.
+fn higher(a: f64, b: f64) -> bool {
+    a > b
+}
+
+/// `better` of [`series`] for wall time.
+fn lower(a: f64, b: f64) -> bool {
+    a < b
+}
+
 fn series(
     sums: &[&Summary],
     key: impl Fn(&Summary) -> Option<String>,
@@ -403,8 +418,6 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             .filter(|s| s.row.workers == max_w)
             .collect();
         let kind = |s: &Summary| Some(s.row.scheduler.clone());
-        let higher = |a: f64, b: f64| a > b;
-        let lower = |a: f64, b: f64| a < b;
 
         let workers: std::collections::BTreeSet<usize> =
             all.iter().map(|s| s.row.workers).collect();
@@ -439,9 +452,8 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
         let chunks: std::collections::BTreeSet<u64> =
             at_max.iter().filter_map(|s| s.row.chunk_px).collect();
         if chunks.len() > 1 {
-            let lx = |s: &Summary| s.row.chunk_px.map(|c| (c as f64).log2());
-            let wall = series(&at_max, kind, lx, |s| s.wall_median, lower);
-            let speed = series(&at_max, kind, lx, |s| s.speedup_median, higher);
+            let wall = series(&at_max, kind, log2_chunk, |s| s.wall_median, lower);
+            let speed = series(&at_max, kind, log2_chunk, |s| s.speedup_median, higher);
             let stem = plots.join(format!("granularity_{gs}"));
             let title = format!("Granularity, {max_w} workers — {g}");
             both!(
@@ -600,10 +612,8 @@ fn mpi_throughput(
     if !rows.iter().any(|s| s.row.sources == "mpi") {
         return Ok(None);
     }
-    let lx = |s: &Summary| s.row.chunk_px.map(|c| (c as f64).log2());
-    let higher = |a: f64, b: f64| a > b;
-    let rays = series(&rows, mpi_line, lx, |s| throughput(s).0, higher);
-    let items = series(&rows, mpi_line, lx, |s| throughput(s).1, higher);
+    let rays = series(&rows, mpi_line, log2_chunk, |s| throughput(s).0, higher);
+    let items = series(&rows, mpi_line, log2_chunk, |s| throughput(s).1, higher);
     let stem = plots.join(format!("mpi_throughput_{gs}"));
     let title = format!("MPI ranks vs local threads — {g}");
     both!(

@@ -6,18 +6,16 @@ use super::{
 };
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
-use crate::source::Probe;
+use crate::source::{BusyClock, Probe};
 use crossbeam::deque::{Steal, Stealer, Worker};
 use crossbeam::utils::CachePadded;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// What one worker thread accumulates; merged once at the end (no shared counters).
 struct Local {
     id: u32,
-    busy: Duration,
-    /// End of the previous item (TSC clock): the start of the next item's busy span.
-    last: quanta::Instant,
+    clock: BusyClock,
     stats: WorkerStats,
     item_bytes: u64,
     spans: Vec<Span>,
@@ -30,12 +28,7 @@ impl Local {
     fn new(id: u32, probe: &Probe, expect: usize) -> Self {
         Self {
             id,
-            busy: Duration::ZERO,
-            last: if probe.stats {
-                quanta::Instant::now()
-            } else {
-                probe.tsc_epoch
-            },
+            clock: BusyClock::start(probe),
             stats: WorkerStats::default(),
             item_bytes: 0,
             spans: Vec::new(),
@@ -43,31 +36,13 @@ impl Local {
         }
     }
 
-    /// One clock read per item: an item's busy span runs from the end of the worker's previous
-    /// item (or the start of its run) to its own end. Busy time therefore includes this
-    /// scheduler's per-item work on the worker (taking the next item, this bookkeeping: the
-    /// `stats_off` numbers of `benches/dispatch.rs`, ~10–20 ns), never a blocking wait:
-    /// these workers never block between items. Halves the clock reads of a start/end pair.
+    /// These workers never block between items, so their clock never restarts.
     #[inline]
     fn run(&mut self, job: &Job, item: &WorkItem, probe: &Probe) {
         let r = job(item);
-        if probe.stats {
-            let t1 = quanta::Instant::now();
-            self.busy += t1 - self.last;
-            if probe.timeline {
-                let e = probe.tsc_epoch;
-                self.spans.push(Span {
-                    worker: self.id,
-                    item: item.id,
-                    start_ns: (self.last - e).as_nanos() as u64,
-                    end_ns: (t1 - e).as_nanos() as u64,
-                });
-            }
-            self.last = t1;
-        }
-        self.stats.items += 1;
-        self.stats.pixels += item.pixel_count() as u64;
-        self.stats.rays += r.rays;
+        self.clock
+            .item_done(probe, self.id, item.id, &mut self.spans);
+        self.stats.count(item, r.rays);
         self.item_bytes += wire::item_bytes(item);
         self.results.push(r);
     }
@@ -237,7 +212,7 @@ fn rayon_locals(
     let mut locals: Vec<Local> = (0..w as u32).map(|i| Local::new(i, &probe, 0)).collect();
     for f in folds {
         let l = &mut locals[f.id as usize];
-        l.busy += f.busy;
+        l.clock.busy += f.clock.busy;
         l.stats.items += f.stats.items;
         l.stats.pixels += f.stats.pixels;
         l.stats.rays += f.stats.rays;
@@ -265,7 +240,7 @@ fn finish(
     let mut c = Collector::new(n);
     for l in locals {
         let mut ws = l.stats;
-        ws.busy_s = l.busy.as_secs_f64();
+        ws.busy_s = l.clock.busy.as_secs_f64();
         ws.idle_s = (wall - ws.busy_s).max(0.0);
         stats.issued += ws.items;
         stats.bytes += l.item_bytes;

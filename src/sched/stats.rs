@@ -14,6 +14,15 @@ pub struct WorkerStats {
     pub rays: u64,
 }
 
+impl WorkerStats {
+    /// One finished item of this worker.
+    pub fn count(&mut self, item: &crate::render::WorkItem, rays: u64) {
+        self.items += 1;
+        self.pixels += item.pixel_count() as u64;
+        self.rays += rays;
+    }
+}
+
 /// What the master thread did (absent for schedulers without one).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MasterStats {

@@ -2,7 +2,9 @@
 //! delay some items, make one worker panic. Decisions come from a hash of (seed, source, item,
 //! submission number), so a run's faults are reproducible and a re-issued item can succeed.
 
-use super::{ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, Probe, SourceReport};
+use super::{
+    submit_one, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, Probe, SourceReport,
+};
 use crate::render::WorkItem;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -91,9 +93,7 @@ impl ComputeSource for FaultySource {
         format!("faulty({})", self.inner.label())
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let mut out = Vec::with_capacity(1);
-        self.submit_batch(&mut vec![item], &mut out);
-        out.pop().expect("one result per item")
+        submit_one(self, item)
     }
     fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
         let first = out.len();

@@ -3,16 +3,15 @@
 //! `Scene` make that sharing read-only by type, not by convention.
 
 use super::{
-    Completer, ComputeSource, DelayedResult, Job, Notifier, Probe, SourceFailure, SourceReport,
+    BusyClock, Completer, ComputeSource, DelayedResult, Job, Notifier, Probe, SourceFailure,
+    SourceReport,
 };
 use crate::render::WorkItem;
-use crate::sched::Span;
 use crossbeam::channel::{unbounded, Receiver, Sender};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
-use std::time::Duration;
 
 struct Shared {
     lost: AtomicBool,
@@ -74,7 +73,7 @@ impl LocalThreadSource {
 /// job panics (then this item and everything still queued fail as lost).
 fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    let mut busy = Duration::ZERO;
+    let mut clock = BusyClock::start(&probe);
     let ring = || {
         if let Some(n) = sh.notifier.get() {
             n.ring();
@@ -82,13 +81,8 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
     };
     let mut failure: Option<SourceFailure> = None;
     while let Ok(batch) = rx.recv() {
-        // One clock read per item: a span runs from the end of the previous item of this
-        // message (or its arrival) to the item's end; waiting for a message never counts.
-        let mut last = if probe.stats {
-            quanta::Instant::now()
-        } else {
-            probe.tsc_epoch
-        };
+        // Waiting for a message never counts as busy.
+        clock.restart(&probe);
         for (item, done) in batch {
             if let Some(f) = &failure {
                 done.complete(Err(f.clone()));
@@ -100,23 +94,8 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
             }
             match catch_unwind(AssertUnwindSafe(|| job(&item))) {
                 Ok(r) => {
-                    if probe.stats {
-                        let t1 = quanta::Instant::now();
-                        busy += t1 - last;
-                        if probe.timeline {
-                            let e = probe.tsc_epoch;
-                            report.spans.push(Span {
-                                worker: id,
-                                item: item.id,
-                                start_ns: (last - e).as_nanos() as u64,
-                                end_ns: (t1 - e).as_nanos() as u64,
-                            });
-                        }
-                        last = t1;
-                    }
-                    report.stats.items += 1;
-                    report.stats.pixels += item.pixel_count() as u64;
-                    report.stats.rays += r.rays;
+                    clock.item_done(&probe, id, item.id, &mut report.spans);
+                    report.stats.count(&item, r.rays);
                     done.complete(Ok(r));
                 }
                 Err(panic) => {
@@ -142,7 +121,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
             break;
         }
     }
-    report.stats.busy_s = busy.as_secs_f64();
+    report.stats.busy_s = clock.busy.as_secs_f64();
     report
 }
 

@@ -352,6 +352,62 @@ impl Probe {
     }
 }
 
+/// A worker's busy time from one clock read per item: an item's busy span runs from the end
+/// of the worker's previous item (or from [`BusyClock::restart`], after a wait) to its own
+/// end. Busy time therefore includes the per-item bookkeeping between two items (taking the
+/// next item: the `stats_off` numbers of `benches/dispatch.rs`, ~10–20 ns), never a wait
+/// that restarts the clock. Halves the clock reads of a start/end pair.
+pub(crate) struct BusyClock {
+    pub busy: Duration,
+    /// End of the previous item (TSC clock): the start of the next item's busy span.
+    last: quanta::Instant,
+}
+
+impl BusyClock {
+    pub fn start(probe: &Probe) -> Self {
+        let mut c = Self {
+            busy: Duration::ZERO,
+            last: probe.tsc_epoch,
+        };
+        c.restart(probe);
+        c
+    }
+
+    /// The next busy span starts now (the worker was waiting, not working).
+    pub fn restart(&mut self, probe: &Probe) {
+        if probe.stats {
+            self.last = quanta::Instant::now();
+        }
+    }
+
+    /// Item `item` of `worker` ended now: add its span, and its timeline entry if recorded.
+    #[inline]
+    pub fn item_done(&mut self, probe: &Probe, worker: u32, item: u32, spans: &mut Vec<Span>) {
+        if !probe.stats {
+            return;
+        }
+        let t1 = quanta::Instant::now();
+        self.busy += t1 - self.last;
+        if probe.timeline {
+            let e = probe.tsc_epoch;
+            spans.push(Span {
+                worker,
+                item,
+                start_ns: (self.last - e).as_nanos() as u64,
+                end_ns: (t1 - e).as_nanos() as u64,
+            });
+        }
+        self.last = t1;
+    }
+}
+
+/// `submit` of a source whose hand-out logic lives in `submit_batch`: a batch of one.
+pub fn submit_one<S: ComputeSource + ?Sized>(src: &mut S, item: WorkItem) -> DelayedResult {
+    let mut out = Vec::with_capacity(1);
+    src.submit_batch(&mut vec![item], &mut out);
+    out.pop().expect("one result per item")
+}
+
 pub trait ComputeSource: Send {
     fn id(&self) -> u32;
     fn label(&self) -> String;
