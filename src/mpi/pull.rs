@@ -7,9 +7,10 @@
 //!
 //! Neither re-queues: a lost source fails the run (the master is the fault-tolerant one).
 
-use crate::render::TileResult;
 use crate::render::WorkItem;
-use crate::sched::{wire, MasterStats, RunStats, SchedError, SchedulerKind, SchedulerSpec, Wait};
+use crate::sched::{
+    wire, Collector, MasterStats, Results, RunStats, SchedError, SchedulerKind, SchedulerSpec, Wait,
+};
 use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
 use std::time::{Duration, Instant};
 
@@ -19,7 +20,7 @@ pub fn run_pull(
     mut sources: Vec<Box<dyn ComputeSource>>,
     deadline: Option<Duration>,
     probe: Probe,
-) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
     let (n, k) = (items.len(), sources.len());
     let bell = Doorbell::default();
@@ -30,7 +31,7 @@ pub fn run_pull(
         items: n as u64,
         ..Default::default()
     };
-    let mut results: Vec<Option<TileResult>> = (0..n).map(|_| None).collect();
+    let mut c = Collector::new(n);
     let mut out: Vec<Vec<DelayedResult>> = (0..k).map(|_| Vec::new()).collect();
     let submit = |out: &mut Vec<DelayedResult>,
                   i: usize,
@@ -49,7 +50,6 @@ pub fn run_pull(
         }
         next = n;
     }
-    let mut done = 0usize;
     let mut m = MasterStats::default();
     let outcome = loop {
         m.iterations += 1;
@@ -62,18 +62,7 @@ pub fn run_pull(
                     continue;
                 }
                 match slots.swap_remove(j).try_take() {
-                    Ok(Ok(r)) => {
-                        stats.bytes += wire::result_bytes(&r);
-                        stats.rays += r.rays;
-                        stats.nonfinite += r.nonfinite;
-                        let slot = &mut results[r.item as usize];
-                        if slot.is_none() {
-                            done += 1;
-                            *slot = Some(r);
-                        } else {
-                            stats.duplicates += 1;
-                        }
-                    }
+                    Ok(Ok(r)) => c.accept(r),
                     Ok(Err(_)) => failed = Some(()),
                     Err(d) => slots.push(d),
                 }
@@ -82,17 +71,17 @@ pub fn run_pull(
         if failed.is_some() {
             stats.lost_sources = sources.iter().filter(|s| s.is_lost()).count().max(1) as u64;
             break Err(SchedError::LostItems {
-                lost: (n - done) as u64,
+                lost: (n - c.tally.done) as u64,
                 total: n as u64,
             });
         }
-        if done == n {
+        if c.tally.done == n {
             break Ok(());
         }
         if let Some(dl) = deadline.filter(|dl| t0.elapsed() >= *dl) {
             break Err(SchedError::Deadline {
                 deadline: dl,
-                done: done as u64,
+                done: c.tally.done as u64,
                 total: n as u64,
             });
         }
@@ -125,6 +114,7 @@ pub fn run_pull(
         stats.timeline = Some(spans);
     }
     stats.wall_s = wall;
+    c.tally.record(&mut stats);
     stats.master = Some(m);
-    Ok((results, stats))
+    Ok((c.results, stats))
 }

@@ -6,8 +6,10 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::{wire, Collector, MasterStats, RunOptions, RunStats, SchedError, SchedulerSpec};
-use crate::render::{TileResult, WorkItem};
+use super::{
+    wire, Collector, MasterStats, Results, RunOptions, RunStats, SchedError, SchedulerSpec,
+};
+use crate::render::WorkItem;
 use crate::sched::{Requeue, Span, MASTER_LANE};
 use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
 use std::collections::VecDeque;
@@ -62,7 +64,7 @@ pub fn run_master(
     mut sources: Vec<Box<dyn ComputeSource>>,
     opts: &RunOptions,
     probe: Probe,
-) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
     let n = items.len();
     let bell = Doorbell::default();

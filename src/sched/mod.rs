@@ -7,16 +7,19 @@
 
 pub mod decompose;
 pub mod master;
+mod results;
 mod shared;
 pub mod spec;
 pub mod stats;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
+pub use results::Results;
+pub(crate) use results::{Collector, Tally};
 pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
 pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
-use crate::render::{render_item, Image, TileResult, WorkItem};
+use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
 pub use crate::source::Job;
 use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, LocalThreadSource, Probe};
@@ -123,7 +126,7 @@ pub fn run_items(
     items: &[WorkItem],
     job: Job,
     opts: &RunOptions,
-) -> Result<(Vec<Option<TileResult>>, RunStats), SchedError> {
+) -> Result<(Results, RunStats), SchedError> {
     spec.validate()?;
     debug_assert!(items.iter().enumerate().all(|(i, it)| it.id == i as u32));
     let probe = Probe::new(opts.stats, spec.timeline);
@@ -159,7 +162,7 @@ pub fn assemble(
     width: u32,
     height: u32,
     items: &[WorkItem],
-    results: &[Option<TileResult>],
+    results: &Results,
 ) -> Result<Image, SchedError> {
     let frames = items.iter().map(|it| it.frame + 1).max().unwrap_or(1);
     Ok(Image::stack(assemble_frames(
@@ -173,71 +176,16 @@ pub fn assemble_frames(
     height: u32,
     frames: u32,
     items: &[WorkItem],
-    results: &[Option<TileResult>],
+    results: &Results,
 ) -> Result<Vec<Image>, SchedError> {
     let mut images: Vec<Image> = (0..frames.max(1))
         .map(|_| Image::new(width, height))
         .collect();
     for item in items {
         let r = results
-            .get(item.id as usize)
-            .and_then(Option::as_ref)
+            .get(item.id)
             .ok_or(SchedError::Missing { item: item.id })?;
         images[item.frame as usize].put(item, &r.pixels);
     }
     Ok(images)
-}
-
-/// What collecting results counted, apart from the results themselves.
-#[derive(Debug, Default)]
-pub(crate) struct Tally {
-    pub done: usize,
-    pub duplicates: u64,
-    pub bytes: u64,
-    pub rays: u64,
-    pub nonfinite: u64,
-}
-
-impl Tally {
-    /// `r` into its `slot`: the first result wins, a later one is a duplicate and dropped.
-    pub fn put(&mut self, slot: &mut Option<TileResult>, r: TileResult) {
-        self.bytes += wire::result_bytes(&r);
-        if slot.is_some() {
-            self.duplicates += 1;
-        } else {
-            self.rays += r.rays;
-            self.nonfinite += r.nonfinite;
-            *slot = Some(r);
-            self.done += 1;
-        }
-    }
-    /// Duplicates, result bytes, rays and non-finite samples into the run's statistics.
-    pub fn record(&self, stats: &mut RunStats) {
-        stats.duplicates = self.duplicates;
-        stats.bytes += self.bytes;
-        stats.rays = self.rays;
-        stats.nonfinite = self.nonfinite;
-    }
-}
-
-/// Results indexed by item; see [`Tally::put`].
-pub(crate) struct Collector {
-    pub results: Vec<Option<TileResult>>,
-    pub tally: Tally,
-}
-
-impl Collector {
-    pub fn new(n: usize) -> Self {
-        Self {
-            results: (0..n).map(|_| None).collect(),
-            tally: Tally::default(),
-        }
-    }
-    pub fn is_done(&self, item: u32) -> bool {
-        self.results[item as usize].is_some()
-    }
-    pub fn accept(&mut self, r: TileResult) {
-        let slot = &mut self.results[r.item as usize];
-        self.tally.put(slot, r);
-    }
 }

@@ -121,7 +121,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
             break;
         }
     }
-    report.stats.busy_s = clock.busy.as_secs_f64();
+    report.stats.busy_s = clock.busy().as_secs_f64();
     report
 }
 

@@ -352,42 +352,58 @@ impl Probe {
     }
 }
 
-/// A worker's busy time from one clock read per item: an item's busy span runs from the end
-/// of the worker's previous item (or from [`BusyClock::restart`], after a wait) to its own
-/// end. Busy time therefore includes the per-item bookkeeping between two items (taking the
-/// next item: the `stats_off` numbers of `benches/dispatch.rs`, ~10–20 ns), never a wait
-/// that restarts the clock. Halves the clock reads of a start/end pair.
+/// A worker's busy time: an item's busy span runs from the end of the worker's previous item
+/// (or from [`BusyClock::restart`], after a wait) to its own end. Busy time therefore includes
+/// the per-item bookkeeping between two items (taking the next item), never a wait that
+/// restarts the clock. Consecutive spans telescope, so the clock keeps only where the current
+/// run of items started and where its last item ended: one clock read per item and no
+/// arithmetic ([`BusyClock::item_done`]), or, for a worker that never waits and records no
+/// timeline, a single read after its last item ([`BusyClock::mark`]).
 pub(crate) struct BusyClock {
-    pub busy: Duration,
-    /// End of the previous item (TSC clock): the start of the next item's busy span.
+    /// Busy time of the runs of items closed by a wait.
+    closed: Duration,
+    /// Start of the current run of items (TSC clock).
+    since: quanta::Instant,
+    /// End of the current run's last item: the start of the next item's busy span.
     last: quanta::Instant,
 }
 
 impl BusyClock {
     pub fn start(probe: &Probe) -> Self {
         let mut c = Self {
-            busy: Duration::ZERO,
+            closed: Duration::ZERO,
+            since: probe.tsc_epoch,
             last: probe.tsc_epoch,
         };
         c.restart(probe);
         c
     }
 
-    /// The next busy span starts now (the worker was waiting, not working).
+    /// The worker waited: close the current run of items; the next busy span starts now.
     pub fn restart(&mut self, probe: &Probe) {
+        if probe.stats {
+            self.closed += self.last - self.since;
+            self.since = quanta::Instant::now();
+            self.last = self.since;
+        }
+    }
+
+    /// The worker's latest item ended now (no timeline entry).
+    #[inline]
+    pub fn mark(&mut self, probe: &Probe) {
         if probe.stats {
             self.last = quanta::Instant::now();
         }
     }
 
-    /// Item `item` of `worker` ended now: add its span, and its timeline entry if recorded.
+    /// Item `item` of `worker` ended now: its span ends here, and goes into the timeline if
+    /// one is recorded.
     #[inline]
     pub fn item_done(&mut self, probe: &Probe, worker: u32, item: u32, spans: &mut Vec<Span>) {
         if !probe.stats {
             return;
         }
         let t1 = quanta::Instant::now();
-        self.busy += t1 - self.last;
         if probe.timeline {
             let e = probe.tsc_epoch;
             spans.push(Span {
@@ -398,6 +414,16 @@ impl BusyClock {
             });
         }
         self.last = t1;
+    }
+
+    /// Count `other`'s busy time as this clock's (a worker's clocks of several runs).
+    pub fn absorb(&mut self, other: &BusyClock) {
+        self.closed += other.busy();
+    }
+
+    /// Total busy time so far.
+    pub fn busy(&self) -> Duration {
+        self.closed + (self.last - self.since)
     }
 }
 
