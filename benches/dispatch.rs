@@ -6,33 +6,36 @@
 //! on 2 workers, thread start-up and the final merge of results included; criterion reports
 //! time per element = wall time of one run / 2¹⁸ = **ns per item** (wall-clock, with 2 workers
 //! running at once, so two items in flight). The fixed cost of a run (spawning and joining the
-//! threads, allocating the result slots) is measured on its own by `dispatch_fixed/*` (the same
-//! run with 8 items): ~100–200 µs, i.e. < 1 ns per item at 2¹⁸ items, so the numbers are the
+//! threads, indexing the results) is measured on its own by `dispatch_fixed/*` (the same run
+//! with 8 items): ~100–260 µs, i.e. ≤ 1 ns per item at 2¹⁸ items, so the numbers are the
 //! steady-state cost of handing items out. `stats_on`/`stats_off` toggles `RunOptions::stats`
-//! (per-item clocks); the difference is the instrumentation's cost per item.
+//! (clock reads: per item in the master's sources, once per worker in the shared schedulers
+//! unless a timeline is recorded); the difference is the instrumentation's cost per item.
 //!
-//! Measured 2026-11-24, quiet machine, ns per item (stats on / off), 2¹⁸ items, 2 workers:
-//! static 9.6–13.5 / 7.3–12.8, static_cyclic 10.3 / 8.1–8.3, guided 9.5–9.6 / 7.0–9.1,
-//! work_stealing_deque 12.3–12.9 / 11.0–11.4, work_stealing (rayon) 51–52 / 52–53,
-//! **master blocking B=64 93.5–94.9 / 92.6** (target ≤ 150 met; 160–370 and bimodal before
-//! batched hand-outs, reused result cells and rings only to a sleeping master), master spinning
-//! B=64 91.3–91.6 (was ~27 µs: a ring per item to a spinning master), master blocking B=2
-//! 273–280 (a ping-pong of two items per worker; 251–270 before, the same within noise),
-//! **self_scheduling 20.5–23.5 / 21.1–23.1** over five runs (target ≤ 20 missed), at grab 2
-//! 13.9–14.7, at grab 4 11.2–11.8.
+//! Measured 2026-11-24, ns per item (stats on / off), 2¹⁸ items, 2 workers, after results
+//! stopped being gathered into one slot vector (`sched::Results`; before → after):
+//! static 9.6–13.5 → 4.2–4.5 / 5.2, static_cyclic 10.3 → 4.6–4.8 / 4.8, guided 9.5 → 4.5–4.7 /
+//! 4.4–4.5, work_stealing_deque 12.3–12.9 → 8.8–15.7 / 8.3–15.2, work_stealing (rayon) 51–52
+//! → 15.5–15.8 / 15.4–17.3, **self_scheduling 20.5–23.5 → 19.1–22.2** over eight runs (median
+//! 19.7, ≤ 20 in six: target ≤ 20 met in the median, not in every run) / 16.0–22.7, at grab 2
+//! 11.0–12.0, at grab 4 6.8–8.6; **master blocking B=64 92.0–98.6** (target ≤ 150 met; 160–370
+//! and bimodal before batched hand-outs, reused result cells and rings only to a sleeping
+//! master), spinning B=64 92.5–97.5, blocking B=2 276–302 (a ping-pong of two items per worker).
 //! This VM has a second, slow state that comes and goes within minutes: every cross-thread
-//! hand-off then costs ~3× (the master at B=64 227–234, B=2 820–860; the code before batching
-//! 400–415 and 800–830 in the same state, interleaved). The numbers above are the fast state;
-//! a run that straddles both shows a jump between consecutive rows.
-//! Why self-scheduling at grab 1 stays above 20: the counter itself. `shared_counter/work0`
-//! (two threads doing nothing but `fetch_add`) 7.4–7.8; `shared_counter/work16` (16 dependent
-//! multiply-adds per grab, ~6 ns on one thread) 16.1–16.5: with work between two grabs every
-//! grab moves the counter's line between the cores, so the cost is super-additive. Calling the
-//! job and storing its result is more than that stand-in; what is left above it (~5 ns) is the
-//! serial scatter of the results after the join (1.7–2.7 ms per 2¹⁸ items). Tried and dropped,
-//! each within noise: a padded counter (kept: the textbook layout), a k-way in-order merge
-//! (slower: unpredictable branches), a two-thread merge, laying out the result slots while
-//! the workers run, and a 40-byte `TileResult` (boxed pixel slice).
+//! hand-off then costs ~3× (master B=64 168–245, B=2 920–946, static 13.4, self_scheduling 20.5
+//! in one such run). The numbers above are from the other runs; a run that straddles both
+//! states shows a jump between consecutive rows.
+//! Why self-scheduling at grab 1 stays near 20: the counter itself. `shared_counter/work0`
+//! (two threads doing nothing but `fetch_add`) 7.4–8.3; `shared_counter/work16` (16 dependent
+//! multiply-adds per grab, ~6 ns on one thread) 16.4–19.6 in the same runs: with work between
+//! two grabs every grab moves the counter's line between the cores, so the cost is
+//! super-additive, and the scheduler's own per-item work (calling the job, keeping its result,
+//! ~5 ns) is about that stand-in's. What used to sit on top, the serial scatter of 2¹⁸ results
+//! after the join (1.7–2.7 ms per run), is now a 4-byte index per item; the rest of the serial
+//! tail is freeing the results (~1.3 ns per item, counted: a run's results must be freed).
+//! Tried and dropped, each within noise: a padded counter (kept: the textbook layout), a
+//! k-way in-order merge, a two-thread merge, a 40-byte `TileResult` (boxed pixel slice), fewer
+//! per-item tallies.
 //!
 //! `cargo bench --bench dispatch` (~2 min)
 //! `cargo bench --bench dispatch -- self_scheduling` for one scheduler
@@ -185,6 +188,10 @@ fn dispatch_fixed(c: &mut Criterion) {
 /// ±1.4 % is this bench's noise floor: the overhead is below what it can resolve. The bound
 /// behind it: stats cost one TSC read (~18 ns) per item; a one-pixel item here is ~1.9 µs of
 /// work (15.3 ms × 2 workers / 16 384 items), so ≤ 1 % at 2 spp and ≤ 0.25 % at 8 spp.
+/// 2026-11-24, after the shared schedulers' workers stopped reading the clock per item (their
+/// busy spans telescope, see `BusyClock`): self_scheduling 1 px 15.31/15.34 ms (−0.2 %),
+/// master B=8 1 px 31.36/31.58 ms (−0.7 %), 16² −3.8 % (noise). In the VM's slow state the
+/// same group swings ±10 % between two runs; those runs are not quoted.
 fn instrumentation(c: &mut Criterion) {
     let over = SceneOverrides {
         width: Some(128),

@@ -44,7 +44,8 @@ impl Local {
 
     /// These workers never wait between items: their busy time runs from their start to the
     /// end of their last item ([`Local::stop`]), so the clock is read per item only for the
-    /// timeline (one read per item cost self-scheduling 1–2 ns of its ~20 ns per item).
+    /// timeline (a read and a `Duration` sum per item cost one self-scheduling worker 2.5 of its
+    /// 16.7 ns per zero-work item).
     #[inline]
     fn run(&mut self, job: &Job, item: &WorkItem, probe: &Probe) {
         let r = job(item);
