@@ -14,10 +14,10 @@
 //!
 //! Measured 2026-11-24, ns per item (stats on / off), 2¹⁸ items, 2 workers, after results
 //! stopped being gathered into one slot vector (`sched::Results`; before → after):
-//! static 9.6–13.5 → 4.2–4.5 / 5.2, static_cyclic 10.3 → 4.6–4.8 / 4.8, guided 9.5 → 4.5–4.7 /
+//! static 9.6–13.5 → 4.2–5.7 / 5.2, static_cyclic 10.3 → 4.6–4.8 / 4.8, guided 9.5 → 4.5–4.7 /
 //! 4.4–4.5, work_stealing_deque 12.3–12.9 → 8.8–15.7 / 8.3–15.2, work_stealing (rayon) 51–52
-//! → 15.5–15.8 / 15.4–17.3, **self_scheduling 20.5–23.5 → 19.1–22.2** over eight runs (median
-//! 19.7, ≤ 20 in six: target ≤ 20 met in the median, not in every run) / 16.0–22.7, at grab 2
+//! → 15.5–15.8 / 15.4–17.3, **self_scheduling 20.5–23.5 → 18.8–24.0** over eleven runs (median
+//! 19.7, ≤ 20 in eight: target ≤ 20 met in the median, not in every run) / 16.0–22.7, at grab 2
 //! 11.0–12.0, at grab 4 6.8–8.6; **master blocking B=64 92.0–98.6** (target ≤ 150 met; 160–370
 //! and bimodal before batched hand-outs, reused result cells and rings only to a sleeping
 //! master), spinning B=64 92.5–97.5, blocking B=2 276–302 (a ping-pong of two items per worker).
