@@ -27,7 +27,7 @@
 //! states shows a jump between consecutive rows.
 //! Why self-scheduling at grab 1 stays near 20: the counter itself. `shared_counter/work0`
 //! (two threads doing nothing but `fetch_add`) 7.4–8.3; `shared_counter/work16` (16 dependent
-//! multiply-adds per grab, ~6 ns on one thread) 16.4–19.6 in the same runs: with work between
+//! multiply-adds per grab, ~6 ns on one thread) 16.4–20.3 in the same runs: with work between
 //! two grabs every grab moves the counter's line between the cores, so the cost is
 //! super-additive, and the scheduler's own per-item work (calling the job, keeping its result,
 //! ~5 ns) is about that stand-in's. What used to sit on top, the serial scatter of 2¹⁸ results
