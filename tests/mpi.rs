@@ -17,8 +17,14 @@ const DEADLINE: Duration = Duration::from_secs(60);
 /// on CPU time.
 static MPIRUN: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    MPIRUN.lock().unwrap_or_else(|e| e.into_inner())
+/// How every test here starts: `None` (the test is skipped) without `mpirun`, else the turn
+/// to run mpirun ([`MPIRUN`]) and a fresh folder.
+fn mpi_test() -> Option<(std::sync::MutexGuard<'static, ()>, tempfile::TempDir)> {
+    if !have_mpirun() {
+        return None;
+    }
+    let turn = MPIRUN.lock().unwrap_or_else(|e| e.into_inner());
+    Some((turn, tempfile::tempdir().unwrap()))
 }
 
 fn have_mpirun() -> bool {
@@ -211,11 +217,9 @@ fn kill_rank1(pids: &std::path::Path) {
 
 #[test]
 fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let path = scene(dir.path(), 24, 16, 4);
     let want = serial_hash(&path);
     let cases: &[&[&str]] = &[
@@ -269,11 +273,9 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
 
 #[test]
 fn a_rank_killed_mid_run_loses_no_work() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let path = scene(dir.path(), 48, 32, 48);
     let want = serial_hash(&path);
     let pids = dir.path().join("pids");
@@ -310,11 +312,9 @@ fn a_rank_killed_mid_run_loses_no_work() {
 /// per frame give the serial film strip (every frame, its own camera and seed).
 #[test]
 fn three_ranks_render_an_animation_like_the_serial_frames() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let still = scene(dir.path(), 16, 12, 2);
     let animated = std::fs::read_to_string(&still).unwrap()
         + "[animation]\nframes = 3\n[[animation.keys]]\nframe = 2\norigin = [0.4, 0.1, 3.5]\n";
@@ -344,11 +344,9 @@ fn three_ranks_render_an_animation_like_the_serial_frames() {
 
 #[test]
 fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let path = scene(dir.path(), 8, 8, 1);
     let out_img = dir.path().join("out.pfm");
     let args = [
@@ -474,11 +472,9 @@ fn rows(path: &Path) -> Vec<Row> {
 
 #[test]
 fn mpirun_raysched_run_appends_mpi_rows_per_transport_beside_the_local_baseline() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let scene_path = scene(dir.path(), 16, 12, 2);
     let want = serial_hash(&scene_path);
     let exp = mpi_experiment(
@@ -561,11 +557,9 @@ fn mpirun_raysched_run_appends_mpi_rows_per_transport_beside_the_local_baseline(
 
 #[test]
 fn bad_mpi_experiments_are_clear_errors_naming_file_and_field() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     scene(dir.path(), 8, 8, 1);
     let out = dir.path().join("out");
     let bin = env!("CARGO_BIN_EXE_raysched");
@@ -636,11 +630,9 @@ fn bad_mpi_experiments_are_clear_errors_naming_file_and_field() {
 /// keeps sending heartbeats is not taken for dead.
 #[test]
 fn a_remote_rank_is_found_dead_in_seconds_and_a_slow_one_is_not() {
-    if !have_mpirun() {
+    let Some((_one, dir)) = mpi_test() else {
         return;
-    }
-    let _one = serial();
-    let dir = tempfile::tempdir().unwrap();
+    };
     let path = scene(dir.path(), 32, 16, 8);
     let want = serial_hash(&path);
     let out_img = dir.path().join("out.pfm");
