@@ -47,8 +47,8 @@ use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, Job, Order, Requeue, RunOptions, SchedulerKind,
-    SchedulerSpec, Wait,
+    decompose, render_job, run_items, Chunk, Job, MasterParams, Order, Policy, Requeue, RunOptions,
+    SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
 };
 use raysched::tracer::AnyTracer;
 use std::hint::black_box;
@@ -78,15 +78,21 @@ fn specs() -> Vec<(String, SchedulerSpec)> {
         .map(|k| (k.id().to_string(), SchedulerSpec::new(k, px, 2)))
         .collect();
     for grab in [2, 4] {
-        let mut s = SchedulerSpec::new(SchedulerKind::SelfScheduling, px, 2);
-        s.grab = grab;
+        let s = SchedulerSpec {
+            policy: Policy::SelfScheduling(SelfSchedulingParams { grab }),
+            ..SchedulerSpec::new(SchedulerKind::SelfScheduling, px, 2)
+        };
         specs.push((format!("self_scheduling_grab{grab}"), s));
     }
     for (wait, buffer) in [(Wait::Block, 64), (Wait::Spin, 64), (Wait::Block, 2)] {
-        let mut s = SchedulerSpec::new(SchedulerKind::Master, px, 2);
-        s.wait = wait;
-        s.buffer = buffer;
-        s.requeue = Requeue::Never;
+        let s = SchedulerSpec {
+            policy: Policy::Master(MasterParams {
+                wait,
+                buffer,
+                requeue: Requeue::Never,
+            }),
+            ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
+        };
         specs.push((format!("master_{}_b{buffer}", wait.id()), s));
     }
     specs
@@ -211,9 +217,14 @@ fn instrumentation(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(6));
     let px = Chunk::Tile { w: 1, h: 1 };
     let tile = Chunk::Tile { w: 16, h: 16 };
-    let mut master = SchedulerSpec::new(SchedulerKind::Master, px, 2);
-    master.buffer = 8;
-    master.requeue = Requeue::Never;
+    let master = SchedulerSpec {
+        policy: Policy::Master(MasterParams {
+            buffer: 8,
+            requeue: Requeue::Never,
+            ..MasterParams::DEFAULT
+        }),
+        ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
+    };
     for (name, spec) in [
         (
             "self_scheduling_1px",

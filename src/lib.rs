@@ -39,7 +39,6 @@
 //! assert!(counters.rays > 0);
 //! ```
 
-pub mod cli;
 pub mod converge;
 pub mod csv_out;
 #[cfg(feature = "embree")]

@@ -1,5 +1,7 @@
-use std::process::ExitCode;
+//! The `raysched` binary: the command line lives in [`app`], on this side of the library.
 
-fn main() -> ExitCode {
-    raysched::cli::main()
+mod app;
+
+fn main() -> std::process::ExitCode {
+    app::main()
 }

@@ -636,7 +636,8 @@ fn a_remote_rank_is_found_dead_in_seconds_and_a_slow_one_is_not() {
     let path = scene(dir.path(), 32, 16, 8);
     let want = serial_hash(&path);
     let out_img = dir.path().join("out.pfm");
-    let args = fault_args(&path, &out_img, &[]);
+    // The master must re-queue the killed rank's items to finish the image.
+    let args = fault_args(&path, &out_img, &["--requeue", "revisit"]);
     for kill in [false, true] {
         let pids = dir.path().join(format!("pids{kill}"));
         std::fs::create_dir(&pids).unwrap();

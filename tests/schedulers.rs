@@ -4,14 +4,30 @@
 use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
-    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, Order, Requeue,
-    RunOptions, SchedError, SchedulerKind, SchedulerSpec, Wait,
+    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, MasterParams, Order,
+    Policy, Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
+    Wait,
 };
 use raysched::source::FaultPlan;
 use raysched::tracer::AnyTracer;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
+
+/// The master's parameters of a master spec.
+fn master(spec: &mut SchedulerSpec) -> &mut MasterParams {
+    match &mut spec.policy {
+        Policy::Master(m) => m,
+        p => panic!("{p:?} is not the master"),
+    }
+}
+
+/// Set `grab` where the kind has one (self_scheduling, guided, work_stealing).
+fn set_grab(spec: &mut SchedulerSpec, grab: usize) {
+    if spec.check_name("grab").is_ok() {
+        spec.set("grab", &grab.to_string()).unwrap();
+    }
+}
 
 /// A cheap scene with shadow rays and bounces: a diffuse sphere on a floor under an
 /// environment; odd sizes catch edge bugs.
@@ -107,7 +123,7 @@ fn check_run(spec: &SchedulerSpec) {
         stats.wall_s > 0.0 && stats.bytes > 0 && stats.rays > 0,
         "{label}"
     );
-    if spec.kind == SchedulerKind::Master {
+    if spec.kind() == SchedulerKind::Master {
         assert!(stats.master.as_ref().unwrap().iterations > 0);
         assert_eq!(
             stats.issued - stats.reissued,
@@ -139,7 +155,7 @@ fn every_scheduler_granularity_and_worker_count_matches_serial() {
             for workers in [1, 2, 3, 5] {
                 let mut spec = SchedulerSpec::new(kind, chunk, workers);
                 spec.order = Order::ALL[(ci + workers) % 3];
-                spec.grab = 1 + ci % 3;
+                set_grab(&mut spec, 1 + ci % 3);
                 spec.timeline = workers == 3;
                 check_run(&spec);
                 runs += 1;
@@ -155,14 +171,14 @@ fn master_every_granularity_buffer_and_worker_count_matches_serial() {
         for buffer in [1, 2, 8, 64] {
             for workers in [1, 2, 3, 5] {
                 let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, workers);
-                spec.buffer = buffer;
+                master(&mut spec).buffer = buffer;
                 spec.order = Order::ALL[(ci + buffer) % 3];
-                spec.requeue = [
-                    Requeue::Seed,
+                master(&mut spec).requeue = [
+                    Requeue::Revisit,
                     Requeue::Never,
                     Requeue::Timeout(Duration::from_millis(5)),
                 ][(buffer + workers) % 3];
-                spec.wait = Wait::ALL[(ci + workers) % 3];
+                master(&mut spec).wait = Wait::ALL[(ci + workers) % 3];
                 check_run(&spec);
             }
         }
@@ -208,8 +224,10 @@ fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
             Chunk::Frame,
         ] {
             let mut spec = SchedulerSpec::new(kind, chunk, 5);
-            spec.grab = 9;
-            spec.requeue = Requeue::Seed;
+            set_grab(&mut spec, 9);
+            if kind == SchedulerKind::Master {
+                master(&mut spec).requeue = Requeue::Revisit;
+            }
             let (image, stats) = run_scheduler(&spec, &scene, &tracer).unwrap();
             assert_eq!(image.hash(), serial.hash(), "{}", spec.label());
             assert_eq!(stats.items, 1);
@@ -235,8 +253,8 @@ fn every_item_rendered_and_kept_once_even_with_duplicates() {
         }
     });
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 3);
-    spec.requeue = Requeue::Seed;
-    spec.buffer = 8;
+    master(&mut spec).requeue = Requeue::Revisit;
+    master(&mut spec).buffer = 8;
     let (results, stats) = run_items(&spec, &items, job, &RunOptions::default()).unwrap();
     for (i, r) in results.iter().enumerate() {
         assert_eq!(r.as_ref().unwrap().item, i as u32);
@@ -267,15 +285,18 @@ fn faults() -> FaultPlan {
 #[test]
 fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
     let f = fixture();
-    for requeue in [Requeue::Seed, Requeue::Timeout(Duration::from_millis(20))] {
+    for requeue in [
+        Requeue::Revisit,
+        Requeue::Timeout(Duration::from_millis(20)),
+    ] {
         for (chunk, buffer) in [
             (Chunk::Tile { w: 1, h: 1 }, 1),
             (Chunk::Tile { w: 4, h: 4 }, 2),
             (Chunk::Rows(1), 8),
         ] {
             let mut spec = SchedulerSpec::new(SchedulerKind::Master, chunk, 3);
-            spec.requeue = requeue;
-            spec.buffer = buffer;
+            master(&mut spec).requeue = requeue;
+            master(&mut spec).buffer = buffer;
             let opts = RunOptions {
                 deadline: Some(Duration::from_secs(20)),
                 faults: Some(faults()),
@@ -297,7 +318,7 @@ fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
 fn master_never_requeue_reports_lost_items_within_the_deadline() {
     let f = fixture();
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 3);
-    spec.requeue = Requeue::Never;
+    master(&mut spec).requeue = Requeue::Never;
     let opts = RunOptions {
         deadline: Some(Duration::from_millis(1500)),
         faults: Some(faults()),
@@ -343,7 +364,7 @@ fn all_sources_lost_is_an_error_not_a_hang() {
     let job: Job = Arc::new(|_: &WorkItem| panic!("every worker dies"));
     let items = decompose(17, 13, Chunk::Tile { w: 4, h: 4 }, Order::Scanline);
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2);
-    spec.requeue = Requeue::Seed;
+    master(&mut spec).requeue = Requeue::Revisit;
     let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
     assert!(
         matches!(err, SchedError::AllSourcesLost { sources: 2, .. }),
@@ -377,14 +398,17 @@ fn bad_parameters_are_clear_errors() {
         ),
         (
             SchedulerSpec {
-                buffer: 0,
+                policy: Policy::Master(MasterParams {
+                    buffer: 0,
+                    ..MasterParams::DEFAULT
+                }),
                 ..base.clone()
             },
             "buffer",
         ),
         (
             SchedulerSpec {
-                grab: 0,
+                policy: Policy::SelfScheduling(SelfSchedulingParams { grab: 0 }),
                 ..base.clone()
             },
             "grab",
@@ -417,8 +441,7 @@ fn bad_parameters_are_clear_errors() {
 }
 
 mod cli {
-    use clap::Parser;
-    use raysched::cli::{run, Cli};
+    use std::process::{Command, Output};
 
     fn scene_file(dir: &std::path::Path) -> std::path::PathBuf {
         let p = dir.join("s.toml");
@@ -437,18 +460,19 @@ mod cli {
         let dir = tempfile::tempdir().unwrap();
         let scene = scene_file(dir.path());
         let out = dir.path().join("o.pfm");
-        let args = |extra: &[&str]| {
-            let mut v = vec![
-                "raysched",
-                "render",
-                scene.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-            ];
-            v.extend_from_slice(extra);
-            Cli::parse_from(v)
+        let run = |extra: &[&str]| -> Output {
+            Command::new(env!("CARGO_BIN_EXE_raysched"))
+                .args([
+                    "render",
+                    scene.to_str().unwrap(),
+                    "-o",
+                    out.to_str().unwrap(),
+                ])
+                .args(extra)
+                .output()
+                .unwrap()
         };
-        run(args(&[
+        let o = run(&[
             "--threads",
             "2",
             "--scheduler",
@@ -463,9 +487,8 @@ mod cli {
             "seed",
             "--wait",
             "spin",
-        ]))
-        .map_err(|e| e.error)
-        .unwrap();
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert!(out.exists());
         for (flag, value) in [
             ("--chunk", "0"),
@@ -477,14 +500,30 @@ mod cli {
             ("--wait", "nap"),
             ("--grab", "0"),
         ] {
-            let e = run(args(&[flag, value])).unwrap_err();
-            assert_eq!(e.code, 2, "{flag} {value}");
-            assert!(
-                format!("{:#}", e.error).contains(flag),
-                "{flag}: {:#}",
-                e.error
-            );
+            // The master's flags go with the master, `--grab` with a kind that grabs.
+            let kind = match flag {
+                "--buffer" | "--requeue" | "--wait" => "master",
+                _ => "self_scheduling",
+            };
+            let args: &[&str] = if flag == "--scheduler" {
+                &[flag, value]
+            } else {
+                &["--scheduler", kind, flag, value]
+            };
+            let o = run(args);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
+            assert!(err.contains(flag), "{flag}: {err}");
+            assert_eq!(err.trim_end().lines().count(), 1, "{flag}: one line: {err}");
         }
+        // A parameter the chosen kind does not have is refused, naming the flag.
+        let o = run(&["--scheduler", "static", "--buffer", "4"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("--buffer") && err.contains("only master"),
+            "{err}"
+        );
     }
 }
 

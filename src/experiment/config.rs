@@ -151,22 +151,14 @@ impl<T: Clone> OneOrMany<T> {
     }
 }
 
-/// One scheduler and its parameter grid. Fields a kind does not have are errors, so the
+/// One scheduler and its parameter grid: `kind`, `chunk` (required), `order`, and any
+/// parameter the kind has (the names of `sched::spec`'s parameter structs: `buffer`, `grab`, …).
+/// Each grid field takes a value or a list. Keys the kind does not have are errors, so the
 /// cartesian product holds no meaningless combination (`static` has no buffer).
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct SchedulerEntry {
     pub kind: String,
-    pub chunk: Option<OneOrMany<String>>,
-    pub order: Option<OneOrMany<String>>,
-    /// master only
-    pub buffer: Option<OneOrMany<i64>>,
-    /// master only
-    pub requeue: Option<OneOrMany<String>>,
-    /// master only
-    pub wait: Option<OneOrMany<String>>,
-    /// self_scheduling, guided, work_stealing
-    pub grab: Option<OneOrMany<i64>>,
-    /// guided only
-    pub guided_k: Option<OneOrMany<i64>>,
+    /// Every other key, checked against the kind's parameters by the plan.
+    #[serde(flatten)]
+    pub grid: std::collections::BTreeMap<String, toml::Value>,
 }

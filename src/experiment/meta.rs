@@ -84,7 +84,7 @@ pub fn machine() -> Machine {
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     Machine {
         cpu_model,
-        cores: crate::cli::default_threads(),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         memory_gib,
         os,
         kernel: read("/proc/sys/kernel/osrelease").trim().to_string(),

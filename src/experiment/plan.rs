@@ -3,10 +3,10 @@
 //! file and the field (`experiments/x.toml: schedulers[1].buffer: …`).
 
 use super::config::{
-    ExperimentFile, ExperimentKind, MpiEntry, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec,
+    ExperimentFile, ExperimentKind, MpiEntry, SchedulerEntry, WorkerCount, WorkersSpec,
 };
 use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
-use crate::sched::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, Wait};
+use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec};
 use crate::tracer::{check_tracer_id, AnyTracer};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -112,13 +112,6 @@ pub struct MpiSettings {
 pub const DEFAULT_SILENCE_MS: u64 = 5000;
 /// The shortest silence limit accepted: 5 heartbeats.
 pub const MIN_SILENCE_MS: u64 = 1000;
-
-/// Scheduler kinds that can hand items to MPI ranks.
-pub const MPI_KINDS: [SchedulerKind; 3] = [
-    SchedulerKind::Master,
-    SchedulerKind::Static,
-    SchedulerKind::SelfScheduling,
-];
 
 pub struct ExperimentPlan {
     pub name: String,
@@ -432,7 +425,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, (Str
     };
     for (i, s) in file.schedulers.iter().enumerate() {
         if let Ok(k) = SchedulerKind::from_id(&s.kind) {
-            if !MPI_KINDS.contains(&k) {
+            if !k.over_mpi() {
                 return Err((
                     format!("schedulers[{i}].kind"),
                     format!(
@@ -453,7 +446,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, (Str
 }
 
 fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
-    let max = crate::cli::default_threads() as i64;
+    let max = std::thread::available_parallelism().map_or(1, |n| n.get()) as i64;
     let word = |s: &str| -> Result<i64, String> {
         match s.trim() {
             "max" => Ok(max),
@@ -493,134 +486,111 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
     Ok(out.into_iter().map(|n| n as usize).collect())
 }
 
-fn axis<T: Clone>(
-    v: &Option<OneOrMany<T>>,
-    default: T,
-    name: &str,
-) -> Result<Vec<T>, (String, String)> {
+/// A grid field's values as text: one value or a list of numbers and strings.
+fn axis_texts(name: &str, v: &toml::Value) -> Result<Vec<String>, (String, String)> {
+    let text = |v: &toml::Value| match v {
+        toml::Value::String(s) => Ok(s.clone()),
+        toml::Value::Integer(i) => Ok(i.to_string()),
+        other => Err((
+            name.to_string(),
+            format!("expected a number or a string, got {}", other.type_str()),
+        )),
+    };
     match v {
-        None => Ok(vec![default]),
-        Some(v) => {
-            let vals = v.values();
-            if vals.is_empty() {
-                Err((name.to_string(), "must not be an empty list".into()))
-            } else {
-                Ok(vals)
-            }
+        toml::Value::Array(vals) if vals.is_empty() => {
+            Err((name.to_string(), "must not be an empty list".into()))
         }
+        toml::Value::Array(vals) => vals.iter().map(text).collect(),
+        one => Ok(vec![text(one)?]),
     }
 }
 
-fn positive(vals: Vec<i64>, name: &str) -> Result<Vec<usize>, (String, String)> {
-    vals.into_iter()
-        .map(|v| {
-            if (1..=1 << 20).contains(&v) {
-                Ok(v as usize)
-            } else {
-                Err((
-                    name.to_string(),
-                    format!("must be between 1 and 1048576 (got {v})"),
-                ))
-            }
-        })
-        .collect()
+/// One grid axis: a field's name and its values, each already checked on `base`.
+struct Axis {
+    name: String,
+    values: Vec<String>,
 }
 
-/// The cartesian product of one scheduler's grid and the worker counts. Parameters the kind
-/// does not have are rejected rather than multiplied in.
+/// Apply one axis value to `spec`: `chunk` and `order` are common to every kind, the rest are
+/// the kind's parameters.
+fn apply(spec: &mut SchedulerSpec, name: &str, value: &str) -> Result<(), (String, String)> {
+    let fail = |e: crate::sched::SpecError| (name.to_string(), e.msg);
+    match name {
+        "chunk" => spec.chunk = Chunk::parse(value).map_err(fail)?,
+        "order" => spec.order = Order::from_id(value).map_err(fail)?,
+        _ => spec.set(name, value).map_err(fail)?,
+    }
+    Ok(())
+}
+
+/// The axes of one scheduler entry, in grid order: chunk, order, then the kind's parameters
+/// in column order; a parameter left out takes its default.
+fn axes(s: &SchedulerEntry, base: &SchedulerSpec) -> Result<Vec<Axis>, (String, String)> {
+    for key in s.grid.keys() {
+        if key != "chunk" && key != "order" {
+            base.check_name(key).map_err(|e| (key.clone(), e.msg))?;
+        }
+    }
+    if !s.grid.contains_key("chunk") {
+        return Err((
+            "chunk".to_string(),
+            "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string(),
+        ));
+    }
+    let mut names = vec!["chunk", "order"];
+    names.extend(base.policy.info().iter().map(|p| p.name));
+    let mut out = Vec::new();
+    for name in names {
+        let values = match s.grid.get(name) {
+            Some(v) => axis_texts(name, v)?,
+            None if name == "order" => vec![base.order.id().to_string()],
+            None => vec![base.get(name).unwrap_or_default()],
+        };
+        for v in &values {
+            apply(&mut base.clone(), name, v)?;
+        }
+        out.push(Axis {
+            name: name.to_string(),
+            values,
+        });
+    }
+    Ok(out)
+}
+
+/// The cartesian product of one scheduler's grid and the worker counts (workers vary
+/// fastest). Parameters the kind does not have are rejected rather than multiplied in.
 fn expand_scheduler(
     s: &SchedulerEntry,
     workers: &[usize],
     timeline: bool,
 ) -> Result<Vec<SchedulerSpec>, (String, String)> {
     let kind = SchedulerKind::from_id(&s.kind).map_err(|e| ("kind".to_string(), e.msg))?;
-    let not_for = |field: &str, present: bool, who: &str| -> Result<(), (String, String)> {
-        if present {
-            Err((
-                field.to_string(),
-                format!("'{}' has no {field} (only {who})", kind.id()),
-            ))
-        } else {
-            Ok(())
-        }
+    let base = SchedulerSpec {
+        timeline,
+        ..SchedulerSpec::new(kind, Chunk::Frame, 1)
     };
-    if !kind.has_master() {
-        not_for("buffer", s.buffer.is_some(), "master has one")?;
-        not_for("requeue", s.requeue.is_some(), "master re-queues")?;
-        not_for("wait", s.wait.is_some(), "master waits")?;
-    }
-    let grabs = matches!(
-        kind,
-        SchedulerKind::SelfScheduling | SchedulerKind::Guided | SchedulerKind::WorkStealing
-    );
-    if !grabs {
-        not_for(
-            "grab",
-            s.grab.is_some(),
-            "self_scheduling, guided and work_stealing grab",
-        )?;
-    }
-    if kind != SchedulerKind::Guided {
-        not_for("guided_k", s.guided_k.is_some(), "guided has one")?;
-    }
-    let chunk = s.chunk.as_ref().ok_or_else(|| {
-        (
-            "chunk".to_string(),
-            "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string(),
-        )
-    })?;
-    let chunks = axis(&Some(chunk.clone()), String::new(), "chunk")?
-        .iter()
-        .map(|c| Chunk::parse(c).map_err(|e| ("chunk".to_string(), e.msg)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let orders = axis(&s.order, "scanline".into(), "order")?
-        .iter()
-        .map(|o| Order::from_id(o).map_err(|e| ("order".to_string(), e.msg)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let defaults = SchedulerSpec::new(kind, Chunk::Frame, 1);
-    let buffers = positive(axis(&s.buffer, defaults.buffer as i64, "buffer")?, "buffer")?;
-    let requeues = axis(&s.requeue, defaults.requeue.to_string(), "requeue")?
-        .iter()
-        .map(|r| Requeue::parse(r).map_err(|e| ("requeue".to_string(), e.msg)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let waits = axis(&s.wait, defaults.wait.id().to_string(), "wait")?
-        .iter()
-        .map(|w| Wait::from_id(w).map_err(|e| ("wait".to_string(), e.msg)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let grab_vals = positive(axis(&s.grab, defaults.grab as i64, "grab")?, "grab")?;
-    let ks = positive(
-        axis(&s.guided_k, defaults.guided_k as i64, "guided_k")?,
-        "guided_k",
-    )?;
-    let mut out = Vec::new();
-    for &chunk in &chunks {
-        for &order in &orders {
-            for &buffer in &buffers {
-                for &requeue in &requeues {
-                    for &wait in &waits {
-                        for &grab in &grab_vals {
-                            for &guided_k in &ks {
-                                for &w in workers {
-                                    let spec = SchedulerSpec {
-                                        kind,
-                                        chunk,
-                                        order,
-                                        workers: w,
-                                        buffer,
-                                        requeue,
-                                        wait,
-                                        grab,
-                                        guided_k,
-                                        timeline,
-                                    };
-                                    spec.validate().map_err(|e| (e.field.clone(), e.msg))?;
-                                    out.push(spec);
-                                }
-                            }
-                        }
-                    }
-                }
+    let axes = axes(s, &base)?;
+    let mut specs = vec![base];
+    for axis in &axes {
+        let mut next = Vec::with_capacity(specs.len() * axis.values.len());
+        for spec in &specs {
+            for v in &axis.values {
+                let mut spec = spec.clone();
+                apply(&mut spec, &axis.name, v)?;
+                next.push(spec);
             }
+        }
+        specs = next;
+    }
+    let mut out = Vec::with_capacity(specs.len() * workers.len());
+    for spec in specs {
+        for &w in workers {
+            let spec = SchedulerSpec {
+                workers: w,
+                ..spec.clone()
+            };
+            spec.validate().map_err(|e| (e.field.clone(), e.msg))?;
+            out.push(spec);
         }
     }
     Ok(out)

@@ -6,6 +6,7 @@
 //! has the wrong column count, and truncates the file to the last good row.
 
 use super::plan::{fnv, hex, ExperimentPlan, RunConfig};
+use crate::sched::param_columns;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
@@ -34,11 +35,10 @@ pub struct RunRow {
     /// Pixels per item (the x axis of the granularity plots).
     pub chunk_px: Option<u64>,
     pub order: Option<String>,
-    pub buffer: Option<usize>,
-    pub requeue: Option<String>,
-    pub wait: Option<String>,
-    pub grab: Option<usize>,
-    pub guided_k: Option<usize>,
+    /// One cell per [`crate::sched::param_columns`] entry, written right after `order`: the
+    /// parameter's text form, `None` where the scheduler has no such parameter.
+    #[serde(skip)]
+    pub params: Vec<Option<String>>,
     pub workers: usize,
     pub repetition: u32,
     pub wall_s: f64,
@@ -88,23 +88,47 @@ fn local() -> String {
     "local".into()
 }
 
+/// Where the parameter columns start: right after `order`.
+fn params_at(cols: &[String]) -> usize {
+    cols.iter()
+        .position(|c| c == "order")
+        .map_or(cols.len(), |i| i + 1)
+}
+
 /// The columns added with MPI, at the end of the row: a header without them is the previous
 /// version's.
 const MPI_COLUMNS: usize = 3;
 
 impl RunRow {
-    /// The column names, in order (from serde, so they never drift from the struct).
+    /// The column names, in order: the struct's fields (from serde, so they never drift from
+    /// it) with the scheduler parameters' columns after `order`.
     pub fn header() -> Vec<String> {
         let mut w = csv::Writer::from_writer(vec![]);
         w.serialize(Self::example()).expect("serialise example row");
         let bytes = w.into_inner().expect("flush to Vec");
         let text = String::from_utf8(bytes).expect("utf8");
-        text.lines()
+        let mut cols: Vec<String> = text
+            .lines()
             .next()
             .unwrap_or("")
             .split(',')
             .map(str::to_string)
-            .collect()
+            .collect();
+        let at = params_at(&cols);
+        cols.splice(at..at, param_columns().iter().map(|p| p.name.to_string()));
+        cols
+    }
+
+    /// The master's buffer size (what the buffer plots are drawn against).
+    pub fn buffer(&self) -> Option<usize> {
+        self.param("buffer")
+            .and_then(crate::sched::spec::parse_param)
+    }
+
+    /// The value of scheduler parameter `name` (`None`: the scheduler has none).
+    pub fn param(&self, name: &str) -> Option<&str> {
+        let i = param_columns().iter().position(|p| p.name == name)?;
+        self.params.get(i)?.as_deref()
     }
     fn example() -> Self {
         Self {
@@ -124,11 +148,7 @@ impl RunRow {
             chunk: None,
             chunk_px: None,
             order: None,
-            buffer: None,
-            requeue: None,
-            wait: None,
-            grab: None,
-            guided_k: None,
+            params: vec![None; param_columns().len()],
             workers: 0,
             repetition: 0,
             wall_s: 0.0,
@@ -187,23 +207,12 @@ impl RunRow {
                 r.workers = 1;
             }
             Some(s) => {
-                let master = s.kind.has_master();
-                let grabs = matches!(
-                    s.kind,
-                    crate::sched::SchedulerKind::SelfScheduling
-                        | crate::sched::SchedulerKind::Guided
-                        | crate::sched::SchedulerKind::WorkStealing
-                );
-                r.scheduler = s.kind.id().into();
+                r.scheduler = s.kind().id().into();
                 r.label = s.label();
                 r.chunk = Some(s.chunk.to_string());
                 r.chunk_px = Some(s.chunk.pixels(sc.width(), sc.height()));
                 r.order = Some(s.order.id().into());
-                r.buffer = master.then_some(s.buffer);
-                r.requeue = master.then(|| s.requeue.to_string());
-                r.wait = master.then(|| s.wait.id().to_string());
-                r.grab = grabs.then_some(s.grab);
-                r.guided_k = (s.kind == crate::sched::SchedulerKind::Guided).then_some(s.guided_k);
+                r.params = param_columns().iter().map(|p| s.get(p.name)).collect();
                 r.workers = s.workers;
             }
         }
@@ -229,13 +238,11 @@ impl RunRow {
             self.scheduler.clone(),
             o(&self.chunk),
             o(&self.order),
-            n(self.buffer),
-            o(&self.requeue),
-            o(&self.wait),
-            n(self.grab),
-            n(self.guided_k),
-            self.workers.to_string(),
         ]
+        .into_iter()
+        .chain(self.params.iter().map(o))
+        .chain([self.workers.to_string()])
+        .collect::<Vec<_>>()
         .join("|");
         // Only rows of an MPI experiment carry these, so every older id stays what it was.
         if self.ranks.is_some() {
@@ -246,11 +253,53 @@ impl RunRow {
 
     /// One CSV line, newline included.
     pub fn to_line(&self) -> Vec<u8> {
+        let mut fields = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(vec![]);
+        fields.serialize(self).expect("a RunRow always serialises");
+        let line = fields.into_inner().expect("flush to Vec");
+        let mut record = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .from_reader(&line[..])
+            .records()
+            .next()
+            .and_then(Result::ok)
+            .expect("a serialised row reads back");
+        let at = params_at(&Self::header()[..]);
+        let mut cells: Vec<String> = record.iter().map(str::to_string).collect();
+        cells.splice(
+            at..at,
+            self.params.iter().map(|p| p.clone().unwrap_or_default()),
+        );
+        record = csv::StringRecord::from(cells);
         let mut w = csv::WriterBuilder::new()
             .has_headers(false)
             .from_writer(vec![]);
-        w.serialize(self).expect("a RunRow always serialises");
+        w.write_record(&record).expect("write to Vec");
         w.into_inner().expect("flush to Vec")
+    }
+
+    /// A row from its cells under `names` (a prefix of [`Self::header`]): the parameter
+    /// columns are taken out, the rest deserialised by name.
+    fn from_record(rec: &csv::StringRecord, names: &csv::StringRecord) -> Option<Self> {
+        let at = params_at(&names.iter().map(str::to_string).collect::<Vec<_>>());
+        let k = param_columns().len();
+        fn cut(r: &csv::StringRecord, at: usize, k: usize) -> (csv::StringRecord, Vec<&str>) {
+            let v: Vec<&str> = r.iter().collect();
+            let rest: Vec<&str> = v[..at].iter().chain(&v[at + k..]).copied().collect();
+            (csv::StringRecord::from(rest), v[at..at + k].to_vec())
+        }
+        if names.len() < at + k || rec.len() != names.len() {
+            return None;
+        }
+        let (rest_names, _) = cut(names, at, k);
+        let (rest, params) = cut(rec, at, k);
+        let mut row: Self = rest.deserialize(Some(&rest_names)).ok()?;
+        row.params = params
+            .iter()
+            .map(|p| (!p.is_empty()).then(|| p.to_string()))
+            .collect();
+        Some(row)
     }
 }
 
@@ -327,7 +376,7 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
             if rec.len() != ncols {
                 return None;
             }
-            rec.deserialize::<RunRow>(Some(&names)).ok()
+            RunRow::from_record(&rec, &names)
         });
         match parsed {
             Some(row) => rows.push(row),

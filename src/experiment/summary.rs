@@ -2,6 +2,7 @@
 //! mean wall time, plus median speedup and overhead parts. Always recomputed from `runs.csv`.
 
 use super::results::RunRow;
+use crate::sched::param_columns;
 use std::path::Path;
 
 /// Statistics of one configuration's repetitions.
@@ -125,7 +126,7 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
 
 pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_path(path)?;
-    w.write_record([
+    let head = [
         "experiment",
         "config",
         "scene",
@@ -140,11 +141,8 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "chunk",
         "chunk_px",
         "order",
-        "buffer",
-        "requeue",
-        "wait",
-        "grab",
-        "guided_k",
+    ];
+    let tail = [
         "workers",
         "n",
         "wall_median_s",
@@ -167,13 +165,15 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "sources",
         "ranks",
         "transport",
-    ])?;
+    ];
+    let params = param_columns().iter().map(|p| p.name);
+    w.write_record(head.into_iter().chain(params).chain(tail))?;
     let o = |v: &Option<String>| v.clone().unwrap_or_default();
     let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
     for s in sums {
         let r = &s.row;
         let f = |x: f64| format!("{x:.6}");
-        w.write_record([
+        let head = [
             r.experiment.clone(),
             r.config.clone(),
             r.scene.clone(),
@@ -188,11 +188,8 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
             o(&r.chunk),
             r.chunk_px.map(|c| c.to_string()).unwrap_or_default(),
             o(&r.order),
-            n(r.buffer),
-            o(&r.requeue),
-            o(&r.wait),
-            n(r.grab),
-            n(r.guided_k),
+        ];
+        let tail = [
             r.workers.to_string(),
             s.n.to_string(),
             f(s.wall_median),
@@ -215,7 +212,9 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
             r.sources.clone(),
             n(r.ranks),
             o(&r.transport),
-        ])?;
+        ];
+        let params = r.params.iter().map(o);
+        w.write_record(head.into_iter().chain(params).chain(tail))?;
     }
     w.flush()?;
     Ok(())

@@ -17,9 +17,7 @@
 //! `MPI_Finalize`.
 
 pub mod comm;
-pub mod experiment;
 pub mod pull;
-pub mod run;
 pub mod scene;
 pub mod source;
 pub mod wire;

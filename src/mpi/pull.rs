@@ -9,7 +9,8 @@
 
 use crate::render::WorkItem;
 use crate::sched::{
-    wire, Collector, MasterStats, Results, RunStats, SchedError, SchedulerKind, SchedulerSpec, Wait,
+    wire, Collector, MasterStats, Policy, Results, RunStats, SchedError, SchedulerKind,
+    SchedulerSpec, Wait,
 };
 use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
 use std::time::{Duration, Instant};
@@ -42,7 +43,11 @@ pub fn run_pull(
         out.push(src.submit(items[i].clone()));
     };
     let mut next = 0usize;
-    if spec.kind == SchedulerKind::Static {
+    let grab = match spec.policy {
+        Policy::SelfScheduling(p) => p.grab,
+        _ => 1,
+    };
+    if spec.kind() == SchedulerKind::Static {
         for (s, src) in sources.iter_mut().enumerate() {
             for i in s * n / k..(s + 1) * n / k {
                 submit(&mut out[s], i, src, &mut stats);
@@ -87,10 +92,10 @@ pub fn run_pull(
         }
         for (s, src) in sources.iter_mut().enumerate() {
             if out[s].is_empty() && next < n {
-                for i in next..(next + spec.grab).min(n) {
+                for i in next..(next + grab).min(n) {
                     submit(&mut out[s], i, src, &mut stats);
                 }
-                next = (next + spec.grab).min(n);
+                next = (next + grab).min(n);
             }
         }
         let tw = Instant::now();

@@ -478,10 +478,10 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
         let master: Vec<&Summary> = at_max
             .iter()
             .copied()
-            .filter(|s| s.row.buffer.is_some())
+            .filter(|s| s.row.buffer().is_some())
             .collect();
         let buffers: std::collections::BTreeSet<usize> =
-            master.iter().filter_map(|s| s.row.buffer).collect();
+            master.iter().filter_map(|s| s.row.buffer()).collect();
         if buffers.len() > 1 {
             let data = series(
                 &master,
@@ -491,7 +491,7 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
                         s.row.chunk.clone().unwrap_or_default()
                     ))
                 },
-                |s| s.row.buffer.map(|b| (b as f64).log2()),
+                |s| s.row.buffer().map(|b| (b as f64).log2()),
                 |s| s.speedup_median,
                 higher,
             );
@@ -553,7 +553,7 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
         if let Some(pr) = at_max
             .iter()
-            .filter(|s| s.row.buffer.is_some() && s.row.chunk_px == Some(1))
+            .filter(|s| s.row.buffer().is_some() && s.row.chunk_px == Some(1))
             .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
         {
             if !picks.iter().any(|(_, s)| s.row.config == pr.row.config) {

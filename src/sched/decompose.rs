@@ -8,7 +8,7 @@
 //! order's sequence, then those of frame 1, … With chunk `frame` one item is one whole frame,
 //! the coarsest item there is.
 
-use super::spec::{Chunk, Order};
+use super::param::{Chunk, Order};
 use crate::render::WorkItem;
 
 /// Items covering a `width`×`height` image, ids 0..n in hand-out order.

@@ -7,7 +7,7 @@
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
 use super::{
-    wire, Collector, MasterStats, Results, RunOptions, RunStats, SchedError, SchedulerSpec,
+    wire, Collector, MasterParams, MasterStats, Results, RunOptions, RunStats, SchedError,
 };
 use crate::render::WorkItem;
 use crate::sched::{Requeue, Span, MASTER_LANE};
@@ -57,9 +57,9 @@ fn hand_out(
     }));
 }
 
-/// Run `items` on `sources` under the master (`spec.buffer`, `spec.requeue`, `spec.wait`).
+/// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait strategy).
 pub fn run_master(
-    spec: &SchedulerSpec,
+    params: &MasterParams,
     items: &[WorkItem],
     mut sources: Vec<Box<dyn ComputeSource>>,
     opts: &RunOptions,
@@ -71,7 +71,7 @@ pub fn run_master(
     for s in sources.iter_mut() {
         s.set_notifier(bell.notifier());
     }
-    let b = spec.buffer;
+    let b = params.buffer;
     let timed = probe.stats;
     let mut m = MasterStats::default();
     let mut stats = RunStats {
@@ -117,7 +117,7 @@ pub fn run_master(
                     Ok(Err(_)) => {
                         alive[s] = false;
                         if !c.is_done(slot.item) {
-                            match spec.requeue {
+                            match params.requeue {
                                 Requeue::Never => known_lost += 1,
                                 _ => issued_at[slot.item as usize] = None,
                             }
@@ -143,7 +143,7 @@ pub fn run_master(
                 total: n as u64,
             });
         }
-        if spec.requeue == Requeue::Never && c.tally.done as u64 + known_lost == n as u64 {
+        if params.requeue == Requeue::Never && c.tally.done as u64 + known_lost == n as u64 {
             break Err(SchedError::LostItems {
                 lost: known_lost,
                 total: n as u64,
@@ -152,7 +152,7 @@ pub fn run_master(
         if let Some(dl) = opts.deadline {
             if t0.elapsed() >= dl {
                 let (done, total) = (c.tally.done as u64, n as u64);
-                break Err(match spec.requeue {
+                break Err(match params.requeue {
                     Requeue::Never => SchedError::LostItems {
                         lost: total - done,
                         total,
@@ -166,7 +166,7 @@ pub fn run_master(
             }
         }
         // 2. Top every live source up to B outstanding items.
-        let stale = stale_after(spec.requeue, slowest);
+        let stale = stale_after(params.requeue, slowest);
         for (s, src) in sources.iter_mut().enumerate() {
             if !alive[s] {
                 continue;
@@ -181,8 +181,8 @@ pub fn run_master(
                     continue; // finished: leaves the queue for good
                 }
                 if handed[i as usize] {
-                    let again = match (spec.requeue, issued_at[i as usize]) {
-                        (Requeue::Seed, _) | (_, None) => true,
+                    let again = match (params.requeue, issued_at[i as usize]) {
+                        (Requeue::Revisit, _) | (_, None) => true,
                         (Requeue::Timeout(d), Some(at)) => now - at >= d,
                         (Requeue::Never, _) => false,
                     };
@@ -207,7 +207,7 @@ pub fn run_master(
                 stats.issued += 1;
                 handed[i as usize] = true;
                 issued_at[i as usize] = Some(now);
-                if spec.requeue != Requeue::Never {
+                if params.requeue != Requeue::Never {
                     queue.push_back(i);
                 }
             }
@@ -228,7 +228,7 @@ pub fn run_master(
                 });
             }
         }
-        bell.wait(TICK, spec.wait, || {
+        bell.wait(TICK, params.wait, || {
             out.iter().flatten().any(|sl| sl.result.is_ready())
         });
         if let Some(a) = t_wait {

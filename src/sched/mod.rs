@@ -7,6 +7,7 @@
 
 pub mod decompose;
 pub mod master;
+pub mod param;
 mod results;
 mod shared;
 pub mod spec;
@@ -14,9 +15,13 @@ pub mod stats;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
+pub use param::{Chunk, Order, ParamInfo, ParamValue, Params, Requeue, SpecError, Wait};
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
-pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
+pub use spec::{
+    param_columns, GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec,
+    SelfSchedulingParams, WorkStealingParams,
+};
 pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
 use crate::render::{render_item, Image, WorkItem};
@@ -130,10 +135,10 @@ pub fn run_items(
     spec.validate()?;
     debug_assert!(items.iter().enumerate().all(|(i, it)| it.id == i as u32));
     let probe = Probe::new(opts.stats, spec.timeline);
-    match spec.kind {
-        SchedulerKind::Master => {
+    match spec.policy {
+        Policy::Master(m) => {
             let sources = make_sources(&job, spec.workers, opts.faults.as_ref(), probe);
-            master::run_master(spec, items, sources, opts, probe)
+            master::run_master(&m, items, sources, opts, probe)
         }
         _ => shared::run_shared(spec, items, &job, probe),
     }

@@ -2,8 +2,7 @@
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
 use super::{
-    wire, Job, Results, RunStats, SchedError, SchedulerKind, SchedulerSpec, Span, Tally,
-    WorkerStats,
+    wire, Job, Policy, Results, RunStats, SchedError, SchedulerSpec, Span, Tally, WorkerStats,
 };
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
@@ -102,23 +101,29 @@ pub(super) fn run_shared(
     probe: Probe,
 ) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
-    let (n, w, grab) = (items.len(), spec.workers, spec.grab);
+    let (n, w) = (items.len(), spec.workers);
     let units = vec![(); w];
     // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
+    let grab = match spec.policy {
+        Policy::WorkStealing(p) => p.grab,
+        Policy::SelfScheduling(p) => p.grab,
+        Policy::Guided(p) => p.grab,
+        _ => 1,
+    };
     let expect = n / w + n / (4 * w) + grab;
-    let locals = match spec.kind {
-        SchedulerKind::Static => spawn_workers(units, &probe, expect, |id, (), l| {
+    let locals = match spec.policy {
+        Policy::Static => spawn_workers(units, &probe, expect, |id, (), l| {
             let id = id as usize;
             for it in &items[id * n / w..(id + 1) * n / w] {
                 l.run(job, it, &probe);
             }
         })?,
-        SchedulerKind::StaticCyclic => spawn_workers(units, &probe, expect, |id, (), l| {
+        Policy::StaticCyclic => spawn_workers(units, &probe, expect, |id, (), l| {
             for it in items.iter().skip(id as usize).step_by(w) {
                 l.run(job, it, &probe);
             }
         })?,
-        SchedulerKind::SelfScheduling => {
+        Policy::SelfScheduling(_) => {
             // Padded: nothing the workers read per item shares the counter's line (no
             // measurable change on the dispatch bench, 23–26 ns per item either way: the cost
             // is the counter's own line moving between cores at every grab, see
@@ -134,9 +139,9 @@ pub(super) fn run_shared(
                 }
             })?
         }
-        SchedulerKind::Guided => {
+        Policy::Guided(p) => {
             let next = AtomicUsize::new(0);
-            let k = spec.guided_k * w;
+            let k = p.guided_k * w;
             spawn_workers(units, &probe, expect, |_, (), l| {
                 let mut cur = next.load(Ordering::Relaxed);
                 while cur < n {
@@ -158,7 +163,7 @@ pub(super) fn run_shared(
                 }
             })?
         }
-        SchedulerKind::WorkStealingDeque => {
+        Policy::WorkStealingDeque => {
             // Each deque starts with a contiguous band; thieves take half a victim's deque.
             let deques: Vec<Worker<u32>> = (0..w).map(|_| Worker::new_fifo()).collect();
             for (id, d) in deques.iter().enumerate() {
@@ -173,8 +178,8 @@ pub(super) fn run_shared(
                 }
             })?
         }
-        SchedulerKind::WorkStealing => rayon_locals(items, job, w, grab, probe)?,
-        SchedulerKind::Master => unreachable!("the master has its own loop"),
+        Policy::WorkStealing(_) => rayon_locals(items, job, w, grab, probe)?,
+        Policy::Master(_) => unreachable!("the master has its own loop"),
     };
     Ok(finish(locals, n, t0, probe))
 }

@@ -1,308 +1,286 @@
-//! What a scheduler run is asked to do: stable snake_case ids shared by CLI, TOML and CSV,
-//! parsed and validated here (one place maps an id to a type).
+//! The one definition of every scheduler: its id, what it does, and its parameters with their
+//! defaults. The CLI flags, experiment keys, CSV columns, config keys and run labels are all
+//! derived from here ([`param_columns`], [`SchedulerSpec::set`], [`SchedulerSpec::get`]).
+//!
+//! Adding a parameter: one line in the kind's `scheduler_params!` struct below, then its use
+//! in the scheduler's own file. Adding a scheduler: a [`SchedulerKind`] id, a [`Policy`]
+//! variant (with a parameter struct if it has any) and the scheduler's own file.
 
+use super::param::{
+    err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Requeue,
+    SpecError, Wait,
+};
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::time::Duration;
+use std::sync::OnceLock;
 
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{field}: {msg}")]
-pub struct SpecError {
-    pub field: String,
-    pub msg: String,
-}
-
-fn err(field: &str, msg: impl Into<String>) -> SpecError {
-    SpecError {
-        field: field.to_string(),
-        msg: msg.into(),
+id_enum! {
+    /// Who decides who renders what.
+    pub enum SchedulerKind("scheduler", "scheduler") {
+        /// Contiguous bands of items, one per worker; no master.
+        Static = "static",
+        /// Item i to worker i mod n; no master.
+        StaticCyclic = "static_cyclic",
+        /// The founding design: a master thread (renders nothing) keeps ≤ B items outstanding
+        /// per compute source, re-queueing handed-out items at the back of a FIFO.
+        Master = "master",
+        /// rayon over items, split no finer than `grab` items per task.
+        WorkStealing = "work_stealing",
+        /// One crossbeam-deque per worker, stealing from the others when empty.
+        WorkStealingDeque = "work_stealing_deque",
+        /// One shared atomic counter over items; each grab takes `grab` items.
+        SelfScheduling = "self_scheduling",
+        /// Grabs of max(grab, remaining / (k·workers)) items from a shared counter.
+        Guided = "guided",
     }
-}
-
-/// Who decides who renders what.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SchedulerKind {
-    /// Contiguous bands of items, one per worker; no master.
-    Static,
-    /// Item i to worker i mod n; no master.
-    StaticCyclic,
-    /// The report's design: a master thread (renders nothing) keeps ≤ B items outstanding per
-    /// compute source, re-queueing handed-out items at the back of a FIFO.
-    Master,
-    /// rayon over items, split no finer than `chunk` items per task.
-    WorkStealing,
-    /// One crossbeam-deque per worker, stealing from the others when empty.
-    WorkStealingDeque,
-    /// One shared atomic counter over items; each grab takes `grab` items.
-    SelfScheduling,
-    /// Grabs of max(min, remaining / (k·workers)) items from a shared counter.
-    Guided,
 }
 
 impl SchedulerKind {
-    pub const ALL: [SchedulerKind; 7] = [
-        Self::Static,
-        Self::StaticCyclic,
-        Self::Master,
-        Self::WorkStealing,
-        Self::WorkStealingDeque,
-        Self::SelfScheduling,
-        Self::Guided,
-    ];
-    pub fn id(self) -> &'static str {
-        match self {
-            Self::Static => "static",
-            Self::StaticCyclic => "static_cyclic",
-            Self::Master => "master",
-            Self::WorkStealing => "work_stealing",
-            Self::WorkStealingDeque => "work_stealing_deque",
-            Self::SelfScheduling => "self_scheduling",
-            Self::Guided => "guided",
+    /// Can this scheduler hand items to MPI ranks (a source in another process)?
+    pub fn over_mpi(self) -> bool {
+        matches!(self, Self::Master | Self::Static | Self::SelfScheduling)
+    }
+}
+
+scheduler_params! {
+    /// The master's parameters.
+    pub struct MasterParams {
+        /// Items outstanding per compute source (B).
+        buffer: usize = 2, label Some("B");
+        /// When a handed-out, unfinished item is handed out again: revisit, never or timeout:<ms>.
+        requeue: Requeue = Requeue::Never, label Some("requeue");
+        /// How the master waits for results: spin, yield or block.
+        wait: Wait = Wait::Block, label Some("wait");
+    }
+}
+
+scheduler_params! {
+    /// Work stealing's parameters.
+    pub struct WorkStealingParams {
+        /// The fewest items one task holds (rayon's minimum split).
+        grab: usize = 1, label None;
+    }
+}
+
+scheduler_params! {
+    /// Self-scheduling's parameters.
+    pub struct SelfSchedulingParams {
+        /// Items a worker takes from the shared counter at once.
+        grab: usize = 1, label None;
+    }
+}
+
+scheduler_params! {
+    /// Guided self-scheduling's parameters.
+    pub struct GuidedParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+        /// k in grab = max(grab, remaining / (k·workers)).
+        guided_k: usize = 2, label None;
+    }
+}
+
+/// A scheduler kind with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Policy {
+    /// See [`SchedulerKind::Static`].
+    Static,
+    /// See [`SchedulerKind::StaticCyclic`].
+    StaticCyclic,
+    /// See [`SchedulerKind::Master`].
+    Master(MasterParams),
+    /// See [`SchedulerKind::WorkStealing`].
+    WorkStealing(WorkStealingParams),
+    /// See [`SchedulerKind::WorkStealingDeque`].
+    WorkStealingDeque,
+    /// See [`SchedulerKind::SelfScheduling`].
+    SelfScheduling(SelfSchedulingParams),
+    /// See [`SchedulerKind::Guided`].
+    Guided(GuidedParams),
+}
+
+impl Policy {
+    /// `kind` with every parameter at its default.
+    pub const fn defaults(kind: SchedulerKind) -> Self {
+        match kind {
+            SchedulerKind::Static => Self::Static,
+            SchedulerKind::StaticCyclic => Self::StaticCyclic,
+            SchedulerKind::Master => Self::Master(MasterParams::DEFAULT),
+            SchedulerKind::WorkStealing => Self::WorkStealing(WorkStealingParams::DEFAULT),
+            SchedulerKind::WorkStealingDeque => Self::WorkStealingDeque,
+            SchedulerKind::SelfScheduling => Self::SelfScheduling(SelfSchedulingParams::DEFAULT),
+            SchedulerKind::Guided => Self::Guided(GuidedParams::DEFAULT),
         }
     }
-    pub fn from_id(s: &str) -> Result<Self, SpecError> {
-        Self::ALL.into_iter().find(|k| k.id() == s).ok_or_else(|| {
-            err(
-                "scheduler",
-                format!(
-                    "unknown scheduler '{s}' (expected one of: {})",
-                    Self::ALL.map(|k| k.id()).join(", ")
-                ),
-            )
-        })
+
+    /// The kind, without its parameters.
+    pub fn kind(&self) -> SchedulerKind {
+        match self {
+            Self::Static => SchedulerKind::Static,
+            Self::StaticCyclic => SchedulerKind::StaticCyclic,
+            Self::Master(_) => SchedulerKind::Master,
+            Self::WorkStealing(_) => SchedulerKind::WorkStealing,
+            Self::WorkStealingDeque => SchedulerKind::WorkStealingDeque,
+            Self::SelfScheduling(_) => SchedulerKind::SelfScheduling,
+            Self::Guided(_) => SchedulerKind::Guided,
+        }
     }
-    /// Only the master has a buffer, a re-queue policy and a wait strategy.
-    pub fn has_master(self) -> bool {
-        self == Self::Master
+
+    /// The parameters by name (`None`: the kind has none).
+    pub fn params(&self) -> Option<&dyn Params> {
+        match self {
+            Self::Master(p) => Some(p),
+            Self::WorkStealing(p) => Some(p),
+            Self::SelfScheduling(p) => Some(p),
+            Self::Guided(p) => Some(p),
+            Self::Static | Self::StaticCyclic | Self::WorkStealingDeque => None,
+        }
+    }
+
+    fn params_mut(&mut self) -> Option<&mut dyn Params> {
+        match self {
+            Self::Master(p) => Some(p),
+            Self::WorkStealing(p) => Some(p),
+            Self::SelfScheduling(p) => Some(p),
+            Self::Guided(p) => Some(p),
+            Self::Static | Self::StaticCyclic | Self::WorkStealingDeque => None,
+        }
+    }
+
+    /// The parameters this kind has, in column order.
+    pub fn info(&self) -> &'static [ParamInfo] {
+        self.params().map_or(&[], |p| p.info())
     }
 }
 
-/// Granularity: how many pixels make one work item.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Chunk {
-    /// A w×h tile (1×1 = one pixel = per-ray granularity).
-    Tile { w: u32, h: u32 },
-    /// Bands of `n` full rows.
-    Rows(u32),
-    /// The whole image as one item: one item per frame of an animation (the coarsest item).
-    /// Parsed from `frame` or `frames`.
-    Frame,
-}
-
-impl Chunk {
-    /// `1`, `16` (16×16), `8x4`, `rows:4`, `frame` (alias `frames`: one whole frame per item
-    /// is what `frame` already means on an animation; one id is written to CSVs).
-    pub fn parse(s: &str) -> Result<Self, SpecError> {
-        let bad = |m: &str| err("chunk", format!("'{s}': {m}"));
-        let pos = |t: &str| -> Result<u32, SpecError> {
-            match t.trim().parse::<u32>() {
-                Ok(0) => Err(bad("sizes must be ≥ 1 (chunk 0 has no pixels)")),
-                Ok(v) => Ok(v),
-                Err(_) => Err(bad("expected N, WxH, rows:N, frame or frames")),
+/// Every parameter any kind has, first appearance in [`SchedulerKind::ALL`] order: the CSV
+/// columns (and CLI flags) after `order`. A name shared by several kinds is one column.
+pub fn param_columns() -> &'static [ParamInfo] {
+    static COLUMNS: OnceLock<Vec<ParamInfo>> = OnceLock::new();
+    COLUMNS.get_or_init(|| {
+        let mut out: Vec<ParamInfo> = Vec::new();
+        for k in SchedulerKind::ALL {
+            for p in Policy::defaults(k).info() {
+                if !out.iter().any(|q| q.name == p.name) {
+                    out.push(*p);
+                }
             }
-        };
-        let s = s.trim();
-        if s == "frame" || s == "frames" {
-            Ok(Self::Frame)
-        } else if let Some(n) = s.strip_prefix("rows:") {
-            Ok(Self::Rows(pos(n)?))
-        } else if let Some((w, h)) = s.split_once(['x', '×']) {
-            Ok(Self::Tile {
-                w: pos(w)?,
-                h: pos(h)?,
-            })
-        } else {
-            let n = pos(s)?;
-            Ok(Self::Tile { w: n, h: n })
         }
-    }
-    /// Pixels per item on an image of this width and height (edge items may be smaller).
-    pub fn pixels(&self, width: u32, height: u32) -> u64 {
-        match *self {
-            Self::Tile { w, h } => w.min(width) as u64 * h.min(height) as u64,
-            Self::Rows(n) => width as u64 * n.min(height) as u64,
-            Self::Frame => width as u64 * height as u64,
-        }
-    }
+        out
+    })
 }
 
-impl fmt::Display for Chunk {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Tile { w, h } if w == h => write!(f, "{w}"),
-            Self::Tile { w, h } => write!(f, "{w}x{h}"),
-            Self::Rows(n) => write!(f, "rows:{n}"),
-            Self::Frame => write!(f, "frame"),
-        }
-    }
-}
-
-/// The order items are generated (and so handed out) in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Order {
-    Scanline,
-    Morton,
-    Hilbert,
-}
-
-impl Order {
-    pub const ALL: [Order; 3] = [Self::Scanline, Self::Morton, Self::Hilbert];
-    pub fn id(self) -> &'static str {
-        match self {
-            Self::Scanline => "scanline",
-            Self::Morton => "morton",
-            Self::Hilbert => "hilbert",
-        }
-    }
-    pub fn from_id(s: &str) -> Result<Self, SpecError> {
-        Self::ALL.into_iter().find(|o| o.id() == s).ok_or_else(|| {
-            err(
-                "order",
-                format!("unknown order '{s}' (expected scanline, morton or hilbert)"),
-            )
+/// The kinds that have parameter `name`, with its meaning for each.
+pub fn kinds_with(name: &str) -> Vec<(SchedulerKind, &'static ParamInfo)> {
+    SchedulerKind::ALL
+        .into_iter()
+        .filter_map(|k| {
+            let p = Policy::defaults(k).info().iter().find(|p| p.name == name)?;
+            Some((k, p))
         })
-    }
-}
-
-/// When the master may hand an outstanding item out again.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Requeue {
-    /// The seed's policy: as soon as the item comes round in the queue again.
-    Seed,
-    /// Only once it has been outstanding this long.
-    Timeout(Duration),
-    /// Never: a lost item stays lost (the run fails with a count of lost items).
-    Never,
-}
-
-impl Requeue {
-    /// `seed`, `never`, `timeout:<ms>`.
-    pub fn parse(s: &str) -> Result<Self, SpecError> {
-        match s.trim() {
-            "seed" => Ok(Self::Seed),
-            "never" => Ok(Self::Never),
-            t => match t.strip_prefix("timeout:").map(|ms| ms.parse::<u64>()) {
-                Some(Ok(ms)) if ms > 0 => Ok(Self::Timeout(Duration::from_millis(ms))),
-                _ => Err(err(
-                    "requeue",
-                    format!("'{s}': expected seed, never or timeout:<ms> with ms ≥ 1"),
-                )),
-            },
-        }
-    }
-}
-
-impl fmt::Display for Requeue {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Seed => write!(f, "seed"),
-            Self::Never => write!(f, "never"),
-            Self::Timeout(d) => write!(f, "timeout:{}", d.as_millis()),
-        }
-    }
-}
-
-/// How the master waits for results.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Wait {
-    /// Busy-poll: lowest latency, but steals a core from the workers.
-    Spin,
-    /// Poll, yielding the core between polls.
-    Yield,
-    /// Sleep on the result channel until something arrives.
-    Block,
-}
-
-impl Wait {
-    pub const ALL: [Wait; 3] = [Self::Spin, Self::Yield, Self::Block];
-    pub fn id(self) -> &'static str {
-        match self {
-            Self::Spin => "spin",
-            Self::Yield => "yield",
-            Self::Block => "block",
-        }
-    }
-    pub fn from_id(s: &str) -> Result<Self, SpecError> {
-        Self::ALL.into_iter().find(|w| w.id() == s).ok_or_else(|| {
-            err(
-                "wait",
-                format!("unknown wait strategy '{s}' (expected spin, yield or block)"),
-            )
-        })
-    }
+        .collect()
 }
 
 /// One scheduler run, fully specified.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SchedulerSpec {
-    pub kind: SchedulerKind,
+    /// The kind and its parameters.
+    pub policy: Policy,
+    /// How many pixels make one work item.
     pub chunk: Chunk,
+    /// The order items are generated in.
     pub order: Order,
     /// Compute sources / worker threads (the master is extra and counted separately).
     pub workers: usize,
-    /// Master: items outstanding per source.
-    pub buffer: usize,
-    pub requeue: Requeue,
-    pub wait: Wait,
-    /// self_scheduling: items per grab; guided: the minimum grab; work_stealing: minimum split.
-    pub grab: usize,
-    /// guided: divisor k in remaining / (k·workers).
-    pub guided_k: usize,
     /// Record a (worker, item, start, end) timeline for Gantt plots.
     pub timeline: bool,
 }
 
 impl SchedulerSpec {
+    /// `kind` at its defaults, scanline order, no timeline.
     pub fn new(kind: SchedulerKind, chunk: Chunk, workers: usize) -> Self {
         Self {
-            kind,
+            policy: Policy::defaults(kind),
             chunk,
             order: Order::Scanline,
             workers,
-            buffer: 2,
-            requeue: Requeue::Never,
-            wait: Wait::Block,
-            grab: 1,
-            guided_k: 2,
             timeline: false,
         }
     }
 
-    pub fn validate(&self) -> Result<(), SpecError> {
-        if self.workers == 0 {
-            return Err(err("workers", "must be ≥ 1 (got 0)"));
+    /// The kind, without its parameters.
+    pub fn kind(&self) -> SchedulerKind {
+        self.policy.kind()
+    }
+
+    /// Is `name` a parameter of this kind? The error says which kinds have it.
+    pub fn check_name(&self, name: &str) -> Result<(), SpecError> {
+        if self.policy.info().iter().any(|p| p.name == name) {
+            return Ok(());
         }
-        if self.buffer == 0 {
-            return Err(err("buffer", "must be ≥ 1 (got 0)"));
-        }
-        if self.grab == 0 {
-            return Err(err("grab", "must be ≥ 1 (got 0)"));
-        }
-        if self.guided_k == 0 {
-            return Err(err("guided_k", "must be ≥ 1 (got 0)"));
-        }
-        if let Chunk::Tile { w: 0, .. } | Chunk::Tile { h: 0, .. } | Chunk::Rows(0) = self.chunk {
-            return Err(err("chunk", "sizes must be ≥ 1 (chunk 0 has no pixels)"));
+        let with: Vec<&str> = kinds_with(name).iter().map(|(k, _)| k.id()).collect();
+        Err(match with.len() {
+            0 => err(name, "unknown scheduler parameter"),
+            n => err(
+                name,
+                format!(
+                    "'{}' has no {name} (only {} {})",
+                    self.kind().id(),
+                    one_of(&with),
+                    if n == 1 { "takes it" } else { "take it" }
+                ),
+            ),
+        })
+    }
+
+    /// Set parameter `name` from its text form; a name this kind lacks is an error
+    /// ([`Self::check_name`]).
+    pub fn set(&mut self, name: &str, text: &str) -> Result<(), SpecError> {
+        self.check_name(name)?;
+        if let Some(p) = self.policy.params_mut() {
+            p.set(name, text).map_err(|m| err(name, m))?;
         }
         Ok(())
     }
 
-    /// A short label for plots and logs, e.g. `master chunk=16 B=2 wait=block`.
+    /// The text form of parameter `name`, `None` when this kind has no such parameter.
+    pub fn get(&self, name: &str) -> Option<String> {
+        self.policy.params()?.get(name)
+    }
+
+    /// Check what a struct literal could get wrong: no workers, an empty chunk, a parameter
+    /// whose value its text form would refuse (a buffer of 0).
+    pub fn validate(&self) -> Result<(), SpecError> {
+        if self.workers == 0 {
+            return Err(err("workers", "must be ≥ 1 (got 0)"));
+        }
+        if let Chunk::Tile { w: 0, .. } | Chunk::Tile { h: 0, .. } | Chunk::Rows(0) = self.chunk {
+            return Err(err("chunk", "sizes must be ≥ 1 (chunk 0 has no pixels)"));
+        }
+        for p in self.policy.info() {
+            let text = self.get(p.name).unwrap_or_default();
+            let mut copy = self.policy;
+            if let Some(params) = copy.params_mut() {
+                params.set(p.name, &text).map_err(|m| err(p.name, m))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A short label for plots and logs, e.g. `master chunk=16 B=2 requeue=never wait=block`.
     pub fn label(&self) -> String {
-        let mut s = format!("{} chunk={}", self.kind.id(), self.chunk);
-        if self.kind.has_master() {
-            s += &format!(
-                " B={} requeue={} wait={}",
-                self.buffer,
-                self.requeue,
-                self.wait.id()
-            );
+        let mut s = format!("{} chunk={}", self.kind().id(), self.chunk);
+        for p in self.policy.info() {
+            if let (Some(short), Some(v)) = (p.label, self.get(p.name)) {
+                s += &format!(" {short}={v}");
+            }
         }
         s
     }
+}
+
+/// A parameter's value read back typed (for code that holds only its text form, e.g. a CSV).
+pub fn parse_param<T: ParamValue>(text: &str) -> Option<T> {
+    T::parse_value(text).ok()
 }
 
 #[cfg(test)]
@@ -313,69 +291,74 @@ mod tests {
     fn ids_round_trip_and_unknown_ids_are_errors() {
         for k in SchedulerKind::ALL {
             assert_eq!(SchedulerKind::from_id(k.id()).unwrap(), k);
+            assert_eq!(Policy::defaults(k).kind(), k);
         }
         assert!(SchedulerKind::from_id("fastest")
             .unwrap_err()
             .msg
             .contains("unknown scheduler"));
-        assert!(Order::from_id("zigzag").is_err());
-        assert!(Wait::from_id("nap").is_err());
     }
 
     #[test]
-    fn chunk_parsing() {
-        assert_eq!(Chunk::parse("1").unwrap(), Chunk::Tile { w: 1, h: 1 });
-        assert_eq!(Chunk::parse("8x4").unwrap(), Chunk::Tile { w: 8, h: 4 });
-        assert_eq!(Chunk::parse("rows:3").unwrap(), Chunk::Rows(3));
-        assert_eq!(Chunk::parse("frame").unwrap(), Chunk::Frame);
-        assert_eq!(Chunk::parse("frames").unwrap(), Chunk::Frame);
-        for bad in ["0", "0x4", "rows:0", "x", ""] {
-            assert!(Chunk::parse(bad).is_err(), "{bad}");
-        }
-        for c in ["1", "8x4", "rows:3", "frame"] {
-            assert_eq!(Chunk::parse(c).unwrap().to_string(), c);
-        }
-    }
-
-    #[test]
-    fn requeue_parsing() {
-        assert_eq!(Requeue::parse("seed").unwrap(), Requeue::Seed);
+    fn columns_are_the_union_of_every_kinds_parameters_in_order() {
+        let names: Vec<&str> = param_columns().iter().map(|p| p.name).collect();
+        assert_eq!(names, ["buffer", "requeue", "wait", "grab", "guided_k"]);
+        let grab: Vec<SchedulerKind> = kinds_with("grab").iter().map(|(k, _)| *k).collect();
         assert_eq!(
-            Requeue::parse("timeout:50").unwrap(),
-            Requeue::Timeout(Duration::from_millis(50))
+            grab,
+            [
+                SchedulerKind::WorkStealing,
+                SchedulerKind::SelfScheduling,
+                SchedulerKind::Guided
+            ]
         );
-        assert!(Requeue::parse("timeout:0").is_err());
-        assert!(Requeue::parse("later").is_err());
+    }
+
+    #[test]
+    fn parameters_are_set_by_name_and_refused_where_the_kind_has_none() {
+        let mut m = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
+        m.set("buffer", "8").unwrap();
+        m.set("requeue", "timeout:50").unwrap();
+        assert_eq!(m.get("buffer").as_deref(), Some("8"));
+        assert_eq!(
+            m.label(),
+            "master chunk=frame B=8 requeue=timeout:50 wait=block"
+        );
+        assert_eq!(m.get("grab"), None);
+        let e = m.set("grab", "2").unwrap_err();
+        assert_eq!(e.field, "grab");
+        assert!(e.msg.contains("'master' has no grab"), "{e}");
+        assert_eq!(m.set("buffer", "0").unwrap_err().field, "buffer");
+        assert!(m.set("colour", "red").unwrap_err().msg.contains("unknown"));
+        let mut s = SchedulerSpec::new(SchedulerKind::Static, Chunk::Frame, 2);
+        assert_eq!(
+            s.set("buffer", "2").unwrap_err().msg,
+            "'static' has no buffer (only master takes it)"
+        );
+        assert_eq!(s.label(), "static chunk=frame");
     }
 
     #[test]
     fn zero_sizes_are_rejected() {
         let base = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
         assert!(base.validate().is_ok());
-        for (field, spec) in [
-            (
-                "workers",
-                SchedulerSpec {
-                    workers: 0,
-                    ..base.clone()
-                },
-            ),
-            (
-                "buffer",
-                SchedulerSpec {
-                    buffer: 0,
-                    ..base.clone()
-                },
-            ),
-            (
-                "grab",
-                SchedulerSpec {
-                    grab: 0,
-                    ..base.clone()
-                },
-            ),
-        ] {
-            assert_eq!(spec.validate().unwrap_err().field, field);
-        }
+        let no_workers = SchedulerSpec {
+            workers: 0,
+            ..base.clone()
+        };
+        assert_eq!(no_workers.validate().unwrap_err().field, "workers");
+        let no_buffer = SchedulerSpec {
+            policy: Policy::Master(MasterParams {
+                buffer: 0,
+                ..MasterParams::DEFAULT
+            }),
+            ..base.clone()
+        };
+        assert_eq!(no_buffer.validate().unwrap_err().field, "buffer");
+        let no_grab = SchedulerSpec {
+            policy: Policy::SelfScheduling(SelfSchedulingParams { grab: 0 }),
+            ..base
+        };
+        assert_eq!(no_grab.validate().unwrap_err().field, "grab");
     }
 }

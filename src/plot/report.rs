@@ -1,9 +1,9 @@
 //! `report.md`: what ran, on what machine, the plots, the best configuration per scheduler, and
 //! one plain sentence comparing the per-ray master with the best scheduler.
 
-use super::meta::Meta;
-use super::summary::Summary;
-use crate::plot::Figure;
+use super::Figure;
+use crate::experiment::meta::Meta;
+use crate::experiment::summary::Summary;
 use std::fmt::Write;
 
 fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
@@ -204,7 +204,7 @@ pub const BLOCK_PX: u64 = 256;
 /// local-thread baseline of the same launch size and scheduler (best buffer each), and the
 /// per-block ratio the issue sets a goal for (≥ 90 %).
 pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
-    use crate::plot::throughput;
+    use super::throughput;
     let mut md = String::new();
     if !sums.iter().any(|s| s.row.sources == "mpi") {
         return md;

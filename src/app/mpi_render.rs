@@ -1,16 +1,14 @@
 //! `raysched render SCENE --sources mpi` under `mpirun -n K`: rank 0 runs the scheduler, ranks
 //! 1…K−1 are compute sources (plus `--local-threads` threads on rank 0: a heterogeneous run).
 
-use super::comm::{tag, Comm};
-use super::source::{stop_ranks, Hub, Peer};
-use super::wire::Ready;
-use crate::cli::{CliError, RenderArgs};
-use crate::scene::SceneOverrides;
-use crate::sched::{
-    assemble, decompose_frames, master, render_job, RunOptions, SchedError, SchedulerKind,
-};
-use crate::source::{ComputeSource, LocalThreadSource, Probe};
-use crate::tracer::AnyTracer;
+use super::error::CliError;
+use super::render::RenderArgs;
+use raysched::mpi::comm::{tag, Comm};
+use raysched::mpi::source::{stop_ranks, Hub, Peer};
+use raysched::mpi::wire::Ready;
+use raysched::sched::{assemble, decompose_frames, master, render_job, Policy, SchedError};
+use raysched::source::{ComputeSource, LocalThreadSource, Probe};
+use raysched::tracer::AnyTracer;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -22,14 +20,14 @@ pub(crate) const STOP_WAIT: Duration = Duration::from_secs(10);
 /// `RAYSCHED_MPI_SILENCE_MS`); local ranks are also checked by pid, which is much faster.
 /// Busy workers send a heartbeat every 200 ms from a thread that does not render, so a
 /// slow item does not count as silence (it was 60 s before heartbeats).
-const SILENCE: Duration = Duration::from_millis(crate::experiment::plan::DEFAULT_SILENCE_MS);
+const SILENCE: Duration = Duration::from_millis(raysched::experiment::plan::DEFAULT_SILENCE_MS);
 
 /// Every rank enters here; only rank 0 returns from MPI's point of view — all ranks end the
 /// process themselves (with or without `MPI_Finalize`, see [`Comm::shutdown`]).
-pub fn render(args: RenderArgs) -> Result<(), CliError> {
+pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     let comm = Comm::init().map_err(CliError::runtime)?;
     if comm.rank != 0 {
-        super::worker::run(comm)
+        raysched::mpi::worker::run(comm)
     }
     lead(comm, |comm, lost| rank0(comm, &args, lost))
 }
@@ -56,14 +54,11 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     // Everything that can be wrong with the input is found before the broadcast; an empty
     // broadcast tells the workers to finalise and exit.
     let prepared = (|| {
-        let mut spec = args.scheduler_spec()?;
-        if !matches!(
-            spec.kind,
-            SchedulerKind::Master | SchedulerKind::Static | SchedulerKind::SelfScheduling
-        ) {
+        let mut spec = args.scheduler_spec(args.threads)?;
+        if !spec.kind().over_mpi() {
             return Err(input(format!(
                 "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
-                spec.kind.id()
+                spec.kind().id()
             )));
         }
         if comm.size < 2 && args.local_threads == 0 {
@@ -72,25 +67,9 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
                 comm.size
             )));
         }
-        if args.spp == Some(0) {
-            return Err(input("--spp: must be ≥ 1 (got 0)".into()));
-        }
-        let ext = args
-            .output
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
-            return Err(input(format!(
-                "--output {}: unsupported extension (use .exr or .pfm)",
-                args.output.display()
-            )));
-        }
-        crate::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
-        let overrides = SceneOverrides {
-            spp: args.spp,
-            ..Default::default()
-        };
-        let (scene, pkg) = super::scene::package(&args.scene, &overrides, &args.tracer)
+        let overrides = args.check_output()?;
+        raysched::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
+        let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, &args.tracer)
             .map_err(CliError::input)?;
         spec.workers = comm.size as usize - 1 + args.local_threads;
         Ok((scene, pkg, spec))
@@ -128,21 +107,17 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let labels: Vec<String> = sources.iter().map(|s| s.label()).collect();
     let (w, h) = (scene.width(), scene.height());
     let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
-    let opts = RunOptions {
-        stats: !args.stats_off,
-        deadline: args.deadline_ms.map(Duration::from_millis),
-        faults: None,
-    };
+    let opts = args.run_options();
     let t0 = Instant::now();
     let (outcome, hub_report) = std::thread::scope(|s| {
-        let master = s.spawn(|| match spec.kind {
-            SchedulerKind::Master => master::run_master(&spec, &items, sources, &opts, probe),
-            _ => super::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
+        let master = s.spawn(|| match spec.policy {
+            Policy::Master(m) => master::run_master(&m, &items, sources, &opts, probe),
+            _ => raysched::mpi::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
         });
         let report = hub.serve(STOP_WAIT);
         let outcome = master.join().unwrap_or_else(|p| {
             Err(SchedError::WorkerPanic(
-                crate::source::local::panic_message(&p),
+                raysched::source::local::panic_message(&p),
             ))
         });
         (outcome, report)
@@ -153,9 +128,9 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let image =
         assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
     let wall = t0.elapsed().as_secs_f64();
-    let wrote =
-        crate::cli::save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
-    crate::cli::print_render_header(
+    let wrote = super::render::save_render(&args.output, &image, scene.frames())
+        .map_err(CliError::runtime)?;
+    super::render::print_render_header(
         &scene,
         &format!(
             "{}, {} MPI ranks + {} local threads on rank 0",

@@ -8,20 +8,19 @@
 //! filesystem is assumed: each (scene, tracer) travels as a SCENE message and every worker
 //! answers READY. While rank 0 times local threads the workers sleep in 200 µs steps.
 
-use super::comm::{tag, Comm};
-use super::run::{gather_ready, input, lead, STOP_WAIT};
-use super::source::{stop_ranks, Hub, Peer};
-use crate::cli::{CliError, RunArgs};
-use crate::experiment::plan::RunConfig;
-use crate::experiment::{
+use super::error::CliError;
+use super::experiment::RunArgs;
+use super::mpi_render::{gather_ready, input, lead, STOP_WAIT};
+use raysched::experiment::plan::RunConfig;
+use raysched::experiment::{
     load_plan, run_experiment_with, ExperimentPlan, Launch, Remote, RunError, RunOptions,
 };
-use crate::render::Image;
-use crate::sched::{
-    assemble, decompose, master, RunStats, SchedError, SchedulerKind, SchedulerSpec,
-};
-use crate::source::Probe;
-use crate::tracer::Tracer;
+use raysched::mpi::comm::{tag, Comm};
+use raysched::mpi::source::{stop_ranks, Hub, Peer};
+use raysched::render::Image;
+use raysched::sched::{assemble, decompose, master, Policy, RunStats, SchedError, SchedulerSpec};
+use raysched::source::Probe;
+use raysched::tracer::Tracer;
 use std::time::Duration;
 
 /// Env: names the transport of a launch outright (a cluster's InfiniBand, a netem link).
@@ -33,7 +32,7 @@ const RUN_DEADLINE: Duration = Duration::from_secs(600);
 /// OpenMPI's `OMPI_MCA_btl` (`pml` other than ob1 means no BTL at all): only shared-memory
 /// BTLs (vader/sm) → `shared_memory`; only tcp → `tcp_loopback` when every rank is on this
 /// host, else `tcp`; anything else → `unknown`.
-pub fn transport(env: impl Fn(&str) -> Option<String>, one_host: bool) -> String {
+pub(crate) fn transport(env: impl Fn(&str) -> Option<String>, one_host: bool) -> String {
     if let Some(t) = env(ENV_TRANSPORT).filter(|t| !t.trim().is_empty()) {
         return t.trim().to_string();
     }
@@ -65,7 +64,7 @@ pub fn transport(env: impl Fn(&str) -> Option<String>, one_host: bool) -> String
 }
 
 /// Every rank enters here under `mpirun … raysched run`; never returns.
-pub fn run(args: RunArgs) -> ! {
+pub(crate) fn run(args: RunArgs) -> ! {
     let comm = match Comm::init() {
         Ok(c) => c,
         Err(e) => {
@@ -74,7 +73,7 @@ pub fn run(args: RunArgs) -> ! {
         }
     };
     if comm.rank != 0 {
-        super::worker::serve(comm, None)
+        raysched::mpi::worker::serve(comm, None)
     }
     lead(comm, |comm, lost| rank0(comm, &args, lost))
 }
@@ -128,7 +127,7 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
     if let Err(e) = remote.ship(&plan, 0) {
         return Err(CliError::runtime(e));
     }
-    let me = super::worker::hostname();
+    let me = raysched::mpi::worker::hostname();
     let one_host = remote.peers.iter().all(|p| p.host == me);
     let t = transport(|v| std::env::var(v).ok(), one_host);
     if !m.transports.contains(&t) {
@@ -163,7 +162,7 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
     let outcome = run_experiment_with(&plan, &opts, Some(&mut remote));
     *lost = !remote.lost.is_empty();
     remote.stop();
-    crate::cli::finish_experiment(&plan, outcome, args.quiet)
+    super::experiment::finish_experiment(&plan, outcome, args.quiet)
 }
 
 /// The MPI side of one launch, as the runner's [`Remote`].
@@ -189,7 +188,7 @@ impl MpiRemote<'_> {
             .parent()
             .unwrap_or(std::path::Path::new(""))
             .join(&ps.file);
-        let (scene, pkg) = super::scene::package(&file, &ps.overrides, &base.tracer_id)
+        let (scene, pkg) = raysched::mpi::scene::package(&file, &ps.overrides, &base.tracer_id)
             .map_err(|e| RunError::Mpi(format!("{e:#}")))?;
         if scene.hash != ps.scene.hash {
             return Err(RunError::Mpi(format!(
@@ -256,20 +255,20 @@ impl Remote for MpiRemote<'_> {
         let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
         let probe = Probe::new(true, spec.timeline);
         let (hub, sources) = Hub::new(self.comm, &self.peers, 0, probe, self.silence);
-        let opts = crate::sched::RunOptions {
+        let opts = raysched::sched::RunOptions {
             stats: true,
             deadline: Some(RUN_DEADLINE),
             faults: None,
         };
         let (outcome, report) = std::thread::scope(|s| {
-            let m = s.spawn(|| match spec.kind {
-                SchedulerKind::Master => master::run_master(spec, &items, sources, &opts, probe),
-                _ => super::pull::run_pull(spec, &items, sources, opts.deadline, probe),
+            let m = s.spawn(|| match spec.policy {
+                Policy::Master(m) => master::run_master(&m, &items, sources, &opts, probe),
+                _ => raysched::mpi::pull::run_pull(spec, &items, sources, opts.deadline, probe),
             });
             let report = hub.serve_run();
             let outcome = m.join().unwrap_or_else(|p| {
                 Err(SchedError::WorkerPanic(
-                    crate::source::local::panic_message(&p),
+                    raysched::source::local::panic_message(&p),
                 ))
             });
             (outcome, report)

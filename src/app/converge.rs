@@ -1,0 +1,108 @@
+//! `raysched converge`: error against run time for one scene and several tracers.
+
+use super::error::CliError;
+use raysched::scene::{load_scene, SceneOverrides};
+use raysched::tracer::AnyTracer;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct ConvergeArgs {
+    /// Scene file (TOML).
+    pub(crate) scene: PathBuf,
+    /// Reference image (.exr); default: analytic, else a cached high-spp render.
+    #[arg(long = "ref")]
+    pub(crate) reference: Option<PathBuf>,
+    /// Largest sample count of the progression.
+    #[arg(long, default_value_t = 256)]
+    pub(crate) max_spp: u32,
+    /// Samples of a rendered reference (cached under results/refs/).
+    #[arg(long, default_value_t = 4096)]
+    pub(crate) ref_spp: u32,
+    /// Tracers to compare, comma separated.
+    #[arg(long, default_value = "bvh,brute")]
+    pub(crate) tracers: String,
+    #[arg(long, default_value_t = super::default_threads())]
+    pub(crate) threads: usize,
+    /// Output folder for convergence.csv and convergence.png.
+    #[arg(short, long, default_value = "results/converge")]
+    pub(crate) output: PathBuf,
+}
+
+pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
+    use raysched::converge::{self as cv, Reference, ReferenceKind};
+    if args.threads == 0 || args.max_spp == 0 || args.ref_spp == 0 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads, --max-spp and --ref-spp must be ≥ 1"
+        )));
+    }
+    let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
+    let ids: Vec<&str> = args.tracers.split(',').map(str::trim).collect();
+    for id in &ids {
+        raysched::tracer::check_tracer_id(id)
+            .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    }
+    let first = AnyTracer::build(ids[0], &scene, args.threads).map_err(CliError::input)?;
+    let reference = match &args.reference {
+        Some(p) => {
+            let image = raysched::render::Image::load_exr(p).map_err(CliError::input)?;
+            if image.width != scene.width() || image.height != scene.height() {
+                return Err(CliError::input(anyhow::anyhow!(
+                    "--ref {}: {}×{} does not match the scene's {}×{}",
+                    p.display(),
+                    image.width,
+                    image.height,
+                    scene.width(),
+                    scene.height()
+                )));
+            }
+            Reference {
+                exact: vec![false; image.data.len()],
+                image,
+                kind: ReferenceKind::Rendered {
+                    spp: 0,
+                    path: Some(p.clone()),
+                },
+                leaks: 0,
+            }
+        }
+        None => cv::reference::reference(
+            &scene,
+            &first,
+            Path::new("results/refs"),
+            args.ref_spp,
+            args.threads,
+        )
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
+    };
+    let mut rows = Vec::new();
+    for id in &ids {
+        let tracer = AnyTracer::build(id, &scene, args.threads).map_err(CliError::input)?;
+        rows.extend(cv::run_convergence(
+            &scene,
+            &tracer,
+            &reference,
+            args.max_spp,
+            args.threads,
+        ));
+    }
+    let csv = args.output.join("convergence.csv");
+    let png = args.output.join("convergence.png");
+    cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
+    println!("reference: {}", reference.kind.label());
+    for s in cv::summarise(&rows) {
+        println!(
+            "{} {}: slope {}, RMSE at {:.3} s = {}",
+            s.scene,
+            s.config,
+            s.slope.map_or("n/a".into(), |v| format!("{v:.3}")),
+            s.budget_s,
+            s.rmse_at_budget.map_or("n/a".into(), |v| format!("{v:.5}"))
+        );
+    }
+    for line in cv::budget_winners(&rows) {
+        println!("{line}");
+    }
+    println!("wrote {} and {}", csv.display(), png.display());
+    Ok(())
+}

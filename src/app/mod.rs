@@ -1,0 +1,77 @@
+//! The command line: typed arguments, one module per command family, errors printed once with
+//! their chain and mapped to exit codes (bad input 2, other failures 1). The library never
+//! sees a clap struct: each command turns its arguments into the library's typed specs.
+
+mod converge;
+mod error;
+mod experiment;
+#[cfg(feature = "mpi")]
+mod mpi_render;
+#[cfg(feature = "mpi")]
+mod mpi_run;
+mod render;
+mod sched_flags;
+mod stability;
+
+use clap::{Parser, Subcommand};
+use error::CliError;
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "raysched",
+    version,
+    about = "Measure how parallel ray-tracing work should be handed out, and by whom"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render one scene and write OUT (.exr or .pfm, linear) plus an sRGB .png preview beside it.
+    Render(render::RenderArgs),
+    /// Run an experiment (experiments/*.toml): runs.csv, summary.csv, plots and report.md under
+    /// OUT/<experiment>/. Resumes where a previous run stopped.
+    Run(experiment::RunArgs),
+    /// Regenerate summary.csv, every plot and report.md of a results folder from its CSV files.
+    Plot(experiment::PlotArgs),
+    /// Error against run time: progressive render (1, 2, 4, … spp) vs a reference; CSV + plot.
+    Converge(converge::ConvergeArgs),
+    /// The numerical stability suite: CSV + markdown table of every case.
+    Stability(stability::StabilityArgs),
+}
+
+/// Parse the command line, run it, print an error once with its chain.
+pub(crate) fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {:#}", e.error);
+            ExitCode::from(e.code)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Command::Render(args) => render::render(args),
+        Command::Run(args) => experiment::run(args),
+        Command::Plot(args) => experiment::plot(args),
+        Command::Converge(args) => converge::converge(args),
+        Command::Stability(args) => stability::stability(args),
+    }
+}
+
+/// This machine's available parallelism: the default worker count.
+fn default_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?
+fn under_mpirun() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some())
+}

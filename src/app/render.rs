@@ -1,0 +1,203 @@
+//! `raysched render`: one scene under one scheduler, on local threads or (feature `mpi`) on
+//! MPI ranks.
+
+use super::error::CliError;
+use super::sched_flags::SchedulerFlags;
+use raysched::render::image::ImageError;
+use raysched::render::Image;
+use raysched::scene::{load_scene, Scene, SceneOverrides};
+use raysched::sched::{run_scheduler_with, RunOptions, SchedError, SchedulerSpec};
+use raysched::tracer::{AnyTracer, Tracer};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Who renders: threads of this process, or the ranks of an `mpirun` launch.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SourcesArg {
+    /// Worker threads of this process.
+    Local,
+    /// Ranks 1…K−1 under `mpirun -n K` (feature `mpi`).
+    Mpi,
+}
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct RenderArgs {
+    /// Scene file (TOML), see scenes/.
+    pub(crate) scene: PathBuf,
+    /// Samples per pixel (overrides the scene's render.spp).
+    #[arg(long)]
+    pub(crate) spp: Option<u32>,
+    /// Worker threads.
+    #[arg(long, default_value_t = super::default_threads())]
+    pub(crate) threads: usize,
+    /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree (feature `embree`).
+    #[arg(long, default_value = "bvh")]
+    pub(crate) tracer: String,
+    /// Output image; the format follows the extension (.exr or .pfm).
+    #[arg(short, long, default_value = "results/render.exr")]
+    pub(crate) output: PathBuf,
+    #[command(flatten)]
+    pub(crate) scheduler: SchedulerFlags,
+    /// Record a (worker, item, start, end) timeline.
+    #[arg(long)]
+    pub(crate) timeline: bool,
+    /// Do not time items (busy/idle and master times read 0).
+    #[arg(long)]
+    pub(crate) stats_off: bool,
+    /// Master: give up after this many milliseconds.
+    #[arg(long)]
+    pub(crate) deadline_ms: Option<u64>,
+    /// Compute sources.
+    #[arg(long, value_enum, default_value_t = SourcesArg::Local)]
+    pub(crate) sources: SourcesArg,
+    /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) local_threads: usize,
+}
+
+impl RenderArgs {
+    /// The scheduler spec for `workers`, every value checked; errors name the flag.
+    pub(crate) fn scheduler_spec(&self, workers: usize) -> Result<SchedulerSpec, CliError> {
+        self.scheduler
+            .spec(workers, self.timeline)
+            .map_err(CliError::message)
+    }
+
+    /// The checks every render makes before loading anything: output format and sample count.
+    pub(crate) fn check_output(&self) -> Result<SceneOverrides, CliError> {
+        let ext = self
+            .output
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
+            return Err(CliError::message(format!(
+                "--output {}: unsupported extension (use .exr or .pfm)",
+                self.output.display()
+            )));
+        }
+        if self.spp == Some(0) {
+            return Err(CliError::message("--spp: must be ≥ 1 (got 0)"));
+        }
+        Ok(SceneOverrides {
+            spp: self.spp,
+            ..Default::default()
+        })
+    }
+
+    /// Run settings that are not part of the scheduler's identity.
+    pub(crate) fn run_options(&self) -> RunOptions {
+        RunOptions {
+            stats: !self.stats_off,
+            deadline: self.deadline_ms.map(Duration::from_millis),
+            faults: None,
+        }
+    }
+}
+
+pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
+    match args.sources {
+        SourcesArg::Local => {}
+        #[cfg(feature = "mpi")]
+        SourcesArg::Mpi => return super::mpi_render::render(args),
+        #[cfg(not(feature = "mpi"))]
+        SourcesArg::Mpi => {
+            return Err(CliError::message(
+                "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)",
+            ))
+        }
+    }
+    if args.threads == 0 {
+        return Err(CliError::message("--threads: must be ≥ 1 (got 0)"));
+    }
+    let overrides = args.check_output()?;
+    let spec = args.scheduler_spec(args.threads)?;
+    let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
+    let t0 = Instant::now();
+    let tracer =
+        Arc::new(AnyTracer::build(&args.tracer, &scene, args.threads).map_err(CliError::input)?);
+    let build = t0.elapsed();
+    let (image, stats) =
+        run_scheduler_with(&spec, &scene, &tracer, &args.run_options()).map_err(|e| match e {
+            SchedError::Spec(_) => CliError::input(e),
+            _ => CliError::runtime(e),
+        })?;
+    let wrote = save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
+    let tracer_line = format!(
+        "{} built in {:.3} s, {} threads",
+        args.tracer,
+        build.as_secs_f64(),
+        args.threads
+    );
+    print_render_header(&scene, &tracer_line, &spec, &image);
+    println!(
+        "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
+        stats.wall_s,
+        stats.rays,
+        stats.rays as f64 / stats.wall_s / 1e6,
+        stats.nonfinite
+    );
+    print!("{}", stats.summary());
+    let (used, left_out) = scene.features.report(tracer.accelerated());
+    println!(
+        "features used: {}; left out: {}",
+        used.join(","),
+        left_out.join(",")
+    );
+    println!("wrote {wrote}");
+    Ok(())
+}
+
+/// `name_fNNNN.ext` beside `output = name.ext`: the file of frame `frame` of an animation.
+fn frame_path(output: &Path, frame: u32) -> PathBuf {
+    let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = output.extension().unwrap_or_default().to_string_lossy();
+    output.with_file_name(format!("{stem}_f{frame:04}.{ext}"))
+}
+
+/// Write a render and its PNG preview: `output` for a static scene, [`frame_path`] per frame
+/// for an animation (`image` is then the film strip of [`Image::stack`]). Returns what was
+/// written, for the report.
+pub(crate) fn save_render(output: &Path, image: &Image, frames: u32) -> Result<String, ImageError> {
+    if frames <= 1 {
+        let png = image.save_with_preview(output)?;
+        return Ok(format!("{} and {}", output.display(), png.display()));
+    }
+    for (k, frame) in image.unstack(frames).iter().enumerate() {
+        frame.save_with_preview(&frame_path(output, k as u32))?;
+    }
+    Ok(format!(
+        "{frames} frames {} … {} (each with a .png preview)",
+        frame_path(output, 0).display(),
+        frame_path(output, frames - 1).display()
+    ))
+}
+
+/// The first two lines of a render's report, shared by the local and the MPI path (tests read
+/// the image hash from them).
+pub(crate) fn print_render_header(
+    scene: &Scene,
+    tracer: &str,
+    spec: &SchedulerSpec,
+    image: &Image,
+) {
+    let frames = if scene.frames() > 1 {
+        format!(" × {} frames", scene.frames())
+    } else {
+        String::new()
+    };
+    println!(
+        "scene {} ({}×{}{frames}, {} spp, max_depth {}), tracer {tracer}",
+        scene.name,
+        scene.width(),
+        scene.height(),
+        scene.settings.spp,
+        scene.settings.max_depth,
+    );
+    println!(
+        "scheduler {}, order {}, image hash {:016x}",
+        spec.label(),
+        spec.order.id(),
+        image.hash()
+    );
+}

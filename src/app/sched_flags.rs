@@ -1,0 +1,126 @@
+//! The scheduler's flags, derived from the scheduler definition: `--scheduler`, `--chunk`,
+//! `--order`, and one flag per parameter of any kind (`--buffer`, `--grab`, …) whose help
+//! lists what it means for each kind that has it. A parameter left out takes the kind's
+//! default (the same default an experiment file gets); one the kind does not have is an error.
+
+use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
+use raysched::sched::spec::kinds_with;
+use raysched::sched::{param_columns, Chunk, Order, Policy, SchedulerKind, SchedulerSpec};
+
+/// What the scheduler flags said, before the worker count is known.
+#[derive(Clone, Debug)]
+pub(crate) struct SchedulerFlags {
+    kind: SchedulerKind,
+    chunk: Chunk,
+    order: Order,
+    /// (parameter name, text given), in column order.
+    params: Vec<(&'static str, String)>,
+}
+
+impl SchedulerFlags {
+    /// The scheduler spec for `workers` workers; errors name the flag.
+    pub(crate) fn spec(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
+        let mut spec = SchedulerSpec {
+            timeline,
+            order: self.order,
+            ..SchedulerSpec::new(self.kind, self.chunk, workers)
+        };
+        for (name, text) in &self.params {
+            spec.set(name, text)
+                .map_err(|e| format!("--{}: {}", name.replace('_', "-"), e.msg))?;
+        }
+        spec.validate().map_err(|e| {
+            let flag = match e.field.as_str() {
+                "workers" => "threads".to_string(),
+                f => f.replace('_', "-"),
+            };
+            format!("--{flag}: {}", e.msg)
+        })?;
+        Ok(spec)
+    }
+}
+
+/// `kind: meaning [default: v]` for every kind that has parameter `name`.
+fn param_help(name: &str) -> String {
+    kinds_with(name)
+        .iter()
+        .map(|(k, p)| {
+            let default = Policy::defaults(*k)
+                .params()
+                .and_then(|d| d.get(name))
+                .unwrap_or_default();
+            format!("{}: {} [default: {default}]", k.id(), p.help)
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+fn ids(all: &[&'static str]) -> String {
+    all.join(", ")
+}
+
+impl Args for SchedulerFlags {
+    fn augment_args(cmd: Command) -> Command {
+        let kinds: Vec<&str> = SchedulerKind::ALL.iter().map(|k| k.id()).collect();
+        let orders: Vec<&str> = Order::ALL.iter().map(|o| o.id()).collect();
+        let mut cmd = cmd
+            .arg(
+                Arg::new("scheduler")
+                    .long("scheduler")
+                    .default_value(SchedulerKind::WorkStealing.id())
+                    .value_parser(|s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))
+                    .help(format!("Scheduler: {}", ids(&kinds))),
+            )
+            .arg(
+                Arg::new("chunk")
+                    .long("chunk")
+                    .default_value("16")
+                    .value_parser(|s: &str| Chunk::parse(s).map_err(|e| e.msg))
+                    .help(
+                        "Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias \
+                         frames: one whole frame per item; an animation is cut frame by frame \
+                         for every size)",
+                    ),
+            )
+            .arg(
+                Arg::new("order")
+                    .long("order")
+                    .default_value(Order::Scanline.id())
+                    .value_parser(|s: &str| Order::from_id(s).map_err(|e| e.msg))
+                    .help(format!("Hand-out order of the items: {}", ids(&orders))),
+            );
+        for p in param_columns() {
+            cmd = cmd.arg(
+                Arg::new(p.name)
+                    .long(p.flag())
+                    .value_name(p.name.to_uppercase())
+                    .help(param_help(p.name)),
+            );
+        }
+        cmd
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl FromArgMatches for SchedulerFlags {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        let get = |id: &str| m.get_one::<String>(id).cloned();
+        Ok(Self {
+            kind: *m.get_one("scheduler").expect("has a default"),
+            chunk: *m.get_one("chunk").expect("has a default"),
+            order: *m.get_one("order").expect("has a default"),
+            params: param_columns()
+                .iter()
+                .filter_map(|p| Some((p.name, get(p.name)?)))
+                .collect(),
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,62 @@
+//! `raysched stability`: the numerical stability suite.
+
+use super::error::CliError;
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct StabilityArgs {
+    /// Only the fast subset (what `cargo test` runs).
+    #[arg(long)]
+    pub(crate) quick: bool,
+    /// Image side of every case.
+    #[arg(long, default_value_t = 48)]
+    pub(crate) size: u32,
+    #[arg(long, default_value_t = 32)]
+    pub(crate) spp: u32,
+    #[arg(long, default_value_t = super::default_threads())]
+    pub(crate) threads: usize,
+    /// Output folder for stability.csv and stability.md.
+    #[arg(short, long, default_value = "results/stability")]
+    pub(crate) output: PathBuf,
+}
+
+pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
+    use raysched::stability::{self as st, Budget};
+    if args.threads == 0 || args.size == 0 || args.spp < 2 {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--threads and --size must be ≥ 1, --spp ≥ 2"
+        )));
+    }
+    let budget = if args.quick {
+        Budget {
+            threads: args.threads,
+            ..Budget::QUICK
+        }
+    } else {
+        Budget {
+            size: args.size,
+            spp: args.spp,
+            threads: args.threads,
+            quick: false,
+        }
+    };
+    let rows = st::cases::run_suite(&budget);
+    let table = st::markdown(&rows);
+    let csv = args.output.join("stability.csv");
+    st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
+    std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
+    println!("{table}");
+    let failed = rows.iter().filter(|r| r.required && !r.pass).count();
+    println!(
+        "wrote {} ({} cases, {} required failures)",
+        csv.display(),
+        rows.len(),
+        failed
+    );
+    if failed > 0 {
+        return Err(CliError::runtime(anyhow::anyhow!(
+            "{failed} stability case(s) failed"
+        )));
+    }
+    Ok(())
+}

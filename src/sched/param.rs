@@ -1,0 +1,404 @@
+//! The values a scheduler run is described by — granularity ([`Chunk`]), hand-out [`Order`],
+//! the master's [`Requeue`] policy and [`Wait`] strategy — and the machinery that turns a
+//! kind's parameter struct into CLI flags, TOML keys and CSV columns ([`Params`]).
+//!
+//! Every value has one text form: what the CLI and TOML accept and what CSV files hold.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::time::Duration;
+
+/// A bad scheduler value: the field (TOML key, or flag without its dashes) and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{field}: {msg}")]
+pub struct SpecError {
+    /// The parameter's name as in TOML (`buffer`, `guided_k`, `workers`, …).
+    pub field: String,
+    /// What is wrong, with the value that was given.
+    pub msg: String,
+}
+
+pub(crate) fn err(field: &str, msg: impl Into<String>) -> SpecError {
+    SpecError {
+        field: field.to_string(),
+        msg: msg.into(),
+    }
+}
+
+/// The largest count a parameter may take: far beyond any useful buffer or grab, small enough
+/// that nothing sized by it can exhaust memory.
+pub const MAX_COUNT: usize = 1 << 20;
+
+/// A value a scheduler parameter can hold, with its one text form.
+pub trait ParamValue: Sized {
+    /// Parse the text form; the message says what was expected.
+    fn parse_value(text: &str) -> Result<Self, String>;
+    /// The text form, as CSV files and config keys hold it.
+    fn show(&self) -> String;
+}
+
+/// Counts (buffer sizes, grabs, divisors): 1 ≤ n ≤ [`MAX_COUNT`].
+impl ParamValue for usize {
+    fn parse_value(text: &str) -> Result<Self, String> {
+        let v: i64 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{text}': expected a whole number"))?;
+        if (1..=MAX_COUNT as i64).contains(&v) {
+            Ok(v as usize)
+        } else {
+            Err(format!("must be between 1 and {MAX_COUNT} (got {v})"))
+        }
+    }
+    fn show(&self) -> String {
+        self.to_string()
+    }
+}
+
+/// What [`Params`] knows of one parameter: enough to spell its flag, key, column and help.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ParamInfo {
+    /// TOML key and CSV column; the CLI flag is `--` + this with `_` → `-`.
+    pub name: &'static str,
+    /// What it does for the kind that has it.
+    pub help: &'static str,
+    /// The short name in run labels (`B` for the buffer), or `None` to leave it out.
+    pub label: Option<&'static str>,
+}
+
+impl ParamInfo {
+    /// The command-line flag without its leading dashes.
+    pub fn flag(&self) -> String {
+        self.name.replace('_', "-")
+    }
+}
+
+/// A scheduler kind's parameters, reachable by name: what lets the CLI, the experiment grid
+/// and the CSV files be derived from one struct. Implemented by [`scheduler_params!`].
+pub trait Params {
+    /// Every parameter, in column order.
+    fn info(&self) -> &'static [ParamInfo];
+    /// Set `name` from its text form. `Ok(false)`: this kind has no such parameter.
+    fn set(&mut self, name: &str, text: &str) -> Result<bool, String>;
+    /// The text form of `name`, or `None` when this kind has no such parameter.
+    fn get(&self, name: &str) -> Option<String>;
+}
+
+/// Declares a kind's parameter struct: each field with its doc (the help text), its label and
+/// its default. Generates the struct, a `const DEFAULT` preset, `Default` and [`Params`].
+macro_rules! scheduler_params {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $( #[doc = $help:literal] $field:ident : $ty:ty = $default:expr, label $label:expr; )*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        pub struct $name {
+            $( #[doc = $help] pub $field: $ty, )*
+        }
+
+        impl $name {
+            /// The defaults: the same from the CLI and from an experiment file.
+            pub const DEFAULT: Self = Self { $( $field: $default, )* };
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                Self::DEFAULT
+            }
+        }
+
+        impl $crate::sched::param::Params for $name {
+            fn info(&self) -> &'static [$crate::sched::param::ParamInfo] {
+                const INFO: &[$crate::sched::param::ParamInfo] = &[$(
+                    $crate::sched::param::ParamInfo {
+                        name: stringify!($field),
+                        help: $help.trim_ascii(),
+                        label: $label,
+                    },
+                )*];
+                INFO
+            }
+            fn set(&mut self, name: &str, text: &str) -> Result<bool, String> {
+                use $crate::sched::param::ParamValue;
+                match name {
+                    $( stringify!($field) => {
+                        self.$field = <$ty>::parse_value(text)?;
+                        Ok(true)
+                    } )*
+                    _ => Ok(false),
+                }
+            }
+            fn get(&self, name: &str) -> Option<String> {
+                use $crate::sched::param::ParamValue;
+                match name {
+                    $( stringify!($field) => Some(self.$field.show()), )*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+pub(crate) use scheduler_params;
+
+/// Granularity: how many pixels make one work item.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Chunk {
+    /// A w×h tile (1×1 = one pixel = per-ray granularity).
+    Tile {
+        /// Tile width in pixels.
+        w: u32,
+        /// Tile height in pixels.
+        h: u32,
+    },
+    /// Bands of `n` full rows.
+    Rows(u32),
+    /// The whole image as one item: one item per frame of an animation (the coarsest item).
+    /// Parsed from `frame` or `frames`.
+    Frame,
+}
+
+impl Chunk {
+    /// `1`, `16` (16×16), `8x4`, `rows:4`, `frame` (alias `frames`: one whole frame per item
+    /// is what `frame` already means on an animation; one id is written to CSVs).
+    pub fn parse(s: &str) -> Result<Self, SpecError> {
+        let bad = |m: &str| err("chunk", format!("'{s}': {m}"));
+        let pos = |t: &str| -> Result<u32, SpecError> {
+            match t.trim().parse::<u32>() {
+                Ok(0) => Err(bad("sizes must be ≥ 1 (chunk 0 has no pixels)")),
+                Ok(v) => Ok(v),
+                Err(_) => Err(bad("expected N, WxH, rows:N, frame or frames")),
+            }
+        };
+        let s = s.trim();
+        if s == "frame" || s == "frames" {
+            Ok(Self::Frame)
+        } else if let Some(n) = s.strip_prefix("rows:") {
+            Ok(Self::Rows(pos(n)?))
+        } else if let Some((w, h)) = s.split_once(['x', '×']) {
+            Ok(Self::Tile {
+                w: pos(w)?,
+                h: pos(h)?,
+            })
+        } else {
+            let n = pos(s)?;
+            Ok(Self::Tile { w: n, h: n })
+        }
+    }
+
+    /// Pixels per item on an image of this width and height (edge items may be smaller).
+    pub fn pixels(&self, width: u32, height: u32) -> u64 {
+        match *self {
+            Self::Tile { w, h } => w.min(width) as u64 * h.min(height) as u64,
+            Self::Rows(n) => width as u64 * n.min(height) as u64,
+            Self::Frame => width as u64 * height as u64,
+        }
+    }
+}
+
+impl fmt::Display for Chunk {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Tile { w, h } if w == h => write!(f, "{w}"),
+            Self::Tile { w, h } => write!(f, "{w}x{h}"),
+            Self::Rows(n) => write!(f, "rows:{n}"),
+            Self::Frame => write!(f, "frame"),
+        }
+    }
+}
+
+/// Declares a value enum with snake_case ids: `ALL`, `id()`, `from_id()` and [`ParamValue`].
+macro_rules! id_enum {
+    (
+        $(#[$meta:meta])* pub enum $name:ident ($field:literal, $what:literal) {
+            $( $(#[$vmeta:meta])* $variant:ident = $id:literal, )*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum $name {
+            $( $(#[$vmeta])* $variant, )*
+        }
+
+        impl $name {
+            /// Every value, in the order help texts list them.
+            pub const ALL: [$name; [$(stringify!($variant)),*].len()] = [$(Self::$variant,)*];
+            /// The stable snake_case id (CLI, TOML, CSV).
+            pub fn id(self) -> &'static str {
+                match self {
+                    $( Self::$variant => $id, )*
+                }
+            }
+            /// The value whose id is `s`; the error lists the ids.
+            pub fn from_id(s: &str) -> Result<Self, SpecError> {
+                Self::ALL.into_iter().find(|v| v.id() == s).ok_or_else(|| {
+                    err(
+                        $field,
+                        format!(
+                            concat!("unknown ", $what, " '{}' (expected {})"),
+                            s,
+                            one_of(&Self::ALL.iter().map(|v| v.id()).collect::<Vec<_>>())
+                        ),
+                    )
+                })
+            }
+        }
+
+        impl ParamValue for $name {
+            fn parse_value(text: &str) -> Result<Self, String> {
+                Self::from_id(text.trim()).map_err(|e| e.msg)
+            }
+            fn show(&self) -> String {
+                self.id().to_string()
+            }
+        }
+    };
+}
+pub(crate) use id_enum;
+
+/// `a, b or c`.
+pub(crate) fn one_of(ids: &[&str]) -> String {
+    match ids {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [init @ .., last] => format!("{} or {last}", init.join(", ")),
+    }
+}
+
+id_enum! {
+    /// The order items are generated (and so handed out) in.
+    pub enum Order("order", "order") {
+        /// Row by row, left to right.
+        Scanline = "scanline",
+        /// Along a Z-order curve.
+        Morton = "morton",
+        /// Along a Hilbert curve.
+        Hilbert = "hilbert",
+    }
+}
+
+id_enum! {
+    /// How the master waits for results.
+    pub enum Wait("wait", "wait strategy") {
+        /// Busy-poll: lowest latency, but steals a core from the workers.
+        Spin = "spin",
+        /// Poll, yielding the core between polls.
+        Yield = "yield",
+        /// Sleep on the result channel until something arrives.
+        Block = "block",
+    }
+}
+
+/// When the master may hand an outstanding item out again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Requeue {
+    /// Whenever the master meets the unfinished item again in its queue: a handed-out item
+    /// goes to the back of the queue and is handed out again when it comes round.
+    Revisit,
+    /// Only once it has been outstanding this long.
+    Timeout(Duration),
+    /// Never: a lost item stays lost (the run fails with a count of lost items).
+    Never,
+}
+
+impl Requeue {
+    /// `revisit` (also spelled `seed`), `never`, `timeout:<ms>`.
+    pub fn parse(s: &str) -> Result<Self, SpecError> {
+        match s.trim() {
+            "revisit" | "seed" => Ok(Self::Revisit),
+            "never" => Ok(Self::Never),
+            t => match t.strip_prefix("timeout:").map(|ms| ms.parse::<u64>()) {
+                Some(Ok(ms)) if ms > 0 => Ok(Self::Timeout(Duration::from_millis(ms))),
+                _ => Err(err(
+                    "requeue",
+                    format!("'{s}': expected revisit, never or timeout:<ms> with ms ≥ 1"),
+                )),
+            },
+        }
+    }
+}
+
+impl fmt::Display for Requeue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Revisit => write!(f, "revisit"),
+            Self::Never => write!(f, "never"),
+            Self::Timeout(d) => write!(f, "timeout:{}", d.as_millis()),
+        }
+    }
+}
+
+impl ParamValue for Requeue {
+    fn parse_value(text: &str) -> Result<Self, String> {
+        Self::parse(text).map_err(|e| e.msg)
+    }
+    fn show(&self) -> String {
+        self.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunk_parsing() {
+        assert_eq!(Chunk::parse("1").unwrap(), Chunk::Tile { w: 1, h: 1 });
+        assert_eq!(Chunk::parse("8x4").unwrap(), Chunk::Tile { w: 8, h: 4 });
+        assert_eq!(Chunk::parse("rows:3").unwrap(), Chunk::Rows(3));
+        assert_eq!(Chunk::parse("frame").unwrap(), Chunk::Frame);
+        assert_eq!(Chunk::parse("frames").unwrap(), Chunk::Frame);
+        for bad in ["0", "0x4", "rows:0", "x", ""] {
+            assert!(Chunk::parse(bad).is_err(), "{bad}");
+        }
+        for c in ["1", "8x4", "rows:3", "frame"] {
+            assert_eq!(Chunk::parse(c).unwrap().to_string(), c);
+        }
+    }
+
+    #[test]
+    fn requeue_parsing() {
+        assert_eq!(Requeue::parse("revisit").unwrap(), Requeue::Revisit);
+        assert_eq!(Requeue::parse("seed").unwrap(), Requeue::Revisit);
+        assert_eq!(
+            Requeue::parse("timeout:50").unwrap(),
+            Requeue::Timeout(Duration::from_millis(50))
+        );
+        assert!(Requeue::parse("timeout:0").is_err());
+        assert!(Requeue::parse("later").is_err());
+        for r in ["revisit", "never", "timeout:50"] {
+            assert_eq!(Requeue::parse(r).unwrap().show(), r);
+        }
+    }
+
+    #[test]
+    fn ids_round_trip_and_unknown_ids_are_errors() {
+        for o in Order::ALL {
+            assert_eq!(Order::from_id(o.id()).unwrap(), o);
+        }
+        for w in Wait::ALL {
+            assert_eq!(Wait::parse_value(&w.show()).unwrap(), w);
+        }
+        assert_eq!(
+            Order::from_id("zigzag").unwrap_err().msg,
+            "unknown order 'zigzag' (expected scanline, morton or hilbert)"
+        );
+        assert_eq!(
+            Wait::from_id("nap").unwrap_err().msg,
+            "unknown wait strategy 'nap' (expected spin, yield or block)"
+        );
+    }
+
+    #[test]
+    fn counts_are_bounded() {
+        assert_eq!(usize::parse_value("3"), Ok(3));
+        assert!(usize::parse_value("0").unwrap_err().contains("got 0"));
+        assert!(usize::parse_value("1048577").is_err());
+        assert!(usize::parse_value("two")
+            .unwrap_err()
+            .contains("whole number"));
+    }
+}
