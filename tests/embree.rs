@@ -175,7 +175,15 @@ mod with_embree {
             assert!(t.intersect(&above, 2.0).is_none(), "{}", t.id());
             assert!(!t.occluded(&above, 2.0), "{}", t.id());
             let h = t.intersect(&above, next_float_up(2.0)).unwrap();
-            assert_eq!((h.t, h.prim), (2.0, 1), "{}", t.id());
+            // Embree's own triangle test may land a few ulps off depending on the CPU's code
+            // path (seen: 1.9999999 on one x86-64 box); ours is exact.
+            let ulps = if t.id() == "brute" { 0.0 } else { 4.0 };
+            assert_eq!(h.prim, 1, "{}: {h:?}", t.id());
+            assert!(
+                (h.t - 2.0).abs() <= ulps * 2.0 * f32::EPSILON,
+                "{}: {h:?}",
+                t.id()
+            );
             assert!(t.occluded(&above, next_float_up(2.0)), "{}", t.id());
             assert!(
                 t.intersect(&above, 6.0).is_none_or(|h| h.prim != 0),

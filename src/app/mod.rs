@@ -43,9 +43,25 @@ enum Command {
     Stability(stability::StabilityArgs),
 }
 
-/// Parse the command line, run it, print an error once with its chain.
+/// Parse the command line, run it, print an error once with its chain. A usage error is one
+/// line too (clap's tips and usage lines are left out), with exit code 2.
 pub(crate) fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    use clap::error::ErrorKind;
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e)
+            if e.exit_code() == 0
+                || e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let text = e.to_string();
+            eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
+            return ExitCode::from(2);
+        }
+    };
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {:#}", e.error);

@@ -67,6 +67,7 @@ impl Args for SchedulerFlags {
             .arg(
                 Arg::new("scheduler")
                     .long("scheduler")
+                    .value_name("SCHEDULER")
                     .default_value(SchedulerKind::WorkStealing.id())
                     .value_parser(|s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))
                     .help(format!("Scheduler: {}", ids(&kinds))),
@@ -74,6 +75,7 @@ impl Args for SchedulerFlags {
             .arg(
                 Arg::new("chunk")
                     .long("chunk")
+                    .value_name("CHUNK")
                     .default_value("16")
                     .value_parser(|s: &str| Chunk::parse(s).map_err(|e| e.msg))
                     .help(
@@ -85,6 +87,7 @@ impl Args for SchedulerFlags {
             .arg(
                 Arg::new("order")
                     .long("order")
+                    .value_name("ORDER")
                     .default_value(Order::Scanline.id())
                     .value_parser(|s: &str| Order::from_id(s).map_err(|e| e.msg))
                     .help(format!("Hand-out order of the items: {}", ids(&orders))),
