@@ -157,191 +157,33 @@ pub fn fnv(bytes: &[u8]) -> u64 {
     h.finish()
 }
 
+/// A field's problem before the file's path is attached: (field, message).
+type FieldError = (String, String);
+
+fn field(name: &str, msg: impl Into<String>) -> FieldError {
+    (name.to_string(), msg.into())
+}
+
 /// Parse and validate an experiment file, load its scenes and build its tracers.
 pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
-    let display = path.display().to_string();
-    let err = |field: &str, msg: String| ConfigError {
-        path: display.clone(),
-        field: field.to_string(),
+    let attach = |(field, msg): FieldError| ConfigError {
+        path: path.display().to_string(),
+        field,
         msg,
     };
-    let bytes =
-        std::fs::read(path).map_err(|e| err("", format!("cannot read experiment file: {e}")))?;
-    let text = String::from_utf8(bytes.clone()).map_err(|_| err("", "not UTF-8 text".into()))?;
-    let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        err(
-            &line.map(|l| format!("line {l}")).unwrap_or_default(),
-            e.message().to_string(),
-        )
-    })?;
+    // 1. The raw file, its name and the settings that need no scene.
+    let (bytes, file) = read_file(path).map_err(attach)?;
+    let name = plan_name(path, &file).map_err(attach)?;
+    let settings = check_settings(&file).map_err(attach)?;
+    // 2. Every scheduler grid, before the (slow) scene loading, so a typo fails fast.
+    let grids = expand_grids(&file, &settings).map_err(attach)?;
+    let max_workers = settings.workers.iter().copied().max().unwrap_or(1);
+    // 3. Scenes loaded, tracers built: one baseline per (scene, tracer).
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let name = match &file.name {
-        Some(n) => n.clone(),
-        None => path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "experiment".into()),
-    };
-    if name.is_empty()
-        || !name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-        || name.starts_with('.')
-    {
-        return Err(err(
-            "name",
-            format!("'{name}': use letters, digits, '-', '_' or '.' (it names the results folder)"),
-        ));
-    }
-    if file.repetitions == 0 {
-        return Err(err("repetitions", "must be ≥ 1 (got 0)".into()));
-    }
-    let mpi = match &file.mpi {
-        None => None,
-        Some(m) => Some(validate_mpi(m, &file).map_err(|(f, msg)| err(&f, msg))?),
-    };
-    let workers = match (&file.workers, &mpi) {
-        (Some(_), Some(_)) => {
-            return Err(err(
-                "workers",
-                "set by mpi.ranks under [mpi] (ranks − 1 per launch); remove it".into(),
-            ))
-        }
-        (None, Some(m)) => m.ranks.iter().map(|r| r - 1).collect(),
-        (Some(w), None) => expand_workers(w).map_err(|m| err("workers", m))?,
-        (None, None) => {
-            return Err(err(
-                "workers",
-                "missing (e.g. workers = [1, 2] or \"1..max\")".into(),
-            ))
-        }
-    };
-    if file.tracers.is_empty() {
-        return Err(err("tracers", "must name at least one tracer".into()));
-    }
-    for (i, t) in file.tracers.iter().enumerate() {
-        check_tracer_id(t).map_err(|e| err(&format!("tracers[{i}]"), e.to_string()))?;
-    }
-    if file.scenes.is_empty() {
-        return Err(err(
-            "scenes",
-            "must list at least one scene ([[scenes]] path = …)".into(),
-        ));
-    }
-    let convergence = match file.kind {
-        ExperimentKind::Timing => {
-            if file.schedulers.is_empty() {
-                return Err(err(
-                    "schedulers",
-                    "must list at least one scheduler ([[schedulers]] kind = …)".into(),
-                ));
-            }
-            for f in ["max_spp", "ref_spp"] {
-                if (f == "max_spp" && file.max_spp.is_some())
-                    || (f == "ref_spp" && file.ref_spp.is_some())
-                {
-                    return Err(err(f, "applies only to kind = \"convergence\"".into()));
-                }
-            }
-            None
-        }
-        ExperimentKind::Convergence => {
-            let max_spp = file
-                .max_spp
-                .ok_or_else(|| err("max_spp", "kind = \"convergence\" needs max_spp".into()))?;
-            let ref_spp = file.ref_spp.unwrap_or(1024);
-            for (f, v) in [("max_spp", max_spp), ("ref_spp", ref_spp)] {
-                if v == 0 {
-                    return Err(err(f, "must be ≥ 1 (got 0)".into()));
-                }
-            }
-            Some(ConvergenceSettings { max_spp, ref_spp })
-        }
-    };
-    // Expand every scheduler grid before the (slow) scene loading, so a typo fails fast.
-    // A progressive run records no timeline: a Gantt chart per step would be noise.
-    let timeline = file.timeline && convergence.is_none();
-    let mut grids = Vec::new();
-    for (i, s) in file.schedulers.iter().enumerate() {
-        let field = |f: &str| format!("schedulers[{i}].{f}");
-        grids.push(expand_scheduler(s, &workers, timeline).map_err(|(f, m)| err(&field(&f), m))?);
-    }
-    let max_workers = workers.iter().copied().max().unwrap_or(1);
-
-    let mut scenes = Vec::new();
-    for (i, s) in file.scenes.iter().enumerate() {
-        let p = base.join(&s.path);
-        let overrides = s.overrides();
-        let t0 = Instant::now();
-        let scene =
-            load_scene(&p, &overrides).map_err(|e| err(&format!("scenes[{i}]"), e.to_string()))?;
-        scenes.push(PlannedScene {
-            file: s.path.clone(),
-            overrides,
-            scene: Arc::new(scene),
-            load_s: t0.elapsed().as_secs_f64(),
-        });
-    }
-    let mut baselines = Vec::new();
-    for (si, sc) in scenes.iter().enumerate() {
-        for (ti, t) in file.tracers.iter().enumerate() {
-            let t0 = Instant::now();
-            let tracer = AnyTracer::build(t, &sc.scene, max_workers)
-                .map_err(|e| err(&format!("tracers[{ti}]"), format!("scene {}: {e}", sc.file)))?;
-            baselines.push(Baseline {
-                scene: si,
-                tracer_id: t.clone(),
-                tracer: Arc::new(tracer),
-                build_s: t0.elapsed().as_secs_f64(),
-            });
-        }
-    }
-
-    let mut configs = Vec::new();
-    for (bi, _) in baselines.iter().enumerate() {
-        configs.push(RunConfig {
-            id: String::new(),
-            baseline: bi,
-            spec: None,
-            sources: Sources::Local,
-            ranks: None,
-        });
-    }
-    for (bi, _) in baselines.iter().enumerate() {
-        for grid in &grids {
-            for spec in grid {
-                let local = RunConfig {
-                    id: String::new(),
-                    baseline: bi,
-                    spec: Some(spec.clone()),
-                    sources: Sources::Local,
-                    ranks: None,
-                };
-                let Some(m) = &mpi else {
-                    configs.push(local);
-                    continue;
-                };
-                // Under [mpi], spec.workers = ranks − 1: the local-thread baseline of that
-                // launch size, then one row set per transport.
-                let ranks = Some(spec.workers + 1);
-                configs.push(RunConfig { ranks, ..local });
-                for t in &m.transports {
-                    configs.push(RunConfig {
-                        id: String::new(),
-                        baseline: bi,
-                        spec: Some(spec.clone()),
-                        sources: Sources::Mpi {
-                            transport: t.clone(),
-                        },
-                        ranks,
-                    });
-                }
-            }
-        }
-    }
+    let scenes = load_scenes(&file, &base).map_err(attach)?;
+    let baselines = build_baselines(&file, &scenes, max_workers).map_err(attach)?;
+    // 4. The configurations, serial baselines first, each with its stable id.
+    let configs = configurations(baselines.len(), &grids, settings.mpi.as_ref());
     let mut plan = ExperimentPlan {
         name,
         description: file.description.clone(),
@@ -353,24 +195,245 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         scenes,
         baselines,
         configs,
-        convergence,
+        convergence: settings.convergence,
         max_workers,
-        mpi,
+        mpi: settings.mpi,
     };
+    assign_ids(&mut plan);
+    Ok(plan)
+}
+
+fn read_file(path: &Path) -> Result<(Vec<u8>, ExperimentFile), FieldError> {
+    let bytes =
+        std::fs::read(path).map_err(|e| field("", format!("cannot read experiment file: {e}")))?;
+    let text = String::from_utf8(bytes.clone()).map_err(|_| field("", "not UTF-8 text"))?;
+    let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        field(
+            &line.map(|l| format!("line {l}")).unwrap_or_default(),
+            e.message(),
+        )
+    })?;
+    Ok((bytes, file))
+}
+
+/// The experiment's name (it names the results folder): `name`, else the file stem.
+fn plan_name(path: &Path, file: &ExperimentFile) -> Result<String, FieldError> {
+    let name = match &file.name {
+        Some(n) => n.clone(),
+        None => path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "experiment".into()),
+    };
+    let allowed = |c: char| c.is_ascii_alphanumeric() || "-_.".contains(c);
+    if name.is_empty() || !name.chars().all(allowed) || name.starts_with('.') {
+        return Err(field(
+            "name",
+            format!("'{name}': use letters, digits, '-', '_' or '.' (it names the results folder)"),
+        ));
+    }
+    Ok(name)
+}
+
+/// What the file says besides its scenes and schedulers, checked.
+struct Settings {
+    workers: Vec<usize>,
+    mpi: Option<MpiSettings>,
+    convergence: Option<ConvergenceSettings>,
+}
+
+fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
+    if file.repetitions == 0 {
+        return Err(field("repetitions", "must be ≥ 1 (got 0)"));
+    }
+    let mpi = file
+        .mpi
+        .as_ref()
+        .map(|m| validate_mpi(m, file))
+        .transpose()?;
+    let workers = match (&file.workers, &mpi) {
+        (Some(_), Some(_)) => {
+            return Err(field(
+                "workers",
+                "set by mpi.ranks under [mpi] (ranks − 1 per launch); remove it",
+            ))
+        }
+        (None, Some(m)) => m.ranks.iter().map(|r| r - 1).collect(),
+        (Some(w), None) => expand_workers(w).map_err(|m| field("workers", m))?,
+        (None, None) => {
+            return Err(field(
+                "workers",
+                "missing (e.g. workers = [1, 2] or \"1..max\")",
+            ))
+        }
+    };
+    if file.tracers.is_empty() {
+        return Err(field("tracers", "must name at least one tracer"));
+    }
+    for (i, t) in file.tracers.iter().enumerate() {
+        check_tracer_id(t).map_err(|e| field(&format!("tracers[{i}]"), e.to_string()))?;
+    }
+    if file.scenes.is_empty() {
+        return Err(field(
+            "scenes",
+            "must list at least one scene ([[scenes]] path = …)",
+        ));
+    }
+    Ok(Settings {
+        workers,
+        mpi,
+        convergence: check_convergence(file)?,
+    })
+}
+
+/// `kind = "convergence"` and its sample counts; a timing experiment must not set them.
+fn check_convergence(file: &ExperimentFile) -> Result<Option<ConvergenceSettings>, FieldError> {
+    match file.kind {
+        ExperimentKind::Timing => {
+            if file.schedulers.is_empty() {
+                return Err(field(
+                    "schedulers",
+                    "must list at least one scheduler ([[schedulers]] kind = …)",
+                ));
+            }
+            for (f, set) in [
+                ("max_spp", file.max_spp.is_some()),
+                ("ref_spp", file.ref_spp.is_some()),
+            ] {
+                if set {
+                    return Err(field(f, "applies only to kind = \"convergence\""));
+                }
+            }
+            Ok(None)
+        }
+        ExperimentKind::Convergence => {
+            let max_spp = file
+                .max_spp
+                .ok_or_else(|| field("max_spp", "kind = \"convergence\" needs max_spp"))?;
+            let ref_spp = file.ref_spp.unwrap_or(1024);
+            for (f, v) in [("max_spp", max_spp), ("ref_spp", ref_spp)] {
+                if v == 0 {
+                    return Err(field(f, "must be ≥ 1 (got 0)"));
+                }
+            }
+            Ok(Some(ConvergenceSettings { max_spp, ref_spp }))
+        }
+    }
+}
+
+/// Every scheduler entry's grid × worker counts. A progressive run records no timeline: a
+/// Gantt chart per step would be noise.
+fn expand_grids(
+    file: &ExperimentFile,
+    settings: &Settings,
+) -> Result<Vec<Vec<SchedulerSpec>>, FieldError> {
+    let timeline = file.timeline && settings.convergence.is_none();
+    file.schedulers
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            expand_scheduler(s, &settings.workers, timeline)
+                .map_err(|(f, m)| (format!("schedulers[{i}].{f}"), m))
+        })
+        .collect()
+}
+
+fn load_scenes(file: &ExperimentFile, base: &Path) -> Result<Vec<PlannedScene>, FieldError> {
+    let mut scenes = Vec::new();
+    for (i, s) in file.scenes.iter().enumerate() {
+        let overrides = s.overrides();
+        let t0 = Instant::now();
+        let scene = load_scene(&base.join(&s.path), &overrides)
+            .map_err(|e| field(&format!("scenes[{i}]"), e.to_string()))?;
+        scenes.push(PlannedScene {
+            file: s.path.clone(),
+            overrides,
+            scene: Arc::new(scene),
+            load_s: t0.elapsed().as_secs_f64(),
+        });
+    }
+    Ok(scenes)
+}
+
+/// One tracer per (scene, tracer), built with the largest worker count as its thread budget.
+fn build_baselines(
+    file: &ExperimentFile,
+    scenes: &[PlannedScene],
+    max_workers: usize,
+) -> Result<Vec<Baseline>, FieldError> {
+    let mut baselines = Vec::new();
+    for (si, sc) in scenes.iter().enumerate() {
+        for (ti, t) in file.tracers.iter().enumerate() {
+            let t0 = Instant::now();
+            let tracer = AnyTracer::build(t, &sc.scene, max_workers)
+                .map_err(|e| field(&format!("tracers[{ti}]"), format!("scene {}: {e}", sc.file)))?;
+            baselines.push(Baseline {
+                scene: si,
+                tracer_id: t.clone(),
+                tracer: Arc::new(tracer),
+                build_s: t0.elapsed().as_secs_f64(),
+            });
+        }
+    }
+    Ok(baselines)
+}
+
+/// Serial baselines first (so a scheduler run always finds its baseline measured), then every
+/// baseline × grid entry; under `[mpi]` each entry is the local-thread baseline of its launch
+/// size followed by one configuration per transport.
+fn configurations(
+    baselines: usize,
+    grids: &[Vec<SchedulerSpec>],
+    mpi: Option<&MpiSettings>,
+) -> Vec<RunConfig> {
+    let config = |baseline, spec, sources, ranks| RunConfig {
+        id: String::new(),
+        baseline,
+        spec,
+        sources,
+        ranks,
+    };
+    let mut configs: Vec<RunConfig> = (0..baselines)
+        .map(|b| config(b, None, Sources::Local, None))
+        .collect();
+    for b in 0..baselines {
+        for spec in grids.iter().flatten() {
+            let Some(m) = mpi else {
+                configs.push(config(b, Some(spec.clone()), Sources::Local, None));
+                continue;
+            };
+            // Under [mpi], spec.workers = ranks − 1.
+            let ranks = Some(spec.workers + 1);
+            configs.push(config(b, Some(spec.clone()), Sources::Local, ranks));
+            for t in &m.transports {
+                let sources = Sources::Mpi {
+                    transport: t.clone(),
+                };
+                configs.push(config(b, Some(spec.clone()), sources, ranks));
+            }
+        }
+    }
+    configs
+}
+
+/// Give every configuration its id; the same configuration listed twice (overlapping grids)
+/// is timed once.
+fn assign_ids(plan: &mut ExperimentPlan) {
     let mut seen = std::collections::HashSet::new();
     let mut unique = Vec::new();
     for mut c in std::mem::take(&mut plan.configs) {
-        c.id = super::results::config_id(&plan, &c);
-        // The same configuration listed twice (overlapping grids) is timed once.
+        c.id = super::results::config_id(plan, &c);
         if seen.insert(c.id.clone()) {
             unique.push(c);
         }
     }
     plan.configs = unique;
-    Ok(plan)
 }
 
-fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, (String, String)> {
+fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, FieldError> {
     let f = |field: &str, msg: String| (format!("mpi.{field}"), msg);
     if file.kind == ExperimentKind::Convergence {
         return Err((

@@ -137,31 +137,64 @@ pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOut
 pub fn run_experiment_with(
     plan: &ExperimentPlan,
     opts: &RunOptions,
-    mut remote: Option<&mut dyn Remote>,
+    remote: Option<&mut dyn Remote>,
 ) -> Result<RunOutcome, RunError> {
     let launch = remote.as_ref().map(|r| r.launch().clone());
     let dir = opts.out.join(&plan.name);
-    std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err(&dir, e))?;
-    if plan.timeline {
-        std::fs::create_dir_all(dir.join("timelines")).map_err(|e| io_err(&dir, e))?;
+    prepare_dir(plan, &dir, opts.fresh)?;
+    prepare_meta(plan, &dir, opts.fresh)?;
+    let (runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;
+    let serial = check_old_rows(plan, &runs, &old_rows)?;
+    let todo = Todo::of(plan, &runs, launch.as_ref());
+    let mut session = Session {
+        plan,
+        dir,
+        runs,
+        serial,
+        bar: progress_bar(opts.quiet, todo.total_runs(plan)),
+        remote,
+        mismatches: old_rows.iter().filter(|r| !r.identical).count(),
+        measured: 0,
+    };
+    for (c, reps) in &todo.pending {
+        session.run_config(c, reps)?;
     }
-    if opts.fresh {
-        // Old timelines and plots would otherwise outlive the rows they came from.
+    session.bar.finish_and_clear();
+    Ok(RunOutcome {
+        dir: session.dir,
+        measured: session.measured,
+        skipped: todo.skipped,
+        mismatches: session.mismatches,
+        other_launches: todo.other_launches,
+    })
+}
+
+/// The results folder with its `images/` (and `timelines/`); `fresh` clears old timelines and
+/// plots, which would otherwise outlive the rows they came from.
+fn prepare_dir(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), RunError> {
+    if fresh {
         for sub in ["timelines", "plots"] {
             let _ = std::fs::remove_dir_all(dir.join(sub));
         }
-        if plan.timeline {
-            std::fs::create_dir_all(dir.join("timelines")).map_err(|e| io_err(&dir, e))?;
-        }
     }
-    prepare_meta(plan, &dir, opts.fresh)?;
-    let (mut runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;
+    std::fs::create_dir_all(dir.join("images")).map_err(|e| io_err(dir, e))?;
+    if plan.timeline {
+        std::fs::create_dir_all(dir.join("timelines")).map_err(|e| io_err(dir, e))?;
+    }
+    Ok(())
+}
 
-    // Resume: old rows must belong to this plan's scenes as they are now.
+/// Resume: old rows must belong to this plan's scenes as they are now. Returns what the serial
+/// baselines measured so far.
+fn check_old_rows(
+    plan: &ExperimentPlan,
+    runs: &RunsFile,
+    old_rows: &[RunRow],
+) -> Result<HashMap<usize, SerialInfo>, RunError> {
     let by_id: HashMap<&str, &RunConfig> =
         plan.configs.iter().map(|c| (c.id.as_str(), c)).collect();
     let mut serial: HashMap<usize, SerialInfo> = HashMap::new();
-    for r in &old_rows {
+    for r in old_rows {
         let Some(c) = by_id.get(r.config.as_str()) else {
             return Err(RunError::Refused(format!(
                 "{}: row for config {} is not in this experiment; rerun with --fresh",
@@ -186,44 +219,83 @@ pub fn run_experiment_with(
             }
         }
     }
-    let mut mismatches = old_rows.iter().filter(|r| !r.identical).count();
+    Ok(serial)
+}
 
-    let mine = |c: &&RunConfig| c.in_launch(launch.as_ref());
-    let other_launches =
-        plan.configs.iter().filter(|c| !mine(c)).count() * plan.repetitions as usize;
-    let pending: Vec<(&RunConfig, Vec<u32>)> = plan
-        .configs
-        .iter()
-        .filter(mine)
-        .map(|c| {
-            let reps = (0..plan.repetitions)
-                .filter(|&k| !runs.is_done(&c.id, k))
-                .collect();
-            (c, reps)
-        })
-        .filter(|(_, reps): &(_, Vec<u32>)| !reps.is_empty())
-        .collect();
-    let total: u64 = pending
-        .iter()
-        .map(|(_, reps)| (plan.warmup as usize + reps.len()) as u64)
-        .sum();
-    let skipped = plan.configs.len() * plan.repetitions as usize
-        - other_launches
-        - pending.iter().map(|(_, r)| r.len()).sum::<usize>();
-    let bar = if opts.quiet {
-        ProgressBar::hidden()
-    } else {
-        let b = ProgressBar::new(total);
-        b.set_style(
-            ProgressStyle::with_template("{bar:30} {pos}/{len} runs, ETA {eta} · {msg}")
-                .expect("valid template"),
-        );
-        b
-    };
-    let mut measured = 0;
-    for (c, reps) in pending {
-        let b = &plan.baselines[c.baseline];
-        let ps = plan.scene_of(c);
+/// What this launch still has to measure.
+struct Todo<'p> {
+    /// Each configuration with the repetitions not yet in runs.csv.
+    pending: Vec<(&'p RunConfig, Vec<u32>)>,
+    /// Configurations × repetitions that belong to other `mpirun` launches.
+    other_launches: usize,
+    /// Repetitions of this launch already in runs.csv.
+    skipped: usize,
+}
+
+impl<'p> Todo<'p> {
+    fn of(plan: &'p ExperimentPlan, runs: &RunsFile, launch: Option<&Launch>) -> Self {
+        let mine = |c: &&RunConfig| c.in_launch(launch);
+        let other_launches =
+            plan.configs.iter().filter(|c| !mine(c)).count() * plan.repetitions as usize;
+        let pending: Vec<(&RunConfig, Vec<u32>)> = plan
+            .configs
+            .iter()
+            .filter(mine)
+            .map(|c| {
+                let reps = (0..plan.repetitions)
+                    .filter(|&k| !runs.is_done(&c.id, k))
+                    .collect();
+                (c, reps)
+            })
+            .filter(|(_, reps): &(_, Vec<u32>)| !reps.is_empty())
+            .collect();
+        let skipped = plan.configs.len() * plan.repetitions as usize
+            - other_launches
+            - pending.iter().map(|(_, r)| r.len()).sum::<usize>();
+        Self {
+            pending,
+            other_launches,
+            skipped,
+        }
+    }
+
+    /// Runs to make, warm-ups included (the progress bar's length).
+    fn total_runs(&self, plan: &ExperimentPlan) -> u64 {
+        self.pending
+            .iter()
+            .map(|(_, reps)| (plan.warmup as usize + reps.len()) as u64)
+            .sum()
+    }
+}
+
+fn progress_bar(quiet: bool, total: u64) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(total);
+    b.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} runs, ETA {eta} · {msg}")
+            .expect("valid template"),
+    );
+    b
+}
+
+/// The measurement loop's state: where rows go and what has been seen.
+struct Session<'p, 'r> {
+    plan: &'p ExperimentPlan,
+    dir: PathBuf,
+    runs: RunsFile,
+    serial: HashMap<usize, SerialInfo>,
+    bar: ProgressBar,
+    remote: Option<&'r mut dyn Remote>,
+    mismatches: usize,
+    measured: usize,
+}
+
+impl Session<'_, '_> {
+    /// Warm-ups, then each repetition of `c` measured and appended.
+    fn run_config(&mut self, c: &RunConfig, reps: &[u32]) -> Result<(), RunError> {
+        let plan = self.plan;
         let label = c
             .spec
             .as_ref()
@@ -233,75 +305,83 @@ pub fn run_experiment_with(
                     format!("{} over {} ranks ({transport})", s.label(), s.workers)
                 }
             });
-        bar.set_message(format!("{} · {} · {label}", ps.scene.name, b.tracer_id));
+        let b = &plan.baselines[c.baseline];
+        let scene = &plan.scene_of(c).scene;
+        self.bar
+            .set_message(format!("{} · {} · {label}", scene.name, b.tracer_id));
         for _ in 0..plan.warmup {
-            measure(plan, c, false, &mut remote)?;
-            bar.inc(1);
+            measure(plan, c, false, &mut self.remote)?;
+            self.bar.inc(1);
         }
-        for rep in reps {
+        for &rep in reps {
             let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
-            let (image, stats) = measure(plan, c, want_timeline, &mut remote)?;
-            let hash = hex(image.hash());
-            let mut row = RunRow::for_config(plan, c);
-            row.repetition = rep;
-            fill_stats(&mut row, &stats);
-            row.image_hash = hash.clone();
-            let info = serial.entry(c.baseline).or_default();
-            match &c.spec {
-                None => {
-                    if rep == 0 {
-                        // The image goes first: a row on disk implies its image is too.
-                        let stem = dir.join("images").join(format!(
-                            "serial_{}_{}",
-                            slug(&ps.scene.name),
-                            c.id
-                        ));
-                        image
-                            .save_with_preview(&stem.with_extension("exr"))
-                            .map_err(|e| io_err(&stem, e))?;
-                        info.hash = Some(hash.clone());
-                    }
-                    info.walls.push(stats.wall_s);
-                    row.serial_s = stats.wall_s;
-                }
-                Some(_) => row.serial_s = median(&info.walls),
-            }
-            row.identical = info.hash.as_deref() == Some(hash.as_str());
-            let w = row.workers as f64;
-            row.speedup = row.serial_s / row.wall_s;
-            row.efficiency = row.speedup / w;
-            row.overhead_s = w * row.wall_s - row.serial_s;
-            if let Some(t) = &stats.timeline {
-                let mut text = String::from("worker,item,start_ns,end_ns\n");
-                for s in t {
-                    text += &format!("{},{},{},{}\n", s.worker, s.item, s.start_ns, s.end_ns);
-                }
-                write_atomic(&timeline_path(&dir, &c.id), text.as_bytes())?;
-            }
-            if !row.identical {
-                mismatches += 1;
-                bar.suspend(|| {
-                    eprintln!(
-                        "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {}",
-                        row.label,
-                        row.image_hash,
-                        info.hash.as_deref().unwrap_or("?")
-                    )
-                });
-            }
-            runs.append(&row)?;
-            measured += 1;
-            bar.inc(1);
+            let (image, stats) = measure(plan, c, want_timeline, &mut self.remote)?;
+            self.record(c, rep, &image, &stats)?;
+            self.measured += 1;
+            self.bar.inc(1);
         }
+        Ok(())
     }
-    bar.finish_and_clear();
-    Ok(RunOutcome {
-        dir,
-        measured,
-        skipped,
-        mismatches,
-        other_launches,
-    })
+
+    /// One measured repetition: its row (compared with the serial image), its timeline, and
+    /// for the serial baseline's first repetition its image.
+    fn record(
+        &mut self,
+        c: &RunConfig,
+        rep: u32,
+        image: &Image,
+        stats: &RunStats,
+    ) -> Result<(), RunError> {
+        let plan = self.plan;
+        let hash = hex(image.hash());
+        let mut row = RunRow::for_config(plan, c);
+        row.repetition = rep;
+        fill_stats(&mut row, stats);
+        row.image_hash = hash.clone();
+        let info = self.serial.entry(c.baseline).or_default();
+        match &c.spec {
+            None => {
+                if rep == 0 {
+                    // The image goes first: a row on disk implies its image is too.
+                    let name = &plan.scene_of(c).scene.name;
+                    let stem =
+                        self.dir
+                            .join("images")
+                            .join(format!("serial_{}_{}", slug(name), c.id));
+                    image
+                        .save_with_preview(&stem.with_extension("exr"))
+                        .map_err(|e| io_err(&stem, e))?;
+                    info.hash = Some(hash.clone());
+                }
+                info.walls.push(stats.wall_s);
+                row.serial_s = stats.wall_s;
+            }
+            Some(_) => row.serial_s = median(&info.walls),
+        }
+        row.identical = info.hash.as_deref() == Some(hash.as_str());
+        let w = row.workers as f64;
+        row.speedup = row.serial_s / row.wall_s;
+        row.efficiency = row.speedup / w;
+        row.overhead_s = w * row.wall_s - row.serial_s;
+        if let Some(t) = &stats.timeline {
+            let mut text = String::from("worker,item,start_ns,end_ns\n");
+            for s in t {
+                text += &format!("{},{},{},{}\n", s.worker, s.item, s.start_ns, s.end_ns);
+            }
+            write_atomic(&timeline_path(&self.dir, &c.id), text.as_bytes())?;
+        }
+        if !row.identical {
+            self.mismatches += 1;
+            let serial = info.hash.as_deref().unwrap_or("?");
+            self.bar.suspend(|| {
+                eprintln!(
+                    "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {serial}",
+                    row.label, row.image_hash
+                )
+            });
+        }
+        self.runs.append(&row).map_err(RunError::from)
+    }
 }
 
 /// One timed run. Only the render is inside the timed section (scenes and tracers were built by
