@@ -1,4 +1,4 @@
-//! Renders compared with the analytic answers of ../shared/REFERENCE_SCENES.md, each within 3σ
+//! Renders compared with the analytic answers of docs/conventions.md, each within 3σ
 //! of the estimate's own standard error.
 
 mod common;

@@ -1,4 +1,4 @@
-//! Animations (issue 8): a camera path over N frames, frames as work items.
+//! Animations: a camera path over N frames, frames as work items.
 //!
 //! - every scheduler × chunk {1 px, 16², whole frames} gives frames bit-identical to a serial
 //!   per-frame render, and the frames differ;

@@ -300,7 +300,7 @@ fn plot_regenerates_everything_from_the_csv() {
     );
 }
 
-/// `features_used` / `features_left_out` reach runs.csv and the report: the one-sphere scene
+/// `features_used` / `features_left_out` reach runs.csv and report.md: the one-sphere scene
 /// builds no BVH and needs no refraction; the Cornell box has a BVH over its triangles.
 #[test]
 fn runs_record_what_each_scene_uses_and_leaves_out() {
@@ -435,7 +435,7 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
 /// Issue 6: schedulers are a dimension of a convergence experiment. One row set per
 /// (tracer, scheduler); the images are bit-identical, so every error column of a step is the
 /// same under every scheduler; the summary answers the time-budget question on stdout and in
-/// the report; an unknown scheduler is a config error naming the file and the field.
+/// report.md; an unknown scheduler is a config error naming the file and the field.
 #[test]
 fn convergence_per_scheduler_same_errors_and_budget_winner() {
     let dir = tempfile::tempdir().unwrap();

@@ -27,8 +27,8 @@ pub enum SchedulerKind {
     Static,
     /// Item i to worker i mod n; no master.
     StaticCyclic,
-    /// The report's design: a master thread (renders nothing) keeps ≤ B items outstanding per
-    /// compute source, re-queueing handed-out items at the back of a FIFO.
+    /// The founding design (README): a master thread (renders nothing) keeps ≤ B items
+    /// outstanding per compute source, re-queueing handed-out items at the back of a FIFO.
     Master,
     /// rayon over items, split no finer than `chunk` items per task.
     WorkStealing,
