@@ -300,6 +300,54 @@ fn plot_regenerates_everything_from_the_csv() {
     );
 }
 
+/// Timelines stay out of git: without them `plot` keeps the Gantt PNGs drawn before (and the
+/// report still shows them), or skips the charts, and says so on stderr instead of failing.
+#[test]
+fn plot_without_timelines_keeps_or_skips_gantt_charts_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 1);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    let gantts = |res: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(res.join("plots"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|f| f.starts_with("gantt_") && f.ends_with(".png"))
+            .collect();
+        v.sort();
+        v
+    };
+    let before = gantts(&res);
+    assert!(!before.is_empty());
+    std::fs::remove_dir_all(res.join("timelines")).unwrap();
+
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("no timeline") && err.contains("kept"), "{err}");
+    assert_eq!(gantts(&res), before);
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains(&format!("plots/{}", before[0])), "{report}");
+
+    std::fs::remove_dir_all(res.join("plots")).unwrap();
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("skipped"), "{err}");
+    assert!(gantts(&res).is_empty());
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(!report.contains("gantt_"), "{report}");
+    assert!(res.join("plots").read_dir().unwrap().next().is_some());
+}
+
 /// `features_used` / `features_left_out` reach runs.csv and report.md: the one-sphere scene
 /// builds no BVH and needs no refraction; the Cornell box has a BVH over its triangles.
 #[test]

@@ -385,6 +385,7 @@ fn gantt_chart<DB: DrawingBackend>(
 
 pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     let mut figs = Vec::new();
+    let mut missing = MissingTimelines::default();
     let mut groups: Vec<String> = Vec::new();
     for s in sums {
         if !groups.contains(&s.group()) {
@@ -561,14 +562,19 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             }
         }
         for (name, s) in picks {
-            let tl = timeline_path(dir, &s.row.config);
-            if !tl.exists() {
-                continue;
-            }
-            let spans = read_timeline(&tl)?;
             let stem = plots.join(format!("gantt_{gs}_{name}"));
             let title = format!("Timeline: {} ×{} — {g}", s.row.label, s.row.workers);
-            both!(stem, SIZE, gantt_chart(&title, &spans));
+            let tl = timeline_path(dir, &s.row.config);
+            if tl.exists() {
+                let spans = read_timeline(&tl)?;
+                both!(stem, SIZE, gantt_chart(&title, &spans));
+            } else if stem.with_extension("png").exists() {
+                // Timelines stay out of git: keep the chart drawn when the run was made.
+                missing.kept += 1;
+            } else {
+                missing.skipped += 1;
+                continue;
+            }
             figs.push(Figure {
                 file: rel(&stem),
                 title,
@@ -576,7 +582,34 @@ pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure
             });
         }
     }
+    missing.note(dir);
     Ok(figs)
+}
+
+/// Gantt charts whose timeline file is absent (`timelines/` is not kept in git, and an
+/// experiment with `timeline = false` records none).
+#[derive(Default)]
+struct MissingTimelines {
+    /// The chart's PNG from an earlier drawing was there and is kept.
+    kept: usize,
+    /// No PNG either: the chart is left out.
+    skipped: usize,
+}
+
+impl MissingTimelines {
+    /// One line on stderr when a Gantt chart could not be drawn from its timeline.
+    fn note(&self, dir: &Path) {
+        if self.kept + self.skipped == 0 {
+            return;
+        }
+        eprintln!(
+            "note: {} has no timeline for {} Gantt chart(s): kept {} drawn before, skipped {}",
+            dir.join("timelines").display(),
+            self.kept + self.skipped,
+            self.kept,
+            self.skipped
+        );
+    }
 }
 
 /// Mrays/s and items/s of a summary's median run.
