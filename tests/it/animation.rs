@@ -8,8 +8,6 @@
 //! - bad `[animation]` input is a one-line error naming file and field;
 //! - `raysched render` writes `name_fNNNN.exr/png` per frame.
 
-mod common;
-
 use raysched::render::{render_serial, render_serial_frames, Image};
 use raysched::rng::frame_seed;
 use raysched::scene::{load_scene_str, Scene, SceneOverrides};
@@ -24,7 +22,7 @@ use std::sync::Arc;
 
 /// scenes/cornell_dolly.toml at 32×24, 1 spp, cut to 4 frames (key at frame 3).
 fn dolly_text() -> String {
-    let text = std::fs::read_to_string(common::scene_path("cornell_dolly.toml")).unwrap();
+    let text = std::fs::read_to_string(crate::support::scene_path("cornell_dolly.toml")).unwrap();
     assert!(text.contains("frames = 8") && text.contains("frame = 7"));
     text.replace("frames = 8", "frames = 4")
         .replace("frame = 7", "frame = 3")
@@ -109,7 +107,7 @@ fn frame_0_is_the_static_scene_bit_for_bit() {
 fn static_scenes_keep_their_hash_and_image_from_before_animations() {
     // Values from results/quick/runs.csv (simple, 256×256, 8 spp, serial), committed before
     // animations existed.
-    let scene = common::load(
+    let scene = crate::support::load(
         "simple.toml",
         SceneOverrides {
             width: Some(256),

@@ -1,8 +1,7 @@
 //! `bvh` agrees with `brute` on the closest hit for thousands of random rays over random
 //! scenes: rays from inside boxes, grazing rays, rays that miss everything.
 
-mod common;
-
+use crate::support::{CAMERA_4X4, GREY_M};
 use glam::Vec3;
 use raysched::geometry::Ray;
 use raysched::rng::Sampler;
@@ -13,10 +12,7 @@ use raysched::tracer::{BruteTracer, BvhTracer, Tracer};
 fn random_scene(seed: u64) -> Scene {
     let mut s = Sampler::new(seed, 0, 0);
     let mut r = move || s.next() as f64;
-    let mut text = String::from(
-        "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n\
-         [materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n",
-    );
+    let mut text = format!("{CAMERA_4X4}{GREY_M}");
     for _ in 0..4 {
         text += &format!(
             "[[shapes]]\ntype = \"cube\"\nmaterial = \"m\"\ntransform = [{{ translate = [{}, {}, {}] }}, {{ rotate = {{ axis = [{}, 1, {}], deg = {} }} }}, {{ scale = [{}, {}, {}] }}]\n",
@@ -35,7 +31,7 @@ fn random_scene(seed: u64) -> Scene {
     text += &format!(
         "[[shapes]]\ntype = \"random_triangles\"\nmaterial = \"m\"\ncount = 300\ntriangle_size = 0.6\nseed = {seed}\ntransform = [{{ scale = 3 }}]\n"
     );
-    common::load_str(&text)
+    crate::support::load_str(&text)
 }
 
 fn random_dir(s: &mut Sampler) -> Vec3 {
@@ -120,12 +116,11 @@ fn bvh_matches_brute_force_on_random_scenes() {
 
 #[test]
 fn grazing_rays_and_rays_along_box_edges_agree() {
-    let scene = common::load_str(
-        "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n\
-         [materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
+    let scene = crate::support::load_str(&format!(
+        "{CAMERA_4X4}{GREY_M}\
          [[shapes]]\ntype = \"cube\"\nmaterial = \"m\"\n\
-         [[shapes]]\ntype = \"rectangle\"\nmaterial = \"m\"\ntransform = [{ translate = [0, -1.01, 0] }, { rotate = { axis = [1, 0, 0], deg = -90 } }, { scale = 5 }]\n",
-    );
+         [[shapes]]\ntype = \"rectangle\"\nmaterial = \"m\"\ntransform = [{{ translate = [0, -1.01, 0] }}, {{ rotate = {{ axis = [1, 0, 0], deg = -90 }} }}, {{ scale = 5 }}]\n"
+    ));
     let bvh = BvhTracer::new(&scene.geometry);
     let brute = BruteTracer::new(&scene.geometry);
     let off = -scene.origin.as_vec3();
@@ -147,9 +142,7 @@ fn grazing_rays_and_rays_along_box_edges_agree() {
 
 #[test]
 fn empty_scene_never_hits() {
-    let scene = common::load_str(
-        "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n",
-    );
+    let scene = crate::support::load_str(CAMERA_4X4);
     let bvh = BvhTracer::new(&scene.geometry);
     let ray = Ray::new(Vec3::ZERO, Vec3::Z);
     assert!(bvh.intersect(&ray, f32::INFINITY).is_none());

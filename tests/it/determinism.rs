@@ -1,8 +1,6 @@
 //! A pixel's value never depends on which thread renders it, in which order, or with which
 //! other pixels: whole-image render vs random pixel subsets in shuffled order on several threads.
 
-mod common;
-
 use raysched::render::{render_item, render_parallel, render_serial, Region, WorkItem};
 use raysched::rng::Sampler;
 use raysched::scene::SceneOverrides;
@@ -12,7 +10,7 @@ use std::sync::Arc;
 #[test]
 fn shuffled_pixel_subsets_on_threads_are_bit_identical_to_the_serial_render() {
     for name in ["cornell_box.toml", "glass_checker.toml", "point_plane.toml"] {
-        let scene = Arc::new(common::load(
+        let scene = Arc::new(crate::support::load(
             name,
             SceneOverrides {
                 width: Some(23),
@@ -91,8 +89,8 @@ fn a_different_seed_gives_a_different_image() {
         seed: Some(seed),
         ..Default::default()
     };
-    let a = common::load("cornell_box.toml", o(1));
-    let b = common::load("cornell_box.toml", o(2));
+    let a = crate::support::load("cornell_box.toml", o(1));
+    let b = crate::support::load("cornell_box.toml", o(2));
     let ta = AnyTracer::build("bvh", &a, 1).unwrap();
     let tb = AnyTracer::build("bvh", &b, 1).unwrap();
     assert_ne!(

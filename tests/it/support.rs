@@ -6,6 +6,12 @@ use raysched::scene::{load_scene, load_scene_str, Scene, SceneOverrides};
 use raysched::tracer::Tracer;
 use std::path::{Path, PathBuf};
 
+/// A 4×4 camera at (0, 0, 10) looking at the origin, for scenes that are only ray-cast.
+pub const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
+
+/// One grey diffuse material, `m`.
+pub const GREY_M: &str = "[materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
+
 pub fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")

@@ -1,9 +1,7 @@
 //! Renders compared with the analytic answers of docs/conventions.md, each within 3σ
 //! of the estimate's own standard error.
 
-mod common;
-
-use common::{estimate, load};
+use crate::support::{estimate, load};
 use glam::Vec3;
 use raysched::geometry::Sphere;
 use raysched::scene::SceneOverrides;
@@ -63,7 +61,7 @@ fn furnace_covered_pixels_equal_albedo_and_background_is_one() {
 fn interior_emitting_sphere_follows_the_geometric_series() {
     for a in [0.5f64, 0.8] {
         for d in [1, 2, 3, 8, -1] {
-            let text = std::fs::read_to_string(common::scene_path("interior_sphere.toml"))
+            let text = std::fs::read_to_string(crate::support::scene_path("interior_sphere.toml"))
                 .unwrap()
                 .replace(
                     "reflectance = [0.5, 0.5, 0.5]",
