@@ -1,4 +1,4 @@
-//! Dispatch cost per item, per scheduler (issue 4 targets: `master` ≤ 150 ns, `self_scheduling`
+//! Dispatch cost per item, per scheduler (targets: `master` ≤ 150 ns, `self_scheduling`
 //! ≤ 20 ns per item).
 //!
 //! The job renders nothing (it returns an empty `TileResult`), so all the time is the

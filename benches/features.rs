@@ -1,4 +1,4 @@
-//! A scene pays only for what it uses (issue 6): a diffuse-only scene through the pruned and
+//! A scene pays only for what it uses: a diffuse-only scene through the pruned and
 //! the forced-full path, and brute force against a BVH on tiny scenes (the crossover behind
 //! `tracer::bvh::BVH_MIN_PRIMS`). Short on purpose: `cargo bench --bench features`.
 //!

@@ -1,6 +1,6 @@
-//! Reference images: analytic where the scene has a closed form (REFERENCE_SCENES.md (a), (a2),
-//! (c) and a few stability cases), otherwise a high-spp render cached under `results/refs/`
-//! keyed by the scene hash.
+//! Reference images: analytic where the scene has a closed form (the furnaces and the point
+//! light of docs/conventions.md, and a few stability cases), otherwise a high-spp render
+//! cached under `results/refs/` keyed by the scene hash.
 //!
 //! Analytic kinds recognised structurally (not by name), so the transformed variants of the
 //! stability suite are recognised too:

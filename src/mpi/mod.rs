@@ -1,5 +1,5 @@
-//! MPI compute sources (feature `mpi`): machines across a network as the report's second kind
-//! of computing power source.
+//! MPI compute sources (feature `mpi`): machines across a network, the founding design's
+//! second kind of computing power source.
 //!
 //! Under `mpirun -n K raysched render SCENE --sources mpi`, rank 0 runs the scheduler and
 //! ranks 1…K−1 render. No shared filesystem is assumed: rank 0 broadcasts the scene text,

@@ -6,7 +6,7 @@ use crate::experiment::summary::Summary;
 use crate::sched::{SchedulerKind, MASTER_LANE};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A drawn figure: `file` is the PNG relative to the experiment folder (an SVG lies beside it).
 #[derive(Clone, Debug)]
@@ -383,200 +383,306 @@ fn gantt_chart<DB: DrawingBackend>(
     Ok(())
 }
 
+/// Every figure of every group (scene + settings + tracer) into `plots`, in a fixed order: MPI
+/// throughput, speedup vs workers, granularity, buffer, overhead, then the Gantt timelines.
 pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
-    let mut figs = Vec::new();
+    let mut out = Drawn {
+        dir,
+        plots,
+        figs: Vec::new(),
+        missing: MissingTimelines::default(),
+    };
+    for g in &group_names(sums) {
+        if let Some(f) = mpi_throughput(dir, plots, g, &slug(g), sums)? {
+            out.figs.push(f);
+        }
+        // The figures below compare thread schedulers; MPI rows have their own figure.
+        let Some(group) = Group::of(g, sums) else {
+            continue;
+        };
+        speedup_vs_workers(&mut out, &group)?;
+        granularity(&mut out, &group)?;
+        buffer_sizes(&mut out, &group)?;
+        let best = best_per_scheduler(&group.at_max);
+        overhead(&mut out, &group, &best)?;
+        gantt_charts(&mut out, &group, &best)?;
+    }
+    out.missing.note(dir);
+    Ok(out.figs)
+}
+
+/// Where figures go and what has been drawn so far.
+struct Drawn<'a> {
+    dir: &'a Path,
+    plots: &'a Path,
+    figs: Vec<Figure>,
+    missing: MissingTimelines,
+}
+
+impl Drawn<'_> {
+    /// Record the figure drawn at `stem` (its PNG, relative to the experiment folder).
+    fn push(&mut self, stem: &Path, title: String, caption: &str) {
+        let file = stem
+            .strip_prefix(self.dir)
+            .unwrap_or(stem)
+            .with_extension("png")
+            .to_string_lossy()
+            .into_owned();
+        self.figs.push(Figure {
+            file,
+            title,
+            caption: caption.into(),
+        });
+    }
+}
+
+/// Group names in the order they first appear.
+fn group_names(sums: &[Summary]) -> Vec<String> {
     let mut groups: Vec<String> = Vec::new();
     for s in sums {
         if !groups.contains(&s.group()) {
             groups.push(s.group());
         }
     }
-    let rel = |p: &PathBuf| {
-        p.strip_prefix(dir)
-            .unwrap_or(p)
-            .with_extension("png")
-            .to_string_lossy()
-            .into_owned()
-    };
-    for g in &groups {
-        let gs = slug(g);
-        if let Some(f) = mpi_throughput(dir, plots, g, &gs, sums)? {
-            figs.push(f);
-        }
-        // The figures below compare thread schedulers; MPI rows have their own figure.
+    groups
+}
+
+/// One group's thread-scheduler rows: all of them, and those at the most workers.
+struct Group<'a> {
+    name: &'a str,
+    slug: String,
+    all: Vec<&'a Summary>,
+    at_max: Vec<&'a Summary>,
+    max_w: usize,
+}
+
+impl<'a> Group<'a> {
+    /// `None` when the group has no thread-scheduler rows (only serial or MPI ones).
+    fn of(name: &'a str, sums: &'a [Summary]) -> Option<Self> {
         let all: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.scheduler != "serial" && s.row.sources != "mpi")
+            .filter(|s| s.group() == name && s.row.scheduler != "serial" && s.row.sources != "mpi")
             .collect();
         if all.is_empty() {
-            continue;
+            return None;
         }
         let max_w = all.iter().map(|s| s.row.workers).max().unwrap_or(1);
-        let at_max: Vec<&Summary> = all
+        let at_max = all
             .iter()
             .copied()
             .filter(|s| s.row.workers == max_w)
             .collect();
-        let kind = |s: &Summary| Some(s.row.scheduler.clone());
+        Some(Self {
+            name,
+            slug: slug(name),
+            all,
+            at_max,
+            max_w,
+        })
+    }
+}
 
-        let workers: std::collections::BTreeSet<usize> =
-            all.iter().map(|s| s.row.workers).collect();
-        if workers.len() > 1 {
-            let data = series(
-                &all,
-                kind,
-                |s| Some(s.row.workers as f64),
-                |s| s.speedup_median,
-                higher,
-            );
-            let stem = plots.join(format!("speedup_vs_workers_{gs}"));
-            let title = format!("Speedup vs workers — {g}");
-            both!(
-                stem,
-                SIZE,
-                line_chart(
-                    &title,
-                    "worker threads",
-                    "speedup (t_serial / t)",
-                    &data,
-                    false,
-                    true
-                )
-            );
-            figs.push(Figure {
-                file: rel(&stem),
-                title,
-                caption: "Median speedup of each scheduler's best configuration per worker count; the black line is ideal linear speedup, and the gap below it is overhead.".into(),
-            });
-        }
-        let chunks: std::collections::BTreeSet<u64> =
-            at_max.iter().filter_map(|s| s.row.chunk_px).collect();
-        if chunks.len() > 1 {
-            let wall = series(&at_max, kind, log2_chunk, |s| s.wall_median, lower);
-            let speed = series(&at_max, kind, log2_chunk, |s| s.speedup_median, higher);
-            let stem = plots.join(format!("granularity_{gs}"));
-            let title = format!("Granularity, {max_w} workers — {g}");
-            both!(
-                stem,
-                (900, 820),
-                two_charts(
-                    (
-                        &format!("Wall time vs chunk size, {max_w} workers — {g}"),
-                        "Speedup vs chunk size"
-                    ),
-                    "pixels per work item (log₂ scale)",
-                    ("median wall time (s)", &wall),
-                    ("speedup (t_serial / t)", &speed)
-                )
-            );
-            figs.push(Figure {
-                file: rel(&stem),
-                title,
-                caption: "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve.".into(),
-            });
-        }
-        let master: Vec<&Summary> = at_max
-            .iter()
-            .copied()
-            .filter(|s| s.row.buffer().is_some())
-            .collect();
-        let buffers: std::collections::BTreeSet<usize> =
-            master.iter().filter_map(|s| s.row.buffer()).collect();
-        if buffers.len() > 1 {
-            let data = series(
-                &master,
-                |s| {
-                    Some(format!(
-                        "master chunk={}",
-                        s.row.chunk.clone().unwrap_or_default()
-                    ))
-                },
-                |s| s.row.buffer().map(|b| (b as f64).log2()),
-                |s| s.speedup_median,
-                higher,
-            );
-            let stem = plots.join(format!("buffer_{gs}"));
-            let title = format!("Master: speedup vs buffer size, {max_w} workers — {g}");
-            both!(
-                stem,
-                SIZE,
-                line_chart(
-                    &title,
-                    "items outstanding per worker, B (log₂ scale)",
-                    "speedup (t_serial / t)",
-                    &data,
-                    true,
-                    false
-                )
-            );
-            figs.push(Figure {
-                file: rel(&stem),
-                title,
-                caption: "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.".into(),
-            });
-        }
-        // Overhead: each kind's best configuration at the most workers.
-        let mut best: Vec<&Summary> = Vec::new();
-        for s in &at_max {
-            match best.iter_mut().find(|b| b.row.scheduler == s.row.scheduler) {
-                Some(b) if s.wall_median < b.wall_median => *b = s,
-                Some(_) => {}
-                None => best.push(s),
-            }
-        }
-        let serial_s = at_max.first().map_or(0.0, |s| s.row.serial_s);
-        let bars: Vec<(String, [f64; 4])> = best
-            .iter()
-            .map(|s| {
-                let other_idle = (s.idle_s_median - s.imbalance_s_median).max(0.0);
-                (
-                    s.row.scheduler.clone(),
-                    [
-                        s.work_s_median,
-                        s.imbalance_s_median.min(s.idle_s_median),
-                        other_idle,
-                        s.dispatch_s_median,
-                    ],
-                )
-            })
-            .collect();
-        let stem = plots.join(format!("overhead_{gs}"));
-        let title = format!("Where the time goes, {max_w} workers — {g}");
-        both!(stem, SIZE, overhead_chart(&title, &bars, serial_s));
-        figs.push(Figure {
-            file: rel(&stem),
-            title,
-            caption: "Total height = workers × wall time (+ the master's dispatch time on its own thread). Everything above the black serial line is overhead.".into(),
-        });
-        // Gantt: each kind's best run, plus the per-ray master if there is one.
-        let mut picks: Vec<(String, &Summary)> =
-            best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
-        if let Some(pr) = at_max
-            .iter()
-            .filter(|s| s.row.buffer().is_some() && s.row.chunk_px == Some(1))
-            .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
-        {
-            if !picks.iter().any(|(_, s)| s.row.config == pr.row.config) {
-                picks.push(("master_per_ray".into(), *pr));
-            }
-        }
-        for (name, s) in picks {
-            let tl = timeline_path(dir, &s.row.config);
-            if !tl.exists() {
-                continue;
-            }
-            let spans = read_timeline(&tl)?;
-            let stem = plots.join(format!("gantt_{gs}_{name}"));
-            let title = format!("Timeline: {} ×{} — {g}", s.row.label, s.row.workers);
-            both!(stem, SIZE, gantt_chart(&title, &spans));
-            figs.push(Figure {
-                file: rel(&stem),
-                title,
-                caption: "One lane per worker (the master on its own lane); each bar is one work item, white gaps are idle time.".into(),
-            });
+fn kind(s: &Summary) -> Option<String> {
+    Some(s.row.scheduler.clone())
+}
+
+fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
+    let workers: std::collections::BTreeSet<usize> = gr.all.iter().map(|s| s.row.workers).collect();
+    if workers.len() <= 1 {
+        return Ok(());
+    }
+    let data = series(
+        &gr.all,
+        kind,
+        |s| Some(s.row.workers as f64),
+        |s| s.speedup_median,
+        higher,
+    );
+    let stem = out.plots.join(format!("speedup_vs_workers_{}", gr.slug));
+    let title = format!("Speedup vs workers — {}", gr.name);
+    both!(
+        stem,
+        SIZE,
+        line_chart(
+            &title,
+            "worker threads",
+            "speedup (t_serial / t)",
+            &data,
+            false,
+            true
+        )
+    );
+    out.push(&stem, title, "Median speedup of each scheduler's best configuration per worker count; the black line is ideal linear speedup, and the gap below it is overhead.");
+    Ok(())
+}
+
+fn granularity(out: &mut Drawn, gr: &Group) -> R {
+    let chunks: std::collections::BTreeSet<u64> =
+        gr.at_max.iter().filter_map(|s| s.row.chunk_px).collect();
+    if chunks.len() <= 1 {
+        return Ok(());
+    }
+    let (g, max_w) = (gr.name, gr.max_w);
+    let wall = series(&gr.at_max, kind, log2_chunk, |s| s.wall_median, lower);
+    let speed = series(&gr.at_max, kind, log2_chunk, |s| s.speedup_median, higher);
+    let stem = out.plots.join(format!("granularity_{}", gr.slug));
+    let title = format!("Granularity, {max_w} workers — {g}");
+    both!(
+        stem,
+        (900, 820),
+        two_charts(
+            (
+                &format!("Wall time vs chunk size, {max_w} workers — {g}"),
+                "Speedup vs chunk size"
+            ),
+            "pixels per work item (log₂ scale)",
+            ("median wall time (s)", &wall),
+            ("speedup (t_serial / t)", &speed)
+        )
+    );
+    out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve.");
+    Ok(())
+}
+
+fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
+    let master: Vec<&Summary> = gr
+        .at_max
+        .iter()
+        .copied()
+        .filter(|s| s.row.buffer().is_some())
+        .collect();
+    let buffers: std::collections::BTreeSet<usize> =
+        master.iter().filter_map(|s| s.row.buffer()).collect();
+    if buffers.len() <= 1 {
+        return Ok(());
+    }
+    let data = series(
+        &master,
+        |s| {
+            Some(format!(
+                "master chunk={}",
+                s.row.chunk.clone().unwrap_or_default()
+            ))
+        },
+        |s| s.row.buffer().map(|b| (b as f64).log2()),
+        |s| s.speedup_median,
+        higher,
+    );
+    let stem = out.plots.join(format!("buffer_{}", gr.slug));
+    let title = format!(
+        "Master: speedup vs buffer size, {} workers — {}",
+        gr.max_w, gr.name
+    );
+    both!(
+        stem,
+        SIZE,
+        line_chart(
+            &title,
+            "items outstanding per worker, B (log₂ scale)",
+            "speedup (t_serial / t)",
+            &data,
+            true,
+            false
+        )
+    );
+    out.push(&stem, title, "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.");
+    Ok(())
+}
+
+/// Each scheduler kind's fastest configuration (median wall time), in first-seen order.
+fn best_per_scheduler<'a>(at_max: &[&'a Summary]) -> Vec<&'a Summary> {
+    let mut best: Vec<&Summary> = Vec::new();
+    for s in at_max {
+        match best.iter_mut().find(|b| b.row.scheduler == s.row.scheduler) {
+            Some(b) if s.wall_median < b.wall_median => *b = s,
+            Some(_) => {}
+            None => best.push(s),
         }
     }
-    Ok(figs)
+    best
+}
+
+fn overhead(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
+    let serial_s = gr.at_max.first().map_or(0.0, |s| s.row.serial_s);
+    let bars: Vec<(String, [f64; 4])> = best
+        .iter()
+        .map(|s| {
+            let other_idle = (s.idle_s_median - s.imbalance_s_median).max(0.0);
+            (
+                s.row.scheduler.clone(),
+                [
+                    s.work_s_median,
+                    s.imbalance_s_median.min(s.idle_s_median),
+                    other_idle,
+                    s.dispatch_s_median,
+                ],
+            )
+        })
+        .collect();
+    let stem = out.plots.join(format!("overhead_{}", gr.slug));
+    let title = format!("Where the time goes, {} workers — {}", gr.max_w, gr.name);
+    both!(stem, SIZE, overhead_chart(&title, &bars, serial_s));
+    out.push(&stem, title, "Total height = workers × wall time (+ the master's dispatch time on its own thread). Everything above the black serial line is overhead.");
+    Ok(())
+}
+
+/// Gantt: each kind's best run, plus the per-ray master if there is one.
+fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
+    let mut picks: Vec<(String, &Summary)> =
+        best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
+    if let Some(pr) = gr
+        .at_max
+        .iter()
+        .filter(|s| s.row.buffer().is_some() && s.row.chunk_px == Some(1))
+        .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
+    {
+        if !picks.iter().any(|(_, s)| s.row.config == pr.row.config) {
+            picks.push(("master_per_ray".into(), *pr));
+        }
+    }
+    for (name, s) in picks {
+        let stem = out.plots.join(format!("gantt_{}_{name}", gr.slug));
+        let title = format!("Timeline: {} ×{} — {}", s.row.label, s.row.workers, gr.name);
+        let tl = timeline_path(out.dir, &s.row.config);
+        if tl.exists() {
+            let spans = read_timeline(&tl)?;
+            both!(stem, SIZE, gantt_chart(&title, &spans));
+        } else if stem.with_extension("png").exists() {
+            // Timelines stay out of git: keep the chart drawn when the run was made.
+            out.missing.kept += 1;
+        } else {
+            out.missing.skipped += 1;
+            continue;
+        }
+        out.push(&stem, title, "One lane per worker (the master on its own lane); each bar is one work item, white gaps are idle time.");
+    }
+    Ok(())
+}
+
+/// Gantt charts whose timeline file is absent (`timelines/` is not kept in git, and an
+/// experiment with `timeline = false` records none).
+#[derive(Default)]
+struct MissingTimelines {
+    /// The chart's PNG from an earlier drawing was there and is kept.
+    kept: usize,
+    /// No PNG either: the chart is left out.
+    skipped: usize,
+}
+
+impl MissingTimelines {
+    /// One line on stderr when a Gantt chart could not be drawn from its timeline.
+    fn note(&self, dir: &Path) {
+        if self.kept + self.skipped == 0 {
+            return;
+        }
+        eprintln!(
+            "note: {} has no timeline for {} Gantt chart(s): kept {} drawn before, skipped {}",
+            dir.join("timelines").display(),
+            self.kept + self.skipped,
+            self.kept,
+            self.skipped
+        );
+    }
 }
 
 /// Mrays/s and items/s of a summary's median run.

@@ -23,7 +23,7 @@ pub fn register_font() {
     });
 }
 
-/// Draw every figure the data supports into `dir/plots/`; returns them for the report.
+/// Draw every figure the data supports into `dir/plots/`; returns them for `report.md`.
 pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     register_font();
     let plots = dir.join("plots");

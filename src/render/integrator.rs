@@ -2,7 +2,7 @@
 //! importance sampling (power heuristic), unbiased Russian roulette from segment 5 on.
 //!
 //! `max_depth` counts path *segments*; the segment that reaches an emitter, or the shadow
-//! connection, counts (REFERENCE_SCENES.md): 1 = emitters seen directly, 2 = plus direct light.
+//! connection, counts (docs/conventions.md): 1 = emitters seen directly, 2 = plus direct light.
 
 use crate::geometry::{basis, gamma, offset_ray_origin, Hit, Ray};
 use crate::rng::Sampler;

@@ -1,6 +1,6 @@
-//! Pinhole camera exactly as REFERENCE_SCENES.md defines it. A static scene's camera sits at the
-//! render-space origin; a later frame of an animation sits at `eye` (its offset from frame 0's
-//! camera, computed in f64 and rounded once).
+//! Pinhole camera as docs/conventions.md defines it (fov on the smaller side). A static
+//! scene's camera sits at the render-space origin; a later frame of an animation sits at `eye`
+//! (its offset from frame 0's camera, computed in f64 and rounded once).
 
 use crate::geometry::Ray;
 use glam::{DVec3, Vec3};

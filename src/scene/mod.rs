@@ -139,7 +139,7 @@ impl Geometry {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderSettings {
     pub spp: u32,
-    /// Path segments counted as in REFERENCE_SCENES.md; −1 = unlimited.
+    /// Path segments, the one reaching an emitter included (docs/conventions.md); −1 = unlimited.
     pub max_depth: i32,
     pub seed: u64,
 }

@@ -1,10 +1,10 @@
-//! The report's master: a thread that renders nothing keeps at most B items outstanding per
-//! compute source, taken from a FIFO queue. A handed-out item goes to the back of the queue;
-//! if the master meets it again while it is unfinished, the re-queue policy decides whether it
-//! is handed out again (`seed`: yes; `timeout:<ms>`: once outstanding that long; `never`: the
-//! item left the queue when first handed out). The first result wins; later ones are counted
-//! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
-//! the policy is `never`); a deadline bounds every run, so nothing hangs.
+//! The founding design's master (README): a thread that renders nothing keeps at most B items
+//! outstanding per compute source, taken from a FIFO queue. A handed-out item goes to the back of
+//! the queue; if the master meets it again while it is unfinished, the re-queue policy decides
+//! whether it is handed out again (`seed`: yes; `timeout:<ms>`: once outstanding that long;
+//! `never`: the item left the queue when first handed out). The first result wins; later ones are
+//! counted as duplicates and dropped. Sources that are lost have their items re-queued at once
+//! (unless the policy is `never`); a deadline bounds every run, so nothing hangs.
 
 use super::{
     wire, Collector, MasterParams, MasterStats, Results, RunOptions, RunStats, SchedError,

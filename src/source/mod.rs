@@ -1,5 +1,6 @@
-//! Compute sources: the report's "computing power sources". A source takes a [`WorkItem`] and
-//! hands back a [`DelayedResult`] at once; the result is polled, taken or waited on later.
+//! Compute sources: the founding design's "computing power sources" (README). A source takes a
+//! [`WorkItem`] and hands back a [`DelayedResult`] at once; the result is polled, taken or
+//! waited on later.
 //!
 //! The trait is object safe so the master works over `Vec<Box<dyn ComputeSource>>`: local
 //! threads ([`LocalThreadSource`]), fault-injecting wrappers ([`faulty`]) and, later, MPI ranks.

@@ -1,4 +1,4 @@
-//! The extreme-scale variant of a scene (REFERENCE_SCENES.md (e)): every placement and the
+//! The extreme-scale variant of a scene (docs/conventions.md): every placement and the
 //! camera left-multiplied by `M = T(t,t,t)·S(s)`, built from the scene text so that tests and
 //! the `stability` command load exactly the same thing.
 

@@ -6,7 +6,7 @@
 //! `t ≥ 1e-4`, which forced a rescaling of every ray. Here one node test is 6 `Vec4`
 //! subtract-multiplies and a min/max tree over four children (SSE2 through glam, no
 //! `unsafe`), and the slab test is conservative by pbrt's bound (`t_far · (1 + 2γ₃)`), with no
-//! epsilon. Measured numbers are in `benches/tracers.rs` and the closing notes.
+//! epsilon. Measured numbers are in `benches/tracers.rs` and the README.
 
 use crate::geometry::{gamma, Hit, Ray};
 use glam::Vec4;

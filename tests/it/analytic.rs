@@ -1,0 +1,166 @@
+//! Renders compared with the analytic answers of docs/conventions.md, each within 3σ
+//! of the estimate's own standard error.
+
+use crate::support::{estimate, load};
+use glam::Vec3;
+use raysched::geometry::Sphere;
+use raysched::scene::SceneOverrides;
+use raysched::tracer::AnyTracer;
+
+fn overrides(max_depth: i32, width: u32) -> SceneOverrides {
+    SceneOverrides {
+        max_depth: Some(max_depth),
+        width: Some(width),
+        height: Some(width),
+        ..Default::default()
+    }
+}
+
+/// Pixels whose four corners all hit (`true`) or all miss (`false`) the unit sphere at the origin.
+fn furnace_pixels(scene: &raysched::scene::Scene, covered: bool) -> Vec<u32> {
+    // Render space is camera-relative: the sphere sits at −origin.
+    let sphere = Sphere {
+        center: (-scene.origin).as_vec3(),
+        radius: 1.0,
+    };
+    let (w, h) = (scene.width(), scene.height());
+    (0..w * h)
+        .filter(|&i| {
+            let (x, y) = (i % w, i / w);
+            [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .iter()
+                .all(|&(dx, dy)| {
+                    let ray = scene.camera.pixel_ray(x, y, dx, dy);
+                    sphere.intersect(&ray, f32::INFINITY).is_some() == covered
+                })
+        })
+        .collect()
+}
+
+#[test]
+fn furnace_covered_pixels_equal_albedo_and_background_is_one() {
+    for (file, a) in [("furnace.toml", 1.0), ("furnace_a08.toml", 0.8)] {
+        for max_depth in [1, 2, 64] {
+            let scene = load(file, overrides(max_depth, 24));
+            let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let covered = furnace_pixels(&scene, true);
+            let background = furnace_pixels(&scene, false);
+            assert!(covered.len() > 30 && background.len() > 100);
+            let expected = if max_depth == 1 { 0.0 } else { a };
+            for c in 0..3 {
+                estimate(&scene, &tracer, &covered, 16, c)
+                    .assert_within_3se(expected, &format!("{file} d={max_depth} covered"));
+                estimate(&scene, &tracer, &background, 2, c)
+                    .assert_within_3se(1.0, &format!("{file} d={max_depth} background"));
+            }
+        }
+    }
+}
+
+#[test]
+fn interior_emitting_sphere_follows_the_geometric_series() {
+    for a in [0.5f64, 0.8] {
+        for d in [1, 2, 3, 8, -1] {
+            let text = std::fs::read_to_string(crate::support::scene_path("interior_sphere.toml"))
+                .unwrap()
+                .replace(
+                    "reflectance = [0.5, 0.5, 0.5]",
+                    &format!("reflectance = [{a}, {a}, {a}]"),
+                );
+            let o = overrides(d, 8);
+            let scene = raysched::scene::load_scene_str(
+                &text,
+                "interior",
+                std::path::Path::new("."),
+                "interior",
+                &o,
+            )
+            .unwrap();
+            let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let expected = if d < 0 {
+                1.0 / (1.0 - a)
+            } else {
+                (1.0 - a.powi(d)) / (1.0 - a)
+            };
+            let pixels: Vec<u32> = (0..64).collect();
+            estimate(&scene, &tracer, &pixels, 16, 0)
+                .assert_within_3se(expected, &format!("interior a={a} d={d}"));
+        }
+    }
+}
+
+/// Mean of L(x,y) = (ρ/π)·I·h/(h² + x² + y²)^{3/2} over the centre pixel's footprint, by a
+/// 400×400 midpoint rule (its error is far below the test's tolerance).
+fn point_plane_centre_pixel() -> f64 {
+    let (rho, i, h) = (0.5f64, 10.0f64, 2.0f64);
+    let side = 2.0 * 5.0 * (30.0f64).to_radians().tan() / 65.0;
+    let n = 400;
+    let mut sum = 0.0;
+    for a in 0..n {
+        for b in 0..n {
+            let x = (a as f64 + 0.5) / n as f64 * side - side / 2.0;
+            let y = (b as f64 + 0.5) / n as f64 * side - side / 2.0;
+            sum += rho / std::f64::consts::PI * i * h / (h * h + x * x + y * y).powf(1.5);
+        }
+    }
+    sum / (n * n) as f64
+}
+
+#[test]
+fn point_light_over_plane_centre_pixel_matches_the_integral() {
+    let scene = load("point_plane.toml", SceneOverrides::default());
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let centre = 32 * 65 + 32;
+    let expected = point_plane_centre_pixel();
+    // ≈ 0.398: (ρ/π)·I/h² at the axis.
+    assert!((expected - 0.5 / std::f64::consts::PI * 10.0 / 4.0).abs() < 0.01);
+    for c in 0..3 {
+        estimate(&scene, &tracer, &[centre], 4096, c)
+            .assert_within_3se(expected, "point_plane centre");
+    }
+}
+
+#[test]
+fn glass_sphere_alone_in_uniform_environment_is_one() {
+    let scene = load("glass_alone.toml", overrides(64, 16));
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let all: Vec<u32> = (0..256).collect();
+    for c in 0..3 {
+        estimate(&scene, &tracer, &all, 64, c).assert_within_3se(1.0, "glass alone");
+    }
+}
+
+#[test]
+fn cornell_box_is_lit_and_coloured_as_specified() {
+    // Not analytic: a sanity check of orientation (red wall left, green right) and light.
+    let scene = load(
+        "cornell_box.toml",
+        SceneOverrides {
+            width: Some(32),
+            height: Some(32),
+            spp: Some(16),
+            ..Default::default()
+        },
+    );
+    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let (img, counters) = raysched::render::render_serial(&scene, &tracer);
+    assert_eq!(counters.nonfinite, 0);
+    let left = Vec3::from(img.get(1, 16));
+    let right = Vec3::from(img.get(30, 16));
+    assert!(left.x > 2.0 * left.y, "left wall should be red: {left}");
+    assert!(
+        right.y > 2.0 * right.x,
+        "right wall should be green: {right}"
+    );
+    // The light (y = 0.99, z ∈ [−0.18, 0.20]) projects to v ∈ [0.125, 0.160]: rows 4–5 of 32.
+    let top = Vec3::from(img.get(16, 4)).max(Vec3::from(img.get(16, 5)));
+    assert!(
+        top.x > 5.0,
+        "light should be visible at the top centre: {top}"
+    );
+    let above = Vec3::from(img.get(16, 2));
+    assert!(
+        above.x < 2.0,
+        "ceiling above the light should be dim: {above}"
+    );
+}

@@ -1,0 +1,578 @@
+//! The experiment runner through the real binary: config errors, resume after kills, plots.
+
+use raysched::experiment::results::read_runs;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_raysched");
+
+fn scene_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/simple.toml")
+}
+
+/// A tiny experiment in `dir`: 2 scenes sizes × (serial + 6 scheduler configs) × reps.
+fn write_tiny(dir: &Path, reps: u32) -> PathBuf {
+    let text = format!(
+        r#"name = "tiny"
+repetitions = {reps}
+warmup = 0
+workers = [1, 2]
+[[scenes]]
+path = "{scene}"
+width = 16
+height = 16
+spp = 1
+[[scenes]]
+path = "{scene}"
+width = 24
+height = 8
+spp = 2
+[[schedulers]]
+kind = "master"
+chunk = ["1", "4"]
+buffer = [1, 2]
+[[schedulers]]
+kind = "static"
+chunk = "rows:1"
+"#,
+        scene = scene_path().display()
+    );
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn run(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+/// Each `(from, to, field)`: the experiment `good` with `from` replaced by `to` exits 2 with
+/// an error naming the file and `field`.
+fn assert_bad_configs(dir: &Path, good: &str, cases: &[(&str, &str, &str)]) {
+    for (from, to, field) in cases {
+        std::fs::write(dir.join("bad.toml"), good.replacen(from, to, 1)).unwrap();
+        let out = run(&["run", "bad.toml", "--quiet", "--out", "res"], dir);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{to:?}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(field),
+            "{to:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn bad_configs_exit_2_naming_file_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read_to_string(write_tiny(dir.path(), 1)).unwrap();
+    let cases = [
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"static\"\nchunk = \"rows:1\"\nbuffer = 4",
+            "schedulers[1].buffer",
+        ),
+        ("repetitions = 1", "repetitions = 0", "repetitions"),
+        ("workers = [1, 2]", "workers = [0, 2]", "workers"),
+        (
+            "chunk = [\"1\", \"4\"]",
+            "chunk = [\"1\", \"0\"]",
+            "schedulers[0].chunk",
+        ),
+        (
+            "kind = \"master\"",
+            "kind = \"fastest\"",
+            "schedulers[0].kind",
+        ),
+        (
+            "name = \"tiny\"",
+            "name = \"tiny\"\ntracers = [\"embree\"]",
+            "tracers[0]",
+        ),
+        ("width = 16", "width = 0", "scenes[0]"),
+        ("width = 16", "widht = 16", "line"),
+    ];
+    for (i, (from, to, field)) in cases.into_iter().enumerate() {
+        let res = format!("res{i}");
+        assert!(good.contains(from), "{from}");
+        let p = dir.path().join("bad.toml");
+        std::fs::write(&p, good.replacen(from, to, 1)).unwrap();
+        let out = run(
+            &["run", p.to_str().unwrap(), "--quiet", "--out", &res],
+            dir.path(),
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        if to.contains("embree") && cfg!(feature = "embree") {
+            continue;
+        }
+        assert_eq!(out.status.code(), Some(2), "{to}: {err}");
+        assert!(
+            err.contains("bad.toml: ") && err.contains(field),
+            "{to}: {err}"
+        );
+        // Validation happens before anything is measured.
+        assert!(
+            !dir.path().join(&res).join("tiny/runs.csv").exists(),
+            "{to}"
+        );
+    }
+}
+
+/// Kill the runner at random moments, resume, and check every (config, repetition) appears
+/// exactly once and no partial line survives.
+#[test]
+fn killed_runs_resume_without_lost_or_duplicated_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let reps = 40;
+    let exp = write_tiny(dir.path(), reps);
+    let args = ["run", exp.to_str().unwrap(), "--quiet", "--out", "res"];
+    let csv = dir.path().join("res/tiny/runs.csv");
+    // xorshift seeded from the clock: different kill points on every test run.
+    let mut x = Instant::now().elapsed().as_nanos() as u64 | 1;
+    x ^= std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    let mut rnd = move |n: u64| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x % n
+    };
+    let t0 = Instant::now();
+    let mut kills = 0;
+    let mut finished = false;
+    while kills < 12 && t0.elapsed() < Duration::from_secs(30) {
+        let mut child = Command::new(BIN)
+            .args(args)
+            .current_dir(dir.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(20 + rnd(250)));
+        if child.try_wait().unwrap().is_some() {
+            finished = true;
+            break;
+        }
+        child.kill().unwrap();
+        child.wait().unwrap();
+        kills += 1;
+        // Whatever the kill left, the rows read back are whole and unique so far.
+        if csv.exists() {
+            let (rows, _) = read_runs(&csv).unwrap();
+            let mut seen = HashMap::new();
+            for r in &rows {
+                assert!(
+                    seen.insert((r.config.clone(), r.repetition), ()).is_none(),
+                    "duplicate after kill {kills}"
+                );
+            }
+        }
+    }
+    let out = run(&args, dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&csv).unwrap();
+    assert_eq!(bytes.last(), Some(&b'\n'), "no partial last line");
+    let (rows, valid) = read_runs(&csv).unwrap();
+    assert_eq!(
+        valid as usize,
+        bytes.len(),
+        "every byte belongs to a whole row"
+    );
+    // 2 scenes × (serial + master 2 chunks × 2 buffers × 2 worker counts + static × 2).
+    let configs = 2 * (1 + 8 + 2);
+    let mut count: HashMap<(String, u32), usize> = HashMap::new();
+    for r in &rows {
+        *count.entry((r.config.clone(), r.repetition)).or_default() += 1;
+        assert!(r.identical, "{} rep {}", r.label, r.repetition);
+    }
+    assert_eq!(
+        count.len(),
+        configs * reps as usize,
+        "kills: {kills}, finished early: {finished}"
+    );
+    assert!(
+        count.values().all(|&c| c == 1),
+        "a (config, repetition) appears twice"
+    );
+    assert!(kills > 0 || finished, "the test never killed anything");
+
+    // Re-running measures nothing new.
+    let before = bytes.len();
+    assert!(run(&args, dir.path()).status.success());
+    assert_eq!(std::fs::read(&csv).unwrap().len(), before);
+
+    // A changed experiment file is refused (exit 2) unless --fresh.
+    let text = std::fs::read_to_string(&exp).unwrap();
+    std::fs::write(&exp, text.replace("warmup = 0", "warmup = 1")).unwrap();
+    let out = run(&args, dir.path());
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--fresh"));
+    std::fs::write(
+        &exp,
+        text.replace(&format!("repetitions = {reps}"), "repetitions = 1"),
+    )
+    .unwrap();
+    let mut fresh = args.to_vec();
+    fresh.push("--fresh");
+    assert!(run(&fresh, dir.path()).status.success());
+    assert_eq!(read_runs(&csv).unwrap().0.len(), configs);
+}
+
+#[test]
+fn plot_regenerates_everything_from_the_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 2);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    for f in ["meta.toml", "summary.csv", "report.md"] {
+        assert!(res.join(f).exists(), "{f}");
+    }
+    let imgs: Vec<_> = std::fs::read_dir(res.join("images"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(imgs.len(), 4, "EXR + PNG per serial baseline: {imgs:?}");
+    std::fs::remove_dir_all(res.join("plots")).unwrap();
+    std::fs::remove_file(res.join("report.md")).unwrap();
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plots: Vec<String> = std::fs::read_dir(res.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    for prefix in [
+        "speedup_vs_workers_",
+        "granularity_",
+        "buffer_",
+        "overhead_",
+        "gantt_",
+    ] {
+        for ext in ["png", "svg"] {
+            assert!(
+                plots
+                    .iter()
+                    .any(|p| p.starts_with(prefix) && p.ends_with(ext)),
+                "{prefix}*.{ext} in {plots:?}"
+            );
+        }
+    }
+    let png = plots
+        .iter()
+        .find(|p| p.starts_with("granularity_") && p.ends_with("png"))
+        .unwrap();
+    let img = image::open(res.join("plots").join(png)).unwrap();
+    assert!(img.width() >= 800 && img.height() >= 500);
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains("per-ray master"), "{report}");
+    assert!(
+        report.contains("![") && report.contains("plots/granularity_"),
+        "{report}"
+    );
+    // A results folder without runs.csv is bad input.
+    assert_eq!(
+        run(&["plot", dir.path().to_str().unwrap()], dir.path())
+            .status
+            .code(),
+        Some(2)
+    );
+}
+
+/// Timelines stay out of git: without them `plot` keeps the Gantt PNGs drawn before (and the
+/// report still shows them), or skips the charts, and says so on stderr instead of failing.
+#[test]
+fn plot_without_timelines_keeps_or_skips_gantt_charts_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 1);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    let gantts = |res: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(res.join("plots"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|f| f.starts_with("gantt_") && f.ends_with(".png"))
+            .collect();
+        v.sort();
+        v
+    };
+    let before = gantts(&res);
+    assert!(!before.is_empty());
+    std::fs::remove_dir_all(res.join("timelines")).unwrap();
+
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("no timeline") && err.contains("kept"), "{err}");
+    assert_eq!(gantts(&res), before);
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains(&format!("plots/{}", before[0])), "{report}");
+
+    std::fs::remove_dir_all(res.join("plots")).unwrap();
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("skipped"), "{err}");
+    assert!(gantts(&res).is_empty());
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(!report.contains("gantt_"), "{report}");
+    assert!(res.join("plots").read_dir().unwrap().next().is_some());
+}
+
+/// `features_used` / `features_left_out` reach runs.csv and report.md: the one-sphere scene
+/// builds no BVH and needs no refraction; the Cornell box has a BVH over its triangles.
+#[test]
+fn runs_record_what_each_scene_uses_and_leaves_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = format!(
+        r#"name = "feats"
+repetitions = 1
+warmup = 0
+workers = [1]
+[[scenes]]
+path = "{simple}"
+width = 8
+height = 8
+spp = 1
+[[scenes]]
+path = "{cornell}"
+width = 8
+height = 8
+spp = 1
+[[schedulers]]
+kind = "self_scheduling"
+chunk = "4"
+"#,
+        simple = scenes.join("simple.toml").display(),
+        cornell = scenes.join("cornell_box.toml").display()
+    );
+    std::fs::write(dir.path().join("feats.toml"), text).unwrap();
+    let out = run(
+        &["run", "feats.toml", "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, _) = read_runs(&dir.path().join("res/feats/runs.csv")).unwrap();
+    assert_eq!(rows.len(), 4, "serial + one scheduler config per scene");
+    for r in &rows {
+        let used: Vec<&str> = r.features_used.split('+').collect();
+        let left: Vec<&str> = r.features_left_out.split('+').collect();
+        assert!(
+            left.contains(&"refraction") && !used.contains(&"refraction"),
+            "{r:?}"
+        );
+        match r.scene.as_str() {
+            "simple" => {
+                assert!(
+                    used.contains(&"spheres") && used.contains(&"environment"),
+                    "{r:?}"
+                );
+                assert!(
+                    left.contains(&"bvh") && left.contains(&"triangles"),
+                    "{r:?}"
+                );
+            }
+            "cornell_box" => {
+                assert!(
+                    used.contains(&"bvh") && used.contains(&"area_lights"),
+                    "{r:?}"
+                );
+                assert!(
+                    left.contains(&"environment") && left.contains(&"spheres"),
+                    "{r:?}"
+                );
+            }
+            other => panic!("unexpected scene {other}"),
+        }
+    }
+    let report = std::fs::read_to_string(dir.path().join("res/feats/report.md")).unwrap();
+    assert!(report.contains("left out `"), "{report}");
+}
+
+/// `kind = "convergence"`: error against time for every (scene, tracer), CSV + plot + report;
+/// its own fields are validated before anything renders.
+#[test]
+fn convergence_experiment_writes_rows_plot_and_slopes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/furnace_a08.toml");
+    let good = format!(
+        "kind = \"convergence\"\nmax_spp = 8\nworkers = 1\ntracers = [\"bvh\", \"brute\"]\n\
+         [[scenes]]\npath = \"{}\"\nwidth = 12\nheight = 12\n",
+        scene.display()
+    );
+    std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
+    let out = run(&["run", "conv.toml", "--quiet", "--out", "res"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
+    // 1, 2, 4, 8 spp for each of the two tracers.
+    assert_eq!(rows.len(), 8);
+    for t in ["bvh", "brute"] {
+        let spp: Vec<u32> = rows
+            .iter()
+            .filter(|r| r.tracer == t)
+            .map(|r| r.spp)
+            .collect();
+        assert_eq!(spp, vec![1, 2, 4, 8], "{t}");
+    }
+    assert!(rows.iter().all(|r| r.rmse.is_finite() && r.rmse > 0.0));
+    assert!(dir.path().join("res/conv/convergence.png").exists());
+    let report = std::fs::read_to_string(dir.path().join("res/conv/report.md")).unwrap();
+    assert!(
+        report.contains("slope") && report.contains("furnace_a08"),
+        "{report}"
+    );
+    // `raysched plot` redraws it from the CSV alone.
+    std::fs::remove_file(dir.path().join("res/conv/convergence.png")).unwrap();
+    let out = run(&["plot", "res/conv"], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("res/conv/convergence.png").exists());
+
+    assert_bad_configs(
+        dir.path(),
+        &good,
+        &[
+            ("max_spp = 8\n", "", "max_spp"),
+            ("max_spp = 8", "max_spp = 0", "max_spp"),
+            ("kind = \"convergence\"\n", "", "schedulers"),
+        ],
+    );
+}
+
+/// Issue 6: schedulers are a dimension of a convergence experiment. One row set per
+/// (tracer, scheduler); the images are bit-identical, so every error column of a step is the
+/// same under every scheduler; the summary answers the time-budget question on stdout and in
+/// report.md; an unknown scheduler is a config error naming the file and the field.
+#[test]
+fn convergence_per_scheduler_same_errors_and_budget_winner() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let good = format!(
+        "kind = \"convergence\"\nmax_spp = 4\nref_spp = 8\nworkers = 2\ntracers = [\"bvh\"]\n\
+         [[scenes]]\npath = \"{}\"\nwidth = 10\nheight = 8\n\
+         [[schedulers]]\nkind = \"master\"\nchunk = \"1\"\n\
+         [[schedulers]]\nkind = \"work_stealing\"\nchunk = [\"3\", \"frame\"]\n\
+         [[schedulers]]\nkind = \"static\"\nchunk = \"rows:1\"\n",
+        scene.display()
+    );
+    std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
+    let out = run(&["run", "conv.toml", "--out", "res"], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
+    let mut by_sched: std::collections::BTreeMap<String, Vec<_>> = Default::default();
+    for r in &rows {
+        by_sched.entry(r.scheduler.clone()).or_default().push(r);
+    }
+    let names: Vec<&str> = by_sched.keys().map(String::as_str).collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+    assert!(
+        names.iter().any(|n| n.starts_with("master chunk=1")),
+        "{names:?}"
+    );
+    assert!(names.contains(&"work_stealing chunk=frame"), "{names:?}");
+    let first = &by_sched[names[0]];
+    for (name, g) in &by_sched {
+        // 1, 2, 4 spp on 2 workers, errors identical bit for bit.
+        assert_eq!(
+            g.iter().map(|r| r.spp).collect::<Vec<_>>(),
+            [1, 2, 4],
+            "{name}"
+        );
+        for (a, b) in g.iter().zip(first) {
+            assert_eq!(a.threads, 2);
+            assert_eq!(
+                (a.rmse, a.rel_mse, a.mae, a.max_err, a.rays),
+                (b.rmse, b.rel_mse, b.mae, b.max_err, b.rays),
+                "{name} vs {} at {} spp",
+                names[0],
+                a.spp
+            );
+        }
+        assert!(g.windows(2).all(|w| w[1].wall_s > w[0].wall_s), "{name}");
+    }
+    let report = std::fs::read_to_string(dir.path().join("res/conv/report.md")).unwrap();
+    let winner = raysched::converge::budget_winners(&rows);
+    assert_eq!(winner.len(), 1);
+    assert!(winner[0].contains("lowest RMSE is bvh/"), "{}", winner[0]);
+    assert!(
+        report.contains(&winner[0]) && stdout.contains(&winner[0]),
+        "{report}\n{stdout}"
+    );
+    assert!(report.contains("load average"), "{report}");
+    // Both plots are redrawn from the CSV alone.
+    for p in ["convergence.png", "convergence.svg"] {
+        std::fs::remove_file(dir.path().join("res/conv").join(p)).unwrap();
+    }
+    assert!(run(&["plot", "res/conv"], dir.path()).status.success());
+    for p in ["convergence.png", "convergence.svg"] {
+        assert!(dir.path().join("res/conv").join(p).exists(), "{p}");
+    }
+
+    assert_bad_configs(
+        dir.path(),
+        &good,
+        &[
+            (
+                "kind = \"master\"",
+                "kind = \"fastest\"",
+                "schedulers[0].kind",
+            ),
+            (
+                "chunk = \"rows:1\"",
+                "chunk = \"rows:0\"",
+                "schedulers[2].chunk",
+            ),
+            (
+                "chunk = \"1\"\n",
+                "chunk = \"1\"\nguided_k = 2\n",
+                "schedulers[0].guided_k",
+            ),
+        ],
+    );
+}

@@ -1,0 +1,91 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use raysched::render::sample_pixel;
+use raysched::scene::{load_scene, load_scene_str, Scene, SceneOverrides};
+use raysched::tracer::Tracer;
+use std::path::{Path, PathBuf};
+
+/// A 4×4 camera at (0, 0, 10) looking at the origin, for scenes that are only ray-cast.
+pub const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
+
+/// One grey diffuse material, `m`.
+pub const GREY_M: &str = "[materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
+
+pub fn scene_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+pub fn load(name: &str, overrides: SceneOverrides) -> Scene {
+    load_scene(&scene_path(name), &overrides).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn load_str(text: &str) -> Scene {
+    load_scene_str(
+        text,
+        "test",
+        Path::new("."),
+        "test",
+        &SceneOverrides::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Mean and standard error of the mean of channel `c` over every sample of every pixel given.
+pub struct Estimate {
+    pub mean: f64,
+    pub se: f64,
+    pub n: usize,
+    pub nonfinite: usize,
+}
+
+impl Estimate {
+    /// |mean − expected| within 3 standard errors (plus a float-rounding floor for σ = 0).
+    pub fn assert_within_3se(&self, expected: f64, what: &str) {
+        let tol = 3.0 * self.se + 1e-5 * expected.abs().max(1.0);
+        assert!(
+            (self.mean - expected).abs() <= tol,
+            "{what}: mean {:.6} expected {:.6} (±{:.6}, se {:.2e}, n {})",
+            self.mean,
+            expected,
+            tol,
+            self.se,
+            self.n
+        );
+        assert_eq!(self.nonfinite, 0, "{what}: non-finite samples");
+    }
+}
+
+pub fn estimate<T: Tracer>(
+    scene: &Scene,
+    tracer: &T,
+    pixels: &[u32],
+    spp: u32,
+    c: usize,
+) -> Estimate {
+    let (mut sum, mut sum2, mut n, mut bad) = (0.0f64, 0.0f64, 0usize, 0usize);
+    let mut rays = 0;
+    for &p in pixels {
+        for s in 0..spp {
+            let l = sample_pixel(scene, tracer, p, s, &mut rays);
+            if !l.is_finite() {
+                bad += 1;
+                continue;
+            }
+            let v = l[c] as f64;
+            sum += v;
+            sum2 += v * v;
+            n += 1;
+        }
+    }
+    let mean = sum / n as f64;
+    let var = (sum2 / n as f64 - mean * mean).max(0.0) * n as f64 / (n as f64 - 1.0).max(1.0);
+    Estimate {
+        mean,
+        se: (var / n as f64).sqrt(),
+        n,
+        nonfinite: bad,
+    }
+}
