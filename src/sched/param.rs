@@ -90,13 +90,13 @@ macro_rules! scheduler_params {
     (
         $(#[$meta:meta])*
         pub struct $name:ident {
-            $( #[doc = $help:literal] $field:ident : $ty:ty = $default:expr, label $label:expr; )*
+            $( $( #[doc = $help:literal] )+ $field:ident : $ty:ty = $default:expr, label $label:expr; )*
         }
     ) => {
         $(#[$meta])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
         pub struct $name {
-            $( #[doc = $help] pub $field: $ty, )*
+            $( $( #[doc = $help] )+ pub $field: $ty, )*
         }
 
         impl $name {
@@ -115,7 +115,7 @@ macro_rules! scheduler_params {
                 const INFO: &[$crate::sched::param::ParamInfo] = &[$(
                     $crate::sched::param::ParamInfo {
                         name: stringify!($field),
-                        help: $help.trim_ascii(),
+                        help: concat!($($help),+).trim_ascii(),
                         label: $label,
                     },
                 )*];
@@ -296,7 +296,9 @@ id_enum! {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Requeue {
     /// Whenever the master meets the unfinished item again in its queue: a handed-out item
-    /// goes to the back of the queue and is handed out again when it comes round.
+    /// goes to the back of the queue and is handed out again when it comes round. Written
+    /// `seed` (the founding design's policy; CSV files and experiments use that spelling),
+    /// `revisit` is accepted too.
     Revisit,
     /// Only once it has been outstanding this long.
     Timeout(Duration),
@@ -305,7 +307,7 @@ pub enum Requeue {
 }
 
 impl Requeue {
-    /// `revisit` (also spelled `seed`), `never`, `timeout:<ms>`.
+    /// `seed` (also spelled `revisit`), `never`, `timeout:<ms>`.
     pub fn parse(s: &str) -> Result<Self, SpecError> {
         match s.trim() {
             "revisit" | "seed" => Ok(Self::Revisit),
@@ -314,7 +316,7 @@ impl Requeue {
                 Some(Ok(ms)) if ms > 0 => Ok(Self::Timeout(Duration::from_millis(ms))),
                 _ => Err(err(
                     "requeue",
-                    format!("'{s}': expected revisit, never or timeout:<ms> with ms ≥ 1"),
+                    format!("'{s}': expected seed (alias revisit), never or timeout:<ms> with ms ≥ 1"),
                 )),
             },
         }
@@ -324,7 +326,7 @@ impl Requeue {
 impl fmt::Display for Requeue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Revisit => write!(f, "revisit"),
+            Self::Revisit => write!(f, "seed"),
             Self::Never => write!(f, "never"),
             Self::Timeout(d) => write!(f, "timeout:{}", d.as_millis()),
         }
@@ -369,7 +371,7 @@ mod tests {
         );
         assert!(Requeue::parse("timeout:0").is_err());
         assert!(Requeue::parse("later").is_err());
-        for r in ["revisit", "never", "timeout:50"] {
+        for r in ["seed", "never", "timeout:50"] {
             assert_eq!(Requeue::parse(r).unwrap().show(), r);
         }
     }

@@ -46,7 +46,8 @@ scheduler_params! {
     pub struct MasterParams {
         /// Items outstanding per compute source (B).
         buffer: usize = 2, label Some("B");
-        /// When a handed-out, unfinished item is handed out again: revisit, never or timeout:<ms>.
+        /// When a handed-out, unfinished item is handed out again: seed (when it comes round
+        /// in the queue), never or timeout:<ms>.
         requeue: Requeue = Requeue::Never, label Some("requeue");
         /// How the master waits for results: spin, yield or block.
         wait: Wait = Wait::Block, label Some("wait");
