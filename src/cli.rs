@@ -6,7 +6,7 @@ use crate::sched::{
     run_scheduler_with, Chunk, Order, Requeue, RunOptions, SchedError, SchedulerKind,
     SchedulerSpec, Wait,
 };
-use crate::tracer::AnyTracer;
+use crate::tracer::{AnyTracer, TracerKind};
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -75,7 +75,7 @@ pub struct ConvergeArgs {
     /// Tracers to compare, comma separated.
     #[arg(long, default_value = "bvh,brute")]
     pub tracers: String,
-    #[arg(long, default_value_t = default_threads())]
+    #[arg(long, default_value_t = crate::host::available_threads())]
     pub threads: usize,
     /// Output folder for convergence.csv and convergence.png.
     #[arg(short, long, default_value = "results/converge")]
@@ -92,7 +92,7 @@ pub struct StabilityArgs {
     pub size: u32,
     #[arg(long, default_value_t = 32)]
     pub spp: u32,
-    #[arg(long, default_value_t = default_threads())]
+    #[arg(long, default_value_t = crate::host::available_threads())]
     pub threads: usize,
     /// Output folder for stability.csv and stability.md.
     #[arg(short, long, default_value = "results/stability")]
@@ -107,7 +107,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Worker threads.
-    #[arg(long, default_value_t = default_threads())]
+    #[arg(long, default_value_t = crate::host::available_threads())]
     pub threads: usize,
     /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree (feature `embree`).
     #[arg(long, default_value = "bvh")]
@@ -183,10 +183,6 @@ impl RenderArgs {
         spec.validate().map_err(flag)?;
         Ok(spec)
     }
-}
-
-pub fn default_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 /// An error with the exit code it maps to.
@@ -331,12 +327,13 @@ fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         )));
     }
     let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
-    let ids: Vec<&str> = args.tracers.split(',').map(str::trim).collect();
-    for id in &ids {
-        crate::tracer::check_tracer_id(id)
-            .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
-    }
-    let first = AnyTracer::build(ids[0], &scene, args.threads).map_err(CliError::input)?;
+    let kinds = args
+        .tracers
+        .split(',')
+        .map(|id| TracerKind::from_id(id.trim()).and_then(TracerKind::available))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    let first = AnyTracer::build(kinds[0], &scene, args.threads).map_err(CliError::input)?;
     let reference = match &args.reference {
         Some(p) => {
             let image = crate::render::Image::load_exr(p).map_err(CliError::input)?;
@@ -370,8 +367,8 @@ fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
     };
     let mut rows = Vec::new();
-    for id in &ids {
-        let tracer = AnyTracer::build(id, &scene, args.threads).map_err(CliError::input)?;
+    for &kind in &kinds {
+        let tracer = AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?;
         rows.extend(cv::run_convergence(
             &scene,
             &tracer,
@@ -484,7 +481,9 @@ fn render(args: RenderArgs) -> Result<(), CliError> {
     let scene = std::sync::Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let t0 = Instant::now();
     let tracer = std::sync::Arc::new(
-        AnyTracer::build(&args.tracer, &scene, args.threads).map_err(CliError::input)?,
+        TracerKind::from_id(&args.tracer)
+            .and_then(|kind| AnyTracer::build(kind, &scene, args.threads))
+            .map_err(CliError::input)?,
     );
     let build = t0.elapsed();
     let opts = RunOptions {

@@ -5,9 +5,10 @@
 use super::config::{
     ExperimentFile, ExperimentKind, MpiEntry, OneOrMany, SchedulerEntry, WorkerCount, WorkersSpec,
 };
-use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
+use crate::hash::{fnv, hex};
+use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, Wait};
-use crate::tracer::{check_tracer_id, AnyTracer};
+use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -154,16 +155,6 @@ impl ExperimentPlan {
     }
 }
 
-pub fn hex(v: u64) -> String {
-    format!("{v:016x}")
-}
-
-pub fn fnv(bytes: &[u8]) -> u64 {
-    let mut h = Fnv64::default();
-    h.write(bytes);
-    h.finish()
-}
-
 /// Parse and validate an experiment file, load its scenes and build its tracers.
 pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     let display = path.display().to_string();
@@ -229,9 +220,16 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     if file.tracers.is_empty() {
         return Err(err("tracers", "must name at least one tracer".into()));
     }
-    for (i, t) in file.tracers.iter().enumerate() {
-        check_tracer_id(t).map_err(|e| err(&format!("tracers[{i}]"), e.to_string()))?;
-    }
+    let tracer_kinds = file
+        .tracers
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            TracerKind::from_id(t)
+                .and_then(TracerKind::available)
+                .map_err(|e| err(&format!("tracers[{i}]"), e.to_string()))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     if file.scenes.is_empty() {
         return Err(err(
             "scenes",
@@ -294,9 +292,9 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     }
     let mut baselines = Vec::new();
     for (si, sc) in scenes.iter().enumerate() {
-        for (ti, t) in file.tracers.iter().enumerate() {
+        for (ti, (t, &kind)) in file.tracers.iter().zip(&tracer_kinds).enumerate() {
             let t0 = Instant::now();
-            let tracer = AnyTracer::build(t, &sc.scene, max_workers)
+            let tracer = AnyTracer::build(kind, &sc.scene, max_workers)
                 .map_err(|e| err(&format!("tracers[{ti}]"), format!("scene {}: {e}", sc.file)))?;
             baselines.push(Baseline {
                 scene: si,
@@ -453,7 +451,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, (Str
 }
 
 fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
-    let max = crate::cli::default_threads() as i64;
+    let max = crate::host::available_threads() as i64;
     let word = |s: &str| -> Result<i64, String> {
         match s.trim() {
             "max" => Ok(max),

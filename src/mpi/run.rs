@@ -10,7 +10,7 @@ use crate::sched::{
     assemble, decompose_frames, master, render_job, RunOptions, SchedError, SchedulerKind,
 };
 use crate::source::{ComputeSource, LocalThreadSource, Probe};
-use crate::tracer::AnyTracer;
+use crate::tracer::{AnyTracer, TracerKind};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -85,7 +85,9 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
                 args.output.display()
             )));
         }
-        crate::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
+        TracerKind::from_id(&args.tracer)
+            .and_then(TracerKind::available)
+            .map_err(CliError::input)?;
         let overrides = SceneOverrides {
             spp: args.spp,
             ..Default::default()
@@ -115,7 +117,9 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
     if args.local_threads > 0 {
         let tracer = Arc::new(
-            AnyTracer::build(&args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
+            TracerKind::from_id(&args.tracer)
+                .and_then(|kind| AnyTracer::build(kind, &scene, args.local_threads))
+                .map_err(CliError::input)?,
         );
         let job = render_job(&scene, &tracer);
         for t in 0..args.local_threads {

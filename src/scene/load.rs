@@ -6,10 +6,11 @@ use super::format::{
 };
 use super::generators::{self, Generated, GeneratorParams};
 use super::{
-    Camera, Features, Fnv64, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings, Scene,
+    Camera, Features, Geometry, Light, LoadStats, Material, PrimInfo, RenderSettings, Scene,
     SceneOverrides, Texture, NO_LIGHT,
 };
 use crate::geometry::{Sphere, Triangle};
+use crate::hash::Fnv64;
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
