@@ -10,9 +10,11 @@
 //! `load::animation_cameras`), so frame 0 is bit-identical to the static scene.
 
 pub mod camera;
+mod check;
 pub mod format;
 pub mod generators;
 pub mod load;
+mod shapes;
 
 pub use camera::Camera;
 pub use format::{SceneFile, SceneOverrides};

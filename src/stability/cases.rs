@@ -319,7 +319,8 @@ fn dielectric_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         }
         let mut file: crate::scene::SceneFile =
             toml::from_str(GLASS_CHECKER).map_err(|e| e.to_string())?;
-        file.shapes.retain(|s| s.kind != "sphere");
+        file.shapes
+            .retain(|s| !matches!(s, crate::scene::format::ShapeSpec::Sphere { .. }));
         let without = toml::to_string(&file).map_err(|e| e.to_string())?;
         let a = load(&with, "ior1", &o)?;
         let bsc = load(&without, "backdrop", &o)?;
