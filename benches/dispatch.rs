@@ -50,7 +50,7 @@ use raysched::sched::{
     decompose, render_job, run_items, Chunk, Job, MasterParams, Order, Policy, Requeue, RunOptions,
     SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
 };
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::hint::black_box;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -209,7 +209,7 @@ fn instrumentation(c: &mut Criterion) {
     };
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     let scene = Arc::new(load_scene(&path, &over).unwrap());
-    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+    let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
     let job = render_job(&scene, &tracer);
     let mut g = c.benchmark_group("instrumentation");
     g.sample_size(20);

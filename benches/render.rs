@@ -4,7 +4,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use raysched::render::render_serial;
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::Path;
 
 fn cornell_ms_per_spp(c: &mut Criterion) {
@@ -16,7 +16,7 @@ fn cornell_ms_per_spp(c: &mut Criterion) {
         },
     )
     .unwrap();
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let mut g = c.benchmark_group("cornell_128_depth8");
     g.sample_size(20);
     g.bench_function("bvh_1spp_1thread", |b| {

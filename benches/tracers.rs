@@ -8,8 +8,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rayon::prelude::*;
 use raysched::geometry::Ray;
+use raysched::host::os_thread_count;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
-use raysched::tracer::{os_thread_count, AnyTracer, Tracer};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -44,7 +45,7 @@ fn trace_all(tracer: &AnyTracer, rays: &[Ray], pool: &rayon::ThreadPool) -> usiz
     })
 }
 
-fn bench_scene(c: &mut Criterion, name: &str, count: Option<u64>, ids: &[&str]) {
+fn bench_scene(c: &mut Criterion, name: &str, count: Option<u64>, kinds: &[TracerKind]) {
     let scene = load(name, count);
     let rays = primary_rays(&scene);
     let mut group = c.benchmark_group(format!("trace/{name}"));
@@ -53,13 +54,14 @@ fn bench_scene(c: &mut Criterion, name: &str, count: Option<u64>, ids: &[&str]) 
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2))
         .throughput(Throughput::Elements(rays.len() as u64));
-    for &id in ids {
-        if raysched::tracer::check_tracer_id(id).is_err() {
+    for &kind in kinds {
+        if !kind.compiled_in() {
             continue;
         }
+        let id = kind.id();
         for threads in [1, 2] {
             let t0 = Instant::now();
-            let tracer = AnyTracer::build(id, &scene, threads).expect("tracer");
+            let tracer = AnyTracer::build(kind, &scene, threads).expect("tracer");
             eprintln!(
                 "build {name} ({} prims) {id} threads={threads}: {:.3} s, OS threads after build {:?}",
                 scene.geometry.len(),
@@ -83,12 +85,17 @@ fn tracers(c: &mut Criterion) {
     let count = std::env::var("RAYSCHED_BENCH_COUNT")
         .ok()
         .and_then(|v| v.parse().ok());
-    bench_scene(c, "simple", None, &["bvh", "embree", "brute"]);
+    bench_scene(
+        c,
+        "simple",
+        None,
+        &[TracerKind::Bvh, TracerKind::Embree, TracerKind::Brute],
+    );
     bench_scene(
         c,
         "complex",
         Some(count.unwrap_or(1_000_000)),
-        &["bvh", "embree"],
+        &[TracerKind::Bvh, TracerKind::Embree],
     );
 }
 

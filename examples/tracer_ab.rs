@@ -6,7 +6,7 @@
 
 use raysched::geometry::Ray;
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::tracer::{AnyTracer, Tracer};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
 use std::time::Instant;
 
@@ -44,10 +44,12 @@ fn main() {
         .iter()
         .map(|id| {
             let t0 = Instant::now();
-            let t = AnyTracer::build(id, &scene, 1).unwrap_or_else(|e| {
-                eprintln!("{e}");
-                std::process::exit(2)
-            });
+            let t = TracerKind::from_id(id)
+                .and_then(|kind| AnyTracer::build(kind, &scene, 1))
+                .unwrap_or_else(|e| {
+                    eprintln!("{e}");
+                    std::process::exit(2)
+                });
             println!("build {id}: {:.3} s", t0.elapsed().as_secs_f64());
             t
         })

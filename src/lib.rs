@@ -10,7 +10,7 @@
 //!   (scene, tracer, item, seed), so every scheduler produces bit-identical images.
 //!
 //! ```
-//! use raysched::{render, scene, tracer::AnyTracer};
+//! use raysched::{render, scene, tracer::{AnyTracer, TracerKind}};
 //! let text = r#"
 //! [camera]
 //! origin = [0, 0, 4]
@@ -33,7 +33,7 @@
 //! "#;
 //! let scene = scene::load_scene_str(text, "doc", std::path::Path::new("."), "doc",
 //!     &Default::default()).unwrap();
-//! let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+//! let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
 //! let (image, counters) = render::render_serial(&scene, &tracer);
 //! assert_eq!(image.data.len(), 64);
 //! assert!(counters.rays > 0);
@@ -45,6 +45,8 @@ pub mod csv_out;
 pub mod embree;
 pub mod experiment;
 pub mod geometry;
+pub mod hash;
+pub mod host;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;

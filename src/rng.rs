@@ -2,15 +2,9 @@
 //!
 //! There is no generator state shared between pixels, so a pixel's value never depends on which
 //! thread renders it, in which order, or with which other pixels: the property every scheduler
-//! test relies on. The mixer is SplitMix64's finaliser (Steele et al. 2014), which passes
-//! BigCrush when fed a counter.
+//! test relies on. The mixer is SplitMix64's finaliser ([`crate::hash::mix64`]).
 
-#[inline(always)]
-fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+use crate::hash::mix64;
 
 /// The seed frame `frame` of an animation samples with: `seed` itself for frame 0 (SplitMix's
 /// finaliser maps 0 to 0), so static scenes keep their images bit for bit, and a scrambled one

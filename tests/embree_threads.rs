@@ -2,9 +2,10 @@
 #![cfg(feature = "embree")]
 
 use raysched::embree::devices_created;
+use raysched::host::os_thread_count;
 use raysched::render::render_parallel;
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::tracer::{os_thread_count, AnyTracer, Tracer};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 
 /// The OS thread count once it has stayed the same for 100 ms: rayon's pool threads exit
 /// asynchronously after a pool is dropped.
@@ -33,15 +34,15 @@ fn embree_devices_and_os_threads_are_what_the_run_asked_for() {
     let scene = load_scene(std::path::Path::new("scenes/cornell_box.toml"), &o).unwrap();
 
     // A run that does not use Embree never creates a device.
-    let bvh = AnyTracer::build("bvh", &scene, 2).unwrap();
-    let brute = AnyTracer::build("brute", &scene, 2).unwrap();
+    let bvh = AnyTracer::build(TracerKind::Bvh, &scene, 2).unwrap();
+    let brute = AnyTracer::build(TracerKind::Brute, &scene, 2).unwrap();
     render_parallel(&scene, &bvh, 1).unwrap();
     render_parallel(&scene, &brute, 1).unwrap();
     assert_eq!(devices_created(), 0);
 
     // `threads=1`: Embree's commit starts no worker thread, the process keeps its threads.
     let before = settled_thread_count();
-    let e = AnyTracer::build("embree", &scene, 1).unwrap();
+    let e = AnyTracer::build(TracerKind::Embree, &scene, 1).unwrap();
     assert_eq!(devices_created(), 1);
     let AnyTracer::Embree(inner) = &e else {
         panic!("not embree")
@@ -61,7 +62,7 @@ fn embree_devices_and_os_threads_are_what_the_run_asked_for() {
     let before = settled_thread_count();
 
     // `threads=2`: Embree may start one TBB worker for its build, never more than that.
-    let e = AnyTracer::build("embree", &scene, 2).unwrap();
+    let e = AnyTracer::build(TracerKind::Embree, &scene, 2).unwrap();
     let AnyTracer::Embree(inner) = &e else {
         panic!("not embree")
     };

@@ -2,7 +2,7 @@
 
 use super::error::CliError;
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -21,7 +21,7 @@ pub(crate) struct ConvergeArgs {
     /// Tracers to compare, comma separated.
     #[arg(long, default_value = "bvh,brute")]
     pub(crate) tracers: String,
-    #[arg(long, default_value_t = super::default_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads())]
     pub(crate) threads: usize,
     /// Output folder for convergence.csv and convergence.png.
     #[arg(short, long, default_value = "results/converge")]
@@ -36,12 +36,13 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         )));
     }
     let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
-    let ids: Vec<&str> = args.tracers.split(',').map(str::trim).collect();
-    for id in &ids {
-        raysched::tracer::check_tracer_id(id)
-            .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
-    }
-    let first = AnyTracer::build(ids[0], &scene, args.threads).map_err(CliError::input)?;
+    let kinds = args
+        .tracers
+        .split(',')
+        .map(|id| TracerKind::from_id(id.trim()).and_then(TracerKind::available))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    let first = AnyTracer::build(kinds[0], &scene, args.threads).map_err(CliError::input)?;
     let reference = match &args.reference {
         Some(p) => {
             let image = raysched::render::Image::load_exr(p).map_err(CliError::input)?;
@@ -75,8 +76,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
     };
     let mut rows = Vec::new();
-    for id in &ids {
-        let tracer = AnyTracer::build(id, &scene, args.threads).map_err(CliError::input)?;
+    for &kind in &kinds {
+        let tracer = AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?;
         rows.extend(cv::run_convergence(
             &scene,
             &tracer,

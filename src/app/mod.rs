@@ -80,11 +80,6 @@ fn run(cli: Cli) -> Result<(), CliError> {
     }
 }
 
-/// This machine's available parallelism: the default worker count.
-fn default_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
 /// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?
 fn under_mpirun() -> bool {
     ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]

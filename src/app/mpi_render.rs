@@ -68,8 +68,8 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
             )));
         }
         let overrides = args.check_output()?;
-        raysched::tracer::check_tracer_id(&args.tracer).map_err(CliError::input)?;
-        let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, &args.tracer)
+        args.tracer.available().map_err(CliError::input)?;
+        let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, args.tracer.id())
             .map_err(CliError::input)?;
         spec.workers = comm.size as usize - 1 + args.local_threads;
         Ok((scene, pkg, spec))
@@ -94,7 +94,7 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
     if args.local_threads > 0 {
         let tracer = Arc::new(
-            AnyTracer::build(&args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
+            AnyTracer::build(args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
         );
         let job = render_job(&scene, &tracer);
         for t in 0..args.local_threads {

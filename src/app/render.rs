@@ -7,7 +7,7 @@ use raysched::render::image::ImageError;
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::sched::{run_scheduler_with, RunOptions, SchedError, SchedulerSpec};
-use raysched::tracer::{AnyTracer, Tracer};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -29,11 +29,12 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     pub(crate) spp: Option<u32>,
     /// Worker threads.
-    #[arg(long, default_value_t = super::default_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads())]
     pub(crate) threads: usize,
-    /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree (feature `embree`).
-    #[arg(long, default_value = "bvh")]
-    pub(crate) tracer: String,
+    /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree and
+    /// embree_robust (feature `embree`).
+    #[arg(long, value_enum, default_value_t = TracerKind::Bvh)]
+    pub(crate) tracer: TracerKind,
     /// Output image; the format follows the extension (.exr or .pfm).
     #[arg(short, long, default_value = "results/render.exr")]
     pub(crate) output: PathBuf,
@@ -112,10 +113,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     }
     let overrides = args.check_output()?;
     let spec = args.scheduler_spec(args.threads)?;
+    let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let t0 = Instant::now();
-    let tracer =
-        Arc::new(AnyTracer::build(&args.tracer, &scene, args.threads).map_err(CliError::input)?);
+    let tracer = Arc::new(AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?);
     let build = t0.elapsed();
     let (image, stats) =
         run_scheduler_with(&spec, &scene, &tracer, &args.run_options()).map_err(|e| match e {

@@ -13,7 +13,7 @@ pub(crate) struct StabilityArgs {
     pub(crate) size: u32,
     #[arg(long, default_value_t = 32)]
     pub(crate) spp: u32,
-    #[arg(long, default_value_t = super::default_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads())]
     pub(crate) threads: usize,
     /// Output folder for stability.csv and stability.md.
     #[arg(short, long, default_value = "results/stability")]

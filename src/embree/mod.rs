@@ -11,7 +11,7 @@
 //! - Threads: the device is created with `threads=N` (the run's thread budget); Embree only uses
 //!   them to build (its first commit starts TBB workers). Tracing runs on *our* workers:
 //!   `rtcIntersect1` is thread-safe on a committed scene. [`EmbreeTracer::os_threads_after_build`]
-//!   records what the process really had, via [`crate::tracer::os_thread_count`].
+//!   records what the process really had, via [`crate::host::os_thread_count`].
 //! - Robustness: `RTC_SCENE_FLAG_ROBUST` is an option recorded in the tracer id
 //!   (`embree_robust`): the default intersector lets a few rays leak through shared edges.
 //!
@@ -22,7 +22,6 @@ pub mod ffi;
 
 use crate::geometry::{next_float_down, next_float_up, Hit, Ray, Sphere};
 use crate::scene::Geometry;
-use crate::tracer::Tracer;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -304,7 +303,7 @@ impl EmbreeTracer {
         unsafe { ffi::rtcCommitScene(scene) };
         tracer.check("rtcCommitScene")?;
         tracer.build_time = start.elapsed();
-        tracer.os_threads_after_build = crate::tracer::os_thread_count();
+        tracer.os_threads_after_build = crate::host::os_thread_count();
         Ok(tracer)
     }
 
@@ -439,17 +438,11 @@ fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
     })
 }
 
-impl Tracer for EmbreeTracer {
-    fn id(&self) -> &'static str {
-        if self.options.robust {
-            "embree_robust"
-        } else {
-            "embree"
-        }
-    }
-
+// The `Tracer` impl lives in `crate::tracer`, which depends on this module, not the reverse.
+impl EmbreeTracer {
+    /// Closest hit with `0 < t < t_max`, as [`crate::tracer::Tracer::intersect`].
     #[inline]
-    fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+    pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let mut rh = ffi::RTCRayHit {
             ray: rtc_ray(ray, t_max)?,
             hit: ffi::RTCHit {
@@ -474,8 +467,9 @@ impl Tracer for EmbreeTracer {
         })
     }
 
+    /// Whether anything is hit with `0 < t < t_max`, as [`crate::tracer::Tracer::occluded`].
     #[inline]
-    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+    pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         let Some(mut r) = rtc_ray(ray, t_max) else {
             return false;
         };

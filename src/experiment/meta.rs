@@ -58,36 +58,14 @@ fn cmd(program: &str, args: &[&str]) -> Option<String> {
         .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
-fn read(path: &str) -> String {
-    std::fs::read_to_string(path).unwrap_or_default()
-}
-
 pub fn machine() -> Machine {
-    let cpuinfo = read("/proc/cpuinfo");
-    let cpu_model = cpuinfo
-        .lines()
-        .find_map(|l| {
-            l.strip_prefix("model name")
-                .and_then(|r| r.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown".into());
-    let memory_gib = read("/proc/meminfo")
-        .lines()
-        .find_map(|l| l.strip_prefix("MemTotal:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(0.0, |kb| (kb / 1024.0 / 1024.0 * 10.0).round() / 10.0);
-    let os = read("/etc/os-release")
-        .lines()
-        .find_map(|l| l.strip_prefix("PRETTY_NAME="))
-        .map(|v| v.trim_matches('"').to_string())
-        .unwrap_or_else(|| std::env::consts::OS.to_string());
+    use crate::host;
     Machine {
-        cpu_model,
-        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
-        memory_gib,
-        os,
-        kernel: read("/proc/sys/kernel/osrelease").trim().to_string(),
+        cpu_model: host::cpu_model(),
+        cores: host::available_threads(),
+        memory_gib: host::memory_gib(),
+        os: host::os_name(),
+        kernel: host::kernel(),
         arch: std::env::consts::ARCH.to_string(),
     }
 }
@@ -140,7 +118,7 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
         .map(|(i, s)| SceneMeta {
             file: s.file.clone(),
             name: s.scene.name.clone(),
-            hash: super::plan::hex(s.scene.hash),
+            hash: crate::hash::hex(s.scene.hash),
             width: s.scene.width(),
             height: s.scene.height(),
             spp: s.scene.settings.spp,

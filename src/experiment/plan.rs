@@ -5,9 +5,10 @@
 use super::config::{
     ExperimentFile, ExperimentKind, MpiEntry, SchedulerEntry, WorkerCount, WorkersSpec,
 };
-use crate::scene::{load_scene, Fnv64, Scene, SceneOverrides};
+use crate::hash::{fnv, hex};
+use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec};
-use crate::tracer::{check_tracer_id, AnyTracer};
+use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -147,16 +148,6 @@ impl ExperimentPlan {
     }
 }
 
-pub fn hex(v: u64) -> String {
-    format!("{v:016x}")
-}
-
-pub fn fnv(bytes: &[u8]) -> u64 {
-    let mut h = Fnv64::default();
-    h.write(bytes);
-    h.finish()
-}
-
 /// A field's problem before the file's path is attached: (field, message).
 type FieldError = (String, String);
 
@@ -181,7 +172,7 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     // 3. Scenes loaded, tracers built: one baseline per (scene, tracer).
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let scenes = load_scenes(&file, &base).map_err(attach)?;
-    let baselines = build_baselines(&file, &scenes, max_workers).map_err(attach)?;
+    let baselines = build_baselines(&settings.tracers, &scenes, max_workers).map_err(attach)?;
     // 4. The configurations, serial baselines first, each with its stable id.
     let configs = configurations(baselines.len(), &grids, settings.mpi.as_ref());
     let mut plan = ExperimentPlan {
@@ -241,6 +232,7 @@ fn plan_name(path: &Path, file: &ExperimentFile) -> Result<String, FieldError> {
 /// What the file says besides its scenes and schedulers, checked.
 struct Settings {
     workers: Vec<usize>,
+    tracers: Vec<TracerKind>,
     mpi: Option<MpiSettings>,
     convergence: Option<ConvergenceSettings>,
 }
@@ -273,9 +265,16 @@ fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
     if file.tracers.is_empty() {
         return Err(field("tracers", "must name at least one tracer"));
     }
-    for (i, t) in file.tracers.iter().enumerate() {
-        check_tracer_id(t).map_err(|e| field(&format!("tracers[{i}]"), e.to_string()))?;
-    }
+    let tracers = file
+        .tracers
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            TracerKind::from_id(t)
+                .and_then(TracerKind::available)
+                .map_err(|e| field(&format!("tracers[{i}]"), e.to_string()))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     if file.scenes.is_empty() {
         return Err(field(
             "scenes",
@@ -284,6 +283,7 @@ fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
     }
     Ok(Settings {
         workers,
+        tracers,
         mpi,
         convergence: check_convergence(file)?,
     })
@@ -360,19 +360,19 @@ fn load_scenes(file: &ExperimentFile, base: &Path) -> Result<Vec<PlannedScene>, 
 
 /// One tracer per (scene, tracer), built with the largest worker count as its thread budget.
 fn build_baselines(
-    file: &ExperimentFile,
+    tracers: &[TracerKind],
     scenes: &[PlannedScene],
     max_workers: usize,
 ) -> Result<Vec<Baseline>, FieldError> {
     let mut baselines = Vec::new();
     for (si, sc) in scenes.iter().enumerate() {
-        for (ti, t) in file.tracers.iter().enumerate() {
+        for (ti, &kind) in tracers.iter().enumerate() {
             let t0 = Instant::now();
-            let tracer = AnyTracer::build(t, &sc.scene, max_workers)
+            let tracer = AnyTracer::build(kind, &sc.scene, max_workers)
                 .map_err(|e| field(&format!("tracers[{ti}]"), format!("scene {}: {e}", sc.file)))?;
             baselines.push(Baseline {
                 scene: si,
-                tracer_id: t.clone(),
+                tracer_id: kind.id().to_string(),
                 tracer: Arc::new(tracer),
                 build_s: t0.elapsed().as_secs_f64(),
             });
@@ -509,7 +509,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
 }
 
 fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
-    let max = std::thread::available_parallelism().map_or(1, |n| n.get()) as i64;
+    let max = crate::host::available_threads() as i64;
     let word = |s: &str| -> Result<i64, String> {
         match s.trim() {
             "max" => Ok(max),

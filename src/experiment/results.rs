@@ -5,7 +5,8 @@
 //! most one trailing partial line; [`RunsFile::open`] drops a last line that lacks its newline or
 //! has the wrong column count, and truncates the file to the last good row.
 
-use super::plan::{fnv, hex, ExperimentPlan, RunConfig};
+use super::plan::{ExperimentPlan, RunConfig};
+use crate::hash::{fnv, hex};
 use crate::sched::param_columns;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;

@@ -2,9 +2,10 @@
 //! in `runs.csv`, each row appended whole as soon as it is measured.
 
 use super::meta::{self, Meta};
-use super::plan::{hex, ExperimentPlan, Launch, RunConfig, Sources};
+use super::plan::{ExperimentPlan, Launch, RunConfig, Sources};
 use super::results::{ResultsError, RunRow, RunsFile};
 use super::summary::median;
+use crate::hash::hex;
 use crate::render::{render_serial, Image};
 use crate::sched::{run_scheduler, RunStats, SchedError, SchedulerSpec, WorkerStats};
 use crate::tracer::Tracer;

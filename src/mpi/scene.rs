@@ -3,6 +3,7 @@
 //! and checks its hash against rank 0's.
 
 use super::wire::ScenePackage;
+use crate::scene::format::ShapeSpec;
 use crate::scene::{load_scene_str, Scene, SceneFile, SceneOverrides};
 use std::path::{Component, Path, PathBuf};
 
@@ -26,7 +27,10 @@ pub fn package(
     let file: SceneFile = toml::from_str(&text)?;
     let mut meshes = Vec::new();
     for (i, shape) in file.shapes.iter().enumerate() {
-        let Some(rel) = shape.path.as_deref().filter(|_| shape.kind == "mesh") else {
+        let ShapeSpec::Mesh {
+            path: Some(rel), ..
+        } = shape
+        else {
             continue;
         };
         if Path::new(rel).is_absolute() {

@@ -8,7 +8,7 @@
 //! [`LIVENESS_EVERY`]), or when it has had work outstanding and said nothing for `silence`
 //! (the only signal for a remote rank that died without MPI noticing).
 
-use super::comm::{tag, Comm, Pending, SendReq};
+use super::comm::{backoff, tag, Comm, Pending, SendReq};
 use super::wire::decode_results;
 use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
@@ -151,7 +151,7 @@ impl<'c> Hub<'c> {
         silence: Duration,
     ) -> (Self, Vec<Box<dyn ComputeSource>>) {
         let (tx, rx) = crossbeam::channel::unbounded();
-        let me = super::worker::hostname();
+        let me = crate::host::hostname();
         let pid_check = std::env::var_os(ENV_NO_PID_CHECK).is_none();
         let mut ranks = Vec::new();
         let mut sources: Vec<Box<dyn ComputeSource>> = Vec::new();
@@ -474,23 +474,6 @@ pub fn stop_ranks(comm: &Comm, ranks: &[i32], finalize: bool, wait: Duration) {
             }
             Err(_) => break,
         }
-    }
-}
-
-/// Poll hard while messages flow, then yield, then sleep briefly, and longer once idle for
-/// long (a worker between runs while rank 0 times local threads): a loop that only spun
-/// would take a core from the renderers on a small machine. The 200 µs sleep bounds the
-/// extra start latency of a run at 0.2 ms.
-pub fn backoff(idle: u32) {
-    if idle == 0 {
-    } else if idle < 64 {
-        std::hint::spin_loop();
-    } else if idle < 4096 {
-        std::thread::yield_now();
-    } else if idle < 20_000 {
-        std::thread::sleep(Duration::from_micros(50));
-    } else {
-        std::thread::sleep(Duration::from_micros(200));
     }
 }
 

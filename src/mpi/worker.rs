@@ -6,11 +6,11 @@
 //! thread builds scenes and renders items one at a time, in arrival order. A slow item thus
 //! never silences the rank, and rank 0 can treat a short silence as death.
 
-use super::comm::{tag, Comm, MpiError, Pending};
+use super::comm::{backoff, tag, Comm, MpiError, Pending};
 use super::wire::{decode_items, Ready, ScenePackage};
 use crate::render::{render_item, TileResult, WorkItem};
 use crate::sched::wire::encode_result;
-use crate::tracer::AnyTracer;
+use crate::tracer::{AnyTracer, TracerKind};
 use crossbeam::channel::{Receiver, Sender};
 use std::time::{Duration, Instant};
 
@@ -27,12 +27,6 @@ pub const ENV_PID_DIR: &str = "RAYSCHED_MPI_PID_DIR";
 /// pure dispatch cost over MPI (the image is then wrong, by design).
 pub const ENV_ZERO_WORK: &str = "RAYSCHED_MPI_ZERO_WORK";
 
-pub fn hostname() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .map(|s| s.trim().to_string())
-        .unwrap_or_default()
-}
-
 fn build(rank: i32, bytes: &[u8]) -> anyhow::Result<(crate::scene::Scene, AnyTracer)> {
     let mut pkg = ScenePackage::decode(bytes)?;
     if std::env::var(ENV_CORRUPT_RANK)
@@ -43,7 +37,7 @@ fn build(rank: i32, bytes: &[u8]) -> anyhow::Result<(crate::scene::Scene, AnyTra
         pkg.text.push_str("\n[corrupted_on_purpose]\n");
     }
     let scene = super::scene::unpack(&pkg, rank)?;
-    let tracer = AnyTracer::build(&pkg.tracer, &scene, 1)?;
+    let tracer = AnyTracer::build(TracerKind::from_id(&pkg.tracer)?, &scene, 1)?;
     Ok((scene, tracer))
 }
 
@@ -90,7 +84,7 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                         });
                 let ready = Ready {
                     pid: std::process::id(),
-                    host: hostname(),
+                    host: crate::host::hostname(),
                     error: built
                         .as_ref()
                         .err()
@@ -240,6 +234,6 @@ pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
             last_sent = Instant::now();
         }
         idle = if any { 0 } else { idle.saturating_add(1) };
-        super::source::backoff(idle);
+        backoff(idle);
     }
 }

@@ -1,7 +1,7 @@
 //! Linear f32 RGB images: EXR or PFM (the data) chosen by extension, plus an sRGB PNG preview.
 
 use super::WorkItem;
-use crate::scene::Fnv64;
+use crate::hash::Fnv64;
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug, PartialEq)]

@@ -52,7 +52,7 @@ pub struct SceneFile {
     pub render: RenderSpec,
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "shapes_by_index")]
     pub shapes: Vec<ShapeSpec>,
     #[serde(default)]
     pub lights: Vec<LightSpec>,
@@ -173,39 +173,251 @@ pub struct CheckerSpec {
     pub size: f64,
 }
 
-/// One shape. Which fields apply depends on `type`; a field that does not apply is an error.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ShapeSpec {
-    #[serde(rename = "type")]
-    pub kind: String,
-    pub material: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub emission: Option<[f64; 3]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub transform: Option<Vec<TransformStep>>,
-    /// Row-major 4×4 placement matrix, an alternative to `transform`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub matrix: Option<[[f64; 4]; 4]>,
-    // sphere
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub center: Option<[f64; 3]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub flip_normals: Option<bool>,
-    // mesh
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub path: Option<String>,
-    // generators: the size knob and their parameters
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub count: Option<u64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub displacement: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub triangle_size: Option<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub seed: Option<u64>,
+/// One shape, by `type`; each type takes exactly its fields. Every type has `material`, an
+/// optional `emission` (making it an area light) and an optional placement (`transform` or
+/// `matrix`); a field left out is `None` (defaults are the loader's). `None` fields are not
+/// written back (TOML has no null).
+#[derive(Clone, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// Centre `[0, 0, 0]`, radius 1 unless given; `flip_normals` points normals inwards.
+    Sphere {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+        center: Option<[f64; 3]>,
+        radius: Option<f64>,
+        flip_normals: Option<bool>,
+    },
+    /// The square [−1,1]² at z = 0, facing +z.
+    Rectangle {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+    },
+    /// The cube [−1,1]³, facing out.
+    Cube {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+    },
+    /// The triangles of an OBJ file, `path` relative to the scene file.
+    Mesh {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+        path: Option<String>,
+    },
+    /// [`super::generators::displaced_sphere`]: about `count` triangles.
+    DisplacedSphere {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+        count: Option<u64>,
+        displacement: Option<f64>,
+    },
+    /// [`super::generators::random_triangles`]: `count` triangles.
+    RandomTriangles {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+        count: Option<u64>,
+        triangle_size: Option<f64>,
+        seed: Option<u64>,
+    },
+    /// [`super::generators::sphere_grid`]: `count` spheres.
+    SphereGrid {
+        material: String,
+        emission: Option<[f64; 3]>,
+        transform: Option<Vec<TransformStep>>,
+        matrix: Option<[[f64; 4]; 4]>,
+        count: Option<u64>,
+    },
+}
+
+/// `$body` over the fields every shape type has, bound by name whatever the variant.
+macro_rules! common_fields {
+    ($shape:expr, $($field:ident),+ => $body:expr) => {
+        match $shape {
+            ShapeSpec::Sphere { $($field,)+ .. }
+            | ShapeSpec::Rectangle { $($field,)+ .. }
+            | ShapeSpec::Cube { $($field,)+ .. }
+            | ShapeSpec::Mesh { $($field,)+ .. }
+            | ShapeSpec::DisplacedSphere { $($field,)+ .. }
+            | ShapeSpec::RandomTriangles { $($field,)+ .. }
+            | ShapeSpec::SphereGrid { $($field,)+ .. } => $body,
+        }
+    };
+}
+
+impl ShapeSpec {
+    /// The `type` as written in the file.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            ShapeSpec::Sphere { .. } => "sphere",
+            ShapeSpec::Rectangle { .. } => "rectangle",
+            ShapeSpec::Cube { .. } => "cube",
+            ShapeSpec::Mesh { .. } => "mesh",
+            ShapeSpec::DisplacedSphere { .. } => "displaced_sphere",
+            ShapeSpec::RandomTriangles { .. } => "random_triangles",
+            ShapeSpec::SphereGrid { .. } => "sphere_grid",
+        }
+    }
+    pub fn material(&self) -> &str {
+        common_fields!(self, material => material)
+    }
+    pub fn emission(&self) -> Option<[f64; 3]> {
+        common_fields!(self, emission => *emission)
+    }
+    pub fn transform(&self) -> Option<&[TransformStep]> {
+        common_fields!(self, transform => transform.as_deref())
+    }
+    pub fn matrix(&self) -> Option<&[[f64; 4]; 4]> {
+        common_fields!(self, matrix => matrix.as_ref())
+    }
+    /// `(transform, matrix)`, to rewrite the placement.
+    pub fn placement_mut(
+        &mut self,
+    ) -> (&mut Option<Vec<TransformStep>>, &mut Option<[[f64; 4]; 4]>) {
+        common_fields!(self, transform, matrix => (transform, matrix))
+    }
+    /// The `count` of a generator shape (`None` for the other types).
+    pub fn generator_count_mut(&mut self) -> Option<&mut Option<u64>> {
+        match self {
+            ShapeSpec::DisplacedSphere { count, .. }
+            | ShapeSpec::RandomTriangles { count, .. }
+            | ShapeSpec::SphereGrid { count, .. } => Some(count),
+            ShapeSpec::Sphere { .. }
+            | ShapeSpec::Rectangle { .. }
+            | ShapeSpec::Cube { .. }
+            | ShapeSpec::Mesh { .. } => None,
+        }
+    }
+}
+
+/// The type-specific fields of every shape type side by side, as shapes were before they
+/// were typed: see the `Debug` impl.
+#[derive(Default)]
+struct FlatFields<'a> {
+    center: Option<[f64; 3]>,
+    radius: Option<f64>,
+    flip_normals: Option<bool>,
+    path: Option<&'a str>,
+    count: Option<u64>,
+    displacement: Option<f64>,
+    triangle_size: Option<f64>,
+    seed: Option<u64>,
+}
+
+// By hand, not derived: the scene hash is FNV over `{SceneFile:?}`, and every scene must keep
+// the hash it had when a shape was one flat struct (results CSVs key on it), so this prints
+// that struct's text.
+impl std::fmt::Debug for ShapeSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let flat = match self {
+            ShapeSpec::Sphere {
+                center,
+                radius,
+                flip_normals,
+                ..
+            } => FlatFields {
+                center: *center,
+                radius: *radius,
+                flip_normals: *flip_normals,
+                ..Default::default()
+            },
+            ShapeSpec::Rectangle { .. } | ShapeSpec::Cube { .. } => FlatFields::default(),
+            ShapeSpec::Mesh { path, .. } => FlatFields {
+                path: path.as_deref(),
+                ..Default::default()
+            },
+            ShapeSpec::DisplacedSphere {
+                count,
+                displacement,
+                ..
+            } => FlatFields {
+                count: *count,
+                displacement: *displacement,
+                ..Default::default()
+            },
+            ShapeSpec::RandomTriangles {
+                count,
+                triangle_size,
+                seed,
+                ..
+            } => FlatFields {
+                count: *count,
+                triangle_size: *triangle_size,
+                seed: *seed,
+                ..Default::default()
+            },
+            ShapeSpec::SphereGrid { count, .. } => FlatFields {
+                count: *count,
+                ..Default::default()
+            },
+        };
+        f.debug_struct("ShapeSpec")
+            .field("kind", &self.type_name())
+            .field("material", &self.material())
+            .field("emission", &self.emission())
+            .field("transform", &self.transform())
+            .field("matrix", &self.matrix())
+            .field("center", &flat.center)
+            .field("radius", &flat.radius)
+            .field("flip_normals", &flat.flip_normals)
+            .field("path", &flat.path)
+            .field("count", &flat.count)
+            .field("displacement", &flat.displacement)
+            .field("triangle_size", &flat.triangle_size)
+            .field("seed", &flat.seed)
+            .finish()
+    }
+}
+
+/// `[[shapes]]` one by one, so an error names the shape and the field (`shapes[1].radius`):
+/// serde alone would say only ``unknown field `radius` `` without saying of which shape.
+fn shapes_by_index<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<ShapeSpec>, D::Error> {
+    let raw = Vec::<toml::Value>::deserialize(d)?;
+    raw.into_iter()
+        .enumerate()
+        .map(|(i, value)| {
+            let kind = value
+                .get("type")
+                .and_then(|t| t.as_str())
+                .map(str::to_owned);
+            ShapeSpec::deserialize(value)
+                .map_err(|e| serde::de::Error::custom(shape_error(i, kind.as_deref(), e.message())))
+        })
+        .collect()
+}
+
+/// serde's message about shape `i` (of type `kind`) in the loader's `field: message` form.
+fn shape_error(i: usize, kind: Option<&str>, msg: &str) -> String {
+    let at = format!("shapes[{i}]");
+    // serde's wording: "unknown field `x`, expected …", "unknown variant `x`, expected …".
+    let quoted = |prefix: &str| {
+        let rest = msg.strip_prefix(prefix)?;
+        let (name, rest) = rest.split_once('`')?;
+        Some((name, rest.trim_start_matches(", ")))
+    };
+    if let (Some((field, expected)), Some(kind)) = (quoted("unknown field `"), kind) {
+        format!("{at}.{field}: does not apply to a shape of type '{kind}' ({expected})")
+    } else if let Some((kind, expected)) = quoted("unknown variant `") {
+        let types = expected
+            .trim_start_matches("expected one of ")
+            .replace('`', "");
+        format!("{at}.type: unknown shape type '{kind}' (expected {types})")
+    } else if let Some((field, _)) = quoted("missing field `") {
+        format!("{at}.{field}: missing")
+    } else {
+        format!("{at}: {msg}")
+    }
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -266,11 +478,70 @@ impl SceneOverrides {
             file.render.seed = s;
         }
         if let Some(n) = self.generator_count {
-            for shape in &mut file.shapes {
-                if super::generators::is_generator(&shape.kind) {
-                    shape.count = Some(n);
-                }
+            for count in file
+                .shapes
+                .iter_mut()
+                .filter_map(ShapeSpec::generator_count_mut)
+            {
+                *count = Some(n);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CAMERA: &str = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\n\
+                          fov_deg = 40\nwidth = 8\nheight = 8\n";
+
+    fn parse(shapes: &str) -> Result<SceneFile, String> {
+        toml::from_str(&format!("{CAMERA}{shapes}")).map_err(|e| e.message().to_string())
+    }
+
+    #[test]
+    fn a_shape_error_names_the_shape_and_the_field() {
+        let two = "[[shapes]]\ntype = \"cube\"\nmaterial = \"m\"\n[[shapes]]\ntype = \"mesh\"\n\
+                   material = \"m\"\npath = \"a.obj\"\n";
+        assert!(parse(two).is_ok());
+        let err = parse(&format!("{two}radius = 2\n")).unwrap_err();
+        assert!(
+            err.starts_with("shapes[1].radius: does not apply to a shape of type 'mesh'"),
+            "{err}"
+        );
+        let err = parse("[[shapes]]\ntype = \"torus\"\nmaterial = \"m\"\n").unwrap_err();
+        assert_eq!(
+            err,
+            "shapes[0].type: unknown shape type 'torus' (expected sphere, rectangle, cube, mesh, \
+             displaced_sphere, random_triangles, sphere_grid)"
+        );
+        let err = parse("[[shapes]]\nmaterial = \"m\"\n").unwrap_err();
+        assert_eq!(err, "shapes[0].type: missing");
+        let err = parse("[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\nradius = \"big\"\n")
+            .unwrap_err();
+        assert!(err.starts_with("shapes[0]: invalid type"), "{err}");
+    }
+
+    #[test]
+    fn shapes_write_back_only_the_fields_they_have() {
+        let text = "[[shapes]]\ntype = \"sphere_grid\"\nmaterial = \"m\"\ncount = 8\n";
+        let mut file = parse(text).unwrap();
+        SceneOverrides {
+            generator_count: Some(27),
+            ..Default::default()
+        }
+        .apply(&mut file);
+        let out = toml::to_string(&file).unwrap();
+        assert!(
+            out.contains("[[shapes]]\ntype = \"sphere_grid\"\nmaterial = \"m\"\ncount = 27\n"),
+            "{out}"
+        );
+        assert_eq!(
+            format!("{:?}", file.shapes[0]),
+            "ShapeSpec { kind: \"sphere_grid\", material: \"m\", emission: None, transform: None, \
+             matrix: None, center: None, radius: None, flip_normals: None, path: None, \
+             count: Some(27), displacement: None, triangle_size: None, seed: None }"
+        );
     }
 }

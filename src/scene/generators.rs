@@ -4,36 +4,6 @@
 use crate::rng::Sampler;
 use glam::DVec3;
 
-pub const GENERATORS: [&str; 3] = ["displaced_sphere", "random_triangles", "sphere_grid"];
-
-pub fn is_generator(kind: &str) -> bool {
-    GENERATORS.contains(&kind)
-}
-
-/// Local-space output of a generator.
-pub enum Generated {
-    Triangles(Vec<[DVec3; 3]>),
-    Spheres(Vec<(DVec3, f64)>),
-}
-
-pub struct GeneratorParams {
-    pub count: u64,
-    pub displacement: f64,
-    pub triangle_size: f64,
-    pub seed: u64,
-}
-
-pub fn generate(kind: &str, p: &GeneratorParams) -> Generated {
-    match kind {
-        "displaced_sphere" => Generated::Triangles(displaced_sphere(p.count, p.displacement)),
-        "random_triangles" => {
-            Generated::Triangles(random_triangles(p.count, p.triangle_size, p.seed))
-        }
-        "sphere_grid" => Generated::Spheres(sphere_grid(p.count)),
-        other => unreachable!("generator {other} is validated before use"),
-    }
-}
-
 /// A UV sphere of about `count` triangles (never fewer than 8) whose radius is modulated by a
 /// smooth, deterministic bump pattern of relative amplitude `displacement`.
 pub fn displaced_sphere(count: u64, displacement: f64) -> Vec<[DVec3; 3]> {

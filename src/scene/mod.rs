@@ -10,9 +10,11 @@
 //! `load::animation_cameras`), so frame 0 is bit-identical to the static scene.
 
 pub mod camera;
+mod check;
 pub mod format;
 pub mod generators;
 pub mod load;
+mod shapes;
 
 pub use camera::Camera;
 pub use format::{SceneFile, SceneOverrides};
@@ -267,28 +269,5 @@ impl Scene {
             Some(Light::Environment { radiance }) => *radiance,
             _ => Vec3::ZERO,
         }
-    }
-}
-
-/// FNV-1a, 64 bit: stable across Rust versions (unlike `DefaultHasher`), for scene and image
-/// hashes written to CSV files.
-#[derive(Clone, Copy, Debug)]
-pub struct Fnv64(pub u64);
-
-impl Default for Fnv64 {
-    fn default() -> Self {
-        Self(0xcbf2_9ce4_8422_2325)
-    }
-}
-
-impl Fnv64 {
-    pub fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.0 ^= *b as u64;
-            self.0 = self.0.wrapping_mul(0x100_0000_01b3);
-        }
-    }
-    pub fn finish(&self) -> u64 {
-        self.0
     }
 }

@@ -316,7 +316,9 @@ impl Requeue {
                 Some(Ok(ms)) if ms > 0 => Ok(Self::Timeout(Duration::from_millis(ms))),
                 _ => Err(err(
                     "requeue",
-                    format!("'{s}': expected seed (alias revisit), never or timeout:<ms> with ms ≥ 1"),
+                    format!(
+                        "'{s}': expected seed (alias revisit), never or timeout:<ms> with ms ≥ 1"
+                    ),
                 )),
             },
         }

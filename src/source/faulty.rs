@@ -36,13 +36,11 @@ impl Default for FaultPlan {
 
 /// splitmix64 finaliser → uniform in [0, 1).
 fn unit(seed: u64, a: u64, b: u64, c: u64) -> f64 {
-    let mut z = seed
-        ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15)
-        ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
-        ^ c.wrapping_mul(0x1656_67b1_9e37_79f9);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^= z >> 31;
+    let z = crate::hash::mix64(
+        seed ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+            ^ c.wrapping_mul(0x1656_67b1_9e37_79f9),
+    );
     (z >> 11) as f64 / (1u64 << 53) as f64
 }
 

@@ -1,11 +1,13 @@
 //! The cases of the stability suite, each a small scene written out here in TOML.
 
 use super::transform::load_transformed;
-use super::{against_reference, against_scene, count_case, equal_power, Budget, CaseResult};
+use super::{
+    against_reference, against_scene, count_case, equal_power, failed, Budget, CaseResult,
+};
 use crate::converge::reference::{analytic, Reference, ReferenceKind};
 use crate::render::Image;
 use crate::scene::{load_scene_str, Scene, SceneOverrides};
-use crate::tracer::AnyTracer;
+use crate::tracer::{AnyTracer, TracerKind};
 use std::path::Path;
 
 const FURNACE: &str = include_str!("../../scenes/furnace_a08.toml");
@@ -26,24 +28,7 @@ fn load(text: &str, name: &str, o: &SceneOverrides) -> Result<Scene, String> {
 }
 
 fn tracer(scene: &Scene) -> Result<AnyTracer, String> {
-    AnyTracer::build("bvh", scene, 1).map_err(|e| e.to_string())
-}
-
-/// A case that could not run: a required failure carrying the reason.
-pub(super) fn failed(group: &str, case: &str, msg: String) -> CaseResult {
-    CaseResult {
-        group: group.into(),
-        case: case.into(),
-        expected: f64::NAN,
-        measured: f64::NAN,
-        sigma: 0.0,
-        rel_error: f64::NAN,
-        nonfinite: 0,
-        outlier_pixels: 0,
-        pass: false,
-        required: true,
-        note: msg,
-    }
+    AnyTracer::build(TracerKind::Bvh, scene, 1).map_err(|e| e.to_string())
 }
 
 /// A case against the scene's analytic reference.
@@ -334,7 +319,8 @@ fn dielectric_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         }
         let mut file: crate::scene::SceneFile =
             toml::from_str(GLASS_CHECKER).map_err(|e| e.to_string())?;
-        file.shapes.retain(|s| s.kind != "sphere");
+        file.shapes
+            .retain(|s| !matches!(s, crate::scene::format::ShapeSpec::Sphere { .. }));
         let without = toml::to_string(&file).map_err(|e| e.to_string())?;
         let a = load(&with, "ior1", &o)?;
         let bsc = load(&without, "backdrop", &o)?;

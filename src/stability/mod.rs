@@ -288,6 +288,23 @@ pub fn count_case(group: &str, case: &str, expected: u64, measured: u64, note: &
     r
 }
 
+/// A case that could not run: a required failure carrying the reason.
+fn failed(group: &str, case: &str, msg: String) -> CaseResult {
+    CaseResult {
+        group: group.into(),
+        case: case.into(),
+        expected: f64::NAN,
+        measured: f64::NAN,
+        sigma: 0.0,
+        rel_error: f64::NAN,
+        nonfinite: 0,
+        outlier_pixels: 0,
+        pass: false,
+        required: true,
+        note: msg,
+    }
+}
+
 /// Write the table as CSV.
 ///
 /// # Errors

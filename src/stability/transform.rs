@@ -21,16 +21,17 @@ pub fn transform_file(file: &mut SceneFile, s: f64, t: f64) {
     let m = placement_matrix(s, t);
     let apply = |p: [f64; 3]| m.transform_point3(DVec3::from_array(p)).to_array();
     for shape in &mut file.shapes {
-        if let Some(rows) = shape.matrix {
-            let local = DMat4::from_cols_array_2d(&rows).transpose();
-            shape.matrix = Some((m * local).transpose().to_cols_array_2d());
+        let (transform, matrix) = shape.placement_mut();
+        if let Some(rows) = matrix {
+            let local = DMat4::from_cols_array_2d(rows).transpose();
+            *rows = (m * local).transpose().to_cols_array_2d();
         } else {
             let mut steps = vec![
                 TransformStep::Translate([t; 3]),
                 TransformStep::Scale(ScaleSpec::Uniform(s)),
             ];
-            steps.extend(shape.transform.take().unwrap_or_default());
-            shape.transform = Some(steps);
+            steps.extend(transform.take().unwrap_or_default());
+            *transform = Some(steps);
         }
     }
     file.camera.origin = apply(file.camera.origin);

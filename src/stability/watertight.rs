@@ -4,11 +4,10 @@
 //! rows show the difference. Reported, not required (no tracer here promises watertightness
 //! except `embree_robust`).
 
-use super::cases::failed;
-use super::{count_case, CaseResult};
+use super::{count_case, failed, CaseResult};
 use crate::geometry::Ray;
 use crate::scene::{load_scene_str, Scene, SceneOverrides};
-use crate::tracer::{check_tracer_id, AnyTracer, Tracer, TRACER_IDS};
+use crate::tracer::{AnyTracer, Tracer, TracerKind};
 use glam::Vec3;
 use std::path::Path;
 
@@ -86,17 +85,18 @@ pub fn watertight_cases(count: u64, out: &mut Vec<CaseResult>) {
         Err(e) => return out.push(failed("watertight", &case("all"), e)),
     };
     let rays = probe_rays(&scene);
-    for (id, _) in TRACER_IDS {
+    for kind in TracerKind::ALL {
         // Brute force tests every triangle per ray; it shares bvh's triangle routine anyway.
-        if check_tracer_id(id).is_err() || (id == "brute" && count > 5_000) {
+        if !kind.compiled_in() || (kind == TracerKind::Brute && count > 5_000) {
             continue;
         }
+        let id = kind.id();
         let note = format!(
             "{} triangles, {} rays from inside: each miss is a leak",
             scene.geometry.triangles.len(),
             rays.len()
         );
-        let mut row = match AnyTracer::build(id, &scene, 1) {
+        let mut row = match AnyTracer::build(kind, &scene, 1) {
             Ok(t) => {
                 let leaks = rays
                     .iter()

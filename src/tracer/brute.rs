@@ -18,7 +18,7 @@ impl BruteTracer {
 
 impl Tracer for BruteTracer {
     fn id(&self) -> &'static str {
-        "brute"
+        super::TracerKind::Brute.id()
     }
     fn accelerated(&self) -> bool {
         false

@@ -136,7 +136,7 @@ impl BvhTracer {
 
 impl Tracer for BvhTracer {
     fn id(&self) -> &'static str {
-        "bvh"
+        super::TracerKind::Bvh.id()
     }
     fn accelerated(&self) -> bool {
         self.uses_bvh()

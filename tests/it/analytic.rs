@@ -5,7 +5,7 @@ use crate::support::{estimate, load};
 use glam::Vec3;
 use raysched::geometry::Sphere;
 use raysched::scene::SceneOverrides;
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 
 fn overrides(max_depth: i32, width: u32) -> SceneOverrides {
     SceneOverrides {
@@ -42,7 +42,7 @@ fn furnace_covered_pixels_equal_albedo_and_background_is_one() {
     for (file, a) in [("furnace.toml", 1.0), ("furnace_a08.toml", 0.8)] {
         for max_depth in [1, 2, 64] {
             let scene = load(file, overrides(max_depth, 24));
-            let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
             let covered = furnace_pixels(&scene, true);
             let background = furnace_pixels(&scene, false);
             assert!(covered.len() > 30 && background.len() > 100);
@@ -76,7 +76,7 @@ fn interior_emitting_sphere_follows_the_geometric_series() {
                 &o,
             )
             .unwrap();
-            let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
             let expected = if d < 0 {
                 1.0 / (1.0 - a)
             } else {
@@ -109,7 +109,7 @@ fn point_plane_centre_pixel() -> f64 {
 #[test]
 fn point_light_over_plane_centre_pixel_matches_the_integral() {
     let scene = load("point_plane.toml", SceneOverrides::default());
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let centre = 32 * 65 + 32;
     let expected = point_plane_centre_pixel();
     // ≈ 0.398: (ρ/π)·I/h² at the axis.
@@ -123,7 +123,7 @@ fn point_light_over_plane_centre_pixel_matches_the_integral() {
 #[test]
 fn glass_sphere_alone_in_uniform_environment_is_one() {
     let scene = load("glass_alone.toml", overrides(64, 16));
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let all: Vec<u32> = (0..256).collect();
     for c in 0..3 {
         estimate(&scene, &tracer, &all, 64, c).assert_within_3se(1.0, "glass alone");
@@ -142,7 +142,7 @@ fn cornell_box_is_lit_and_coloured_as_specified() {
             ..Default::default()
         },
     );
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let (img, counters) = raysched::render::render_serial(&scene, &tracer);
     assert_eq!(counters.nonfinite, 0);
     let left = Vec3::from(img.get(1, 16));

@@ -15,7 +15,7 @@ use raysched::sched::{
     decompose_frames, run_scheduler, run_scheduler_frames, Chunk, Order, RunOptions, SchedulerKind,
     SchedulerSpec,
 };
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;
@@ -54,7 +54,7 @@ fn with_camera(text: &str, origin: &str, target: &str) -> String {
 }
 
 fn serial_frames(scene: &Scene) -> Vec<Image> {
-    let tracer = AnyTracer::build("bvh", scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, scene, 1).unwrap();
     render_serial_frames(scene, &tracer).0
 }
 
@@ -62,7 +62,7 @@ fn serial_frames(scene: &Scene) -> Vec<Image> {
 fn every_scheduler_and_chunk_gives_the_serial_frames() {
     let scene = Arc::new(load(&dolly_text(), &small()));
     assert_eq!(scene.frames(), 4);
-    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+    let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
     let (serial, _) = render_serial_frames(&scene, &*tracer);
     assert_eq!(serial.len(), 4);
     for k in 1..4 {
@@ -118,7 +118,7 @@ fn static_scenes_keep_their_hash_and_image_from_before_animations() {
     );
     assert_eq!(scene.frames(), 1);
     assert_eq!(scene.hash, 0xb113_2ad6_cf4a_ed24);
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     assert_eq!(
         render_serial(&scene, &tracer).0.hash(),
         0x59de_4a86_960f_79b7

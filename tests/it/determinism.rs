@@ -4,7 +4,7 @@
 use raysched::render::{render_item, render_parallel, render_serial, Region, WorkItem};
 use raysched::rng::Sampler;
 use raysched::scene::SceneOverrides;
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::sync::Arc;
 
 #[test]
@@ -19,7 +19,7 @@ fn shuffled_pixel_subsets_on_threads_are_bit_identical_to_the_serial_render() {
                 ..Default::default()
             },
         ));
-        let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+        let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
         let (reference, _) = render_serial(&scene, &*tracer);
 
         // Shuffle all pixel indices (Fisher–Yates with the counter-based sampler).
@@ -91,8 +91,8 @@ fn a_different_seed_gives_a_different_image() {
     };
     let a = crate::support::load("cornell_box.toml", o(1));
     let b = crate::support::load("cornell_box.toml", o(2));
-    let ta = AnyTracer::build("bvh", &a, 1).unwrap();
-    let tb = AnyTracer::build("bvh", &b, 1).unwrap();
+    let ta = AnyTracer::build(TracerKind::Bvh, &a, 1).unwrap();
+    let tb = AnyTracer::build(TracerKind::Bvh, &b, 1).unwrap();
     assert_ne!(
         render_serial(&a, &ta).0.hash(),
         render_serial(&b, &tb).0.hash()

@@ -5,17 +5,17 @@
 #[cfg(not(feature = "embree"))]
 #[test]
 fn embree_without_the_feature_is_an_error_naming_it() {
-    use raysched::tracer::{check_tracer_id, AnyTracer, TracerError};
+    use raysched::tracer::{AnyTracer, TracerError, TracerKind};
     let scene = raysched::scene::load_scene(
         std::path::Path::new("scenes/simple.toml"),
         &Default::default(),
     )
     .unwrap();
-    for id in ["embree", "embree_robust"] {
-        let err = AnyTracer::build(id, &scene, 1).err().expect("must fail");
+    for kind in [TracerKind::Embree, TracerKind::EmbreeRobust] {
+        let err = AnyTracer::build(kind, &scene, 1).err().expect("must fail");
         assert!(matches!(&err, TracerError::FeatureOff { feature, .. } if feature == "embree"));
         assert!(err.to_string().contains("--features embree"), "{err}");
-        assert!(check_tracer_id(id).is_err());
+        assert!(kind.available().is_err());
     }
 }
 
@@ -26,7 +26,7 @@ mod with_embree {
     use raysched::geometry::{next_float_down, next_float_up, Hit, Ray, Sphere, Triangle};
     use raysched::render::{render_item, render_parallel, render_serial, Image, WorkItem};
     use raysched::scene::{load_scene, Geometry, SceneOverrides};
-    use raysched::tracer::{AnyTracer, BruteTracer, BvhTracer, Tracer};
+    use raysched::tracer::{AnyTracer, BruteTracer, BvhTracer, Tracer, TracerKind};
 
     /// xorshift64*: enough for test input, independent of the crate's RNG.
     struct Rng(u64);
@@ -288,9 +288,9 @@ mod with_embree {
         ];
         for name in scenes {
             let scene = small(name, 4);
-            let bvh = AnyTracer::build("bvh", &scene, 1).unwrap();
+            let bvh = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
             let (a, _) = render_serial(&scene, &bvh);
-            for id in ["embree", "embree_robust"] {
+            for id in [TracerKind::Embree, TracerKind::EmbreeRobust] {
                 let e = AnyTracer::build(id, &scene, 1).unwrap();
                 let (b, _) = render_serial(&scene, &e);
                 let (mut diff, mut total, mut off) = (0.0f64, 0.0f64, 0usize);
@@ -317,7 +317,7 @@ mod with_embree {
     #[test]
     fn embree_images_are_identical_across_schedules() {
         let scene = small("cornell_box", 2);
-        let e = AnyTracer::build("embree", &scene, 2).unwrap();
+        let e = AnyTracer::build(TracerKind::Embree, &scene, 2).unwrap();
         let (serial, _) = render_serial(&scene, &e);
         for threads in [1, 2, 3] {
             let (par, _) = render_parallel(&scene, &e, threads).unwrap();

@@ -5,7 +5,7 @@
 
 use raysched::render::{render_serial, render_serial_frames, Image};
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -85,7 +85,7 @@ radiance = [1, 1, 1]
 
 fn serial_hash(path: &Path) -> String {
     let scene = load_scene(path, &SceneOverrides::default()).unwrap();
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     format!("{:016x}", render_serial(&scene, &tracer).0.hash())
 }
 
@@ -322,7 +322,7 @@ fn three_ranks_render_an_animation_like_the_serial_frames() {
     std::fs::write(&path, animated).unwrap();
     let scene = load_scene(&path, &SceneOverrides::default()).unwrap();
     assert_eq!(scene.frames(), 3);
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let frames = render_serial_frames(&scene, &tracer).0;
     assert_ne!(frames[0].hash(), frames[2].hash(), "the camera moves");
     let want = format!("{:016x}", Image::stack(frames).hash());

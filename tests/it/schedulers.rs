@@ -9,7 +9,7 @@ use raysched::sched::{
     Wait,
 };
 use raysched::source::FaultPlan;
-use raysched::tracer::AnyTracer;
+use raysched::tracer::{AnyTracer, TracerKind};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
@@ -81,7 +81,7 @@ fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
         let scene = scene(17, 13);
-        let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+        let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
         let (serial, _) = render_serial(&scene, &*tracer);
         Fixture {
             scene,
@@ -214,7 +214,7 @@ fn timeline_has_one_span_per_rendered_item() {
 #[test]
 fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
     let scene = scene(1, 1);
-    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 1).unwrap());
+    let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
     let (serial, _) = render_serial(&scene, &*tracer);
     for kind in SchedulerKind::ALL {
         for chunk in [
@@ -533,7 +533,7 @@ mod cli {
 #[test]
 fn every_scheduler_matches_serial_with_embree() {
     let scene = scene(17, 13);
-    let tracer = Arc::new(AnyTracer::build("embree", &scene, 1).unwrap());
+    let tracer = Arc::new(AnyTracer::build(TracerKind::Embree, &scene, 1).unwrap());
     let (serial, _) = render_serial(&scene, &*tracer);
     for kind in SchedulerKind::ALL {
         for chunk in [

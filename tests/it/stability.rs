@@ -5,7 +5,7 @@ use raysched::converge::{self, reference};
 use raysched::render::{self, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::stability::{self, cases, Budget};
-use raysched::tracer::{AnyTracer, Tracer};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
 
 #[test]
@@ -82,7 +82,7 @@ fn pruned_and_full_paths_are_bit_identical() {
         "scenes/interior_sphere.toml",
     ] {
         let scene = small(path);
-        let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+        let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
         let item = WorkItem::rect(0, 0, 0, scene.width(), scene.height());
         let pruned = render::render_sums(&scene, &tracer, &item, 0..3);
         let full = render::render_sums_full(&scene, &tracer, &item, 0..3);
@@ -97,7 +97,7 @@ fn pruned_and_full_paths_are_bit_identical() {
 #[test]
 fn features_report_names_what_a_scene_leaves_out() {
     let scene = small("scenes/furnace.toml");
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     // One sphere: below the measured BVH crossover, so no BVH is built.
     assert!(!tracer.accelerated());
     let (used, left) = scene.features.report(tracer.accelerated());
@@ -116,14 +116,16 @@ fn features_report_names_what_a_scene_leaves_out() {
         assert!(left.iter().any(|u| u == f), "{left:?}");
     }
     let cornell = small("scenes/cornell_box.toml");
-    assert!(AnyTracer::build("bvh", &cornell, 1).unwrap().accelerated());
+    assert!(AnyTracer::build(TracerKind::Bvh, &cornell, 1)
+        .unwrap()
+        .accelerated());
 }
 
 /// Progressive steps reuse earlier samples: 0..1 + 1..2 + 2..4 equals 0..4 (up to f64 order).
 #[test]
 fn progressive_sums_add_up() {
     let scene = small("scenes/cornell_box.toml");
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let item = WorkItem::rect(0, 0, 0, scene.width(), scene.height());
     let whole = render::render_sums(&scene, &tracer, &item, 0..4).0;
     let parts = [0..1, 1..2, 2..4].map(|r| render::render_sums(&scene, &tracer, &item, r).0);
@@ -144,7 +146,7 @@ fn convergence_slope_is_minus_half() {
         ..Default::default()
     };
     let scene = load_scene(Path::new("scenes/interior_sphere.toml"), &o).unwrap();
-    let tracer = AnyTracer::build("bvh", &scene, 1).unwrap();
+    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let r = reference::reference(&scene, &tracer, dir.path(), 64, 2).unwrap();
     assert_eq!(r.kind, converge::ReferenceKind::Interior);
@@ -187,7 +189,7 @@ fn equal_power_tiny_light_same_mean_far_larger_variance() {
     };
     let (tiny, large) = (scene(0.02, 2.5e6), scene(1.0, 1e3));
     let bright = scene(0.02, 7.5e6);
-    let tr = |s: &raysched::scene::Scene| AnyTracer::build("bvh", s, 1).unwrap();
+    let tr = |s: &raysched::scene::Scene| AnyTracer::build(TracerKind::Bvh, s, 1).unwrap();
     let (tt, tl, tb) = (tr(&tiny), tr(&large), tr(&bright));
     let ok = stability::equal_power("stiff", "equal", (&tiny, &tt), (&large, &tl), &b);
     assert!(ok.pass && ok.nonfinite == 0, "{ok:?}");
@@ -219,7 +221,7 @@ fn scheduled_convergence_matches_rows_rayon() {
     use raysched::sched::{Chunk, SchedulerKind, SchedulerSpec};
     use std::sync::Arc;
     let scene = Arc::new(small("scenes/cornell_box.toml"));
-    let tracer = Arc::new(AnyTracer::build("bvh", &scene, 2).unwrap());
+    let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 2).unwrap());
     let refs = tempfile::tempdir().unwrap();
     let r = reference::reference(&scene, &*tracer, refs.path(), 4, 2).unwrap();
     let base = converge::run_convergence(&scene, &*tracer, &r, 8, 2);
