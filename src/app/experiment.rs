@@ -33,11 +33,8 @@ pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
 }
 
 pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
+    // With feature `mpi`, a launch under mpirun is dispatched to the MPI front-end before this.
     if super::under_mpirun() {
-        // Every rank lands here; rank 0 runs the experiment, the others render for it.
-        #[cfg(feature = "mpi")]
-        super::mpi_run::run(args);
-        #[cfg(not(feature = "mpi"))]
         return Err(CliError::input(anyhow::anyhow!(
             "{}: started by mpirun, but this raysched was built without feature `mpi` (cargo build --features mpi)",
             args.experiment.display()

@@ -72,7 +72,14 @@ pub(crate) fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
+        #[cfg(feature = "mpi")]
+        Command::Render(args) if args.sources == render::SourcesArg::Mpi => {
+            mpi_render::render(args)
+        }
         Command::Render(args) => render::render(args),
+        // Every rank lands here; rank 0 runs the experiment, the others render for it.
+        #[cfg(feature = "mpi")]
+        Command::Run(args) if under_mpirun() => mpi_run::run(args),
         Command::Run(args) => experiment::run(args),
         Command::Plot(args) => experiment::plot(args),
         Command::Converge(args) => converge::converge(args),
@@ -81,7 +88,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
 }
 
 /// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?
-fn under_mpirun() -> bool {
+pub(crate) fn under_mpirun() -> bool {
     ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
         .iter()
         .any(|v| std::env::var_os(v).is_some())

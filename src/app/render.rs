@@ -33,7 +33,7 @@ pub(crate) struct RenderArgs {
     pub(crate) threads: usize,
     /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree and
     /// embree_robust (feature `embree`).
-    #[arg(long, value_enum, default_value_t = TracerKind::Bvh)]
+    #[arg(long, default_value_t = TracerKind::Bvh, value_parser = parse_tracer)]
     pub(crate) tracer: TracerKind,
     /// Output image; the format follows the extension (.exr or .pfm).
     #[arg(short, long, default_value = "results/render.exr")]
@@ -96,17 +96,17 @@ impl RenderArgs {
     }
 }
 
+/// `--tracer`: the library's own message for an unknown id (it lists the ids).
+fn parse_tracer(s: &str) -> Result<TracerKind, String> {
+    TracerKind::from_id(s).map_err(|e| e.to_string())
+}
+
 pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
-    match args.sources {
-        SourcesArg::Local => {}
-        #[cfg(feature = "mpi")]
-        SourcesArg::Mpi => return super::mpi_render::render(args),
-        #[cfg(not(feature = "mpi"))]
-        SourcesArg::Mpi => {
-            return Err(CliError::message(
-                "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)",
-            ))
-        }
+    // With feature `mpi`, `--sources mpi` is dispatched to the MPI front-end before this.
+    if args.sources == SourcesArg::Mpi {
+        return Err(CliError::message(
+            "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)",
+        ));
     }
     if args.threads == 0 {
         return Err(CliError::message("--threads: must be ≥ 1 (got 0)"));

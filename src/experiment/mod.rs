@@ -13,5 +13,13 @@ pub mod results;
 pub mod run;
 pub mod summary;
 
-pub use plan::{load_plan, ConfigError, ExperimentPlan, Launch, Sources};
+pub use plan::{ConfigError, ExperimentPlan, Launch, Sources};
 pub use run::{run_experiment, run_experiment_with, Remote, RunError, RunOptions, RunOutcome};
+
+/// Parse and validate an experiment file (scenes loaded, tracers built) and key each
+/// configuration by its CSV columns: the plan a run executes.
+pub fn load_plan(path: &std::path::Path) -> Result<ExperimentPlan, ConfigError> {
+    let mut plan = plan::plan_file(path)?;
+    results::assign_ids(&mut plan);
+    Ok(plan)
+}

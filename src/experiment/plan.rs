@@ -155,8 +155,10 @@ fn field(name: &str, msg: impl Into<String>) -> FieldError {
     (name.to_string(), msg.into())
 }
 
-/// Parse and validate an experiment file, load its scenes and build its tracers.
-pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
+/// Parse and validate an experiment file, load its scenes and build its tracers. The
+/// configurations have no ids yet: they are keyed by their CSV columns
+/// ([`super::results::assign_ids`]); [`super::load_plan`] does both.
+pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     let attach = |(field, msg): FieldError| ConfigError {
         path: path.display().to_string(),
         field,
@@ -175,7 +177,7 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     let baselines = build_baselines(&settings.tracers, &scenes, max_workers).map_err(attach)?;
     // 4. The configurations, serial baselines first, each with its stable id.
     let configs = configurations(baselines.len(), &grids, settings.mpi.as_ref());
-    let mut plan = ExperimentPlan {
+    Ok(ExperimentPlan {
         name,
         description: file.description.clone(),
         file: path.to_path_buf(),
@@ -189,9 +191,7 @@ pub fn load_plan(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         convergence: settings.convergence,
         max_workers,
         mpi: settings.mpi,
-    };
-    assign_ids(&mut plan);
-    Ok(plan)
+    })
 }
 
 fn read_file(path: &Path) -> Result<(Vec<u8>, ExperimentFile), FieldError> {
@@ -417,20 +417,6 @@ fn configurations(
         }
     }
     configs
-}
-
-/// Give every configuration its id; the same configuration listed twice (overlapping grids)
-/// is timed once.
-fn assign_ids(plan: &mut ExperimentPlan) {
-    let mut seen = std::collections::HashSet::new();
-    let mut unique = Vec::new();
-    for mut c in std::mem::take(&mut plan.configs) {
-        c.id = super::results::config_id(plan, &c);
-        if seen.insert(c.id.clone()) {
-            unique.push(c);
-        }
-    }
-    plan.configs = unique;
 }
 
 fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, FieldError> {

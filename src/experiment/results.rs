@@ -304,6 +304,20 @@ impl RunRow {
     }
 }
 
+/// Give every configuration its id; the same configuration listed twice (overlapping grids)
+/// is timed once.
+pub fn assign_ids(plan: &mut ExperimentPlan) {
+    let mut seen = std::collections::HashSet::new();
+    let mut unique = Vec::new();
+    for mut c in std::mem::take(&mut plan.configs) {
+        c.id = config_id(plan, &c);
+        if seen.insert(c.id.clone()) {
+            unique.push(c);
+        }
+    }
+    plan.configs = unique;
+}
+
 /// The stable id of a configuration: FNV-1a of its config columns.
 pub fn config_id(plan: &ExperimentPlan, c: &RunConfig) -> String {
     hex(fnv(RunRow::for_config(plan, c).config_key().as_bytes()))
