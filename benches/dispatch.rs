@@ -47,9 +47,10 @@ use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, Job, Order, Requeue, RunOptions, SchedulerKind,
+    decompose, render_job, run_items, Chunk, Order, Requeue, RunOptions, SchedulerKind,
     SchedulerSpec, Wait,
 };
+use raysched::source::Job;
 use raysched::tracer::AnyTracer;
 use std::hint::black_box;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -46,6 +46,7 @@ pub mod csv_out;
 pub mod embree;
 pub mod experiment;
 pub mod geometry;
+pub mod metrics;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;

@@ -9,18 +9,16 @@
 //! answers READY. While rank 0 times local threads the workers sleep in 200 µs steps.
 
 use super::comm::{tag, Comm};
+use super::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use super::run::{gather_ready, input, lead, STOP_WAIT};
-use super::source::{stop_ranks, Hub, Peer};
 use crate::cli::{CliError, RunArgs};
 use crate::experiment::plan::RunConfig;
 use crate::experiment::{
     load_plan, run_experiment_with, ExperimentPlan, Launch, Remote, RunError, RunOptions,
 };
+use crate::metrics::{Probe, RunStats};
 use crate::render::Image;
-use crate::sched::{
-    assemble, decompose, master, RunStats, SchedError, SchedulerKind, SchedulerSpec,
-};
-use crate::source::Probe;
+use crate::sched::{assemble, decompose, SchedulerSpec};
 use crate::tracer::Tracer;
 use std::time::Duration;
 
@@ -261,19 +259,15 @@ impl Remote for MpiRemote<'_> {
             deadline: Some(RUN_DEADLINE),
             faults: None,
         };
-        let (outcome, report) = std::thread::scope(|s| {
-            let m = s.spawn(|| match spec.kind {
-                SchedulerKind::Master => master::run_master(spec, &items, sources, &opts, probe),
-                _ => super::pull::run_pull(spec, &items, sources, opts.deadline, probe),
-            });
-            let report = hub.serve_run();
-            let outcome = m.join().unwrap_or_else(|p| {
-                Err(SchedError::WorkerPanic(
-                    crate::source::local::panic_message(&p),
-                ))
-            });
-            (outcome, report)
-        });
+        let (outcome, report) = run_on_ranks(
+            hub,
+            HubEnd::KeepWorkers,
+            spec,
+            &items,
+            sources,
+            &opts,
+            probe,
+        );
         let config = format!("{} {} over {} ranks", c.id, spec.label(), spec.workers);
         if !report.lost.is_empty() {
             // The run may have finished on the survivors, but its timing is not that of K

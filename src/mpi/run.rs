@@ -2,14 +2,13 @@
 //! 1…K−1 are compute sources (plus `--local-threads` threads on rank 0: a heterogeneous run).
 
 use super::comm::{tag, Comm};
-use super::source::{stop_ranks, Hub, Peer};
+use super::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use super::wire::Ready;
 use crate::cli::{CliError, RenderArgs};
+use crate::metrics::Probe;
 use crate::scene::SceneOverrides;
-use crate::sched::{
-    assemble, decompose_frames, master, render_job, RunOptions, SchedError, SchedulerKind,
-};
-use crate::source::{ComputeSource, LocalThreadSource, Probe};
+use crate::sched::{assemble, decompose_frames, render_job, RunOptions, SchedulerKind};
+use crate::source::{ComputeSource, LocalThreadSource};
 use crate::tracer::AnyTracer;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -134,19 +133,15 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         faults: None,
     };
     let t0 = Instant::now();
-    let (outcome, hub_report) = std::thread::scope(|s| {
-        let master = s.spawn(|| match spec.kind {
-            SchedulerKind::Master => master::run_master(&spec, &items, sources, &opts, probe),
-            _ => super::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
-        });
-        let report = hub.serve(STOP_WAIT);
-        let outcome = master.join().unwrap_or_else(|p| {
-            Err(SchedError::WorkerPanic(
-                crate::source::local::panic_message(&p),
-            ))
-        });
-        (outcome, report)
-    });
+    let (outcome, hub_report) = run_on_ranks(
+        hub,
+        HubEnd::Stop(STOP_WAIT),
+        &spec,
+        &items,
+        sources,
+        &opts,
+        probe,
+    );
     *lost = !hub_report.lost.is_empty();
     let (results, mut stats) = outcome.map_err(CliError::runtime)?;
     stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);

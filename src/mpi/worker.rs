@@ -6,7 +6,7 @@
 //! thread builds scenes and renders items one at a time, in arrival order. A slow item thus
 //! never silences the rank, and rank 0 can treat a short silence as death.
 
-use super::comm::{tag, Comm, MpiError, Pending};
+use super::comm::{backoff, tag, Comm, MpiError, Pending};
 use super::wire::{decode_items, Ready, ScenePackage};
 use crate::render::{render_item, TileResult, WorkItem};
 use crate::sched::wire::encode_result;
@@ -240,6 +240,6 @@ pub fn serve(comm: Comm, scene: Option<Vec<u8>>) -> ! {
             last_sent = Instant::now();
         }
         idle = if any { 0 } else { idle.saturating_add(1) };
-        super::source::backoff(idle);
+        backoff(idle);
     }
 }

@@ -10,19 +10,17 @@ pub mod master;
 mod results;
 mod shared;
 pub mod spec;
-pub mod stats;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
 pub use spec::{Chunk, Order, Requeue, SchedulerKind, SchedulerSpec, SpecError, Wait};
-pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
+use crate::metrics::{Probe, RunStats};
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
-pub use crate::source::Job;
-use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, LocalThreadSource, Probe};
+use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, Job, LocalThreadSource};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;

@@ -1,13 +1,11 @@
 //! Schedulers without a master: the workers take their own items from shared structures.
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
-use super::{
-    wire, Job, Results, RunStats, SchedError, SchedulerKind, SchedulerSpec, Span, Tally,
-    WorkerStats,
-};
+use super::{wire, Results, SchedError, SchedulerKind, SchedulerSpec, Tally};
+use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
-use crate::source::{BusyClock, Probe};
+use crate::source::Job;
 use crossbeam::deque::{Steal, Stealer, Worker};
 use crossbeam::utils::CachePadded;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -5,6 +5,9 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::time::Duration;
 
+/// The master's wait strategy lives with the doorbell it drives; its ids are parsed here.
+pub use crate::source::Wait;
+
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{field}: {msg}")]
 pub struct SpecError {
@@ -202,18 +205,6 @@ impl fmt::Display for Requeue {
             Self::Timeout(d) => write!(f, "timeout:{}", d.as_millis()),
         }
     }
-}
-
-/// How the master waits for results.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Wait {
-    /// Busy-poll: lowest latency, but steals a core from the workers.
-    Spin,
-    /// Poll, yielding the core between polls.
-    Yield,
-    /// Sleep on the result channel until something arrives.
-    Block,
 }
 
 impl Wait {
