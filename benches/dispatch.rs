@@ -47,9 +47,10 @@ use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, Job, MasterParams, Order, Policy, Requeue, RunOptions,
+    decompose, render_job, run_items, Chunk, MasterParams, Order, Policy, Requeue, RunOptions,
     SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
 };
+use raysched::source::Job;
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::hint::black_box;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -47,6 +47,7 @@ pub mod experiment;
 pub mod geometry;
 pub mod hash;
 pub mod host;
+pub mod metrics;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;

@@ -3,11 +3,12 @@
 
 use super::error::CliError;
 use super::render::RenderArgs;
+use raysched::metrics::Probe;
 use raysched::mpi::comm::{tag, Comm};
-use raysched::mpi::source::{stop_ranks, Hub, Peer};
+use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use raysched::mpi::wire::Ready;
-use raysched::sched::{assemble, decompose_frames, master, render_job, Policy, SchedError};
-use raysched::source::{ComputeSource, LocalThreadSource, Probe};
+use raysched::sched::{assemble, decompose_frames, render_job};
+use raysched::source::{ComputeSource, LocalThreadSource};
 use raysched::tracer::AnyTracer;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -109,19 +110,15 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
     let opts = args.run_options();
     let t0 = Instant::now();
-    let (outcome, hub_report) = std::thread::scope(|s| {
-        let master = s.spawn(|| match spec.policy {
-            Policy::Master(m) => master::run_master(&m, &items, sources, &opts, probe),
-            _ => raysched::mpi::pull::run_pull(&spec, &items, sources, opts.deadline, probe),
-        });
-        let report = hub.serve(STOP_WAIT);
-        let outcome = master.join().unwrap_or_else(|p| {
-            Err(SchedError::WorkerPanic(
-                raysched::source::local::panic_message(&p),
-            ))
-        });
-        (outcome, report)
-    });
+    let (outcome, hub_report) = run_on_ranks(
+        hub,
+        HubEnd::Stop(STOP_WAIT),
+        &spec,
+        &items,
+        sources,
+        &opts,
+        probe,
+    );
     *lost = !hub_report.lost.is_empty();
     let (results, mut stats) = outcome.map_err(CliError::runtime)?;
     stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);

@@ -15,11 +15,11 @@ use raysched::experiment::plan::RunConfig;
 use raysched::experiment::{
     load_plan, run_experiment_with, ExperimentPlan, Launch, Remote, RunError, RunOptions,
 };
+use raysched::metrics::{Probe, RunStats};
 use raysched::mpi::comm::{tag, Comm};
-use raysched::mpi::source::{stop_ranks, Hub, Peer};
+use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use raysched::render::Image;
-use raysched::sched::{assemble, decompose, master, Policy, RunStats, SchedError, SchedulerSpec};
-use raysched::source::Probe;
+use raysched::sched::{assemble, decompose, SchedulerSpec};
 use raysched::tracer::Tracer;
 use std::time::Duration;
 
@@ -260,19 +260,15 @@ impl Remote for MpiRemote<'_> {
             deadline: Some(RUN_DEADLINE),
             faults: None,
         };
-        let (outcome, report) = std::thread::scope(|s| {
-            let m = s.spawn(|| match spec.policy {
-                Policy::Master(m) => master::run_master(&m, &items, sources, &opts, probe),
-                _ => raysched::mpi::pull::run_pull(spec, &items, sources, opts.deadline, probe),
-            });
-            let report = hub.serve_run();
-            let outcome = m.join().unwrap_or_else(|p| {
-                Err(SchedError::WorkerPanic(
-                    raysched::source::local::panic_message(&p),
-                ))
-            });
-            (outcome, report)
-        });
+        let (outcome, report) = run_on_ranks(
+            hub,
+            HubEnd::KeepWorkers,
+            spec,
+            &items,
+            sources,
+            &opts,
+            probe,
+        );
         let config = format!("{} {} over {} ranks", c.id, spec.label(), spec.workers);
         if !report.lost.is_empty() {
             // The run may have finished on the survivors, but its timing is not that of K

@@ -15,7 +15,8 @@ pub use reference::{Reference, ReferenceKind};
 
 use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
-use crate::sched::{decompose, run_items, Job, RunOptions, SchedError, SchedulerSpec};
+use crate::sched::{decompose, run_items, RunOptions, SchedError, SchedulerSpec};
+use crate::source::Job;
 use crate::tracer::Tracer;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

@@ -1,4 +1,5 @@
-//! Raw MPI calls on `MPI_COMM_WORLD`, with their return codes kept.
+//! Raw MPI calls on `MPI_COMM_WORLD`, with their return codes kept, and [`backoff`], how every
+//! loop that polls them idles.
 //!
 //! The `mpi` crate initialises and owns the [`mpi::environment::Universe`], but its
 //! point-to-point calls drop MPI's return codes. After a rank is killed (`kill -9` under
@@ -12,6 +13,7 @@ use mpi::ffi;
 use mpi::Threading;
 use std::marker::PhantomData;
 use std::os::raw::c_int;
+use std::time::Duration;
 
 /// Message tags of the raysched protocol.
 pub mod tag {
@@ -308,8 +310,8 @@ pub fn backoff(idle: u32) {
     } else if idle < 4096 {
         std::thread::yield_now();
     } else if idle < 20_000 {
-        std::thread::sleep(std::time::Duration::from_micros(50));
+        std::thread::sleep(Duration::from_micros(50));
     } else {
-        std::thread::sleep(std::time::Duration::from_micros(200));
+        std::thread::sleep(Duration::from_micros(200));
     }
 }

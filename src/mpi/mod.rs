@@ -9,7 +9,7 @@
 //! hand-out of the master, one RESULT message for whatever results a worker has ready (per-ray
 //! Cornell 128², 2 ranks: 32 768 messages → 6 600–14 100; over TCP loopback 0.29–0.30 s →
 //! 0.21–0.28 s, over shared memory no change beyond noise). On rank 0 one thread owns MPI
-//! ([`source::Hub`]); the master talks to it through [`source::MpiRankSource`]s.
+//! ([`hub::Hub`]); the master talks to it through [`source::MpiRankSource`]s.
 //!
 //! Faults: with `mpirun --enable-recovery` and `MPI_ERRORS_RETURN` ([`comm`]), a rank killed
 //! mid-run is noticed (failed call, vanished local pid, or silence), its results fail, and the
@@ -17,6 +17,7 @@
 //! `MPI_Finalize`.
 
 pub mod comm;
+pub mod hub;
 pub mod pull;
 pub mod scene;
 pub mod source;

@@ -7,12 +7,11 @@
 //!
 //! Neither re-queues: a lost source fails the run (the master is the fault-tolerant one).
 
+use crate::metrics::{MasterStats, Probe, RunStats};
 use crate::render::WorkItem;
-use crate::sched::{
-    wire, Collector, MasterStats, Policy, Results, RunStats, SchedError, SchedulerKind,
-    SchedulerSpec, Wait,
-};
-use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
+use crate::sched::master::{finish_sources, seal_stats};
+use crate::sched::{wire, Collector, Policy, Results, SchedError, SchedulerKind, SchedulerSpec};
+use crate::source::{ComputeSource, DelayedResult, Doorbell, Wait};
 use std::time::{Duration, Instant};
 
 pub fn run_pull(
@@ -107,19 +106,8 @@ pub fn run_pull(
     drop(out);
     let wall = t0.elapsed().as_secs_f64();
     let mut spans = Vec::new();
-    for src in sources {
-        let mut rep = src.finish();
-        rep.stats.idle_s = (wall - rep.stats.busy_s).max(0.0);
-        stats.workers.push(rep.stats);
-        spans.extend(rep.spans);
-    }
+    finish_sources(sources, wall, &mut stats, &mut spans);
     outcome?;
-    if probe.timeline {
-        spans.sort_by_key(|s| (s.start_ns, s.worker));
-        stats.timeline = Some(spans);
-    }
-    stats.wall_s = wall;
-    c.tally.record(&mut stats);
-    stats.master = Some(m);
+    seal_stats(&mut stats, spans, &probe, wall, &c, m);
     Ok((c.results, stats))
 }

@@ -3,7 +3,8 @@
 
 use crate::experiment::run::{slug, timeline_path};
 use crate::experiment::summary::Summary;
-use crate::sched::{SchedulerKind, MASTER_LANE};
+use crate::metrics::MASTER_LANE;
+use crate::sched::SchedulerKind;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;

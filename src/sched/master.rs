@@ -1,17 +1,15 @@
-//! The founding design's master (README): a thread that renders nothing keeps at most B items
-//! outstanding per compute source, taken from a FIFO queue. A handed-out item goes to the back of
-//! the queue; if the master meets it again while it is unfinished, the re-queue policy decides
-//! whether it is handed out again (`seed`: yes; `timeout:<ms>`: once outstanding that long;
-//! `never`: the item left the queue when first handed out). The first result wins; later ones are
-//! counted as duplicates and dropped. Sources that are lost have their items re-queued at once
-//! (unless the policy is `never`); a deadline bounds every run, so nothing hangs.
+//! The report's master: a thread that renders nothing keeps at most B items outstanding per
+//! compute source, taken from a FIFO queue. A handed-out item goes to the back of the queue;
+//! if the master meets it again while it is unfinished, the re-queue policy decides whether it
+//! is handed out again (`seed`: yes; `timeout:<ms>`: once outstanding that long; `never`: the
+//! item left the queue when first handed out). The first result wins; later ones are counted
+//! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
+//! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::{
-    wire, Collector, MasterParams, MasterStats, Results, RunOptions, RunStats, SchedError,
-};
+use super::{wire, Collector, MasterParams, Requeue, Results, RunOptions, SchedError};
+use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
-use crate::sched::{Requeue, Span, MASTER_LANE};
-use crate::source::{ComputeSource, DelayedResult, Doorbell, Probe};
+use crate::source::{ComputeSource, DelayedResult, Doorbell};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -35,224 +33,403 @@ fn stale_after(requeue: Requeue, slowest: Duration) -> Duration {
     }
 }
 
-/// Submit the items collected for one source as one message and keep their slots. Batching,
-/// with reused result cells and rings only to a sleeping master, took the master from 160–370
-/// to 93–95 ns per one-pixel item at B = 64; sending an idle source's first item alone (the
-/// caller's job) keeps B = 2 from waiting for the whole scan (430 → 270–280 ns).
-fn hand_out(
-    src: &mut Box<dyn ComputeSource>,
-    batch: &mut Vec<WorkItem>,
-    results: &mut Vec<DelayedResult>,
-    slots: &mut Vec<Slot>,
-    now: Instant,
-) {
-    if batch.is_empty() {
-        return;
-    }
-    src.submit_batch(batch, results);
-    slots.extend(results.drain(..).map(|result| Slot {
-        item: result.item(),
-        result,
-        at: now,
-    }));
+/// One compute source as the master sees it.
+struct Lane {
+    src: Box<dyn ComputeSource>,
+    /// Its items outstanding, each with its result.
+    slots: Vec<Slot>,
+    /// False once it failed a result or said it is lost.
+    alive: bool,
 }
 
-/// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait strategy).
+impl Lane {
+    /// Submit the items collected for this source as one message and keep their slots.
+    /// Batching, with reused result cells and rings only to a sleeping master, took the
+    /// master from 160–370 to 93–95 ns per one-pixel item at B = 64; sending an idle source's
+    /// first item alone (the caller's job) keeps B = 2 from waiting for the whole scan
+    /// (430 → 270–280 ns).
+    fn hand_out(
+        &mut self,
+        batch: &mut Vec<WorkItem>,
+        results: &mut Vec<DelayedResult>,
+        now: Instant,
+    ) {
+        if batch.is_empty() {
+            return;
+        }
+        self.src.submit_batch(batch, results);
+        self.slots.extend(results.drain(..).map(|result| Slot {
+            item: result.item(),
+            result,
+            at: now,
+        }));
+    }
+}
+
+/// The items' side of the master: the FIFO queue, what was handed out when, what is done.
+struct Ledger<'a> {
+    items: &'a [WorkItem],
+    requeue: Requeue,
+    /// Items outstanding per source at most (B).
+    buffer: usize,
+    queue: VecDeque<u32>,
+    /// Last hand-out time (timeout policy) or None = may be handed out again at once.
+    issued_at: Vec<Option<Instant>>,
+    handed: Vec<bool>,
+    collector: Collector,
+    /// Items whose only copy was lost under re-queue policy `never`.
+    known_lost: u64,
+    /// The longest a result took so far (the staleness scale).
+    slowest: Duration,
+    issued: u64,
+    reissued: u64,
+    item_bytes: u64,
+    /// Scratch of one hand-out: the items going to one source, then their results.
+    batch: Vec<WorkItem>,
+    handed_out: Vec<DelayedResult>,
+}
+
+impl<'a> Ledger<'a> {
+    fn new(items: &'a [WorkItem], params: &MasterParams) -> Self {
+        let n = items.len();
+        Self {
+            items,
+            requeue: params.requeue,
+            buffer: params.buffer,
+            queue: (0..n as u32).collect(),
+            issued_at: vec![None; n],
+            handed: vec![false; n],
+            collector: Collector::new(n),
+            known_lost: 0,
+            slowest: Duration::ZERO,
+            issued: 0,
+            reissued: 0,
+            item_bytes: 0,
+            batch: Vec::new(),
+            handed_out: Vec::new(),
+        }
+    }
+
+    fn done(&self) -> usize {
+        self.collector.tally.done
+    }
+
+    /// Take whatever `lane` has ready; a failure means the source is gone.
+    fn collect(&mut self, lane: &mut Lane, now: Instant) {
+        let mut k = 0;
+        while k < lane.slots.len() {
+            if !lane.slots[k].result.is_ready() {
+                // Only a re-issued item can be finished by another source.
+                if self.reissued > 0 && self.collector.is_done(lane.slots[k].item) {
+                    lane.slots.swap_remove(k); // done elsewhere: its slot is free again
+                } else {
+                    k += 1;
+                }
+                continue;
+            }
+            let slot = lane.slots.swap_remove(k);
+            match slot.result.try_take() {
+                Ok(Ok(r)) => {
+                    self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
+                    self.collector.accept(r)
+                }
+                Ok(Err(_)) => {
+                    lane.alive = false;
+                    self.requeue_lost(slot.item);
+                }
+                Err(d) => lane.slots.push(Slot { result: d, ..slot }),
+            }
+        }
+    }
+
+    /// `item`'s copy was lost with its source: hand it out again at once, or (`never`) count
+    /// it as lost for good.
+    fn requeue_lost(&mut self, item: u32) {
+        if self.collector.is_done(item) {
+            return;
+        }
+        match self.requeue {
+            Requeue::Never => self.known_lost += 1,
+            _ => self.issued_at[item as usize] = None,
+        }
+    }
+
+    /// Top `lane` up to B fresh outstanding items from the queue; `first` gets the first item
+    /// handed out in this pass.
+    fn top_up(&mut self, lane: &mut Lane, now: Instant, stale: Duration, first: &mut Option<u32>) {
+        let mut scanned = 0;
+        let len = self.queue.len();
+        let mut fresh = lane.slots.iter().filter(|sl| now - sl.at < stale).count();
+        while fresh < self.buffer && scanned < len {
+            let Some(i) = self.queue.pop_front() else {
+                break;
+            };
+            scanned += 1;
+            if self.collector.is_done(i) {
+                continue; // finished: leaves the queue for good
+            }
+            if self.handed[i as usize] {
+                if !self.may_reissue(i, &lane.slots, now, stale) {
+                    self.queue.push_back(i);
+                    continue;
+                }
+                self.reissued += 1;
+            }
+            let item = self.items[i as usize].clone();
+            self.item_bytes += wire::item_bytes(&item);
+            self.batch.push(item);
+            fresh += 1;
+            if fresh == 1 {
+                // The source is idle: its first item goes at once, not after the scan.
+                lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+            }
+            first.get_or_insert(i);
+            self.issued += 1;
+            self.handed[i as usize] = true;
+            self.issued_at[i as usize] = Some(now);
+            if self.requeue != Requeue::Never {
+                self.queue.push_back(i);
+            }
+        }
+        lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+    }
+
+    /// May item `i`, already handed out, go out again, to the source holding `slots`? The
+    /// re-queue policy says when; never to a source that still holds a fresh copy.
+    fn may_reissue(&self, i: u32, slots: &[Slot], now: Instant, stale: Duration) -> bool {
+        let again = match (self.requeue, self.issued_at[i as usize]) {
+            (Requeue::Revisit, _) | (_, None) => true,
+            (Requeue::Timeout(d), Some(at)) => now - at >= d,
+            (Requeue::Never, _) => false,
+        };
+        again && !slots.iter().any(|sl| sl.item == i && now - sl.at < stale)
+    }
+}
+
+/// The master's state over one run.
+struct Master<'a> {
+    params: MasterParams,
+    deadline: Option<Duration>,
+    probe: Probe,
+    t0: Instant,
+    bell: Doorbell,
+    lanes: Vec<Lane>,
+    ledger: Ledger<'a>,
+    stats: MasterStats,
+    /// The master's own timeline lane.
+    spans: Vec<Span>,
+}
+
+/// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait).
 pub fn run_master(
     params: &MasterParams,
     items: &[WorkItem],
-    mut sources: Vec<Box<dyn ComputeSource>>,
+    sources: Vec<Box<dyn ComputeSource>>,
     opts: &RunOptions,
     probe: Probe,
 ) -> Result<(Results, RunStats), SchedError> {
-    let t0 = Instant::now();
-    let n = items.len();
-    let bell = Doorbell::default();
-    for s in sources.iter_mut() {
-        s.set_notifier(bell.notifier());
-    }
-    let b = params.buffer;
-    let timed = probe.stats;
-    let mut m = MasterStats::default();
-    let mut stats = RunStats {
-        items: n as u64,
-        ..Default::default()
-    };
-    let mut c = Collector::new(n);
-    let mut queue: VecDeque<u32> = (0..n as u32).collect();
-    let mut out: Vec<Vec<Slot>> = sources.iter().map(|_| Vec::with_capacity(b)).collect();
-    let mut alive = vec![true; sources.len()];
-    // Last hand-out time (timeout policy) or None = may be handed out again at once.
-    let mut issued_at: Vec<Option<Instant>> = vec![None; n];
-    let mut handed = vec![false; n];
-    let mut known_lost = 0u64;
-    let mut slowest = Duration::ZERO;
-    let mut master_spans = Vec::new();
-    let mut batch = Vec::new();
-    let mut handed_out = Vec::new();
-    let result = loop {
-        m.iterations += 1;
+    let mut master = Master::new(params, items, sources, opts.deadline, probe);
+    let outcome = loop {
+        master.stats.iterations += 1;
         let now = Instant::now();
-        let issued_before = stats.issued;
-        let mut first_issued = u32::MAX;
-        // 1. Collect whatever is ready; a failure means the source is gone.
-        for (s, slots) in out.iter_mut().enumerate() {
-            let mut k = 0;
-            while k < slots.len() {
-                if !slots[k].result.is_ready() {
-                    // Only a re-issued item can be finished by another source.
-                    if stats.reissued > 0 && c.is_done(slots[k].item) {
-                        slots.swap_remove(k); // done elsewhere: its slot is free again
-                    } else {
-                        k += 1;
-                    }
-                    continue;
-                }
-                let slot = slots.swap_remove(k);
-                match slot.result.try_take() {
-                    Ok(Ok(r)) => {
-                        slowest = slowest.max(now.saturating_duration_since(slot.at));
-                        c.accept(r)
-                    }
-                    Ok(Err(_)) => {
-                        alive[s] = false;
-                        if !c.is_done(slot.item) {
-                            match params.requeue {
-                                Requeue::Never => known_lost += 1,
-                                _ => issued_at[slot.item as usize] = None,
-                            }
-                        }
-                    }
-                    Err(d) => slots.push(Slot { result: d, ..slot }),
-                }
-            }
-        }
-        for (s, src) in sources.iter().enumerate() {
-            if alive[s] && src.is_lost() {
-                alive[s] = false;
-            }
-        }
-        if c.tally.done == n {
-            break Ok(());
-        }
-        let live = alive.iter().filter(|a| **a).count();
-        if live == 0 {
-            break Err(SchedError::AllSourcesLost {
-                sources: sources.len() as u64,
-                remaining: (n - c.tally.done) as u64,
-                total: n as u64,
-            });
-        }
-        if params.requeue == Requeue::Never && c.tally.done as u64 + known_lost == n as u64 {
-            break Err(SchedError::LostItems {
-                lost: known_lost,
-                total: n as u64,
-            });
-        }
-        if let Some(dl) = opts.deadline {
-            if t0.elapsed() >= dl {
-                let (done, total) = (c.tally.done as u64, n as u64);
-                break Err(match params.requeue {
-                    Requeue::Never => SchedError::LostItems {
-                        lost: total - done,
-                        total,
-                    },
-                    _ => SchedError::Deadline {
-                        deadline: dl,
-                        done,
-                        total,
-                    },
-                });
-            }
+        // 1. Collect whatever is ready; stop when done, or when nothing can finish the run.
+        master.collect(now);
+        if let Some(outcome) = master.verdict() {
+            break outcome;
         }
         // 2. Top every live source up to B outstanding items.
-        let stale = stale_after(params.requeue, slowest);
-        for (s, src) in sources.iter_mut().enumerate() {
-            if !alive[s] {
-                continue;
-            }
-            let mut scanned = 0;
-            let len = queue.len();
-            let mut fresh = out[s].iter().filter(|sl| now - sl.at < stale).count();
-            while fresh < b && scanned < len {
-                let Some(i) = queue.pop_front() else { break };
-                scanned += 1;
-                if c.is_done(i) {
-                    continue; // finished: leaves the queue for good
-                }
-                if handed[i as usize] {
-                    let again = match (params.requeue, issued_at[i as usize]) {
-                        (Requeue::Revisit, _) | (_, None) => true,
-                        (Requeue::Timeout(d), Some(at)) => now - at >= d,
-                        (Requeue::Never, _) => false,
-                    };
-                    // Not again to a source that still holds a fresh copy.
-                    if !again || out[s].iter().any(|sl| sl.item == i && now - sl.at < stale) {
-                        queue.push_back(i);
-                        continue;
-                    }
-                    stats.reissued += 1;
-                }
-                let item = items[i as usize].clone();
-                stats.bytes += wire::item_bytes(&item);
-                batch.push(item);
-                fresh += 1;
-                if fresh == 1 {
-                    // The source is idle: its first item goes at once, not after the scan.
-                    hand_out(src, &mut batch, &mut handed_out, &mut out[s], now);
-                }
-                if stats.issued == issued_before {
-                    first_issued = i;
-                }
-                stats.issued += 1;
-                handed[i as usize] = true;
-                issued_at[i as usize] = Some(now);
-                if params.requeue != Requeue::Never {
-                    queue.push_back(i);
-                }
-            }
-            hand_out(src, &mut batch, &mut handed_out, &mut out[s], now);
-        }
+        let first = master.hand_out(now);
         // 3. Wait for a result (or the tick), the chosen way.
-        let t_wait = timed.then(Instant::now);
+        master.wait(now, first);
+    };
+    master.finish(outcome)
+}
+
+impl<'a> Master<'a> {
+    fn new(
+        params: &MasterParams,
+        items: &'a [WorkItem],
+        mut sources: Vec<Box<dyn ComputeSource>>,
+        deadline: Option<Duration>,
+        probe: Probe,
+    ) -> Self {
+        let t0 = Instant::now();
+        let bell = Doorbell::default();
+        for s in sources.iter_mut() {
+            s.set_notifier(bell.notifier());
+        }
+        let lanes = sources
+            .into_iter()
+            .map(|src| Lane {
+                src,
+                slots: Vec::with_capacity(params.buffer),
+                alive: true,
+            })
+            .collect();
+        Self {
+            params: *params,
+            deadline,
+            probe,
+            t0,
+            bell,
+            lanes,
+            ledger: Ledger::new(items, params),
+            stats: MasterStats::default(),
+            spans: Vec::new(),
+        }
+    }
+
+    fn collect(&mut self, now: Instant) {
+        for lane in &mut self.lanes {
+            self.ledger.collect(lane, now);
+        }
+        for lane in &mut self.lanes {
+            if lane.alive && lane.src.is_lost() {
+                lane.alive = false;
+            }
+        }
+    }
+
+    /// How the run ends, if it ends now: every item done, every source lost, every item done
+    /// or lost for good (`never`), or the deadline passed.
+    fn verdict(&self) -> Option<Result<(), SchedError>> {
+        let (n, done) = (self.ledger.items.len() as u64, self.ledger.done() as u64);
+        if done == n {
+            return Some(Ok(()));
+        }
+        if !self.lanes.iter().any(|l| l.alive) {
+            return Some(Err(SchedError::AllSourcesLost {
+                sources: self.lanes.len() as u64,
+                remaining: n - done,
+                total: n,
+            }));
+        }
+        let never = self.params.requeue == Requeue::Never;
+        if never && done + self.ledger.known_lost == n {
+            return Some(Err(SchedError::LostItems {
+                lost: self.ledger.known_lost,
+                total: n,
+            }));
+        }
+        let deadline = self.deadline.filter(|dl| self.t0.elapsed() >= *dl)?;
+        Some(Err(if never {
+            SchedError::LostItems {
+                lost: n - done,
+                total: n,
+            }
+        } else {
+            SchedError::Deadline {
+                deadline,
+                done,
+                total: n,
+            }
+        }))
+    }
+
+    /// Top every live source up; the first item handed out in this pass, if any.
+    fn hand_out(&mut self, now: Instant) -> Option<u32> {
+        let stale = stale_after(self.params.requeue, self.ledger.slowest);
+        let mut first = None;
+        for lane in self.lanes.iter_mut().filter(|l| l.alive) {
+            self.ledger.top_up(lane, now, stale, &mut first);
+        }
+        first
+    }
+
+    /// Wait for a ring or the tick; with stats on, the pass since `now` counts as dispatch
+    /// time and (timeline) a pass that handed out `first` goes into the master's lane.
+    fn wait(&mut self, now: Instant, first: Option<u32>) {
+        let t_wait = self.probe.stats.then(Instant::now);
         if let Some(b) = t_wait {
-            m.dispatch_s += (b - now).as_secs_f64();
-            if probe.timeline && stats.issued > issued_before {
-                // The master's own lane: each loop pass that handed something out, labelled with
-                // the first item of the pass.
-                master_spans.push(Span {
+            self.stats.dispatch_s += (b - now).as_secs_f64();
+            if let Some(item) = first.filter(|_| self.probe.timeline) {
+                let epoch = self.probe.epoch;
+                self.spans.push(Span {
                     worker: MASTER_LANE,
-                    item: first_issued,
-                    start_ns: (now - probe.epoch).as_nanos() as u64,
-                    end_ns: (b - probe.epoch).as_nanos() as u64,
+                    item,
+                    start_ns: (now - epoch).as_nanos() as u64,
+                    end_ns: (b - epoch).as_nanos() as u64,
                 });
             }
         }
-        bell.wait(TICK, params.wait, || {
-            out.iter().flatten().any(|sl| sl.result.is_ready())
+        let lanes = &self.lanes;
+        self.bell.wait(TICK, self.params.wait, || {
+            lanes
+                .iter()
+                .flat_map(|l| &l.slots)
+                .any(|sl| sl.result.is_ready())
         });
         if let Some(a) = t_wait {
-            m.wait_s += a.elapsed().as_secs_f64();
+            self.stats.wait_s += a.elapsed().as_secs_f64();
         }
-    };
-    // Results still in flight are duplicates or lost; cancel them and stop every source.
-    drop(out);
-    let wall_run = t0.elapsed().as_secs_f64();
-    let mut spans = master_spans;
+    }
+
+    /// Stop every source and put the run's statistics together.
+    fn finish(self, outcome: Result<(), SchedError>) -> Result<(Results, RunStats), SchedError> {
+        // Results still in flight are duplicates or lost: drop them, then stop every source.
+        let (sources, alive): (Vec<_>, Vec<_>) =
+            self.lanes.into_iter().map(|l| (l.src, l.alive)).unzip();
+        let ledger = self.ledger;
+        let mut stats = RunStats {
+            items: ledger.items.len() as u64,
+            issued: ledger.issued,
+            reissued: ledger.reissued,
+            bytes: ledger.item_bytes,
+            ..Default::default()
+        };
+        let mut spans = self.spans;
+        finish_sources(
+            sources,
+            self.t0.elapsed().as_secs_f64(),
+            &mut stats,
+            &mut spans,
+        );
+        stats.lost_sources = alive.iter().filter(|a| !**a).count() as u64;
+        outcome?;
+        let wall_s = self.t0.elapsed().as_secs_f64();
+        seal_stats(
+            &mut stats,
+            spans,
+            &self.probe,
+            wall_s,
+            &ledger.collector,
+            self.stats,
+        );
+        Ok((ledger.collector.results, stats))
+    }
+}
+
+/// Stop every source (its results' handles already dropped) and add its report to `stats`
+/// and `spans`; its idle time is `wall_s` minus its busy time.
+pub(crate) fn finish_sources(
+    sources: Vec<Box<dyn ComputeSource>>,
+    wall_s: f64,
+    stats: &mut RunStats,
+    spans: &mut Vec<Span>,
+) {
     for src in sources {
         let mut rep = src.finish();
-        rep.stats.idle_s = (wall_run - rep.stats.busy_s).max(0.0);
+        rep.stats.idle_s = (wall_s - rep.stats.busy_s).max(0.0);
         stats.workers.push(rep.stats);
         spans.extend(rep.spans);
     }
-    stats.lost_sources = alive.iter().filter(|a| !**a).count() as u64;
-    result?;
+}
+
+/// A finished run's last numbers: its timeline (sorted, when recorded), wall time, the
+/// results' tallies and the master's own statistics.
+pub(crate) fn seal_stats(
+    stats: &mut RunStats,
+    mut spans: Vec<Span>,
+    probe: &Probe,
+    wall_s: f64,
+    collector: &Collector,
+    master: MasterStats,
+) {
     if probe.timeline {
         spans.sort_by_key(|s| (s.start_ns, s.worker));
         stats.timeline = Some(spans);
     }
-    stats.wall_s = t0.elapsed().as_secs_f64();
-    c.tally.record(&mut stats);
-    stats.master = Some(m);
-    Ok((c.results, stats))
+    stats.wall_s = wall_s;
+    collector.tally.record(stats);
+    stats.master = Some(master);
 }

@@ -11,7 +11,6 @@ pub mod param;
 mod results;
 mod shared;
 pub mod spec;
-pub mod stats;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
@@ -22,12 +21,11 @@ pub use spec::{
     param_columns, GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec,
     SelfSchedulingParams, WorkStealingParams,
 };
-pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
 
+use crate::metrics::{Probe, RunStats};
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
-pub use crate::source::Job;
-use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, LocalThreadSource, Probe};
+use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, Job, LocalThreadSource};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;

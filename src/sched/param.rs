@@ -210,6 +210,7 @@ impl fmt::Display for Chunk {
 }
 
 /// Declares a value enum with snake_case ids: `ALL`, `id()`, `from_id()` and [`ParamValue`].
+/// The `impl` form gives an enum defined elsewhere (where it is used) its ids.
 macro_rules! id_enum {
     (
         $(#[$meta:meta])* pub enum $name:ident ($field:literal, $what:literal) {
@@ -222,7 +223,9 @@ macro_rules! id_enum {
         pub enum $name {
             $( $(#[$vmeta])* $variant, )*
         }
-
+        id_enum!(impl $name ($field, $what) { $( $variant = $id, )* });
+    };
+    (impl $name:ident ($field:literal, $what:literal) { $( $variant:ident = $id:literal, )* }) => {
         impl $name {
             /// Every value, in the order help texts list them.
             pub const ALL: [$name; [$(stringify!($variant)),*].len()] = [$(Self::$variant,)*];
@@ -280,17 +283,14 @@ id_enum! {
     }
 }
 
-id_enum! {
-    /// How the master waits for results.
-    pub enum Wait("wait", "wait strategy") {
-        /// Busy-poll: lowest latency, but steals a core from the workers.
-        Spin = "spin",
-        /// Poll, yielding the core between polls.
-        Yield = "yield",
-        /// Sleep on the result channel until something arrives.
-        Block = "block",
-    }
-}
+/// The master's wait strategy lives with the doorbell it drives (`source`); its ids are here.
+pub use crate::source::Wait;
+
+id_enum!(impl Wait ("wait", "wait strategy") {
+    Spin = "spin",
+    Yield = "yield",
+    Block = "block",
+});
 
 /// When the master may hand an outstanding item out again.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -5,7 +5,8 @@
 //! results into them (~25 MB, 1.7–2.7 ms per run of one-pixel items, serial after the join).
 //! [`Results`] keeps the lists and builds a 4-byte index per item instead.
 
-use super::{wire, RunStats};
+use super::wire;
+use crate::metrics::RunStats;
 use crate::render::TileResult;
 
 /// No result for this item (yet).

@@ -1,12 +1,11 @@
 //! Schedulers without a master: the workers take their own items from shared structures.
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
-use super::{
-    wire, Job, Policy, Results, RunStats, SchedError, SchedulerSpec, Span, Tally, WorkerStats,
-};
+use super::{wire, Policy, Results, SchedError, SchedulerSpec, Tally};
+use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
-use crate::source::{BusyClock, Probe};
+use crate::source::Job;
 use crossbeam::deque::{Steal, Stealer, Worker};
 use crossbeam::utils::CachePadded;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -102,14 +101,14 @@ pub(super) fn run_shared(
 ) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
     let (n, w) = (items.len(), spec.workers);
-    let units = vec![(); w];
-    // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
     let grab = match spec.policy {
         Policy::WorkStealing(p) => p.grab,
         Policy::SelfScheduling(p) => p.grab,
         Policy::Guided(p) => p.grab,
         _ => 1,
     };
+    let units = vec![(); w];
+    // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
     let expect = n / w + n / (4 * w) + grab;
     let locals = match spec.policy {
         Policy::Static => spawn_workers(units, &probe, expect, |id, (), l| {

@@ -3,8 +3,9 @@
 //! submission number), so a run's faults are reproducible and a re-issued item can succeed.
 
 use super::{
-    submit_one, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, Probe, SourceReport,
+    submit_one, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, SourceReport,
 };
+use crate::metrics::Probe;
 use crate::render::WorkItem;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;

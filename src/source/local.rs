@@ -2,10 +2,8 @@
 //! tracer by `Arc`, so every thread reads the one copy; `Tracer: Sync` and the immutable
 //! `Scene` make that sharing read-only by type, not by convention.
 
-use super::{
-    BusyClock, Completer, ComputeSource, DelayedResult, Job, Notifier, Probe, SourceFailure,
-    SourceReport,
-};
+use super::{Completer, ComputeSource, DelayedResult, Job, Notifier, SourceFailure, SourceReport};
+use crate::metrics::{BusyClock, Probe};
 use crate::render::WorkItem;
 use crossbeam::channel::{unbounded, Receiver, Sender};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -191,5 +189,42 @@ impl Drop for LocalThreadSource {
         if let Some(h) = self.handle.take() {
             let _ = h.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::empty_result as result;
+    use std::time::Duration;
+
+    #[test]
+    fn batch_results_come_back_in_order_and_a_panic_fails_the_rest_as_lost() {
+        let job: Job = Arc::new(|it: &WorkItem| {
+            assert!(it.id != 5, "item 5 panics");
+            result(it.id)
+        });
+        let mut src = LocalThreadSource::spawn(0, job, Probe::new(true, false));
+        let mut out = Vec::new();
+        let mut items: Vec<_> = (0..8).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+        src.submit_batch(&mut items, &mut out);
+        assert!(items.is_empty());
+        let later = src.submit(WorkItem::rect(8, 0, 0, 1, 1));
+        let got: Vec<_> = out
+            .into_iter()
+            .map(|d| (d.item(), d.wait_timeout(Duration::from_secs(10)).ok()))
+            .collect();
+        for (i, (item, o)) in got.iter().enumerate() {
+            assert_eq!(*item, i as u32);
+            match o {
+                Some(Ok(r)) => assert!(i < 5 && r.item == i as u32),
+                Some(Err(SourceFailure::Lost { .. })) => assert!(i >= 5),
+                other => panic!("item {i}: {other:?}"),
+            }
+        }
+        let later = later.wait_timeout(Duration::from_secs(10));
+        assert!(matches!(later, Ok(Err(SourceFailure::Lost { .. }))));
+        assert!(src.is_lost());
+        assert_eq!(Box::new(src).finish().stats.items, 5);
     }
 }

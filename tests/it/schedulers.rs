@@ -4,11 +4,10 @@
 use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
-    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, Job, MasterParams, Order,
-    Policy, Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
-    Wait,
+    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Policy,
+    Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
 };
-use raysched::source::FaultPlan;
+use raysched::source::{FaultPlan, Job};
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -193,9 +192,9 @@ fn timeline_has_one_span_per_rendered_item() {
         spec.timeline = true;
         let (_, stats) = run_scheduler(&spec, &f.scene, &f.tracer).unwrap();
         let spans = stats.timeline.expect("timeline requested");
-        let (master, work): (Vec<&raysched::sched::Span>, Vec<_>) = spans
+        let (master, work): (Vec<&raysched::metrics::Span>, Vec<_>) = spans
             .iter()
-            .partition(|s| s.worker == raysched::sched::MASTER_LANE);
+            .partition(|s| s.worker == raysched::metrics::MASTER_LANE);
         let rendered: u64 = stats.workers.iter().map(|w| w.items).sum();
         assert_eq!(work.len() as u64, rendered, "{kind:?}");
         assert!(work
