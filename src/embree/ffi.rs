@@ -5,6 +5,11 @@
 //!
 //! No bindgen: the API surface is ~20 functions, and a build without the header must still work.
 
+#![allow(
+    missing_docs,
+    reason = "raw bindings: each item mirrors its namesake in Embree 3's rtcore*.h"
+)]
+
 #![allow(non_camel_case_types, clippy::upper_case_acronyms)]
 
 use std::ffi::{c_char, c_int, c_uint, c_void};
