@@ -7,6 +7,9 @@ use raysched::metrics::Probe;
 use raysched::mpi::comm::{tag, Comm};
 use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use raysched::mpi::wire::Ready;
+use raysched::mpi::wire::ScenePackage;
+use raysched::scene::Scene;
+use raysched::sched::SchedulerSpec;
 use raysched::sched::{assemble, decompose_frames, render_job};
 use raysched::source::{ComputeSource, LocalThreadSource};
 use raysched::tracer::AnyTracer;
@@ -52,40 +55,20 @@ pub(crate) fn input(msg: String) -> CliError {
 }
 
 fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError> {
-    // Everything that can be wrong with the input is found before the broadcast; an empty
-    // broadcast tells the workers to finalise and exit.
-    let prepared = (|| {
-        let mut spec = args.scheduler_spec(args.threads)?;
-        if !spec.kind().over_mpi() {
-            return Err(input(format!(
-                "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
-                spec.kind().id()
-            )));
-        }
-        if comm.size < 2 && args.local_threads == 0 {
-            return Err(input(format!(
-                "--sources mpi: {} rank(s) and no --local-threads: nobody to render (run under mpirun -n K, K ≥ 2)",
-                comm.size
-            )));
-        }
-        let overrides = args.check_output()?;
-        args.tracer.available().map_err(CliError::input)?;
-        let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, args.tracer.id())
-            .map_err(CliError::input)?;
-        spec.workers = comm.size as usize - 1 + args.local_threads;
-        Ok((scene, pkg, spec))
-    })();
-    let (scene, pkg, spec) = match prepared {
+    // 1. Everything that can be wrong with the input is found before the broadcast; an empty
+    //    broadcast tells the workers to finalise and exit.
+    let (scene, pkg, spec) = match prepare(comm, args) {
         Ok(p) => p,
         Err(e) => {
             let _ = comm.broadcast(Some(Vec::new()));
             return Err(e);
         }
     };
+    // 2. Ship the scene; every rank builds it and answers READY.
     comm.broadcast(Some(pkg.encode()))
         .map_err(CliError::runtime)?;
     let peers = gather_ready(comm)?;
-
+    // 3. The ranks (and any local threads) as compute sources under the scheduler.
     let scene = Arc::new(scene);
     let probe = Probe::new(!args.stats_off, args.timeline);
     let silence = std::env::var("RAYSCHED_MPI_SILENCE_MS")
@@ -93,22 +76,10 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         .and_then(|v| v.parse().ok())
         .map_or(SILENCE, Duration::from_millis);
     let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
-    if args.local_threads > 0 {
-        let tracer = Arc::new(
-            AnyTracer::build(args.tracer, &scene, args.local_threads).map_err(CliError::input)?,
-        );
-        let job = render_job(&scene, &tracer);
-        for t in 0..args.local_threads {
-            let id = sources.len() as u32;
-            sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe))
-                as Box<dyn ComputeSource>);
-            let _ = t;
-        }
-    }
+    add_local_threads(args, &scene, probe, &mut sources)?;
     let labels: Vec<String> = sources.iter().map(|s| s.label()).collect();
     let (w, h) = (scene.width(), scene.height());
     let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
-    let opts = args.run_options();
     let t0 = Instant::now();
     let (outcome, hub_report) = run_on_ranks(
         hub,
@@ -116,28 +87,25 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         &spec,
         &items,
         sources,
-        &opts,
+        &args.run_options(),
         probe,
     );
     *lost = !hub_report.lost.is_empty();
     let (results, mut stats) = outcome.map_err(CliError::runtime)?;
     stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);
+    // 4. The image and the report.
     let image =
         assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
     let wall = t0.elapsed().as_secs_f64();
     let wrote = super::render::save_render(&args.output, &image, scene.frames())
         .map_err(CliError::runtime)?;
-    super::render::print_render_header(
-        &scene,
-        &format!(
-            "{}, {} MPI ranks + {} local threads on rank 0",
-            args.tracer,
-            comm.size - 1,
-            args.local_threads
-        ),
-        &spec,
-        &image,
+    let tracer_line = format!(
+        "{}, {} MPI ranks + {} local threads on rank 0",
+        args.tracer,
+        comm.size - 1,
+        args.local_threads
     );
+    super::render::print_render_header(&scene, &tracer_line, &spec, &image);
     // Same definition as the local path (the scheduler's wall time), so the two compare; the
     // total adds stopping the ranks and writing the image.
     println!(
@@ -157,6 +125,53 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         println!("  lost MPI rank {r}: {why}");
     }
     println!("wrote {wrote}");
+    Ok(())
+}
+
+/// The checked input of an MPI render: the scene, its package for the ranks and the spec.
+fn prepare(
+    comm: &Comm,
+    args: &RenderArgs,
+) -> Result<(Scene, ScenePackage, SchedulerSpec), CliError> {
+    let mut spec = args.scheduler_spec(args.threads)?;
+    if !spec.kind().over_mpi() {
+        return Err(input(format!(
+            "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
+            spec.kind().id()
+        )));
+    }
+    if comm.size < 2 && args.local_threads == 0 {
+        return Err(input(format!(
+            "--sources mpi: {} rank(s) and no --local-threads: nobody to render (run under mpirun -n K, K ≥ 2)",
+            comm.size
+        )));
+    }
+    let overrides = args.check_output()?;
+    args.tracer.available().map_err(CliError::input)?;
+    let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, args.tracer.id())
+        .map_err(CliError::input)?;
+    spec.workers = comm.size as usize - 1 + args.local_threads;
+    Ok((scene, pkg, spec))
+}
+
+/// `--local-threads` threads on rank 0 as extra sources (a heterogeneous run).
+fn add_local_threads(
+    args: &RenderArgs,
+    scene: &Arc<Scene>,
+    probe: Probe,
+    sources: &mut Vec<Box<dyn ComputeSource>>,
+) -> Result<(), CliError> {
+    if args.local_threads == 0 {
+        return Ok(());
+    }
+    let tracer = Arc::new(
+        AnyTracer::build(args.tracer, scene, args.local_threads).map_err(CliError::input)?,
+    );
+    let job = render_job(scene, &tracer);
+    for _ in 0..args.local_threads {
+        let id = sources.len() as u32;
+        sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe)));
+    }
     Ok(())
 }
 

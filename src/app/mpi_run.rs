@@ -24,7 +24,7 @@ use raysched::tracer::Tracer;
 use std::time::Duration;
 
 /// Env: names the transport of a launch outright (a cluster's InfiniBand, a netem link).
-pub const ENV_TRANSPORT: &str = "RAYSCHED_MPI_TRANSPORT";
+pub(crate) const ENV_TRANSPORT: &str = "RAYSCHED_MPI_TRANSPORT";
 /// Longest one MPI run of an experiment may take before the master gives up.
 const RUN_DEADLINE: Duration = Duration::from_secs(600);
 
