@@ -22,23 +22,32 @@
 use crate::scene::SceneOverrides;
 use serde::Deserialize;
 
+/// An experiment file as deserialised, before any validation; unknown keys are errors.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentFile {
+    /// Names the results folder; `None`: the file stem.
     pub name: Option<String>,
+    /// Free text copied into the report.
     #[serde(default)]
     pub description: String,
+    /// Timed runs per configuration (default 1).
     #[serde(default = "one")]
     pub repetitions: u32,
+    /// Untimed runs before each configuration's timed ones (default 0).
     #[serde(default)]
     pub warmup: u32,
     /// Required, except under `[mpi]` (there `ranks − 1` per launch).
     pub workers: Option<WorkersSpec>,
+    /// Tracer ids, each built for every scene (default `["bvh"]`).
     #[serde(default = "default_tracers")]
     pub tracers: Vec<String>,
+    /// Record a Gantt timeline on repetition 0 of each scheduler configuration (default true).
     #[serde(default = "yes")]
     pub timeline: bool,
+    /// The `[[scenes]]` entries, at least one.
     pub scenes: Vec<SceneEntry>,
+    /// The `[[schedulers]]` grids; required for a timing experiment.
     #[serde(default)]
     pub schedulers: Vec<SchedulerEntry>,
     /// `timing` (the default: the scheduler sweep) or `convergence` (error against run time).
@@ -67,16 +76,23 @@ pub struct ExperimentFile {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MpiEntry {
+    /// Total ranks per launch (rank 0 included), one count or a list.
     pub ranks: OneOrMany<i64>,
+    /// Transport names, one set of MPI configurations each.
     pub transports: Vec<String>,
+    /// Milliseconds a rank with work outstanding may stay silent before it is lost; `None`:
+    /// the plan's default.
     pub silence_ms: Option<i64>,
 }
 
+/// What an experiment measures (`kind = …`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ExperimentKind {
+    /// The scheduler sweep: wall time of every configuration against its serial baseline.
     #[default]
     Timing,
+    /// Progressive renders: image error against run time.
     Convergence,
 }
 
@@ -90,21 +106,30 @@ fn default_tracers() -> Vec<String> {
     vec!["bvh".into()]
 }
 
+/// One `[[scenes]]` entry: a scene file and the settings it overrides (`None`: the file's own).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneEntry {
+    /// The scene file, relative to the experiment file.
     pub path: String,
     // Spelled out rather than `#[serde(flatten)]`: serde cannot combine flatten with
     // deny_unknown_fields, and a misspelt override must be an error.
+    /// Image width in pixels.
     pub width: Option<u32>,
+    /// Image height in pixels.
     pub height: Option<u32>,
+    /// Samples per pixel.
     pub spp: Option<u32>,
+    /// Maximum path depth (bounces).
     pub max_depth: Option<i32>,
+    /// The render's random seed.
     pub seed: Option<u64>,
+    /// Replaces `count` of every generator shape.
     pub generator_count: Option<u64>,
 }
 
 impl SceneEntry {
+    /// The overrides in the form the scene loader takes.
     pub fn overrides(&self) -> SceneOverrides {
         SceneOverrides {
             width: self.width,
@@ -121,7 +146,9 @@ impl SceneEntry {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(untagged)]
 pub enum WorkerCount {
+    /// A literal count.
     N(i64),
+    /// `"max"`, or a number written as a string.
     Word(String),
 }
 
@@ -129,8 +156,11 @@ pub enum WorkerCount {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(untagged)]
 pub enum WorkersSpec {
+    /// A single count.
     One(i64),
+    /// An explicit list of counts.
     List(Vec<WorkerCount>),
+    /// An inclusive range `"A..B"`; either end may be `max`.
     Range(String),
 }
 
@@ -138,11 +168,14 @@ pub enum WorkersSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(untagged)]
 pub enum OneOrMany<T> {
+    /// A single value.
     One(T),
+    /// A list of values.
     Many(Vec<T>),
 }
 
 impl<T: Clone> OneOrMany<T> {
+    /// The values as a list (a single value gives a list of one).
     pub fn values(&self) -> Vec<T> {
         match self {
             Self::One(v) => vec![v.clone()],
@@ -157,6 +190,7 @@ impl<T: Clone> OneOrMany<T> {
 /// cartesian product holds no meaningless combination (`static` has no buffer).
 #[derive(Debug, Clone, Deserialize)]
 pub struct SchedulerEntry {
+    /// The scheduler id (`master`, `static`, …), resolved by the plan.
     pub kind: String,
     /// Every other key, checked against the kind's parameters by the plan.
     #[serde(flatten)]

@@ -5,9 +5,12 @@ use super::plan::ExperimentPlan;
 use serde::{Deserialize, Serialize};
 use std::process::Command;
 
+/// The contents of `meta.toml`.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Meta {
+    /// The experiment's name (its results folder).
     pub experiment: String,
+    /// The experiment file's path as given on the command line.
     pub experiment_file: String,
     /// FNV-1a of the experiment file's bytes.
     pub experiment_hash: String,
@@ -15,37 +18,55 @@ pub struct Meta {
     pub started: String,
     /// UTC, the latest resume (absent if never resumed).
     pub resumed: Option<String>,
+    /// The crate version (`CARGO_PKG_VERSION`) of the binary that measured.
     pub raysched_version: String,
     /// `git rev-parse HEAD` in the working directory, `-dirty` if it had local changes.
     pub git_commit: String,
     /// `rustc -V` on PATH at run time.
     pub rustc: String,
+    /// Cargo features compiled in (`embree`, `mpi`).
     pub features: Vec<String>,
+    /// The machine measured on.
     pub machine: Machine,
     /// Plan stage, never timed with a run.
     pub scenes: Vec<SceneMeta>,
 }
 
+/// The host a run was measured on.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Machine {
+    /// The CPU's model name from /proc/cpuinfo (`unknown` if absent).
     pub cpu_model: String,
     /// Logical CPUs this process may use (std::thread::available_parallelism).
     pub cores: usize,
+    /// Total memory in GiB, rounded to 0.1 (0 if unknown).
     pub memory_gib: f64,
+    /// The distribution's pretty name, else the OS family.
     pub os: String,
+    /// The kernel release (`uname -r`; empty if unknown).
     pub kernel: String,
+    /// The CPU architecture the binary was built for (`x86_64`, `aarch64`, …).
     pub arch: String,
 }
 
+/// One planned scene as loaded, with the build time of each tracer on it.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SceneMeta {
+    /// The path as written in the experiment file.
     pub file: String,
+    /// The scene's name.
     pub name: String,
+    /// The scene's hash (canonical text after overrides and its mesh files), 16 hex digits.
     pub hash: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Samples per pixel.
     pub spp: u32,
+    /// Number of geometry primitives.
     pub primitives: usize,
+    /// Seconds taken to load the scene.
     pub load_s: f64,
     /// (tracer, build seconds)
     pub tracers: Vec<(String, f64)>,
@@ -58,6 +79,7 @@ fn cmd(program: &str, args: &[&str]) -> Option<String> {
         .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
+/// Describe this host.
 pub fn machine() -> Machine {
     use crate::host;
     Machine {
@@ -94,6 +116,8 @@ pub fn now_utc() -> String {
     )
 }
 
+/// The meta of a run of `plan` starting now (`started` is now, `resumed` unset); runs `git`
+/// and `rustc` from PATH.
 pub fn collect(plan: &ExperimentPlan) -> Meta {
     let git = cmd("git", &["rev-parse", "HEAD"]).map(|h| {
         let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"])

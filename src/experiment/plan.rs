@@ -17,8 +17,11 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{path}: {field}{}{msg}", if field.is_empty() { "" } else { ": " })]
 pub struct ConfigError {
+    /// The experiment file.
     pub path: String,
+    /// The offending field (`schedulers[1].buffer`, `line 3`, …); empty for the whole file.
     pub field: String,
+    /// What is wrong.
     pub msg: String,
 }
 
@@ -26,16 +29,23 @@ pub struct ConfigError {
 pub struct PlannedScene {
     /// The path as written in the experiment file.
     pub file: String,
+    /// The experiment's overrides, applied to the loaded scene.
     pub overrides: SceneOverrides,
+    /// The loaded scene.
     pub scene: Arc<Scene>,
+    /// Seconds taken to load the scene.
     pub load_s: f64,
 }
 
 /// One (scene, tracer) pair: the unit a serial baseline is measured for.
 pub struct Baseline {
+    /// Index into [`ExperimentPlan::scenes`].
     pub scene: usize,
+    /// The tracer's id.
     pub tracer_id: String,
+    /// The tracer, built on the scene.
     pub tracer: Arc<AnyTracer>,
+    /// Seconds taken to build the tracer.
     pub build_s: f64,
 }
 
@@ -45,10 +55,14 @@ pub enum Sources {
     /// Threads of this process.
     Local,
     /// MPI ranks 1…K−1 of an `mpirun -n K` launch whose transport has this name.
-    Mpi { transport: String },
+    Mpi {
+        /// The launch's transport name.
+        transport: String,
+    },
 }
 
 impl Sources {
+    /// The `sources` column's value: `local` or `mpi`.
     pub fn id(&self) -> &'static str {
         match self {
             Self::Local => "local",
@@ -61,7 +75,9 @@ impl Sources {
 /// measured in (see [`RunConfig::in_launch`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Launch {
+    /// Total ranks, rank 0 (the master) included.
     pub ranks: usize,
+    /// The transport name the launch's environment maps to.
     pub transport: String,
 }
 
@@ -70,9 +86,11 @@ pub struct Launch {
 pub struct RunConfig {
     /// Stable id (16 hex digits) of every config column: the resume key with the repetition.
     pub id: String,
+    /// Index into [`ExperimentPlan::baselines`]: the scene and tracer.
     pub baseline: usize,
     /// `None` = the serial baseline (one thread, no scheduler).
     pub spec: Option<SchedulerSpec>,
+    /// Who renders the items.
     pub sources: Sources,
     /// The launch size an MPI row or its local-thread baseline belongs to (`None` elsewhere).
     pub ranks: Option<usize>,
@@ -102,6 +120,7 @@ impl RunConfig {
 pub struct MpiSettings {
     /// Total ranks per launch (each ≥ 2).
     pub ranks: Vec<usize>,
+    /// Transport names, one MPI configuration each per grid entry.
     pub transports: Vec<String>,
     /// A rank with work outstanding that has sent nothing (not even a heartbeat) this long is
     /// lost.
@@ -114,16 +133,25 @@ pub const DEFAULT_SILENCE_MS: u64 = 5000;
 /// The shortest silence limit accepted: 5 heartbeats.
 pub const MIN_SILENCE_MS: u64 = 1000;
 
+/// A validated experiment, scenes loaded and tracers built: what a run executes.
 pub struct ExperimentPlan {
+    /// The experiment's name (its results folder).
     pub name: String,
+    /// Free text for the report.
     pub description: String,
+    /// The experiment file's path.
     pub file: PathBuf,
     /// FNV-1a of the experiment file's bytes, 16 hex digits.
     pub file_hash: String,
+    /// Timed runs per configuration (≥ 1).
     pub repetitions: u32,
+    /// Untimed runs before each configuration's timed ones.
     pub warmup: u32,
+    /// Record a Gantt timeline on repetition 0 of each scheduler configuration.
     pub timeline: bool,
+    /// The loaded scenes, in file order.
     pub scenes: Vec<PlannedScene>,
+    /// One per (scene, tracer), scene-major.
     pub baselines: Vec<Baseline>,
     /// Serial baselines first, so a scheduler run always finds its baseline measured.
     pub configs: Vec<RunConfig>,
@@ -136,13 +164,17 @@ pub struct ExperimentPlan {
     pub mpi: Option<MpiSettings>,
 }
 
+/// The validated sample counts of a convergence experiment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ConvergenceSettings {
+    /// The largest sample count of the 1, 2, 4, … progression.
     pub max_spp: u32,
+    /// Samples of a rendered reference (default 1024).
     pub ref_spp: u32,
 }
 
 impl ExperimentPlan {
+    /// The planned scene configuration `c` renders.
     pub fn scene_of(&self, c: &RunConfig) -> &PlannedScene {
         &self.scenes[self.baselines[c.baseline].scene]
     }

@@ -18,34 +18,53 @@ use std::path::{Path, PathBuf};
 /// (a parameter the scheduler does not have).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunRow {
+    /// The experiment's name.
     pub experiment: String,
+    /// The configuration's id (16 hex digits of its config columns).
     pub config: String,
+    /// The scene's name.
     pub scene: String,
+    /// The scene file as written in the experiment file.
     pub scene_file: String,
+    /// The scene's hash when measured, 16 hex digits (checked on resume).
     pub scene_hash: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Samples per pixel.
     pub spp: u32,
+    /// Maximum path depth.
     pub max_depth: i32,
+    /// The experiment's generator-count override, if any.
     pub generator_count: Option<u64>,
+    /// The tracer's id.
     pub tracer: String,
     /// Scheduler id, or `serial` for the baseline.
     pub scheduler: String,
+    /// The scheduler's label with its settings (`serial` for the baseline).
     pub label: String,
+    /// The chunk setting in its text form (`1`, `frame`, …); `None` for the baseline.
     pub chunk: Option<String>,
     /// Pixels per item (the x axis of the granularity plots).
     pub chunk_px: Option<u64>,
+    /// The item order's id; `None` for the baseline.
     pub order: Option<String>,
     /// One cell per [`crate::sched::param_columns`] entry, written right after `order`: the
     /// parameter's text form, `None` where the scheduler has no such parameter.
     #[serde(skip)]
     pub params: Vec<Option<String>>,
+    /// Worker threads or ranks (1 for the baseline).
     pub workers: usize,
+    /// The repetition's index, from 0.
     pub repetition: u32,
+    /// Wall time of the timed render, seconds.
     pub wall_s: f64,
     /// Median wall time of the serial baseline this run is compared with.
     pub serial_s: f64,
+    /// `serial_s / wall_s`.
     pub speedup: f64,
+    /// `speedup / workers`.
     pub efficiency: f64,
     /// workers · wall − serial.
     pub overhead_s: f64,
@@ -59,18 +78,28 @@ pub struct RunRow {
     pub imbalance: f64,
     /// The part of idle caused by uneven work: Σ (max busy − busy).
     pub imbalance_s: f64,
+    /// Items in the decomposition of the image.
     pub items: u64,
+    /// Hand-outs, re-issues included.
     pub issued: u64,
+    /// Hand-outs of an item that was already handed out.
     pub reissued: u64,
+    /// Results that arrived for an item already done (discarded).
     pub duplicates: u64,
+    /// Serialised bytes of items sent plus results returned.
     pub bytes: u64,
+    /// Rays traced.
     pub rays: u64,
+    /// Samples that came out NaN/Inf (dropped, never written).
     pub nonfinite: u64,
     /// What the scene's render path uses and leaves out, `+`-separated (e.g.
     /// `spheres+environment+shadow_rays` / `triangles+bvh+…`).
     pub features_used: String,
+    /// What the render path leaves out, in the same form.
     pub features_left_out: String,
+    /// The rendered image's hash, 16 hex digits.
     pub image_hash: String,
+    /// The image hash equals the serial baseline's.
     pub identical: bool,
     /// Who rendered: `local` (threads) or `mpi` (ranks). The last three columns came with
     /// MPI; files written before them are read (and rewritten on resume) with these defaults.
@@ -323,13 +352,23 @@ pub fn config_id(plan: &ExperimentPlan, c: &RunConfig) -> String {
     hex(fnv(RunRow::for_config(plan, c).config_key().as_bytes()))
 }
 
+/// Reading or writing `runs.csv` failed.
 #[derive(Debug, thiserror::Error)]
 pub enum ResultsError {
+    /// The file's content cannot be resumed from (foreign header, bad row, duplicate row).
     #[error("{path}: {msg}")]
-    Corrupt { path: String, msg: String },
+    Corrupt {
+        /// The file.
+        path: String,
+        /// What is wrong, and how to recover.
+        msg: String,
+    },
+    /// An I/O error on the file.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The underlying error.
         #[source]
         source: std::io::Error,
     },
@@ -417,6 +456,7 @@ fn is_legacy_header(line: &[u8]) -> bool {
 
 /// runs.csv opened for appending, with the (config, repetition) pairs already in it.
 pub struct RunsFile {
+    /// The runs.csv path.
     pub path: PathBuf,
     file: File,
     done: HashSet<(String, u32)>,
@@ -493,6 +533,7 @@ impl RunsFile {
         ))
     }
 
+    /// Is repetition `repetition` of configuration `config` already in the file?
     pub fn is_done(&self, config: &str, repetition: u32) -> bool {
         self.done.contains(&(config.to_string(), repetition))
     }

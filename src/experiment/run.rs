@@ -16,17 +16,24 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Where and how [`run_experiment`] writes.
 pub struct RunOptions {
     /// Results root; the experiment writes to `out/<name>/`.
     pub out: PathBuf,
+    /// Discard old results (runs.csv, timelines, plots) instead of resuming.
     pub fresh: bool,
+    /// Hide the progress bar.
     pub quiet: bool,
 }
 
+/// What a run did.
 #[derive(Debug)]
 pub struct RunOutcome {
+    /// The experiment's results folder, `out/<name>/`.
     pub dir: PathBuf,
+    /// Repetitions measured by this run.
     pub measured: usize,
+    /// Repetitions of this launch already in runs.csv, not measured again.
     pub skipped: usize,
     /// Rows (old and new) whose image differs from the serial baseline's.
     pub mismatches: usize,
@@ -37,6 +44,7 @@ pub struct RunOutcome {
 /// Runs the MPI rows of one `mpirun` launch (implemented by `crate::mpi::experiment` on rank
 /// 0); the runner stays free of MPI.
 pub trait Remote {
+    /// The launch whose MPI configurations this remote measures.
     fn launch(&self) -> &Launch;
     /// One timed run of `spec` on the launch's ranks; only the scheduler's wall time is timed.
     fn measure(
@@ -47,21 +55,32 @@ pub trait Remote {
     ) -> Result<(Image, RunStats), RunError>;
 }
 
+/// Why a run stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// Refusals that `--fresh` fixes (changed experiment file, edited scene, foreign CSV).
     #[error("{0}")]
     Refused(String),
+    /// Reading or writing runs.csv failed.
     #[error(transparent)]
     Results(#[from] ResultsError),
+    /// A scheduler run failed.
     #[error("{config}: {source}")]
     Sched {
+        /// The configuration's id and label.
         config: String,
+        /// The scheduler's error.
         #[source]
         source: SchedError,
     },
+    /// Writing an output file (meta, image, timeline) or creating a folder failed.
     #[error("{path}: {msg}")]
-    Io { path: String, msg: String },
+    Io {
+        /// The file or folder.
+        path: String,
+        /// The error's text.
+        msg: String,
+    },
     /// The MPI side failed (a rank lost, a scene that did not build on a rank).
     #[error("{0}")]
     Mpi(String),
@@ -83,6 +102,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunError> {
     std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
 }
 
+/// Where configuration `config`'s Gantt timeline goes: `dir/timelines/<config>.csv`.
 pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
     dir.join("timelines").join(format!("{config}.csv"))
 }
@@ -130,6 +150,8 @@ struct SerialInfo {
     hash: Option<String>,
 }
 
+/// Measure every configuration × repetition of `plan` not yet in `out/<name>/runs.csv`,
+/// outside any `mpirun` launch: configurations of an `[mpi]` launch are left out.
 pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     run_experiment_with(plan, opts, None)
 }

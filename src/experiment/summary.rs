@@ -10,23 +10,39 @@ use std::path::Path;
 pub struct Summary {
     /// The first row of the configuration (its config columns).
     pub row: RunRow,
+    /// Repetitions summarised.
     pub n: usize,
+    /// Median wall time, seconds.
     pub wall_median: f64,
+    /// Shortest wall time, seconds.
     pub wall_min: f64,
+    /// Longest wall time, seconds.
     pub wall_max: f64,
+    /// Mean wall time, seconds.
     pub wall_mean: f64,
     /// Student-t 95 % interval of the mean (equal to the mean when n = 1).
     pub wall_ci95: (f64, f64),
+    /// Median speedup (serial median / wall).
     pub speedup_median: f64,
+    /// Lowest speedup.
     pub speedup_min: f64,
+    /// Highest speedup.
     pub speedup_max: f64,
+    /// Median efficiency (speedup / workers).
     pub efficiency_median: f64,
+    /// Median overhead (workers · wall − serial), seconds.
     pub overhead_s_median: f64,
+    /// Median Σ worker busy time, seconds.
     pub work_s_median: f64,
+    /// Median master time spent handing out and collecting, seconds.
     pub dispatch_s_median: f64,
+    /// Median Σ worker idle time, seconds.
     pub idle_s_median: f64,
+    /// Median idle time caused by uneven work, seconds.
     pub imbalance_s_median: f64,
+    /// Median max busy / mean busy (1 = balanced).
     pub imbalance_median: f64,
+    /// Every repetition's image was identical to the serial baseline's.
     pub identical: bool,
 }
 
@@ -37,6 +53,7 @@ impl Summary {
     }
 }
 
+/// A row's group label: scene, size, spp, the generator count if overridden, and tracer.
 pub fn group_of(r: &RunRow) -> String {
     let mut g = format!("{} {}×{} {} spp", r.scene, r.width, r.height, r.spp);
     if let Some(n) = r.generator_count {
@@ -45,6 +62,7 @@ pub fn group_of(r: &RunRow) -> String {
     g + &format!(" {}", r.tracer)
 }
 
+/// The median of `v` (the mean of the middle two for an even count; NaN when empty).
 pub fn median(v: &[f64]) -> f64 {
     let mut s: Vec<f64> = v.to_vec();
     s.sort_by(f64::total_cmp);
@@ -69,6 +87,8 @@ fn t975(df: usize) -> f64 {
     }
 }
 
+/// Student-t 95 % confidence interval `(lo, hi)` of the mean of `v`; `(mean, mean)` for fewer
+/// than two values.
 pub fn ci95(v: &[f64]) -> (f64, f64) {
     let n = v.len();
     let mean = v.iter().sum::<f64>() / n as f64;
@@ -124,6 +144,8 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
         .collect()
 }
 
+/// Write `summary.csv` to `path`: one row per summary, config and parameter columns first,
+/// then the statistics (seconds with 6 decimals).
 pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_path(path)?;
     let head = [

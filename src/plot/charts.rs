@@ -12,7 +12,9 @@ use std::path::Path;
 /// A drawn figure: `file` is the PNG relative to the experiment folder (an SVG lies beside it).
 #[derive(Clone, Debug)]
 pub struct Figure {
+    /// The PNG's path relative to the experiment folder (`plots/….png`).
     pub file: String,
+    /// The heading it gets in `report.md`.
     pub title: String,
     /// How to read it, one sentence.
     pub caption: String,
@@ -386,7 +388,7 @@ fn gantt_chart<DB: DrawingBackend>(
 
 /// Every figure of every group (scene + settings + tracer) into `plots`, in a fixed order: MPI
 /// throughput, speedup vs workers, granularity, buffer, overhead, then the Gantt timelines.
-pub fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
+pub(crate) fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     let mut out = Drawn {
         dir,
         plots,

@@ -45,6 +45,8 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
     ))
 }
 
+/// The text of `report.md`: `meta` (if readable) for the run and machine sections, `sums` for
+/// the results, `figs` for the plots; `runs` is the number of timed runs.
 pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usize) -> String {
     let mut md = String::new();
     let name = sums
