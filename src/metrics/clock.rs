@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 pub struct Probe {
     /// Time every item (busy time); off, no clock is read per item.
     pub stats: bool,
+    /// Record a (worker, item, start, end) span per item; implies `stats`.
     pub timeline: bool,
     /// Time zero of the run's timeline.
     pub epoch: Instant,
@@ -17,6 +18,7 @@ pub struct Probe {
 }
 
 impl Probe {
+    /// Settings with time zero now; `timeline` turns `stats` on too.
     pub fn new(stats: bool, timeline: bool) -> Self {
         Self {
             stats: stats || timeline,
@@ -44,7 +46,8 @@ pub(crate) struct BusyClock {
 }
 
 impl BusyClock {
-    pub fn start(probe: &Probe) -> Self {
+    /// A clock whose first busy span starts now.
+    pub(crate) fn start(probe: &Probe) -> Self {
         let mut c = Self {
             closed: Duration::ZERO,
             since: probe.tsc_epoch,
@@ -55,7 +58,7 @@ impl BusyClock {
     }
 
     /// The worker waited: close the current run of items; the next busy span starts now.
-    pub fn restart(&mut self, probe: &Probe) {
+    pub(crate) fn restart(&mut self, probe: &Probe) {
         if probe.stats {
             self.closed += self.last - self.since;
             self.since = quanta::Instant::now();
@@ -65,7 +68,7 @@ impl BusyClock {
 
     /// The worker's latest item ended now (no timeline entry).
     #[inline]
-    pub fn mark(&mut self, probe: &Probe) {
+    pub(crate) fn mark(&mut self, probe: &Probe) {
         if probe.stats {
             self.last = quanta::Instant::now();
         }
@@ -74,7 +77,13 @@ impl BusyClock {
     /// Item `item` of `worker` ended now: its span ends here, and goes into the timeline if
     /// one is recorded.
     #[inline]
-    pub fn item_done(&mut self, probe: &Probe, worker: u32, item: u32, spans: &mut Vec<Span>) {
+    pub(crate) fn item_done(
+        &mut self,
+        probe: &Probe,
+        worker: u32,
+        item: u32,
+        spans: &mut Vec<Span>,
+    ) {
         if !probe.stats {
             return;
         }
@@ -92,12 +101,12 @@ impl BusyClock {
     }
 
     /// Count `other`'s busy time as this clock's (a worker's clocks of several runs).
-    pub fn absorb(&mut self, other: &BusyClock) {
+    pub(crate) fn absorb(&mut self, other: &BusyClock) {
         self.closed += other.busy();
     }
 
     /// Total busy time so far.
-    pub fn busy(&self) -> Duration {
+    pub(crate) fn busy(&self) -> Duration {
         self.closed + (self.last - self.since)
     }
 }

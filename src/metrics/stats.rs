@@ -9,8 +9,11 @@ pub struct WorkerStats {
     pub busy_s: f64,
     /// Wall time of the run minus busy time.
     pub idle_s: f64,
+    /// Items it rendered.
     pub items: u64,
+    /// Pixels of those items.
     pub pixels: u64,
+    /// Rays those items traced.
     pub rays: u64,
 }
 
@@ -30,6 +33,7 @@ pub struct MasterStats {
     pub dispatch_s: f64,
     /// Time spent waiting for results (spinning, yielding or blocked).
     pub wait_s: f64,
+    /// Passes of the master's loop (collect, hand out, wait).
     pub iterations: u64,
 }
 
@@ -37,18 +41,27 @@ pub struct MasterStats {
 /// started. The master's spans use `worker = u32::MAX`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Span {
+    /// The worker (source id or thread index), or [`MASTER_LANE`].
     pub worker: u32,
+    /// The item's id.
     pub item: u32,
+    /// Start, in nanoseconds after the run's time zero.
     pub start_ns: u64,
+    /// End, in nanoseconds after the run's time zero.
     pub end_ns: u64,
 }
 
+/// The [`Span::worker`] of the master's own spans (its hand-out passes).
 pub const MASTER_LANE: u32 = u32::MAX;
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Everything one scheduler run measured; every scheduler fills in the same fields.
 pub struct RunStats {
+    /// Wall time of the run, in seconds.
     pub wall_s: f64,
+    /// One entry per worker (compute source or thread).
     pub workers: Vec<WorkerStats>,
+    /// The master thread's time (`None` for schedulers without one).
     pub master: Option<MasterStats>,
     /// Items in the decomposition of the image.
     pub items: u64,
@@ -60,11 +73,14 @@ pub struct RunStats {
     pub duplicates: u64,
     /// Serialised bytes of items sent plus results returned.
     pub bytes: u64,
+    /// Rays traced over all first results (duplicates not counted).
     pub rays: u64,
     /// Samples that came out NaN/Inf (dropped, never written).
     pub nonfinite: u64,
     /// Sources lost during the run (panicked, killed).
     pub lost_sources: u64,
+    /// Per-item spans of every worker (and the master's hand-out passes), when a timeline was
+    /// recorded.
     pub timeline: Option<Vec<Span>>,
     /// Scene features the render path was specialised to (see `stability::features`).
     #[serde(default)]
@@ -86,12 +102,15 @@ impl RunStats {
             1.0
         }
     }
+    /// Busy seconds summed over workers.
     pub fn busy_s(&self) -> f64 {
         self.workers.iter().map(|w| w.busy_s).sum()
     }
+    /// Idle seconds summed over workers.
     pub fn idle_s(&self) -> f64 {
         self.workers.iter().map(|w| w.idle_s).sum()
     }
+    /// The master's dispatch seconds (0 without a master).
     pub fn dispatch_s(&self) -> f64 {
         self.master.as_ref().map_or(0.0, |m| m.dispatch_s)
     }

@@ -36,8 +36,11 @@ pub mod tag {
 
 #[derive(Debug, thiserror::Error)]
 #[error("MPI_{call} failed with error code {code}")]
+/// An MPI call that returned an error code.
 pub struct MpiError {
+    /// The call, without its `MPI_` prefix (`Send`, `Iprobe`, …).
     pub call: &'static str,
+    /// MPI's return code (-1 for a check of this module's own).
     pub code: i32,
 }
 
@@ -52,7 +55,9 @@ fn check(call: &'static str, code: c_int) -> Result<(), MpiError> {
 /// The world communicator of an initialised MPI; owns the universe.
 pub struct Comm {
     universe: Option<Universe>,
+    /// This process's rank in `MPI_COMM_WORLD`.
     pub rank: i32,
+    /// Number of ranks in `MPI_COMM_WORLD`.
     pub size: i32,
     _not_send: PhantomData<*const ()>,
 }
@@ -75,8 +80,11 @@ impl Drop for SendReq {
 /// A message waiting to be received.
 #[derive(Clone, Copy, Debug)]
 pub struct Pending {
+    /// The sending rank.
     pub source: i32,
+    /// The message's tag (see [`tag`]).
     pub tag: i32,
+    /// Its length in bytes.
     pub bytes: usize,
 }
 

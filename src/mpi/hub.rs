@@ -21,6 +21,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+/// How often the hub checks that local ranks' processes still exist.
 pub const LIVENESS_EVERY: Duration = Duration::from_millis(20);
 /// Test hook: do not check local ranks by pid, so a killed rank is found the way a remote
 /// one is (a failed MPI call or silence).
@@ -43,6 +44,7 @@ struct RankState {
 pub struct HubReport {
     /// (rank, why) of every rank lost.
     pub lost: Vec<(i32, String)>,
+    /// MPI messages sent (item hand-outs) and received.
     pub messages: u64,
 }
 
@@ -77,8 +79,11 @@ impl Default for Pace {
 /// A worker rank as rank 0 knows it after READY.
 #[derive(Clone, Debug)]
 pub struct Peer {
+    /// Its rank in `MPI_COMM_WORLD`.
     pub rank: i32,
+    /// Its process id on `host`.
     pub pid: u32,
+    /// The host it runs on (a pid is checked only when it is this host).
     pub host: String,
 }
 
@@ -385,6 +390,7 @@ impl<'c> Hub<'c> {
             .collect()
     }
 
+    /// Has any rank been declared lost so far?
     pub fn any_lost(&self) -> bool {
         !self.report.lost.is_empty()
     }

@@ -14,6 +14,8 @@ use crate::sched::{wire, Collector, Policy, Results, SchedError, SchedulerKind, 
 use crate::source::{ComputeSource, DelayedResult, Doorbell, Wait};
 use std::time::{Duration, Instant};
 
+/// Run `items` on `sources` under `static` or `self_scheduling` (the kind in `spec`); a lost
+/// source or a passed `deadline` fails the run.
 pub fn run_pull(
     spec: &SchedulerSpec,
     items: &[WorkItem],

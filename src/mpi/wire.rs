@@ -6,8 +6,11 @@ use crate::scene::SceneOverrides;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("malformed {what} message: {msg}")]
+/// A message that could not be decoded (too short, bad UTF-8, bad overrides).
 pub struct WireError {
+    /// Which message (`item`, `result`, `scene package`, `ready`, …).
     pub what: &'static str,
+    /// What was wrong with it.
     pub msg: String,
 }
 
@@ -18,6 +21,7 @@ pub struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
+    /// A reader over `bytes`; `what` names the message in errors.
     pub fn new(bytes: &'a [u8], what: &'static str) -> Self {
         Self { bytes, what }
     }
@@ -32,22 +36,28 @@ impl<'a> Reader<'a> {
         self.bytes = b;
         Ok(a)
     }
+    /// The next byte.
     pub fn u8(&mut self) -> Result<u8, WireError> {
         Ok(self.take(1)?[0])
     }
+    /// The next little-endian `u32`.
     pub fn u32(&mut self) -> Result<u32, WireError> {
         Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap()))
     }
+    /// The next little-endian `u64`.
     pub fn u64(&mut self) -> Result<u64, WireError> {
         Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
     }
+    /// The next little-endian `f32`.
     pub fn f32(&mut self) -> Result<f32, WireError> {
         Ok(f32::from_le_bytes(self.take(4)?.try_into().unwrap()))
     }
+    /// A `u64` length, then that many bytes (the layout [`put_bytes`] writes).
     pub fn bytes(&mut self) -> Result<&'a [u8], WireError> {
         let n = self.u64()? as usize;
         self.take(n)
     }
+    /// A length-prefixed UTF-8 string (see [`Reader::bytes`]).
     pub fn string(&mut self) -> Result<String, WireError> {
         let b = self.bytes()?;
         String::from_utf8(b.to_vec()).map_err(|e| WireError {
@@ -55,11 +65,13 @@ impl<'a> Reader<'a> {
             msg: e.to_string(),
         })
     }
+    /// The bytes not read yet.
     pub fn rest(&self) -> &'a [u8] {
         self.bytes
     }
 }
 
+/// Append `b` with its length first (`u64`, little-endian).
 pub fn put_bytes(out: &mut Vec<u8>, b: &[u8]) {
     out.extend_from_slice(&(b.len() as u64).to_le_bytes());
     out.extend_from_slice(b);
@@ -162,16 +174,20 @@ pub struct ScenePackage {
     pub text: String,
     /// How errors name the scene (rank 0's path).
     pub display: String,
+    /// The scene's name (rank 0's file stem).
     pub name: String,
+    /// Overrides of the scene's settings (size, spp, …), applied on every rank alike.
     pub overrides: SceneOverrides,
     /// (path as written in the scene, file bytes) of every mesh.
     pub meshes: Vec<(String, Vec<u8>)>,
+    /// The tracer's id (`TracerKind::from_id`).
     pub tracer: String,
     /// Rank 0's `Scene::hash`; every worker checks its own against it.
     pub hash: u64,
 }
 
 impl ScenePackage {
+    /// The package as one message (length-prefixed fields, little-endian).
     pub fn encode(&self) -> Vec<u8> {
         let mut out = Vec::new();
         put_bytes(&mut out, self.text.as_bytes());
@@ -189,6 +205,7 @@ impl ScenePackage {
         out
     }
 
+    /// Inverse of [`ScenePackage::encode`].
     pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
         let mut r = Reader::new(bytes, "scene package");
         let text = r.string()?;
@@ -222,18 +239,23 @@ impl ScenePackage {
 /// rank that died) and an error message, empty when all went well.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ready {
+    /// The worker's process id.
     pub pid: u32,
+    /// The host the worker runs on.
     pub host: String,
+    /// Why the scene could not be built; empty on success.
     pub error: String,
 }
 
 impl Ready {
+    /// The answer as one READY message: pid, then length-prefixed host and error.
     pub fn encode(&self) -> Vec<u8> {
         let mut out = self.pid.to_le_bytes().to_vec();
         put_bytes(&mut out, self.host.as_bytes());
         put_bytes(&mut out, self.error.as_bytes());
         out
     }
+    /// Inverse of [`Ready::encode`].
     pub fn decode(bytes: &[u8]) -> Result<Self, WireError> {
         let mut r = Reader::new(bytes, "ready");
         Ok(Self {

@@ -31,31 +31,53 @@ use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Debug, thiserror::Error)]
+/// Why a scheduler run produced no image.
 pub enum SchedError {
     #[error(transparent)]
+    /// The scheduler spec is invalid.
     Spec(#[from] SpecError),
     #[error("{lost} of {total} items were lost and re-queue policy 'never' cannot redo them")]
-    LostItems { lost: u64, total: u64 },
+    /// Items were lost (a lost source, a dropped result) and could not be redone.
+    LostItems {
+        /// Items without a result.
+        lost: u64,
+        /// Items in the run.
+        total: u64,
+    },
     #[error("deadline of {deadline:?} passed with {done} of {total} items done")]
+    /// The run's deadline passed before every item was done.
     Deadline {
+        /// The deadline that passed.
         deadline: Duration,
+        /// Items done by then.
         done: u64,
+        /// Items in the run.
         total: u64,
     },
     #[error(
         "all {sources} compute sources were lost with {remaining} of {total} items unfinished"
     )]
+    /// Every compute source was lost before the run finished.
     AllSourcesLost {
+        /// Sources the run started with.
         sources: u64,
+        /// Items without a result.
         remaining: u64,
+        /// Items in the run.
         total: u64,
     },
     #[error("worker thread panicked: {0}")]
+    /// A worker thread panicked (the panic's message).
     WorkerPanic(String),
     #[error("building the thread pool: {0}")]
+    /// The thread pool could not be built.
     Pool(String),
     #[error("item {item}: no result (scheduler bug)")]
-    Missing { item: u32 },
+    /// An item has no result after a run that reported success (a scheduler bug).
+    Missing {
+        /// The item without a result.
+        item: u32,
+    },
 }
 
 /// Run settings that are not part of the scheduler's identity.

@@ -78,6 +78,7 @@ impl Results {
         self.index.len()
     }
 
+    /// Whether there are no items at all.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
@@ -101,7 +102,7 @@ pub(crate) struct Tally {
 impl Tally {
     /// `r` as a first result of its item.
     #[inline]
-    pub fn add(&mut self, r: &TileResult) {
+    pub(crate) fn add(&mut self, r: &TileResult) {
         self.bytes += wire::result_bytes(r);
         self.rays += r.rays;
         self.nonfinite += r.nonfinite;
@@ -109,7 +110,7 @@ impl Tally {
     }
 
     /// Another worker's tally into this one.
-    pub fn merge(&mut self, o: &Tally) {
+    pub(crate) fn merge(&mut self, o: &Tally) {
         self.done += o.done;
         self.duplicates += o.duplicates;
         self.bytes += o.bytes;
@@ -131,7 +132,7 @@ impl Tally {
     }
 
     /// Duplicates, result bytes, rays and non-finite samples into the run's statistics.
-    pub fn record(&self, stats: &mut RunStats) {
+    pub(crate) fn record(&self, stats: &mut RunStats) {
         stats.duplicates = self.duplicates;
         stats.bytes += self.bytes;
         stats.rays = self.rays;
@@ -146,7 +147,7 @@ pub(crate) struct Collector {
 }
 
 impl Collector {
-    pub fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         Self {
             results: Results {
                 lists: vec![Vec::new()],
@@ -157,12 +158,12 @@ impl Collector {
         }
     }
 
-    pub fn is_done(&self, item: u32) -> bool {
+    pub(crate) fn is_done(&self, item: u32) -> bool {
         self.results.has(item)
     }
 
     /// Keep `r` unless its item already has a result (then it is counted and dropped).
-    pub fn accept(&mut self, r: TileResult) {
+    pub(crate) fn accept(&mut self, r: TileResult) {
         let res = &mut self.results;
         let list = &mut res.lists[0];
         let pos = list.len() as u32;

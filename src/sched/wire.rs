@@ -10,6 +10,7 @@
 
 use crate::render::{Region, TileResult, WorkItem};
 
+/// Encoded size of `item` in bytes (what [`encode_item`] writes).
 pub fn item_bytes(item: &WorkItem) -> u64 {
     match &item.region {
         Region::Rect { .. } => 25,
@@ -17,10 +18,12 @@ pub fn item_bytes(item: &WorkItem) -> u64 {
     }
 }
 
+/// Encoded size of `result` in bytes (what [`encode_result`] writes).
 pub fn result_bytes(result: &TileResult) -> u64 {
     24 + 12 * result.pixels.len() as u64
 }
 
+/// Append `item` to `out` in the layout above.
 pub fn encode_item(item: &WorkItem, out: &mut Vec<u8>) {
     out.extend_from_slice(&item.id.to_le_bytes());
     out.extend_from_slice(&item.frame.to_le_bytes());
@@ -41,6 +44,7 @@ pub fn encode_item(item: &WorkItem, out: &mut Vec<u8>) {
     }
 }
 
+/// Append `r` to `out` in the layout above.
 pub fn encode_result(r: &TileResult, out: &mut Vec<u8>) {
     out.extend_from_slice(&r.item.to_le_bytes());
     out.extend_from_slice(&(r.pixels.len() as u32).to_le_bytes());

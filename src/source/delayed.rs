@@ -77,6 +77,7 @@ pub struct Completer {
 }
 
 impl DelayedResult {
+    /// An empty result of `item` from `source`, and the completer that fills it.
     pub fn pending(item: u32, source: u32) -> (Self, Completer) {
         let cell = Cell::new();
         (
@@ -110,13 +111,16 @@ impl DelayedResult {
         d
     }
 
+    /// The id of the item this is the result of.
     pub fn item(&self) -> u32 {
         self.item
     }
+    /// The id of the source the item was handed to.
     pub fn source(&self) -> u32 {
         self.source
     }
 
+    /// Has the outcome arrived? One atomic load; never blocks.
     pub fn is_ready(&self) -> bool {
         self.cell.ready.load(Ordering::SeqCst)
     }
@@ -179,9 +183,11 @@ impl Drop for DelayedResult {
 }
 
 impl Completer {
+    /// The id of the item whose result this completes.
     pub fn item(&self) -> u32 {
         self.item
     }
+    /// Deliver `outcome` and wake a waiter, if any.
     pub fn complete(mut self, outcome: Outcome) {
         if let Some(cell) = self.cell.take() {
             fill(&cell, outcome);

@@ -58,6 +58,7 @@ impl Default for Doorbell {
 }
 
 impl Doorbell {
+    /// A notifier for one source; any number may ring this doorbell.
     pub fn notifier(&self) -> Notifier {
         Notifier {
             tx: self.tx.clone(),

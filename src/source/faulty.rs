@@ -12,14 +12,17 @@ use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Clone, Debug, PartialEq)]
+/// Which faults to inject, and the seed that makes them reproducible.
 pub struct FaultPlan {
     /// Fraction of results silently dropped (the message is lost; the source stays alive).
     pub drop_fraction: f64,
     /// Fraction of items delayed by up to `max_delay` before they are rendered.
     pub delay_fraction: f64,
+    /// Longest delay of a delayed item.
     pub max_delay: Duration,
     /// (source id, n): that source's worker panics on its n-th item (0-based).
     pub panic: Option<(u32, u64)>,
+    /// Seed of the fault decisions.
     pub seed: u64,
 }
 
@@ -70,10 +73,13 @@ pub struct FaultySource {
     inner: Box<dyn ComputeSource>,
     plan: FaultPlan,
     submitted: u64,
+    /// Results dropped so far.
     pub dropped: u64,
 }
 
 impl FaultySource {
+    /// Wrap `inner`, dropping a `plan.drop_fraction` of its results (delays and panics are
+    /// [`faulty_job`]'s).
     pub fn new(inner: Box<dyn ComputeSource>, plan: FaultPlan) -> Self {
         Self {
             inner,

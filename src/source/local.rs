@@ -17,6 +17,7 @@ struct Shared {
     notifier: OnceLock<Notifier>,
 }
 
+/// A compute source that runs its job on one OS thread of its own, items in arrival order.
 pub struct LocalThreadSource {
     id: u32,
     inbox: Option<Sender<Batch>>,
@@ -46,6 +47,7 @@ impl IntoIterator for Batch {
 }
 
 impl LocalThreadSource {
+    /// Start the thread of source `id`, which runs `job` on every item it is handed.
     pub fn spawn(id: u32, job: Job, probe: Probe) -> Self {
         let (tx, rx) = unbounded::<Batch>();
         let shared = Arc::new(Shared {
@@ -123,6 +125,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
     report
 }
 
+/// The message of a panic payload (`&str` or `String`), or a placeholder.
 pub fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
     p.downcast_ref::<&str>()
         .map(|s| s.to_string())

@@ -45,7 +45,9 @@ use std::sync::Arc;
 ///   dropped its result handles. Once [`ComputeSource::is_lost`] is true it stays true, and
 ///   later submissions return already failed results.
 pub trait ComputeSource: Send {
+    /// This source's id: unique among a run's sources, carried by its results.
     fn id(&self) -> u32;
+    /// A human-readable name for logs (`local-thread-3`, `faulty(…)`, …).
     fn label(&self) -> String;
     /// Hand an item over; returns at once. A lost source returns an already failed result.
     fn submit(&mut self, item: WorkItem) -> DelayedResult;
@@ -72,9 +74,19 @@ pub type Job = Arc<dyn Fn(&WorkItem) -> TileResult + Send + Sync>;
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum SourceFailure {
     #[error("compute source {source_id} lost: {reason}")]
-    Lost { source_id: u32, reason: String },
+    /// The source died (panicked, killed, unreachable); its outstanding results are lost.
+    Lost {
+        /// The lost source's id.
+        source_id: u32,
+        /// How it was lost (a panic's message, a failed MPI call, silence).
+        reason: String,
+    },
     #[error("item {item} cancelled: the run was over")]
-    Cancelled { item: u32 },
+    /// The run was over before the item was started.
+    Cancelled {
+        /// The item that was skipped.
+        item: u32,
+    },
 }
 
 /// What a [`DelayedResult`] resolves to.
@@ -83,7 +95,9 @@ pub type Outcome = Result<TileResult, SourceFailure>;
 /// What a source did over a run (idle time is filled in by the scheduler from the wall time).
 #[derive(Clone, Debug, Default)]
 pub struct SourceReport {
+    /// Its worker statistics (busy time, items, pixels, rays).
     pub stats: WorkerStats,
+    /// Its per-item timeline spans (empty unless a timeline is recorded).
     pub spans: Vec<Span>,
 }
 
