@@ -204,7 +204,7 @@ pub const BLOCK_PX: u64 = 256;
 
 /// For an MPI experiment: per chunk size, the throughput of each transport against the
 /// local-thread baseline of the same launch size and scheduler (best buffer each), and the
-/// per-block ratio the issue sets a goal for (≥ 90 %).
+/// per-block ratio against its goal (MPI ranks at ≥ 90 % of local threads).
 pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
     use super::throughput;
     let mut md = String::new();

@@ -480,7 +480,7 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
     );
 }
 
-/// Issue 6: schedulers are a dimension of a convergence experiment. One row set per
+/// Schedulers are a dimension of a convergence experiment. One row set per
 /// (tracer, scheduler); the images are bit-identical, so every error column of a step is the
 /// same under every scheduler; the summary answers the time-budget question on stdout and in
 /// report.md; an unknown scheduler is a config error naming the file and the field.

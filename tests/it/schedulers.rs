@@ -1,4 +1,4 @@
-//! Issue 4: every scheduler × granularity × buffer × workers gives the serial image bit for bit;
+//! Every scheduler × granularity × buffer × workers gives the serial image bit for bit;
 //! faults are survived (or reported, never hung on); bad parameters are clear errors.
 
 use raysched::render::{render_serial, Image, TileResult, WorkItem};

@@ -1,4 +1,4 @@
-//! Issue 6: the fast subset of the stability suite, the pruned-vs-full path identity, the
+//! The fast subset of the stability suite, the pruned-vs-full path identity, the
 //! progressive-render reuse and the convergence slope.
 
 use raysched::converge::{self, reference};
@@ -175,7 +175,7 @@ fn convergence_slope_is_minus_half() {
     assert!(std::fs::metadata(&png).unwrap().len() > 1000);
 }
 
-/// Issue 6, stiff light: a tiny light of the same power (radiance × area) as a large one has
+/// Stiff light: a tiny light of the same power (radiance × area) as a large one has
 /// the same image mean (within 3σ, no NaN/Inf) and a far larger variance of that mean. The
 /// check is not vacuous: a tiny light of 3× the power fails on the mean, and the two swapped
 /// fail on the variance ratio.
