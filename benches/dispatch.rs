@@ -70,7 +70,8 @@ fn nothing() -> Job {
 }
 
 /// Every scheduler at grab 1, self-scheduling also at grabs 2 and 4, and the master in three
-/// settings (blocking B = 64 is the one the master's dispatch target (≤ 150 ns per item) is set for).
+/// settings (blocking B = 64 is the setting the master's dispatch target, ≤ 150 ns per item,
+/// is set for).
 fn specs() -> Vec<(String, SchedulerSpec)> {
     let px = Chunk::Tile { w: 1, h: 1 };
     let mut specs: Vec<(String, SchedulerSpec)> = SchedulerKind::ALL
