@@ -11,14 +11,18 @@ use glam::{DVec3, Vec3};
 /// A ray `o + t·d`. `d` need not be normalised (shadow rays use the segment to the light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Origin.
     pub o: Vec3,
+    /// Direction; `t` is measured in units of its length.
     pub d: Vec3,
 }
 
 impl Ray {
+    /// The ray from `o` along `d`.
     pub const fn new(o: Vec3, d: Vec3) -> Self {
         Self { o, d }
     }
+    /// The point at parameter `t`: `o + t·d`.
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t
     }
@@ -28,9 +32,13 @@ impl Ray {
 /// the barycentric coordinates of vertices 1 and 2.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// Ray parameter of the hit, in units of the ray direction's length.
     pub t: f32,
+    /// Primitive id in the scene's numbering (spheres first, then triangles).
     pub prim: u32,
+    /// Barycentric coordinate of vertex 1 (0 for a sphere).
     pub b1: f32,
+    /// Barycentric coordinate of vertex 2 (0 for a sphere).
     pub b2: f32,
 }
 
@@ -40,6 +48,8 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * e) / (1.0 - n as f32 * e)
 }
 
+/// The next representable f32 above `v` (+∞ stays; both zeros step to the smallest positive
+/// subnormal).
 pub fn next_float_up(v: f32) -> f32 {
     if v.is_infinite() && v > 0.0 {
         return v;
@@ -50,6 +60,8 @@ pub fn next_float_up(v: f32) -> f32 {
     f32::from_bits(bits)
 }
 
+/// The next representable f32 below `v` (−∞ stays; both zeros step to the negative subnormal
+/// nearest zero).
 pub fn next_float_down(v: f32) -> f32 {
     if v.is_infinite() && v < 0.0 {
         return v;
@@ -83,12 +95,16 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// The geometric normal `e1 × e2` follows the winding (counter-clockwise seen from the front).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triangle {
+    /// Vertex 0.
     pub v0: Vec3,
+    /// Edge from vertex 0 to vertex 1.
     pub e1: Vec3,
+    /// Edge from vertex 0 to vertex 2.
     pub e2: Vec3,
 }
 
 impl Triangle {
+    /// The triangle with vertices `v0`, `v1`, `v2`, in that winding order.
     pub fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
         Self {
             v0,
@@ -96,15 +112,19 @@ impl Triangle {
             e2: v2 - v0,
         }
     }
+    /// The three vertices, rebuilt as `v0`, `v0 + e1`, `v0 + e2`.
     pub fn vertices(&self) -> [Vec3; 3] {
         [self.v0, self.v0 + self.e1, self.v0 + self.e2]
     }
+    /// Unit geometric normal along `e1 × e2` (zero for a degenerate triangle).
     pub fn normal(&self) -> Vec3 {
         self.e1.cross(self.e2).normalize_or_zero()
     }
+    /// Area, `|e1 × e2| / 2`.
     pub fn area(&self) -> f32 {
         0.5 * self.e1.cross(self.e2).length()
     }
+    /// Axis-aligned bounding box as `(min, max)`.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let [a, b, c] = self.vertices();
         (a.min(b).min(c), a.max(b).max(c))
@@ -154,17 +174,21 @@ impl Triangle {
 /// An analytic sphere. Intersection runs in f64 so that huge and tiny radii stay exact enough.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
+    /// Centre.
     pub center: Vec3,
+    /// Radius (> 0).
     pub radius: f32,
 }
 
 impl Sphere {
+    /// Axis-aligned bounding box as `(min, max)`.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         (
             self.center - Vec3::splat(self.radius),
             self.center + Vec3::splat(self.radius),
         )
     }
+    /// Surface area, 4πr².
     pub fn area(&self) -> f32 {
         4.0 * std::f32::consts::PI * self.radius * self.radius
     }

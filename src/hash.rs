@@ -12,12 +12,14 @@ impl Default for Fnv64 {
 }
 
 impl Fnv64 {
+    /// Feed `bytes` into the hash.
     pub fn write(&mut self, bytes: &[u8]) {
         for b in bytes {
             self.0 ^= *b as u64;
             self.0 = self.0.wrapping_mul(0x100_0000_01b3);
         }
     }
+    /// The hash of everything written so far (the state is left as it is).
     pub fn finish(&self) -> u64 {
         self.0
     }

@@ -22,6 +22,7 @@ pub struct Sampler {
 }
 
 impl Sampler {
+    /// The stream of `sample` of `pixel` under `seed`, positioned before its first dimension.
     #[inline]
     pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
         let key = mix64(mix64(seed ^ 0x9e37_79b9_7f4a_7c15).wrapping_add(pixel))
@@ -41,6 +42,7 @@ impl Sampler {
         (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
     }
 
+    /// The next two dimensions, e.g. a 2-D jitter or direction sample.
     #[inline]
     pub fn next2(&mut self) -> (f32, f32) {
         (self.next(), self.next())

@@ -5,9 +5,13 @@
 use crate::geometry::Ray;
 use glam::{DVec3, Vec3};
 
+/// A pinhole camera: film size in pixels, an orthonormal frame, the field of view and a
+/// position in render space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Film width in pixels.
     pub width: u32,
+    /// Film height in pixels.
     pub height: u32,
     right: Vec3,
     up: Vec3,
@@ -47,6 +51,7 @@ impl Camera {
         Self { eye, ..self }
     }
 
+    /// Position in render space (zero for frame 0 and for every static scene).
     pub fn eye(&self) -> Vec3 {
         self.eye
     }

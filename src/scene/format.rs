@@ -42,20 +42,28 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// A scene file as parsed from TOML, before validation.
 #[derive(Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
+    /// Scene name; when absent, the loader's default name (the file's stem).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// `[camera]`: the view of a static scene, and frame 0's pose in an animation.
     pub camera: CameraSpec,
+    /// `[render]`: sampling settings (defaults when absent).
     #[serde(default)]
     pub render: RenderSpec,
+    /// `[materials.NAME]` by name; a material's id is its index in name order.
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
+    /// `[[shapes]]`, in file order.
     #[serde(default, deserialize_with = "shapes_by_index")]
     pub shapes: Vec<ShapeSpec>,
+    /// `[[lights]]`: point and environment lights (area lights come from emitting shapes).
     #[serde(default)]
     pub lights: Vec<LightSpec>,
+    /// `[animation]`: a camera path; absent for a static scene.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub animation: Option<AnimationSpec>,
 }
@@ -82,7 +90,9 @@ impl std::fmt::Debug for SceneFile {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct AnimationSpec {
+    /// Number of frames, 1 to [`super::load::MAX_FRAMES`].
     pub frames: u32,
+    /// Camera keys after frame 0, in increasing frame order.
     #[serde(default)]
     pub keys: Vec<CameraKeySpec>,
 }
@@ -92,35 +102,51 @@ pub struct AnimationSpec {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraKeySpec {
+    /// The frame this key poses: after the previous key's, before `frames`.
     pub frame: u32,
+    /// Camera position in world space.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub origin: Option<[f64; 3]>,
+    /// Point looked at, in world space.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<[f64; 3]>,
+    /// Up direction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub up: Option<[f64; 3]>,
+    /// Field of view in degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fov_deg: Option<f64>,
 }
 
+/// `[camera]`: a pinhole camera at `origin` looking at `target`, in world space.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
+    /// Camera position; it becomes the render-space origin.
     pub origin: [f64; 3],
+    /// Point looked at; must differ from `origin`.
     pub target: [f64; 3],
+    /// Up direction; must not be zero or parallel to the view direction.
     pub up: [f64; 3],
+    /// Field of view in degrees, in (0, 180), across the smaller film side.
     pub fov_deg: f64,
+    /// Image width in pixels (≥ 1).
     pub width: u32,
+    /// Image height in pixels (≥ 1).
     pub height: u32,
 }
 
+/// `[render]`: sampling and transport settings.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RenderSpec {
+    /// Samples per pixel (≥ 1; default 16).
     #[serde(default = "default_spp")]
     pub spp: u32,
+    /// Maximum path segments, the one reaching an emitter included; −1 = unlimited (default 8).
     #[serde(default = "default_max_depth")]
     pub max_depth: i32,
+    /// Seed of every random number of the render (default 0).
     #[serde(default)]
     pub seed: u64,
 }
@@ -142,20 +168,28 @@ impl Default for RenderSpec {
     }
 }
 
+/// `[materials.NAME]`, by `type`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum MaterialSpec {
+    /// Lambertian, one-sided; exactly one of `reflectance` and `checker`.
     Diffuse {
+        /// Constant albedo, each channel in [0, 1].
         #[serde(default, skip_serializing_if = "Option::is_none")]
         reflectance: Option<[f64; 3]>,
+        /// A checkerboard albedo.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         checker: Option<CheckerSpec>,
     },
+    /// Perfect specular reflection, one-sided.
     Mirror {
+        /// Reflected fraction, each channel in [0, 1] (default 1).
         #[serde(default = "one3")]
         reflectance: [f64; 3],
     },
+    /// Smooth dielectric (two-sided).
     Dielectric {
+        /// Interior index of refraction (> 0); the exterior's is 1.
         ior: f64,
     },
 }
@@ -168,8 +202,11 @@ fn one3() -> [f64; 3] {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CheckerSpec {
+    /// Albedo of the even cells, each channel in [0, 1].
     pub even: [f64; 3],
+    /// Albedo of the odd cells, each channel in [0, 1].
     pub odd: [f64; 3],
+    /// Cell edge length in world units (> 0).
     pub size: f64,
 }
 
@@ -182,61 +219,99 @@ pub struct CheckerSpec {
 pub enum ShapeSpec {
     /// Centre `[0, 0, 0]`, radius 1 unless given; `flip_normals` points normals inwards.
     Sphere {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
+        /// Centre in local space (default `[0, 0, 0]`).
         center: Option<[f64; 3]>,
+        /// Radius in local units (> 0; default 1).
         radius: Option<f64>,
+        /// Normals point inwards (default false).
         flip_normals: Option<bool>,
     },
     /// The square [−1,1]² at z = 0, facing +z.
     Rectangle {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
     },
     /// The cube [−1,1]³, facing out.
     Cube {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
     },
     /// The triangles of an OBJ file, `path` relative to the scene file.
     Mesh {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
+        /// The OBJ file, relative to the scene file's folder (required).
         path: Option<String>,
     },
     /// [`super::generators::displaced_sphere`]: about `count` triangles.
     DisplacedSphere {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
+        /// Approximate triangle count (required, ≥ 1).
         count: Option<u64>,
+        /// Relative amplitude of the radial bumps (default 0.1).
         displacement: Option<f64>,
     },
     /// [`super::generators::random_triangles`]: `count` triangles.
     RandomTriangles {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
+        /// Number of triangles (required, ≥ 1).
         count: Option<u64>,
+        /// Approximate edge length in local units (> 0; default 0.05).
         triangle_size: Option<f64>,
+        /// Seed of the triangles' placement (default 0).
         seed: Option<u64>,
     },
     /// [`super::generators::sphere_grid`]: `count` spheres.
     SphereGrid {
+        /// Name of a `[materials]` entry.
         material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
         emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
         transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
         matrix: Option<[[f64; 4]; 4]>,
+        /// Number of spheres (required, ≥ 1).
         count: Option<u64>,
     },
 }
@@ -269,15 +344,19 @@ impl ShapeSpec {
             ShapeSpec::SphereGrid { .. } => "sphere_grid",
         }
     }
+    /// The `material` field, whatever the type.
     pub fn material(&self) -> &str {
         common_fields!(self, material => material)
     }
+    /// The `emission` field, whatever the type.
     pub fn emission(&self) -> Option<[f64; 3]> {
         common_fields!(self, emission => *emission)
     }
+    /// The `transform` field, whatever the type.
     pub fn transform(&self) -> Option<&[TransformStep]> {
         common_fields!(self, transform => transform.as_deref())
     }
+    /// The `matrix` field, whatever the type.
     pub fn matrix(&self) -> Option<&[[f64; 4]; 4]> {
         common_fields!(self, matrix => matrix.as_ref())
     }
@@ -420,47 +499,71 @@ fn shape_error(i: usize, kind: Option<&str>, msg: &str) -> String {
     }
 }
 
+/// One step of a shape's `transform`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum TransformStep {
+    /// Translate by this vector.
     Translate([f64; 3]),
-    Rotate { axis: [f64; 3], deg: f64 },
+    /// Rotate about `axis` through the origin.
+    Rotate {
+        /// Rotation axis (non-zero; need not be unit).
+        axis: [f64; 3],
+        /// Angle in degrees.
+        deg: f64,
+    },
+    /// Scale about the origin.
     Scale(ScaleSpec),
 }
 
+/// A scale factor: one for every axis, or one per axis.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(untagged)]
 pub enum ScaleSpec {
+    /// The same factor on every axis.
     Uniform(f64),
+    /// Factors for x, y and z.
     PerAxis([f64; 3]),
 }
 
+/// `[[lights]]`, by `type`.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LightSpec {
     /// Intensity in W/sr: irradiance I·cosθ/r².
     Point {
+        /// Position in world space.
         position: [f64; 3],
+        /// Intensity per channel in W/sr (≥ 0).
         intensity: [f64; 3],
     },
     /// Uniform radiance from every direction at infinity.
-    Environment { radiance: [f64; 3] },
+    Environment {
+        /// Radiance per channel (≥ 0).
+        radiance: [f64; 3],
+    },
 }
 
 /// Changes an experiment applies on top of a scene file.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SceneOverrides {
+    /// Replaces `camera.width`.
     pub width: Option<u32>,
+    /// Replaces `camera.height`.
     pub height: Option<u32>,
+    /// Replaces `render.spp`.
     pub spp: Option<u32>,
+    /// Replaces `render.max_depth`.
     pub max_depth: Option<i32>,
+    /// Replaces `render.seed`.
     pub seed: Option<u64>,
     /// Replaces `count` of every generator shape.
     pub generator_count: Option<u64>,
 }
 
 impl SceneOverrides {
+    /// Write these overrides into `file`.
     pub fn apply(&self, file: &mut SceneFile) {
         if let Some(w) = self.width {
             file.camera.width = w;

@@ -26,13 +26,18 @@ use glam::{DVec3, Vec3};
 /// `light` of a primitive that emits nothing.
 pub const NO_LIGHT: u32 = u32::MAX;
 
+/// A diffuse albedo: constant, or a procedural pattern.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Texture {
+    /// The same albedo everywhere.
     Constant(Vec3),
     /// `even` where ⌊x/size⌋ + ⌊y/size⌋ is even, in world coordinates.
     Checker {
+        /// Albedo of the even cells.
         even: Vec3,
+        /// Albedo of the odd cells.
         odd: Vec3,
+        /// Cell edge length in world units.
         size: f64,
     },
 }
@@ -56,34 +61,58 @@ impl Texture {
     }
 }
 
+/// How a surface scatters light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian, one-sided: black when seen from behind its normal.
-    Diffuse { reflectance: Texture },
+    Diffuse {
+        /// Albedo, each channel in [0, 1].
+        reflectance: Texture,
+    },
     /// Perfect specular reflection, one-sided like diffuse.
-    Mirror { reflectance: Vec3 },
+    Mirror {
+        /// Reflected fraction per channel, in [0, 1].
+        reflectance: Vec3,
+    },
     /// Smooth dielectric (two-sided), interior index `ior`, exterior 1.
-    Dielectric { ior: f32 },
+    Dielectric {
+        /// Interior index of refraction (> 0).
+        ior: f32,
+    },
 }
 
+/// A light source, in render space.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light, intensity in W/sr.
-    Point { position: Vec3, intensity: Vec3 },
+    Point {
+        /// Position in render space.
+        position: Vec3,
+        /// Intensity per channel in W/sr.
+        intensity: Vec3,
+    },
     /// An emitting shape: its primitives, their area CDF and its radiance (front side only).
     Area {
+        /// Primitive ids of the shape.
         prims: Vec<u32>,
+        /// Running sum of the primitives' areas in `prims` order (the last is `area`).
         cdf: Vec<f32>,
+        /// Total area of the shape.
         area: f32,
+        /// Emitted radiance per channel.
         radiance: Vec3,
     },
     /// Constant radiance from every direction at infinity.
-    Environment { radiance: Vec3 },
+    Environment {
+        /// Radiance per channel.
+        radiance: Vec3,
+    },
 }
 
 /// Per-primitive data the renderer needs after a hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PrimInfo {
+    /// Index into `Scene::materials`.
     pub material: u32,
     /// Index into `Scene::lights` when the primitive emits, else [`NO_LIGHT`].
     pub light: u32,
@@ -95,15 +124,20 @@ pub struct PrimInfo {
 /// triangle `p − spheres.len()`; every tracer reports hits with these ids.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
+    /// Spheres: primitive ids `0..spheres.len()`.
     pub spheres: Vec<Sphere>,
+    /// Triangles: primitive ids from `spheres.len()` on.
     pub triangles: Vec<Triangle>,
+    /// Per-primitive data, indexed by primitive id.
     pub info: Vec<PrimInfo>,
 }
 
 impl Geometry {
+    /// Number of primitives (spheres and triangles).
     pub fn len(&self) -> usize {
         self.spheres.len() + self.triangles.len()
     }
+    /// Whether there is no primitive at all.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -140,26 +174,37 @@ impl Geometry {
 /// The sampling and transport settings of a render.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderSettings {
+    /// Samples per pixel.
     pub spp: u32,
     /// Path segments, the one reaching an emitter included (docs/conventions.md); −1 = unlimited.
     pub max_depth: i32,
+    /// Seed of every random number of the render.
     pub seed: u64,
 }
 
 /// What a scene needs; the renderer and tracer build nothing for what it does not.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Features {
+    /// Some triangle.
     pub triangles: bool,
+    /// Some sphere.
     pub spheres: bool,
+    /// Some emitting shape of positive area.
     pub area_lights: bool,
+    /// Some point light.
     pub point_lights: bool,
+    /// An environment light.
     pub environment: bool,
+    /// Some primitive has a dielectric material.
     pub refraction: bool,
+    /// Some primitive has a mirror material.
     pub mirrors: bool,
+    /// Some primitive has a checker texture.
     pub textures: bool,
 }
 
 impl Features {
+    /// The feature names as written to CSV, in field order.
     pub const NAMES: [&'static str; 8] = [
         "triangles",
         "spheres",
@@ -222,6 +267,7 @@ pub struct LoadStats {
 /// A loaded scene: immutable after [`load_scene`], `Sync`, shared by `&`/`Arc` across workers.
 #[derive(Clone, Debug)]
 pub struct Scene {
+    /// Scene name: the file's `name`, else its stem.
     pub name: String,
     /// FNV-1a of the canonical scene text (after overrides) and every mesh file it reads.
     pub hash: u64,
@@ -231,20 +277,28 @@ pub struct Scene {
     pub camera: Camera,
     /// One camera per frame (≥ 1); `cameras[0] == camera`.
     pub cameras: Vec<Camera>,
+    /// Sampling and transport settings.
     pub settings: RenderSettings,
+    /// Materials, indexed by material id (name order).
     pub materials: Vec<Material>,
+    /// Every primitive, in render space.
     pub geometry: Geometry,
+    /// Area lights (one per emitting shape of positive area), then the file's lights in order.
     pub lights: Vec<Light>,
     /// Index of the environment light in `lights`, if any.
     pub environment: Option<u32>,
+    /// What the scene uses.
     pub features: Features,
+    /// Counts made while loading.
     pub load_stats: LoadStats,
 }
 
 impl Scene {
+    /// Image width in pixels.
     pub fn width(&self) -> u32 {
         self.camera.width
     }
+    /// Image height in pixels.
     pub fn height(&self) -> u32 {
         self.camera.height
     }

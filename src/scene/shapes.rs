@@ -37,7 +37,7 @@ pub(super) struct Builder<'a> {
 }
 
 impl<'a> Builder<'a> {
-    pub fn new(
+    pub(crate) fn new(
         cx: &'a Ctx<'a>,
         origin: DVec3,
         material_ids: &'a BTreeMap<String, u32>,
@@ -57,7 +57,12 @@ impl<'a> Builder<'a> {
     }
 
     /// Check and add shape `at` (`shapes[i]`); mesh files read are fed to `hash`.
-    pub fn add(&mut self, at: &str, shape: &ShapeSpec, hash: &mut Fnv64) -> Result<(), SceneError> {
+    pub(crate) fn add(
+        &mut self,
+        at: &str,
+        shape: &ShapeSpec,
+        hash: &mut Fnv64,
+    ) -> Result<(), SceneError> {
         let cx = self.cx;
         let material = *self.material_ids.get(shape.material()).ok_or_else(|| {
             cx.err(
@@ -190,7 +195,7 @@ impl<'a> Builder<'a> {
     }
 
     /// Number the primitives (spheres first) and turn the emitting shapes into area lights.
-    pub fn finish(self) -> Shapes {
+    pub(crate) fn finish(self) -> Shapes {
         let mut geometry = self.geometry;
         geometry.info = self.sphere_info.into_iter().chain(self.tri_info).collect();
         let area_lights = self
