@@ -91,7 +91,7 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     po
 }
 
-/// A triangle stored for intersection: a vertex, two edges and the unnormalised normal.
+/// A triangle stored for intersection: a vertex and two edges.
 /// The geometric normal `e1 × e2` follows the winding (counter-clockwise seen from the front).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triangle {
