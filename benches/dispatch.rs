@@ -42,6 +42,11 @@
 //! `cargo bench --bench dispatch` (~2 min)
 //! `cargo bench --bench dispatch -- self_scheduling` for one scheduler
 
+#![allow(
+    missing_docs,
+    reason = "`criterion_group!` expands to an undocumented `pub fn`, and an attribute on the macro call is ignored"
+)]
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};

@@ -5,6 +5,11 @@
 //!
 //! `cargo bench --bench tracers --features embree`; without the feature only bvh/brute run.
 
+#![allow(
+    missing_docs,
+    reason = "`criterion_group!` expands to an undocumented `pub fn`, and an attribute on the macro call is ignored"
+)]
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rayon::prelude::*;
 use raysched::geometry::Ray;

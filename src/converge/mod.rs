@@ -27,23 +27,35 @@ use std::time::Instant;
 /// One step of a progressive render: the image after `spp` samples against the reference.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConvergenceRow {
+    /// Scene name.
     pub scene: String,
+    /// Tracer id.
     pub tracer: String,
+    /// Scheduler label ([`ROWS_RAYON`] for [`run_convergence`]).
     pub scheduler: String,
+    /// Worker threads.
     pub threads: usize,
+    /// How the reference image was obtained ([`ReferenceKind::label`]).
     pub reference: String,
+    /// Step index, from 0.
     pub step: u32,
+    /// Samples per pixel accumulated so far (1, 2, 4, … `max_spp`).
     pub spp: u32,
     /// Cumulative render time of all steps so far (reference and setup excluded).
     pub wall_s: f64,
+    /// Root-mean-square error against the reference, over pixels and channels.
     pub rmse: f64,
     /// Mean of (x − r)²/(r² + 0.01) over pixels and channels.
     pub rel_mse: f64,
+    /// Mean absolute error over pixels and channels.
     pub mae: f64,
+    /// Largest absolute error of any pixel channel.
     pub max_err: f64,
     /// Pixels with at least one NaN/Inf sample so far (those samples are dropped, counted).
     pub nonfinite_pixels: u64,
+    /// NaN/Inf samples dropped so far, over all pixels.
     pub nonfinite_samples: u64,
+    /// Tracer queries (closest-hit and occlusion) of all steps so far.
     pub rays: u64,
 }
 
@@ -285,10 +297,16 @@ pub fn error_at_budget(rows: &[ConvergenceRow], budget: f64) -> Option<f64> {
 /// budget every configuration of the same scene reached. Best (lowest error) first per scene.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ConvergenceSummary {
+    /// Scene name.
     pub scene: String,
+    /// The configuration, as `tracer/scheduler/<threads>t`.
     pub config: String,
+    /// [`fitted_slope`] of the configuration's rows (`None`: fewer than two usable rows).
     pub slope: Option<f64>,
+    /// The common budget, in seconds: the largest wall time every configuration of the scene
+    /// reached.
     pub budget_s: f64,
+    /// [`error_at_budget`] at `budget_s` (`None`: the first step took longer than the budget).
     pub rmse_at_budget: Option<f64>,
 }
 
@@ -299,6 +317,8 @@ fn config_key(r: &ConvergenceRow) -> (String, String) {
     )
 }
 
+/// Group `rows` by configuration and summarise each ([`ConvergenceSummary`]), sorted by scene,
+/// then by RMSE at the budget (lowest first, configurations without one last).
 pub fn summarise(rows: &[ConvergenceRow]) -> Vec<ConvergenceSummary> {
     let mut groups: std::collections::BTreeMap<(String, String), Vec<ConvergenceRow>> =
         Default::default();

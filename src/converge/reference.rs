@@ -26,29 +26,39 @@ use std::path::{Path, PathBuf};
 /// A reference image and how exact each pixel is.
 #[derive(Clone, Debug)]
 pub struct Reference {
+    /// The reference radiance, linear RGB, the scene's size.
     pub image: Image,
     /// `true` where the value is exact (analytic); mixed edge pixels and rendered references
     /// are `false`.
     pub exact: Vec<bool>,
+    /// Where the image came from.
     pub kind: ReferenceKind,
     /// Environment references: sub-pixel rays that hit a surface hidden from the sky (through a
     /// crack, e.g. the shared edge of a rectangle's two triangles). Their pixels are not exact.
     pub leaks: u64,
 }
 
+/// How a reference image was obtained (the analytic kinds are described in the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ReferenceKind {
+    /// Analytic: the camera inside an emitting diffuse sphere.
     Interior,
+    /// Analytic: an environment light over convex diffuse surfaces.
     EnvironmentConvex,
+    /// Analytic: a diffuse rectangle under point lights.
     PlanePointLights,
     /// Rendered by raysched with this many samples per pixel (cached at `path`).
     Rendered {
+        /// Samples per pixel; 0 when unknown (an image supplied from outside).
         spp: u32,
+        /// The EXR file it was read from or cached to; `None` when it was never on disk.
         path: Option<PathBuf>,
     },
 }
 
 impl ReferenceKind {
+    /// The label written in [`super::ConvergenceRow::reference`], e.g. `analytic_interior` or
+    /// `rendered_4096spp`.
     pub fn label(&self) -> String {
         match self {
             Self::Interior => "analytic_interior".into(),

@@ -186,6 +186,8 @@ unsafe extern "C" fn sphere_occluded(args: *const ffi::RTCOccludedFunctionNArgum
     }
 }
 
+/// An Embree device and committed scene over one scene's geometry; queries take `&self` and
+/// may run on any number of threads at once.
 pub struct EmbreeTracer {
     device: ffi::RTCDevice,
     scene: ffi::RTCScene,
@@ -392,6 +394,7 @@ impl EmbreeTracer {
         }
     }
 
+    /// The options it was built with.
     pub fn options(&self) -> EmbreeOptions {
         self.options
     }

@@ -4,23 +4,38 @@ use super::WorkItem;
 use crate::hash::Fnv64;
 use std::path::{Path, PathBuf};
 
+/// A linear RGB image, row-major: pixel (x, y) is `data[y·width + x]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Width, in pixels.
     pub width: u32,
+    /// Height, in pixels.
     pub height: u32,
     /// Row 0 is the top row.
     pub data: Vec<[f32; 3]>,
 }
 
+/// Why an image could not be saved or loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
     #[error("{path}: unsupported image extension (use .exr or .pfm)")]
-    Extension { path: String },
+    /// The path's extension names no supported data format; nothing was written.
+    Extension {
+        /// The path as given.
+        path: String,
+    },
     #[error("{path}: {msg}")]
-    Io { path: String, msg: String },
+    /// Reading, writing or encoding a file failed.
+    Io {
+        /// The file concerned.
+        path: String,
+        /// The underlying error's message.
+        msg: String,
+    },
 }
 
 impl Image {
+    /// A black image of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         Self {
             width,
@@ -79,6 +94,10 @@ impl Image {
             .collect()
     }
 
+    /// Pixel (x, y), row 0 at the top. `x` must be below `width` (not checked).
+    ///
+    /// # Panics
+    /// If `y·width + x` is past the last pixel.
     pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
         self.data[(y * self.width + x) as usize]
     }
@@ -177,6 +196,7 @@ impl Image {
     }
 }
 
+/// Linear value to sRGB-encoded in [0, 1]: clamped first, NaN and infinities give 0.
 pub fn srgb_encode(v: f32) -> f32 {
     let v = if v.is_finite() {
         v.clamp(0.0, 1.0)

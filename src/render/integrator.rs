@@ -15,8 +15,11 @@ use std::f32::consts::{FRAC_1_PI, PI};
 /// feature the scene lacks is compiled out of the per-ray loop (no branch, no match arm).
 /// [`feature_flags`] picks the set once per item (`render_sums`), never per ray.
 pub trait FeatureSet {
+    /// An environment light.
     const ENV: bool;
+    /// Area lights (emissive primitives).
     const AREA: bool;
+    /// Point lights.
     const POINT: bool;
     /// Mirrors or dielectrics (the specular bounces).
     const SPECULAR: bool;
@@ -53,14 +56,19 @@ const SHADOW_EPSILON: f32 = 1e-4;
 
 /// Where a ray hit, in the form shading needs.
 pub struct Interaction {
+    /// Hit point, in the scene geometry's (render-space) coordinates.
     pub p: Vec3,
+    /// Per-axis bound on the floating-point error of `p`, for offsetting spawned rays.
     pub p_err: Vec3,
     /// Geometric normal: triangle winding, or sphere outward (inward when flipped).
     pub n: Vec3,
+    /// Index into `Scene::materials` of the primitive hit.
     pub material: u32,
+    /// Index into `Scene::lights` when the primitive hit emits, else [`NO_LIGHT`].
     pub light: u32,
 }
 
+/// Shading data for `hit`, a hit of `ray` in `scene`.
 pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
     let g = &scene.geometry;
     let info = g.info[hit.prim as usize];

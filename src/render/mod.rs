@@ -20,7 +20,16 @@ use std::ops::Range;
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Region {
     /// An axis-aligned block: one pixel (1×1), a tile, a band of rows, or the whole frame.
-    Rect { x: u32, y: u32, w: u32, h: u32 },
+    Rect {
+        /// Left column, in pixels.
+        x: u32,
+        /// Top row, in pixels (row 0 is the top of the image).
+        y: u32,
+        /// Width, in pixels.
+        w: u32,
+        /// Height, in pixels.
+        h: u32,
+    },
     /// Any set of pixel indices (`y·width + x`), in the order they are rendered.
     Pixels(Vec<u32>),
 }
@@ -28,7 +37,9 @@ pub enum Region {
 /// A region of one frame of the scene (frame 0 for a static scene).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct WorkItem {
+    /// Identifies the item; copied into its [`TileResult::item`].
     pub id: u32,
+    /// The pixels to render.
     pub region: Region,
     /// Animation frame the region belongs to.
     #[serde(default)]
@@ -50,6 +61,7 @@ impl WorkItem {
         Self { frame, ..self }
     }
 
+    /// Number of pixels in the region.
     pub fn pixel_count(&self) -> usize {
         match &self.region {
             Region::Rect { w, h, .. } => *w as usize * *h as usize,
@@ -72,7 +84,9 @@ impl WorkItem {
 /// The result of rendering one item: pixels in the item's order plus counters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TileResult {
+    /// [`WorkItem::id`] of the item rendered.
     pub item: u32,
+    /// Linear RGB value of each pixel (its sample mean), in [`WorkItem::pixels`] order.
     pub pixels: Vec<[f32; 3]>,
     /// Tracer queries (closest-hit and occlusion).
     pub rays: u64,
@@ -148,11 +162,15 @@ pub fn render_sums_full<T: Tracer + ?Sized>(
 /// Per-pixel first and second moments of a sample range (f64, fixed order), for error bars.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Moments {
+    /// Per pixel (item order), the sum of its finite RGB samples.
     pub sums: Vec<[f64; 3]>,
+    /// Per pixel (item order), the sum of its finite RGB samples squared, channel by channel.
     pub sq_sums: Vec<[f64; 3]>,
     /// Finite samples per pixel (NaN/Inf samples are dropped and counted in `nonfinite`).
     pub counts: Vec<u32>,
+    /// Tracer queries (closest-hit and occlusion).
     pub rays: u64,
+    /// Samples dropped because their radiance was NaN or infinite.
     pub nonfinite: u64,
 }
 
@@ -252,7 +270,9 @@ pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkIte
 /// Counters of a whole-image render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderCounters {
+    /// Tracer queries (closest-hit and occlusion), summed over every item.
     pub rays: u64,
+    /// NaN or infinite samples dropped, summed over every item.
     pub nonfinite: u64,
 }
 

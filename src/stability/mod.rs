@@ -19,34 +19,46 @@ use std::path::Path;
 /// One row of the stability table.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CaseResult {
+    /// The kind of hazard tested (e.g. `degenerate`, `dielectric`).
     pub group: String,
+    /// What this case checks, in words.
     pub case: String,
+    /// Expected value: a channel-averaged image mean, or a count.
     pub expected: f64,
+    /// Measured value, in the same unit as `expected`.
     pub measured: f64,
     /// Standard error of `measured − expected` (0 for counts).
     pub sigma: f64,
+    /// `|measured − expected| / |expected|` (the absolute difference when `expected` is 0).
     pub rel_error: f64,
     /// NaN/Inf samples (dropped and counted, never written).
     pub nonfinite: u64,
     /// Pixels further than 5σ (+ tolerance) from their own expected value.
     pub outlier_pixels: u64,
+    /// Whether the case passed: normally within 3σ (+ [`REL_TOL`]) with no NaN/Inf sample and
+    /// at most 1 % outlier pixels; a count case passes when the counts are equal.
     pub pass: bool,
     /// `false`: reported only (e.g. t = 1e8), the suite does not fail on it.
     pub required: bool,
+    /// Free-text detail: what was compared, or why the case could not run.
     pub note: String,
 }
 
 /// Image size and samples of every case.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
+    /// Width and height of every case's image, in pixels.
     pub size: u32,
+    /// Samples per pixel (some cases use a multiple of it).
     pub spp: u32,
+    /// Render threads.
     pub threads: usize,
     /// `true`: the short list of transforms (the `cargo test` subset).
     pub quick: bool,
 }
 
 impl Budget {
+    /// The small budget of the `cargo test` subset: 24×24 pixels, 8 spp, 2 threads.
     pub const QUICK: Self = Self {
         size: 24,
         spp: 8,

@@ -4,11 +4,13 @@ use super::Tracer;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Geometry;
 
+/// Tests every primitive, in id order, for every query: no acceleration structure.
 pub struct BruteTracer {
     geometry: Geometry,
 }
 
 impl BruteTracer {
+    /// A tracer over a copy of `geometry`.
     pub fn new(geometry: &Geometry) -> Self {
         Self {
             geometry: geometry.clone(),

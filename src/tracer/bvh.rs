@@ -44,12 +44,15 @@ pub const BUILD_PARAMS: BvhBuildParams = {
     p
 };
 
+/// The native tracer: a [`Bvh4`] over the scene's primitives, or (from [`BvhTracer::new`], below
+/// [`BVH_MIN_PRIMS`]) a linear list.
 pub struct BvhTracer {
     bvh: Option<Bvh4>,
     /// Set when the scene is below [`BVH_MIN_PRIMS`]: primitives tested linearly instead.
     linear: Option<Geometry>,
     /// Primitives in the BVH's leaf order (scene ids: [`Bvh4::order`]).
     prims: Vec<LeafPrim>,
+    /// Wall time of the build (zero for the linear list of [`BvhTracer::new`]).
     pub build_time: Duration,
 }
 
@@ -77,6 +80,7 @@ impl BvhTracer {
         self.bvh.is_some()
     }
 
+    /// Always a BVH (none for empty geometry), built with obvhs parameters `params`.
     pub fn with_params(geometry: &Geometry, params: BvhBuildParams) -> Self {
         let start = std::time::Instant::now();
         if geometry.is_empty() {

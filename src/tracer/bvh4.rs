@@ -97,6 +97,7 @@ thread_local! {
     static STACK: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
 }
 
+/// A 4-wide BVH flattened from an obvhs binary BVH; leaves index into [`Bvh4::order`].
 pub struct Bvh4 {
     nodes: Vec<Node4>,
     /// What the traversal starts from: node 0, or a single leaf when the tree is one leaf.

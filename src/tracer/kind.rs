@@ -31,6 +31,7 @@ pub enum TracerKind {
 }
 
 impl TracerKind {
+    /// Every tracer, including those whose cargo feature this build lacks.
     pub const ALL: [TracerKind; 4] = [
         TracerKind::Bvh,
         TracerKind::Brute,
@@ -38,6 +39,7 @@ impl TracerKind {
         TracerKind::EmbreeRobust,
     ];
 
+    /// The stable snake_case id (`bvh`, `brute`, `embree`, `embree_robust`).
     pub fn id(self) -> &'static str {
         match self {
             TracerKind::Bvh => "bvh",

@@ -18,6 +18,12 @@ pub use kind::TracerKind;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Scene;
 
+/// Closest-hit and occlusion queries over one scene's geometry.
+///
+/// An implementation is built once per scene and must then be immutable and safe to query from
+/// any number of threads at once. Its answer for a ray must depend only on the ray and `t_max`,
+/// never on which thread asks or in what order: images are compared bit for bit across
+/// schedulers. Hits report raysched's primitive ids (spheres first, then triangles).
 pub trait Tracer: Send + Sync {
     /// Stable snake_case id used by the CLI, TOML and CSV.
     fn id(&self) -> &'static str;
@@ -32,20 +38,37 @@ pub trait Tracer: Send + Sync {
     }
 }
 
+/// Why a tracer could not be chosen or built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TracerError {
     #[error("unknown tracer '{0}' (expected one of: {ids})", ids = TracerKind::id_list())]
+    /// The id names no tracer; holds the id as given.
     Unknown(String),
     #[error("tracer '{id}' needs cargo feature '{feature}', which this build was compiled without (rebuild with --features {feature})")]
-    FeatureOff { id: String, feature: String },
+    /// The tracer exists but this build was compiled without its cargo feature.
+    FeatureOff {
+        /// The tracer's id.
+        id: String,
+        /// The cargo feature it needs.
+        feature: String,
+    },
     #[error("tracer '{id}' failed to build: {msg}")]
-    Build { id: String, msg: String },
+    /// Building the tracer for the scene failed (e.g. an error Embree reported).
+    Build {
+        /// The tracer's id.
+        id: String,
+        /// What the library reported.
+        msg: String,
+    },
 }
 
 /// Every tracer behind one enum: static dispatch, one `match` per query.
 pub enum AnyTracer {
+    /// The native 4-wide BVH.
     Bvh(BvhTracer),
+    /// Every primitive per ray.
     Brute(BruteTracer),
+    /// Intel Embree, default or robust.
     #[cfg(feature = "embree")]
     Embree(crate::embree::EmbreeTracer),
 }

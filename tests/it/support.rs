@@ -7,22 +7,23 @@ use raysched::tracer::Tracer;
 use std::path::{Path, PathBuf};
 
 /// A 4×4 camera at (0, 0, 10) looking at the origin, for scenes that are only ray-cast.
-pub const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
+pub(crate) const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
 
 /// One grey diffuse material, `m`.
-pub const GREY_M: &str = "[materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
+pub(crate) const GREY_M: &str =
+    "[materials.m]\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
 
-pub fn scene_path(name: &str) -> PathBuf {
+pub(crate) fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
         .join(name)
 }
 
-pub fn load(name: &str, overrides: SceneOverrides) -> Scene {
+pub(crate) fn load(name: &str, overrides: SceneOverrides) -> Scene {
     load_scene(&scene_path(name), &overrides).unwrap_or_else(|e| panic!("{e}"))
 }
 
-pub fn load_str(text: &str) -> Scene {
+pub(crate) fn load_str(text: &str) -> Scene {
     load_scene_str(
         text,
         "test",
@@ -34,7 +35,7 @@ pub fn load_str(text: &str) -> Scene {
 }
 
 /// Mean and standard error of the mean of channel `c` over every sample of every pixel given.
-pub struct Estimate {
+pub(crate) struct Estimate {
     pub mean: f64,
     pub se: f64,
     pub n: usize,
@@ -43,7 +44,7 @@ pub struct Estimate {
 
 impl Estimate {
     /// |mean − expected| within 3 standard errors (plus a float-rounding floor for σ = 0).
-    pub fn assert_within_3se(&self, expected: f64, what: &str) {
+    pub(crate) fn assert_within_3se(&self, expected: f64, what: &str) {
         let tol = 3.0 * self.se + 1e-5 * expected.abs().max(1.0);
         assert!(
             (self.mean - expected).abs() <= tol,
@@ -58,7 +59,7 @@ impl Estimate {
     }
 }
 
-pub fn estimate<T: Tracer>(
+pub(crate) fn estimate<T: Tracer>(
     scene: &Scene,
     tracer: &T,
     pixels: &[u32],
