@@ -9,7 +9,6 @@
     missing_docs,
     reason = "raw bindings: each item mirrors its namesake in Embree 3's rtcore*.h"
 )]
-
 #![allow(non_camel_case_types, clippy::upper_case_acronyms)]
 
 use std::ffi::{c_char, c_int, c_uint, c_void};
