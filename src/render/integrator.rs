@@ -204,16 +204,22 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
             position,
             intensity,
         } if F::POINT => {
-            let o = offset_ray_origin(it.p, it.p_err, it.n, *position - it.p);
-            let d = *position - o;
-            let dist2 = d.length_squared();
-            let wi = d / dist2.sqrt();
+            // Geometry from the hit point itself: the offset origin is only where the shadow ray
+            // starts. Near a light (1e-4 above a plane seen from 30 units) the offset is a few
+            // per cent of the distance, so measuring from it would bias cosθ/r².
+            let to = *position - it.p;
+            let dist2 = to.length_squared();
+            if dist2 == 0.0 {
+                return Vec3::ZERO;
+            }
+            let wi = to / dist2.sqrt();
             let cos = it.n.dot(wi);
             if cos <= 0.0 {
                 return Vec3::ZERO;
             }
+            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
             *rays += 1;
-            if tracer.occluded(&Ray::new(o, d), 1.0 - SHADOW_EPSILON) {
+            if tracer.occluded(&Ray::new(o, *position - o), 1.0 - SHADOW_EPSILON) {
                 return Vec3::ZERO;
             }
             f * *intensity * (cos / (dist2 * sel))

@@ -164,3 +164,93 @@ fn cornell_box_is_lit_and_coloured_as_specified() {
         "ceiling above the light should be dim: {above}"
     );
 }
+
+/// Solid angle of the rectangle `[x0,x1]×[y0,y1]` of the plane z = 0 seen from `(0, 0, h)`:
+/// ∫∫ h/(h² + x² + y²)^{3/2} dx dy, from the antiderivative atan(xy / (h·√(h² + x² + y²))).
+fn rectangle_solid_angle(h: f64, x: [f64; 2], y: [f64; 2]) -> f64 {
+    let f = |x: f64, y: f64| (x * y / (h * (h * h + x * x + y * y).sqrt())).atan();
+    f(x[1], y[1]) - f(x[0], y[1]) - f(x[1], y[0]) + f(x[0], y[0])
+}
+
+/// A point light `h` = 1e-4 above a diffuse plane, seen from `cam_h` straight above. Each pixel's
+/// footprint on the plane is a square, so its exact mean is (ρ/π)·I·Ω/area with Ω the footprint's
+/// solid angle from the light. Every pixel but the one under the light is checked, and the pooled relative error of all of
+/// them is bounded by its own standard error (≈0.03 %), far below a 1 % bias.
+#[test]
+fn point_light_just_above_a_plane_matches_the_integral_at_every_pixel() {
+    let (rho, intensity, fov, n) = (0.5f64, 1e-6f64, 60.0f64, 33u32);
+    for cam_h in [3.0f64, 30.0] {
+        let text = format!(
+            "[camera]\norigin = [0, 0, {cam_h}]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\n\
+             fov_deg = {fov}\nwidth = {n}\nheight = {n}\n[render]\nmax_depth = 2\n\
+             [materials.plane]\ntype = \"diffuse\"\nreflectance = [{rho}, {rho}, {rho}]\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"plane\"\n\
+             transform = [{{ scale = [100, 100, 1] }}]\n\
+             [[lights]]\ntype = \"point\"\nposition = [0, 0, 1e-4]\n\
+             intensity = [{intensity}, {intensity}, {intensity}]\n"
+        );
+        let scene = crate::support::load_str(&text);
+        let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
+        // The light's height as the scene holds it: render space is f32 around the camera, so
+        // at 30 units 1e-4 is stored as 0.9918e-4 (the plane at −30 is exact).
+        let h = match &scene.lights[0] {
+            raysched::scene::Light::Point { position, .. } => {
+                position.z as f64 - (-cam_h as f32) as f64
+            }
+            _ => unreachable!(),
+        };
+        assert!((h / 1e-4 - 1.0).abs() < 0.01);
+        let half = (fov / 2.0).to_radians().tan() * cam_h;
+        let side = 2.0 * half / n as f64;
+        // The mean of the per-pixel relative errors, and its standard error.
+        let (mut wsum, mut wrsum, mut var_sum) = (0.0f64, 0.0f64, 0.0f64);
+        let mut worst = (0.0f64, 0u32);
+        // The pixel holding the light's foot is left out: its samples are heavy-tailed (a spike
+        // of width 1e-4 in a footprint of 0.1 or 1), so its sample σ is no bound on its error.
+        for p in (0..n * n).filter(|&p| p != n * n / 2) {
+            let (px, py) = ((p % n) as f64, (p / n) as f64);
+            let x = [-half + px * side, -half + (px + 1.0) * side];
+            let y = [half - (py + 1.0) * side, half - py * side];
+            let expected = rho / std::f64::consts::PI * intensity * rectangle_solid_angle(h, x, y)
+                / (side * side);
+            let e = estimate(&scene, &tracer, &[p], 64, 0);
+            assert_eq!(e.nonfinite, 0);
+            let rel = e.mean / expected - 1.0;
+            let rel_se = e.se / expected + 1e-6;
+            // 5 standard errors per pixel: over 1089 pixels a false alarm has p ≈ 6e-4.
+            assert!(
+                rel.abs() <= 5.0 * rel_se,
+                "camera {cam_h}: pixel {p} mean {:.6e} expected {expected:.6e} ({:+.3} %, se {:.3} %)",
+                e.mean,
+                100.0 * rel,
+                100.0 * rel_se
+            );
+            // Equal weights: weighting by the sampled σ would favour pixels whose samples
+            // happened to fall low (skewed estimates), a bias of its own.
+            wsum += 1.0;
+            wrsum += rel;
+            var_sum += rel_se * rel_se;
+            if rel.abs() > worst.0.abs() {
+                worst = (rel, p);
+            }
+        }
+        let (pooled, pooled_se) = (wrsum / wsum, var_sum.sqrt() / wsum);
+        eprintln!(
+            "camera {cam_h}: pooled {:+.4} % ± {:.4} %, worst pixel {} {:+.3} %",
+            100.0 * pooled,
+            100.0 * pooled_se,
+            worst.1,
+            100.0 * worst.0
+        );
+        assert!(
+            pooled_se < 0.002,
+            "camera {cam_h}: pooled se {pooled_se} too wide to see a 1 % bias"
+        );
+        assert!(
+            pooled.abs() <= 4.0 * pooled_se,
+            "camera {cam_h}: pooled relative error {:+.4} % (± {:.4} %)",
+            100.0 * pooled,
+            100.0 * pooled_se
+        );
+    }
+}
