@@ -235,9 +235,51 @@ impl Sphere {
         let local = p - c;
         let local = local * (self.radius as f64 / local.length());
         let n = local.normalize().as_vec3();
-        let p = (c + local).as_vec3();
-        let err = (local.as_vec3().abs() * gamma(5)) + self.center.abs() * gamma(2);
+        let p64 = c + local;
+        let p = p64.as_vec3();
+        // `p64` lies on the sphere to f64 precision (≈1e-16 relative), so the error of `p` is its
+        // one rounding to f32, u·|p|, plus a margin that covers the f64 work many times over.
+        // A looser bound pushes spawned rays past an interface 1e-6 inside the sphere (a nested
+        // dielectric), which then goes missing from the path.
+        let slack = (p64.abs().max_element() + self.radius as f64) * 1e-12;
+        let err = p.abs() * gamma(1) + Vec3::splat(slack as f32);
         (p, err, n)
+    }
+}
+
+impl Sphere {
+    /// Where a ray leaving this sphere's surface point `p` along `w` starts: the f32 point
+    /// nearest `p` that is certainly on the side `w` points to (outside when `w` points away
+    /// from the centre), decided exactly in f64 as [`Sphere::intersect`] decides it, so that the
+    /// sphere is not hit again at `t ≈ 0` yet a surface more than an ulp away is not jumped
+    /// over. `offset_ray_origin`'s error box is several ulps: a dielectric 1e-6 inside this one,
+    /// 5 units from the camera, would be skipped. `None` if a few ulps do not settle it (the
+    /// caller then falls back to the error-box offset).
+    pub fn spawn_origin(&self, p: Vec3, w: Vec3) -> Option<Vec3> {
+        let c = self.center.as_dvec3();
+        let r = self.radius as f64;
+        let outward = (p.as_dvec3() - c).dot(w.as_dvec3()) > 0.0;
+        // |o − c|² − r² is computed to ~1e-16·r²; demand a sign far beyond that.
+        let margin = r * r * 1e-12;
+        let n = p.as_dvec3() - c;
+        let mut o = p;
+        for _ in 0..8 {
+            let side = (o.as_dvec3() - c).length_squared() - r * r;
+            if (outward && side > margin) || (!outward && side < -margin) {
+                return Some(o);
+            }
+            for i in 0..3 {
+                let away = n[i] > 0.0;
+                if n[i] != 0.0 {
+                    o[i] = if away == outward {
+                        next_float_up(o[i])
+                    } else {
+                        next_float_down(o[i])
+                    };
+                }
+            }
+        }
+        None
     }
 }
 

@@ -4,7 +4,7 @@
 //! `max_depth` counts path *segments*; the segment that reaches an emitter, or the shadow
 //! connection, counts (docs/conventions.md): 1 = emitters seen directly, 2 = plus direct light.
 
-use crate::geometry::{basis, gamma, offset_ray_origin, Hit, Ray};
+use crate::geometry::{basis, gamma, offset_ray_origin, Hit, Ray, Sphere};
 use crate::rng::Sampler;
 use crate::scene::{Light, Material, Scene, NO_LIGHT};
 use crate::tracer::Tracer;
@@ -66,6 +66,17 @@ pub struct Interaction {
     pub material: u32,
     /// Index into `Scene::lights` when the primitive hit emits, else [`NO_LIGHT`].
     pub light: u32,
+    /// The sphere hit, when the primitive is one: rays leave it from [`Sphere::spawn_origin`].
+    pub sphere: Option<Sphere>,
+}
+
+impl Interaction {
+    /// Origin of a ray leaving this hit along `w`: just on `w`'s side of the surface.
+    pub fn spawn(&self, w: Vec3) -> Vec3 {
+        self.sphere
+            .and_then(|s| s.spawn_origin(self.p, w))
+            .unwrap_or_else(|| offset_ray_origin(self.p, self.p_err, self.n, w))
+    }
 }
 
 /// Shading data for `hit`, a hit of `ray` in `scene`.
@@ -73,13 +84,14 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
     let g = &scene.geometry;
     let info = g.info[hit.prim as usize];
     let ns = g.spheres.len() as u32;
-    let (p, p_err, n) = if hit.prim < ns {
-        let (p, err, n) = g.spheres[hit.prim as usize].point(ray, hit.t);
-        (p, err, if info.flip { -n } else { n })
+    let (p, p_err, n, sphere) = if hit.prim < ns {
+        let sphere = g.spheres[hit.prim as usize];
+        let (p, err, n) = sphere.point(ray, hit.t);
+        (p, err, if info.flip { -n } else { n }, Some(sphere))
     } else {
         let tri = &g.triangles[(hit.prim - ns) as usize];
         let (p, err) = tri.point(hit.b1, hit.b2);
-        (p, err, tri.normal())
+        (p, err, tri.normal(), None)
     };
     Interaction {
         p,
@@ -87,6 +99,7 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
         n,
         material: info.material,
         light: info.light,
+        sphere,
     }
 }
 
@@ -217,7 +230,7 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
             if cos <= 0.0 {
                 return Vec3::ZERO;
             }
-            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
+            let o = it.spawn(wi);
             *rays += 1;
             if tracer.occluded(&Ray::new(o, *position - o), 1.0 - SHADOW_EPSILON) {
                 return Vec3::ZERO;
@@ -243,7 +256,7 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
                 return Vec3::ZERO;
             }
             let light_pdf = sel * dist * dist / (cos_l * area);
-            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
+            let o = it.spawn(wi);
             let target = offset_ray_origin(lp.p, lp.err, lp.n, -wi);
             *rays += 1;
             if tracer.occluded(&Ray::new(o, target - o), 1.0 - SHADOW_EPSILON) {
@@ -259,7 +272,7 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
                 return Vec3::ZERO;
             }
             let light_pdf = sel / (4.0 * PI);
-            let o = offset_ray_origin(it.p, it.p_err, it.n, wi);
+            let o = it.spawn(wi);
             *rays += 1;
             if tracer.occluded(&Ray::new(o, wi), f32::INFINITY) {
                 return Vec3::ZERO;
@@ -398,7 +411,7 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
                 beta /= 1.0 - q;
             }
         }
-        ray = Ray::new(offset_ray_origin(it.p, it.p_err, it.n, next_dir), next_dir);
+        ray = Ray::new(it.spawn(next_dir), next_dir);
     }
     l
 }
