@@ -321,3 +321,75 @@ fn an_index_matched_sphere_just_inside_glass_is_invisible() {
         }
     }
 }
+
+/// Fresnel reflectance of unpolarised light, in f64, written out here independently of the
+/// renderer's: `eta` = n_transmitted / n_incident.
+fn fresnel_reference(cos_i: f64, eta: f64) -> f64 {
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// A single smooth interface of IOR 1.5 (the plane z = 0, glass below) in a uniform environment
+/// of radiance 1, looked at from above and from below at several angles. A camera path either
+/// reflects (probability R) and escapes on its own side, or refracts and escapes on the other,
+/// carrying the radiance scaling 1/η² of crossing: L = R + (1 − R)/η², with η = 1.5 seen from
+/// above and 1/1.5 seen from below (total internal reflection beyond 41.8°: L = 1). The
+/// expected value averages the closed form over each pixel's footprint.
+#[test]
+fn dielectric_interface_matches_fresnel_at_several_angles() {
+    let ior = 1.5f64;
+    for (above, deg) in [
+        (true, 0.0f64),
+        (true, 45.0),
+        (true, 70.0),
+        (true, 85.0),
+        (false, 0.0),
+        (false, 30.0),
+        (false, 40.0),
+        (false, 60.0),
+    ] {
+        let (s, c) = deg.to_radians().sin_cos();
+        let z = if above { 10.0 * c } else { -10.0 * c };
+        let text = format!(
+            "[camera]\norigin = [{}, 0, {z}]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 1\n\
+             width = 4\nheight = 4\n[render]\nmax_depth = 64\n\
+             [materials.glass]\ntype = \"dielectric\"\nior = {ior}\n\
+             [[shapes]]\ntype = \"rectangle\"\nmaterial = \"glass\"\n\
+             transform = [{{ scale = [1000, 1000, 1] }}]\n\
+             [[lights]]\ntype = \"environment\"\nradiance = [1, 1, 1]\n",
+            10.0 * s
+        );
+        let scene = crate::support::load_str(&text);
+        let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
+        let eta = if above { ior } else { 1.0 / ior };
+        let k = 8;
+        let mut expected = 0.0;
+        for p in 0..16u32 {
+            for j in 0..k * k {
+                let (jx, jy) = ((j % k) as f32 + 0.5, (j / k) as f32 + 0.5);
+                let ray = scene
+                    .camera
+                    .pixel_ray(p % 4, p / 4, jx / k as f32, jy / k as f32);
+                let d = ray.d.as_dvec3().normalize();
+                let r = fresnel_reference(d.z.abs(), eta);
+                expected += r + (1.0 - r) / (eta * eta);
+            }
+        }
+        expected /= (16 * k * k) as f64;
+        let pixels: Vec<u32> = (0..16).collect();
+        let e = estimate(&scene, &tracer, &pixels, 4096, 0);
+        eprintln!(
+            "{} {deg}°: mean {:.5} expected {expected:.5} se {:.1e}",
+            if above { "above" } else { "below" },
+            e.mean,
+            e.se
+        );
+        e.assert_within_3se(expected, &format!("above {above}, {deg}°"));
+    }
+}
