@@ -243,3 +243,28 @@ fn scheduled_convergence_matches_rows_rayon() {
         }
     }
 }
+
+/// The paired comparison of the scale group must see a 1 % bias: the same furnace with its
+/// environment 1 % brighter fails, the scene against itself passes.
+#[test]
+fn paired_comparison_fails_a_one_percent_bias() {
+    let text = std::fs::read_to_string("scenes/furnace_a08.toml").unwrap();
+    let o = SceneOverrides {
+        width: Some(24),
+        height: Some(24),
+        spp: Some(8),
+        ..Default::default()
+    };
+    let load = |t: &str| raysched::scene::load_scene_str(t, "f", Path::new("."), "f", &o).unwrap();
+    let base = load(&text);
+    let brighter_text = text.replace("radiance = [1, 1, 1]", "radiance = [1.01, 1.01, 1.01]");
+    assert_ne!(brighter_text, text);
+    let brighter = load(&brighter_text);
+    let tb = AnyTracer::build(TracerKind::Bvh, &base, 1).unwrap();
+    let tr = AnyTracer::build(TracerKind::Bvh, &brighter, 1).unwrap();
+    let same = stability::against_scene("t", "same", &base, &tb, &base, &tb, &Budget::QUICK);
+    assert!(same.pass, "{same:?}");
+    let biased = stability::against_scene("t", "1 %", &brighter, &tr, &base, &tb, &Budget::QUICK);
+    assert!(!biased.pass && biased.rel_error > 0.009, "{biased:?}");
+    assert!(3.0 * biased.sigma < 0.003 * biased.expected, "{biased:?}");
+}
