@@ -45,6 +45,10 @@ pub const MAX_COUNT: usize = 1 << 20;
 /// every scheduler grid × worker counts).
 pub const MAX_CONFIGS: u64 = 1 << 20;
 
+/// Largest number of timed runs of one experiment (run configurations × repetitions): the
+/// runner lists every pending one before it starts.
+pub const MAX_RUNS: u64 = 1 << 24;
+
 /// Largest `repetitions` and `warmup` of an experiment.
 pub const MAX_REPETITIONS: u32 = 1 << 16;
 

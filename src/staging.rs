@@ -60,6 +60,18 @@ impl Staging {
     pub fn commit(self) -> io::Result<Vec<PathBuf>> {
         let mut files = Vec::new();
         list_files(&self.tmp, &mut files)?;
+        // What would make a rename fail is looked for first, so nothing is moved then.
+        for f in &files {
+            let dest = self
+                .root
+                .join(f.strip_prefix(&self.tmp).expect("listed under tmp"));
+            if dest.is_dir() {
+                return Err(io::Error::other(format!(
+                    "{}: is a folder, cannot write a file there",
+                    dest.display()
+                )));
+            }
+        }
         let mut moved = Vec::with_capacity(files.len());
         for f in files {
             let rel = f.strip_prefix(&self.tmp).expect("listed under tmp");

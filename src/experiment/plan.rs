@@ -6,7 +6,9 @@ use super::config::{
     ExperimentFile, ExperimentKind, MpiEntry, SchedulerEntry, WorkerCount, WorkersSpec,
 };
 use crate::hash::{fnv, hex};
-use crate::limits::{checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_SPP, MAX_THREADS};
+use crate::limits::{
+    checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
+};
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec};
 use crate::tracer::{AnyTracer, TracerKind};
@@ -407,6 +409,19 @@ fn check_config_count(
         specs.saturating_add(1),
         transports + 1,
     ]);
+    let runs = n.and_then(|n| n.checked_mul(file.repetitions as u64));
+    if let (Some(n), Some(runs)) = (n, runs) {
+        if n <= MAX_CONFIGS && runs > MAX_RUNS {
+            return Err(field(
+                "repetitions",
+                format!(
+                    "{n} run configurations × {} repetitions = {runs} runs is more than the \
+                     limit of {MAX_RUNS}",
+                    file.repetitions
+                ),
+            ));
+        }
+    }
     match n {
         Some(n) if n <= MAX_CONFIGS => Ok(()),
         _ => Err(field(

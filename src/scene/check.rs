@@ -112,12 +112,16 @@ fn floor_char_boundary(text: &str, mut i: usize) -> usize {
     i
 }
 
-/// The dotted key of the line starting at byte `line_start`: the last table header above it
-/// (`[[shapes]]` counted, so `shapes[1]`) joined with the line's own `key =`, if any.
+/// The dotted key of the line starting at byte `line_start`: the last table header above it or
+/// on it (`[[shapes]]` counted, so `shapes[1]`) joined with the line's own `key =`, if any.
 fn key_at(text: &str, line_start: usize) -> String {
     let mut table = String::new();
     let mut counts = std::collections::BTreeMap::<String, usize>::new();
-    for l in text[..line_start].lines() {
+    // The line itself may be a header: an error about a whole table points at it.
+    let line_end = text[line_start..]
+        .find('\n')
+        .map_or(text.len(), |i| line_start + i);
+    for l in text[..line_end].lines() {
         let l = l.trim();
         if let Some(name) = l.strip_prefix("[[").and_then(|r| r.split_once("]]")) {
             let name = name.0.trim().to_string();
@@ -142,5 +146,77 @@ fn key_at(text: &str, line_start: usize) -> String {
         (_, true) => table,
         (true, false) => key.to_string(),
         (false, false) => format!("{table}.{key}"),
+    }
+}
+
+/// Keys whose value is a 3-vector wherever they appear in a scene file.
+const VEC3_KEYS: &[&str] = &[
+    "origin",
+    "target",
+    "up",
+    "reflectance",
+    "even",
+    "odd",
+    "emission",
+    "center",
+    "position",
+    "intensity",
+    "radiance",
+    "axis",
+    "translate",
+];
+
+/// Every vector of a raw scene table has its length (3, or 4×4 for `matrix`), so that an
+/// `origin` with 4 components or a colour with 2 is an error naming the key, not a message
+/// about the table around it (or, for plain struct fields, silently cut to 3).
+pub(super) fn vector_lengths(v: &toml::Value, at: &str) -> Result<(), (String, String)> {
+    let join = |k: &str| {
+        if at.is_empty() {
+            k.to_string()
+        } else {
+            format!("{at}.{k}")
+        }
+    };
+    match v {
+        toml::Value::Table(t) => {
+            for (k, v) in t {
+                let field = join(k);
+                if let toml::Value::Array(a) = v {
+                    let len = |n: usize, what: &str| {
+                        Err((field.clone(), format!("{what} (got {} values)", n)))
+                    };
+                    if VEC3_KEYS.contains(&k.as_str()) && a.len() != 3 {
+                        return len(a.len(), "must have exactly 3 components");
+                    }
+                    if k == "scale" && a.len() != 3 {
+                        return len(a.len(), "must be one number or exactly 3");
+                    }
+                    if k == "matrix" {
+                        if a.len() != 4 {
+                            return len(a.len(), "must have exactly 4 rows");
+                        }
+                        for (r, row) in a.iter().enumerate() {
+                            if let toml::Value::Array(row) = row {
+                                if row.len() != 4 {
+                                    return Err((
+                                        format!("{field}[{r}]"),
+                                        format!("must have exactly 4 values (got {})", row.len()),
+                                    ));
+                                }
+                            }
+                        }
+                    }
+                }
+                vector_lengths(v, &field)?;
+            }
+            Ok(())
+        }
+        toml::Value::Array(a) => {
+            for (i, v) in a.iter().enumerate() {
+                vector_lengths(v, &format!("{at}[{i}]"))?;
+            }
+            Ok(())
+        }
+        _ => Ok(()),
     }
 }

@@ -44,7 +44,7 @@ pub fn load_scene_str(
     default_name: &str,
     overrides: &SceneOverrides,
 ) -> Result<Scene, SceneError> {
-    let mut file: SceneFile = toml::from_str(text).map_err(|e| {
+    let toml_error = |e: toml::de::Error| {
         let (at, key, msg) = super::check::toml_error_at(text, &e);
         // The message of a shape error already names `shapes[i].field`.
         let key = if msg.starts_with("shapes[") {
@@ -58,7 +58,16 @@ pub fn load_scene_str(
             field: key,
             msg,
         }
+    };
+    // Syntax first, then vector lengths (serde would cut or blame the table), then types.
+    let raw: toml::Value = toml::from_str(text).map_err(toml_error)?;
+    super::check::vector_lengths(&raw, "").map_err(|(field, msg)| SceneError {
+        path: display.to_string(),
+        line: None,
+        field,
+        msg,
     })?;
+    let mut file: SceneFile = toml::from_str(text).map_err(toml_error)?;
     overrides.apply(&mut file);
     build_scene(&file, display, base, default_name)
 }
