@@ -52,6 +52,12 @@ pub const MAX_RUNS: u64 = 1 << 24;
 /// Largest `repetitions` and `warmup` of an experiment.
 pub const MAX_REPETITIONS: u32 = 1 << 16;
 
+// The limits fit together: checked when compiling.
+const _: () = assert!(MAX_PIXELS <= MAX_IMAGE_SIDE as u64 * MAX_IMAGE_SIDE as u64);
+const _: () = assert!(MAX_PIXELS * MAX_SPP as u64 >= MAX_SAMPLES);
+const _: () = assert!(MAX_GENERATOR_COUNT <= MAX_PRIMITIVES);
+const _: () = assert!(MAX_DEPTH <= i32::MAX as u32);
+
 /// `a × b × …` in u64, `None` on overflow.
 pub fn checked_product(factors: &[u64]) -> Option<u64> {
     factors.iter().try_fold(1u64, |acc, &f| acc.checked_mul(f))
@@ -67,13 +73,5 @@ mod tests {
         assert_eq!(checked_product(&[]), Some(1));
         assert_eq!(checked_product(&[u64::MAX, 2]), None);
         assert_eq!(checked_product(&[u32::MAX as u64; 3]), None);
-    }
-
-    #[test]
-    fn the_limits_are_consistent() {
-        let side = MAX_IMAGE_SIDE as u64;
-        assert!(MAX_PIXELS <= side * side);
-        assert!(MAX_PIXELS * MAX_SPP as u64 >= MAX_SAMPLES);
-        assert!(MAX_GENERATOR_COUNT <= MAX_PRIMITIVES);
     }
 }

@@ -726,7 +726,7 @@ fn expand_scheduler(
     let axes = axes(s, &base)?;
     let mut sizes: Vec<u64> = axes.iter().map(|a| a.values.len() as u64).collect();
     sizes.push(workers.len() as u64);
-    if !checked_product(&sizes).is_some_and(|n| n <= MAX_CONFIGS) {
+    if checked_product(&sizes).is_none_or(|n| n > MAX_CONFIGS) {
         let names: Vec<String> = axes
             .iter()
             .map(|a| format!("{} {}", a.values.len(), a.name))

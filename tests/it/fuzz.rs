@@ -149,12 +149,12 @@ enum Mutation {
 fn mutation() -> impl Strategy<Value = Mutation> {
     let idx = any::<usize>();
     prop_oneof![
-        1 => (idx.clone(), any::<u8>()).prop_map(|(i, b)| Mutation::FlipByte(i, b)),
-        1 => idx.clone().prop_map(Mutation::DeleteLine),
-        1 => idx.clone().prop_map(Mutation::DuplicateLine),
-        1 => (idx.clone(), idx.clone()).prop_map(|(a, b)| Mutation::SwapLines(a, b)),
-        4 => (idx.clone(), prop::sample::select(HOSTILE)).prop_map(|(i, v)| Mutation::Value(i, v)),
-        2 => (idx.clone(), prop::sample::select(KEYS), prop::sample::select(HOSTILE))
+        1 => (idx, any::<u8>()).prop_map(|(i, b)| Mutation::FlipByte(i, b)),
+        1 => idx.prop_map(Mutation::DeleteLine),
+        1 => idx.prop_map(Mutation::DuplicateLine),
+        1 => (idx, idx).prop_map(|(a, b)| Mutation::SwapLines(a, b)),
+        4 => (idx, prop::sample::select(HOSTILE)).prop_map(|(i, v)| Mutation::Value(i, v)),
+        2 => (idx, prop::sample::select(KEYS), prop::sample::select(HOSTILE))
             .prop_map(|(i, k, v)| Mutation::Insert(i, k, v)),
         1 => idx.prop_map(Mutation::Truncate),
     ]
