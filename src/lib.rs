@@ -47,6 +47,7 @@ pub mod experiment;
 pub mod geometry;
 pub mod hash;
 pub mod host;
+pub mod limits;
 pub mod metrics;
 #[cfg(feature = "mpi")]
 pub mod mpi;
@@ -57,4 +58,5 @@ pub mod scene;
 pub mod sched;
 pub mod source;
 pub mod stability;
+pub mod staging;
 pub mod tracer;

@@ -13,15 +13,15 @@ pub(crate) struct ConvergeArgs {
     #[arg(long = "ref")]
     pub(crate) reference: Option<PathBuf>,
     /// Largest sample count of the progression.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = super::spp_arg())]
     pub(crate) max_spp: u32,
     /// Samples of a rendered reference (cached under results/refs/).
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096, value_parser = super::spp_arg())]
     pub(crate) ref_spp: u32,
     /// Tracers to compare, comma separated.
     #[arg(long, default_value = "bvh,brute")]
     pub(crate) tracers: String,
-    #[arg(long, default_value_t = raysched::host::available_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for convergence.csv and convergence.png.
     #[arg(short, long, default_value = "results/converge")]
@@ -90,9 +90,9 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     let png = args.output.join("convergence.png");
     cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
     cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
-    println!("reference: {}", reference.kind.label());
+    out!("reference: {}", reference.kind.label());
     for s in cv::summarise(&rows) {
-        println!(
+        out!(
             "{} {}: slope {}, RMSE at {:.3} s = {}",
             s.scene,
             s.config,
@@ -102,8 +102,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         );
     }
     for line in cv::budget_winners(&rows) {
-        println!("{line}");
+        out!("{line}");
     }
-    println!("wrote {} and {}", csv.display(), png.display());
+    out!("wrote {} and {}", csv.display(), png.display());
     Ok(())
 }

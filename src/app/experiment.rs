@@ -28,7 +28,7 @@ pub(crate) struct PlotArgs {
 
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
     let written = raysched::plot::redraw(&args.dir).map_err(CliError::message)?;
-    println!("wrote {} files under {}", written.len(), args.dir.display());
+    out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
 }
 
@@ -54,9 +54,9 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
             let rows = raysched::converge::read_csv(&dir.join("convergence.csv"))
                 .map_err(CliError::runtime)?;
             for line in raysched::converge::budget_winners(&rows) {
-                println!("{line}");
+                out!("{line}");
             }
-            println!("{}: wrote {}", plan.name, dir.join("report.md").display());
+            out!("{}: wrote {}", plan.name, dir.join("report.md").display());
         }
         return Ok(());
     }
@@ -87,7 +87,7 @@ pub(crate) fn finish_experiment(
         } else {
             String::new()
         };
-        println!(
+        out!(
             "{}: {} runs measured, {} already done{others}; wrote {} files (report: {})",
             plan.name,
             outcome.measured,

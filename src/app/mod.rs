@@ -2,6 +2,15 @@
 //! their chain and mapped to exit codes (bad input 2, other failures 1). The library never
 //! sees a clap struct: each command turns its arguments into the library's typed specs.
 
+/// `println!` for the command's report on stdout. A closed stdout (`raysched … | head -1`)
+/// ends the process quietly with status 0, as ripgrep does; any other write error is a
+/// one-line error with status 1. (`println!` would panic in both cases.)
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::app::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 mod converge;
 mod error;
 mod experiment;
@@ -13,8 +22,9 @@ mod render;
 mod sched_flags;
 mod stability;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;
+use raysched::limits::{MAX_SPP, MAX_THREADS};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -47,7 +57,20 @@ enum Command {
 /// line too (clap's tips and usage lines are left out), with exit code 2.
 pub(crate) fn main() -> ExitCode {
     use clap::error::ErrorKind;
-    let cli = match Cli::try_parse() {
+    // A negative number after a flag is that flag's (bad) value, so the error names the flag
+    // instead of calling `-3` an unknown argument.
+    let mut cmd = Cli::command();
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    for name in names {
+        cmd = cmd.mut_subcommand(name, |c| c.allow_negative_numbers(true));
+    }
+    let parsed = cmd
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(cli) => cli,
         Err(e)
             if e.exit_code() == 0
@@ -61,12 +84,33 @@ pub(crate) fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {:#}", e.error);
+    // The last safety net, not a way of reporting bad input: a panic left anywhere is one
+    // line on stderr (the hook, whatever the thread) and exit code 2 here.
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        let msg = msg.split_whitespace().collect::<Vec<_>>().join(" ");
+        eprintln!("error: internal error{at}: {msg} (a bug: please report it)");
+    }));
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(cli))) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(e)) => {
+            let msg = format!("{:#}", e.error);
+            eprintln!(
+                "error: {}",
+                msg.split_whitespace().collect::<Vec<_>>().join(" ")
+            );
             ExitCode::from(e.code)
         }
+        Err(_) => ExitCode::from(2),
     }
 }
 
@@ -85,6 +129,29 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
     }
+}
+
+/// Write one piece of the report to stdout: see [`out!`].
+pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: cannot write to stdout: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// A thread-count flag: `min..=`[`MAX_THREADS`], the limit named in the error.
+pub(crate) fn threads_arg(min: u64) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(min..=MAX_THREADS as u64)
+}
+
+/// A samples-per-pixel flag: `1..=`[`MAX_SPP`].
+pub(crate) fn spp_arg() -> clap::builder::RangedU64ValueParser<u32> {
+    clap::builder::RangedU64ValueParser::<u32>::new().range(1..=MAX_SPP as u64)
 }
 
 /// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?

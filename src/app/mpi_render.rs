@@ -108,7 +108,7 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     super::render::print_render_header(&scene, &tracer_line, &spec, &image);
     // Same definition as the local path (the scheduler's wall time), so the two compare; the
     // total adds stopping the ranks and writing the image.
-    println!(
+    out!(
         "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}, total {:.3} s",
         stats.wall_s,
         stats.rays,
@@ -116,15 +116,15 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         hub_report.messages,
         wall
     );
-    println!("items/s {:.0}", stats.items as f64 / stats.wall_s);
-    print!("{}", stats.summary());
+    out!("items/s {:.0}", stats.items as f64 / stats.wall_s);
+    super::write_stdout(format_args!("{}", stats.summary()));
     for (i, l) in labels.iter().enumerate() {
-        println!("  source {i} = {l}");
+        out!("  source {i} = {l}");
     }
     for (r, why) in &hub_report.lost {
-        println!("  lost MPI rank {r}: {why}");
+        out!("  lost MPI rank {r}: {why}");
     }
-    println!("wrote {wrote}");
+    out!("wrote {wrote}");
     Ok(())
 }
 

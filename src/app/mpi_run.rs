@@ -141,7 +141,7 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
     }
     remote.launch.transport = t;
     if !args.quiet {
-        println!(
+        out!(
             "{}: mpirun launch of {} ranks over {} ({} worker ranks on {})",
             plan.name,
             comm.size,

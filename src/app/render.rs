@@ -3,7 +3,6 @@
 
 use super::error::CliError;
 use super::sched_flags::SchedulerFlags;
-use raysched::render::image::ImageError;
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::sched::{run_scheduler_with, RunOptions, SchedError, SchedulerSpec};
@@ -26,10 +25,10 @@ pub(crate) struct RenderArgs {
     /// Scene file (TOML), see scenes/.
     pub(crate) scene: PathBuf,
     /// Samples per pixel (overrides the scene's render.spp).
-    #[arg(long)]
+    #[arg(long, value_parser = super::spp_arg())]
     pub(crate) spp: Option<u32>,
     /// Worker threads.
-    #[arg(long, default_value_t = raysched::host::available_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree and
     /// embree_robust (feature `embree`).
@@ -53,7 +52,7 @@ pub(crate) struct RenderArgs {
     #[arg(long, value_enum, default_value_t = SourcesArg::Local)]
     pub(crate) sources: SourcesArg,
     /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = super::threads_arg(0))]
     pub(crate) local_threads: usize,
 }
 
@@ -115,6 +114,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     let spec = args.scheduler_spec(args.threads)?;
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
+    if let Some(w) = scene.depth_warning() {
+        eprintln!("warning: {}: {w}", args.scene.display());
+    }
     let t0 = Instant::now();
     let tracer = Arc::new(AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?);
     let build = t0.elapsed();
@@ -131,21 +133,21 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         args.threads
     );
     print_render_header(&scene, &tracer_line, &spec, &image);
-    println!(
+    out!(
         "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
         stats.wall_s,
         stats.rays,
         stats.rays as f64 / stats.wall_s / 1e6,
         stats.nonfinite
     );
-    print!("{}", stats.summary());
+    super::write_stdout(format_args!("{}", stats.summary()));
     let (used, left_out) = scene.features.report(tracer.accelerated());
-    println!(
+    out!(
         "features used: {}; left out: {}",
         used.join(","),
         left_out.join(",")
     );
-    println!("wrote {wrote}");
+    out!("wrote {wrote}");
     Ok(())
 }
 
@@ -157,21 +159,39 @@ fn frame_path(output: &Path, frame: u32) -> PathBuf {
 }
 
 /// Write a render and its PNG preview: `output` for a static scene, [`frame_path`] per frame
-/// for an animation (`image` is then the film strip of [`Image::stack`]). Returns what was
-/// written, for the report.
-pub(crate) fn save_render(output: &Path, image: &Image, frames: u32) -> Result<String, ImageError> {
-    if frames <= 1 {
-        let png = image.save_with_preview(output)?;
-        return Ok(format!("{} and {}", output.display(), png.display()));
-    }
-    for (k, frame) in image.unstack(frames).iter().enumerate() {
-        frame.save_with_preview(&frame_path(output, k as u32))?;
-    }
-    Ok(format!(
-        "{frames} frames {} … {} (each with a .png preview)",
-        frame_path(output, 0).display(),
-        frame_path(output, frames - 1).display()
-    ))
+/// for an animation (`image` is then the film strip of [`Image::stack`]). Every file is
+/// written to a staging folder first and renamed into place once all were written, so a
+/// failure leaves none. Returns what was written, for the report.
+pub(crate) fn save_render(
+    output: &Path,
+    image: &Image,
+    frames: u32,
+) -> Result<String, anyhow::Error> {
+    let root = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let staging = raysched::staging::Staging::new(&root)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", root.display()))?;
+    let staged = |p: &Path| staging.path(p.file_name().unwrap_or_default());
+    let summary = if frames <= 1 {
+        image.save_with_preview(&staged(output))?;
+        let png = output.with_extension("png");
+        format!("{} and {}", output.display(), png.display())
+    } else {
+        for (k, frame) in image.unstack(frames).iter().enumerate() {
+            frame.save_with_preview(&staged(&frame_path(output, k as u32)))?;
+        }
+        format!(
+            "{frames} frames {} … {} (each with a .png preview)",
+            frame_path(output, 0).display(),
+            frame_path(output, frames - 1).display()
+        )
+    };
+    staging
+        .commit()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", root.display()))?;
+    Ok(summary)
 }
 
 /// The first two lines of a render's report, shared by the local and the MPI path (tests read
@@ -187,7 +207,7 @@ pub(crate) fn print_render_header(
     } else {
         String::new()
     };
-    println!(
+    out!(
         "scene {} ({}×{}{frames}, {} spp, max_depth {}), tracer {tracer}",
         scene.name,
         scene.width(),
@@ -195,7 +215,7 @@ pub(crate) fn print_render_header(
         scene.settings.spp,
         scene.settings.max_depth,
     );
-    println!(
+    out!(
         "scheduler {}, order {}, image hash {:016x}",
         spec.label(),
         spec.order.id(),

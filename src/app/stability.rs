@@ -9,11 +9,11 @@ pub(crate) struct StabilityArgs {
     #[arg(long)]
     pub(crate) quick: bool,
     /// Image side of every case.
-    #[arg(long, default_value_t = 48)]
+    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub(crate) size: u32,
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = 32, value_parser = super::spp_arg())]
     pub(crate) spp: u32,
-    #[arg(long, default_value_t = raysched::host::available_threads())]
+    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for stability.csv and stability.md.
     #[arg(short, long, default_value = "results/stability")]
@@ -45,9 +45,9 @@ pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
     let csv = args.output.join("stability.csv");
     st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
     std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
-    println!("{table}");
+    out!("{table}");
     let failed = rows.iter().filter(|r| r.required && !r.pass).count();
-    println!(
+    out!(
         "wrote {} ({} cases, {} required failures)",
         csv.display(),
         rows.len(),

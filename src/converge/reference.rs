@@ -89,9 +89,14 @@ fn constant_albedo(scene: &Scene, material: u32) -> Option<Vec3> {
 }
 
 fn depth_sum(a: f64, max_depth: i32) -> f64 {
-    if max_depth < 0 {
-        1.0 / (1.0 - a)
-    } else if a == 1.0 {
+    // Unlimited paths stop at the hard cap: (1 − a^cap)/(1 − a), within 1e-300 of 1/(1 − a)
+    // for the albedos this reference accepts.
+    let max_depth = if max_depth < 0 {
+        crate::limits::MAX_DEPTH as i32
+    } else {
+        max_depth
+    };
+    if a == 1.0 {
         max_depth as f64
     } else {
         (1.0 - a.powi(max_depth)) / (1.0 - a)

@@ -7,6 +7,7 @@
 
 pub mod config;
 pub mod convergence;
+pub mod lock;
 pub mod meta;
 pub mod plan;
 pub mod results;

@@ -6,6 +6,9 @@ use super::config::{
     ExperimentFile, ExperimentKind, MpiEntry, SchedulerEntry, WorkerCount, WorkersSpec,
 };
 use crate::hash::{fnv, hex};
+use crate::limits::{
+    checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
+};
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec};
 use crate::tracer::{AnyTracer, TracerKind};
@@ -17,9 +20,9 @@ use std::time::Instant;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{path}: {field}{}{msg}", if field.is_empty() { "" } else { ": " })]
 pub struct ConfigError {
-    /// The experiment file.
+    /// The experiment file, with `:line:column` for a TOML error.
     pub path: String,
-    /// The offending field (`schedulers[1].buffer`, `line 3`, …); empty for the whole file.
+    /// The offending field (`schedulers[1].buffer`, …); empty for the whole file.
     pub field: String,
     /// What is wrong.
     pub msg: String,
@@ -197,11 +200,12 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         msg,
     };
     // 1. The raw file, its name and the settings that need no scene.
-    let (bytes, file) = read_file(path).map_err(attach)?;
+    let (bytes, file) = read_file(path)?;
     let name = plan_name(path, &file).map_err(attach)?;
     let settings = check_settings(&file).map_err(attach)?;
     // 2. Every scheduler grid, before the (slow) scene loading, so a typo fails fast.
     let grids = expand_grids(&file, &settings).map_err(attach)?;
+    check_config_count(&file, &grids).map_err(attach)?;
     let max_workers = settings.workers.iter().copied().max().unwrap_or(1);
     // 3. Scenes loaded, tracers built: one baseline per (scene, tracer).
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -226,18 +230,25 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     })
 }
 
-fn read_file(path: &Path) -> Result<(Vec<u8>, ExperimentFile), FieldError> {
-    let bytes =
-        std::fs::read(path).map_err(|e| field("", format!("cannot read experiment file: {e}")))?;
-    let text = String::from_utf8(bytes.clone()).map_err(|_| field("", "not UTF-8 text"))?;
-    let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        field(
-            &line.map(|l| format!("line {l}")).unwrap_or_default(),
-            e.message(),
+/// The file's bytes and its parsed text; a TOML error is `file:line:column: key: message`.
+fn read_file(path: &Path) -> Result<(Vec<u8>, ExperimentFile), ConfigError> {
+    let err = |path: String, (field, msg): FieldError| ConfigError { path, field, msg };
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| {
+        err(
+            shown.clone(),
+            field("", format!("cannot read experiment file: {e}")),
         )
+    })?;
+    let text = String::from_utf8(bytes.clone())
+        .map_err(|_| err(shown.clone(), field("", "not UTF-8 text")))?;
+    let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
+        let (at, key, msg) = crate::scene::toml_error_at(&text, &e);
+        let place = match at {
+            Some((l, c)) => format!("{shown}:{l}:{c}"),
+            None => shown.clone(),
+        };
+        err(place, field(&key, msg))
     })?;
     Ok((bytes, file))
 }
@@ -270,8 +281,20 @@ struct Settings {
 }
 
 fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
-    if file.repetitions == 0 {
-        return Err(field("repetitions", "must be ≥ 1 (got 0)"));
+    if !(1..=MAX_REPETITIONS).contains(&file.repetitions) {
+        return Err(field(
+            "repetitions",
+            format!(
+                "must be in 1..={MAX_REPETITIONS} (got {})",
+                file.repetitions
+            ),
+        ));
+    }
+    if file.warmup > MAX_REPETITIONS {
+        return Err(field(
+            "warmup",
+            format!("must be in 0..={MAX_REPETITIONS} (got {})", file.warmup),
+        ));
     }
     let mpi = file
         .mpi
@@ -347,8 +370,8 @@ fn check_convergence(file: &ExperimentFile) -> Result<Option<ConvergenceSettings
                 .ok_or_else(|| field("max_spp", "kind = \"convergence\" needs max_spp"))?;
             let ref_spp = file.ref_spp.unwrap_or(1024);
             for (f, v) in [("max_spp", max_spp), ("ref_spp", ref_spp)] {
-                if v == 0 {
-                    return Err(field(f, "must be ≥ 1 (got 0)"));
+                if !(1..=MAX_SPP).contains(&v) {
+                    return Err(field(f, format!("must be in 1..={MAX_SPP} (got {v})")));
                 }
             }
             Ok(Some(ConvergenceSettings { max_spp, ref_spp }))
@@ -371,6 +394,46 @@ fn expand_grids(
                 .map_err(|(f, m)| (format!("schedulers[{i}].{f}"), m))
         })
         .collect()
+}
+
+/// Scenes × tracers × every grid entry within [`MAX_CONFIGS`], before any scene is loaded.
+fn check_config_count(
+    file: &ExperimentFile,
+    grids: &[Vec<SchedulerSpec>],
+) -> Result<(), FieldError> {
+    let specs: u64 = grids.iter().map(|g| g.len() as u64).sum();
+    let transports = file.mpi.as_ref().map_or(0, |m| m.transports.len() as u64);
+    let n = checked_product(&[
+        file.scenes.len() as u64,
+        file.tracers.len() as u64,
+        specs.saturating_add(1),
+        transports + 1,
+    ]);
+    let runs = n.and_then(|n| n.checked_mul(file.repetitions as u64));
+    if let (Some(n), Some(runs)) = (n, runs) {
+        if n <= MAX_CONFIGS && runs > MAX_RUNS {
+            return Err(field(
+                "repetitions",
+                format!(
+                    "{n} run configurations × {} repetitions = {runs} runs is more than the \
+                     limit of {MAX_RUNS}",
+                    file.repetitions
+                ),
+            ));
+        }
+    }
+    match n {
+        Some(n) if n <= MAX_CONFIGS => Ok(()),
+        _ => Err(field(
+            "schedulers",
+            format!(
+                "{} scenes × {} tracers × {specs} scheduler configurations is more than the \
+                 limit of {MAX_CONFIGS} run configurations",
+                file.scenes.len(),
+                file.tracers.len()
+            ),
+        )),
+    }
 }
 
 fn load_scenes(file: &ExperimentFile, base: &Path) -> Result<Vec<PlannedScene>, FieldError> {
@@ -553,14 +616,24 @@ fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
             if a > b {
                 return Err(format!("'{r}': empty range ({a} > {b})"));
             }
+            // Checked before the range is listed: "1..99999999999" must not allocate.
+            if let Some(bad) = [a, b]
+                .into_iter()
+                .find(|n| !(1..=MAX_THREADS as i64).contains(n))
+            {
+                return Err(format!("must be between 1 and {MAX_THREADS} (got {bad})"));
+            }
             (a..=b).collect()
         }
     };
     if out.is_empty() {
         return Err("must list at least one worker count".into());
     }
-    if let Some(bad) = out.iter().find(|&&n| !(1..=4096).contains(&n)) {
-        return Err(format!("must be between 1 and 4096 (got {bad})"));
+    if let Some(bad) = out
+        .iter()
+        .find(|&&n| !(1..=MAX_THREADS as i64).contains(&n))
+    {
+        return Err(format!("must be between 1 and {MAX_THREADS} (got {bad})"));
     }
     out.sort_unstable();
     out.dedup();
@@ -651,6 +724,22 @@ fn expand_scheduler(
         ..SchedulerSpec::new(kind, Chunk::Frame, 1)
     };
     let axes = axes(s, &base)?;
+    let mut sizes: Vec<u64> = axes.iter().map(|a| a.values.len() as u64).collect();
+    sizes.push(workers.len() as u64);
+    if checked_product(&sizes).is_none_or(|n| n > MAX_CONFIGS) {
+        let names: Vec<String> = axes
+            .iter()
+            .map(|a| format!("{} {}", a.values.len(), a.name))
+            .collect();
+        return Err((
+            "kind".to_string(),
+            format!(
+                "the grid {} × {} worker counts has more than {MAX_CONFIGS} configurations",
+                names.join(" × "),
+                workers.len()
+            ),
+        ));
+    }
     let mut specs = vec![base];
     for axis in &axes {
         let mut next = Vec::with_capacity(specs.len() * axis.values.len());

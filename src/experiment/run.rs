@@ -84,6 +84,9 @@ pub enum RunError {
     /// The MPI side failed (a rank lost, a scene that did not build on a rank).
     #[error("{0}")]
     Mpi(String),
+    /// Another run holds the results folder's lock.
+    #[error(transparent)]
+    Locked(#[from] super::lock::LockError),
 }
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
@@ -165,6 +168,7 @@ pub fn run_experiment_with(
 ) -> Result<RunOutcome, RunError> {
     let launch = remote.as_ref().map(|r| r.launch().clone());
     let dir = opts.out.join(&plan.name);
+    let _lock = super::lock::ResultsLock::acquire(&dir)?;
     prepare_dir(plan, &dir, opts.fresh)?;
     prepare_meta(plan, &dir, opts.fresh)?;
     let (runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;

@@ -96,6 +96,9 @@ fn series(
         let (Some(k), Some(xv)) = (key(s), x(s)) else {
             continue;
         };
+        if !xv.is_finite() {
+            continue;
+        }
         let yv = y(s);
         if !yv.is_finite() {
             continue;
@@ -388,15 +391,23 @@ fn gantt_chart<DB: DrawingBackend>(
 
 /// Every figure of every group (scene + settings + tracer) into `plots`, in a fixed order: MPI
 /// throughput, speedup vs workers, granularity, buffer, overhead, then the Gantt timelines.
-pub(crate) fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
+/// `plots` is where they are written, `final_plots` where they will be (their names in the
+/// report, and the charts drawn before that a missing timeline keeps).
+pub(crate) fn draw_all(
+    dir: &Path,
+    plots: &Path,
+    final_plots: &Path,
+    sums: &[Summary],
+) -> Result<Vec<Figure>, String> {
     let mut out = Drawn {
         dir,
         plots,
+        final_plots,
         figs: Vec::new(),
         missing: MissingTimelines::default(),
     };
     for g in &group_names(sums) {
-        if let Some(f) = mpi_throughput(dir, plots, g, &slug(g), sums)? {
+        if let Some(f) = mpi_throughput(dir, plots, final_plots, g, &slug(g), sums)? {
             out.figs.push(f);
         }
         // The figures below compare thread schedulers; MPI rows have their own figure.
@@ -418,6 +429,7 @@ pub(crate) fn draw_all(dir: &Path, plots: &Path, sums: &[Summary]) -> Result<Vec
 struct Drawn<'a> {
     dir: &'a Path,
     plots: &'a Path,
+    final_plots: &'a Path,
     figs: Vec<Figure>,
     missing: MissingTimelines,
 }
@@ -425,9 +437,12 @@ struct Drawn<'a> {
 impl Drawn<'_> {
     /// Record the figure drawn at `stem` (its PNG, relative to the experiment folder).
     fn push(&mut self, stem: &Path, title: String, caption: &str) {
+        let stem = self
+            .final_plots
+            .join(stem.strip_prefix(self.plots).unwrap_or(stem));
         let file = stem
             .strip_prefix(self.dir)
-            .unwrap_or(stem)
+            .unwrap_or(&stem)
             .with_extension("png")
             .to_string_lossy()
             .into_owned();
@@ -650,7 +665,12 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
         if tl.exists() {
             let spans = read_timeline(&tl)?;
             both!(stem, SIZE, gantt_chart(&title, &spans));
-        } else if stem.with_extension("png").exists() {
+        } else if out
+            .final_plots
+            .join(stem.strip_prefix(out.plots).unwrap_or(&stem))
+            .with_extension("png")
+            .exists()
+        {
             // Timelines stay out of git: keep the chart drawn when the run was made.
             out.missing.kept += 1;
         } else {
@@ -710,6 +730,7 @@ pub fn mpi_line(s: &Summary) -> Option<String> {
 fn mpi_throughput(
     dir: &Path,
     plots: &Path,
+    final_plots: &Path,
     g: &str,
     gs: &str,
     sums: &[Summary],
@@ -738,6 +759,7 @@ fn mpi_throughput(
             ("items/s (median run)", &items)
         )
     );
+    let stem = final_plots.join(stem.strip_prefix(plots).unwrap_or(&stem));
     Ok(Some(Figure {
         file: stem
             .strip_prefix(dir)

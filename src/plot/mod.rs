@@ -28,23 +28,61 @@ pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     register_font();
     let plots = dir.join("plots");
     std::fs::create_dir_all(&plots).map_err(|e| format!("{}: {e}", plots.display()))?;
-    charts::draw_all(dir, &plots, sums)
+    charts::draw_all(dir, &plots, &plots, sums)
+}
+
+/// The largest magnitude a plotted value may have: plotters computes its tick marks in loops
+/// that never end on an infinite or NaN range (and overflow on ranges near f64's limits).
+const PLOTTABLE: f64 = 1e15;
+
+/// Is every measured value of `r` finite and within [`PLOTTABLE`]?
+fn plottable(r: &results::RunRow) -> bool {
+    [
+        r.wall_s,
+        r.serial_s,
+        r.speedup,
+        r.efficiency,
+        r.overhead_s,
+        r.work_s,
+        r.dispatch_s,
+        r.idle_s,
+        r.imbalance,
+        r.imbalance_s,
+    ]
+    .iter()
+    .all(|v| v.is_finite() && v.abs() <= PLOTTABLE)
+        && r.chunk_px != Some(0)
 }
 
 /// Recompute `summary.csv`, every plot and `report.md` in `dir` from `dir/runs.csv` (for a
 /// convergence experiment: its plot from `convergence.csv`). Returns the paths written.
+/// Rows holding an infinite, NaN or absurd value are left out (and counted in the report and
+/// on stderr). Everything is written to a staging folder and moved into place at the end, so a
+/// failure leaves the previous files.
 pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
+    let staging =
+        crate::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let commit = |staging: crate::staging::Staging| {
+        staging
+            .commit()
+            .map_err(|e| format!("{}: {e}", dir.display()))
+    };
     if !runs.exists() && convergence.exists() {
         // A convergence experiment: its plots are drawn from its CSV alone too.
         let rows = crate::converge::read_csv(&convergence)
             .map_err(|e| format!("{}: {e}", convergence.display()))?;
-        let plots = convergence::PLOTS.map(|p| dir.join(p));
-        for p in &plots {
-            crate::converge::plot(p, &rows).map_err(|e| format!("{}: {e}", p.display()))?;
+        for p in convergence::PLOTS {
+            let staged = staging.path(p);
+            if let Some(d) = staged.parent() {
+                std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
+            }
+            crate::converge::plot(&staged, &rows)
+                .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
         }
-        return Ok(plots.to_vec());
+        commit(staging)?;
+        return Ok(convergence::PLOTS.map(|p| dir.join(p)).to_vec());
     }
     if !runs.exists() {
         return Err(format!(
@@ -53,19 +91,39 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
             dir.display()
         ));
     }
-    let (rows, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
+    let (all, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
+    let (rows, bad): (Vec<_>, Vec<_>) = all.into_iter().partition(plottable);
+    if !bad.is_empty() {
+        eprintln!(
+            "warning: {}: {} row(s) hold an infinite, NaN or out-of-range value (|x| > {PLOTTABLE:e}) and are left out of summary, plots and report",
+            runs.display(),
+            bad.len()
+        );
+    }
     let sums = summary::summarize(&rows);
-    let summary_path = dir.join("summary.csv");
-    summary::write_summary(&summary_path, &sums)
-        .map_err(|e| format!("{}: {e}", summary_path.display()))?;
-    let figs = draw_all(dir, &sums)?;
+    summary::write_summary(&staging.path("summary.csv"), &sums)
+        .map_err(|e| format!("{}: {e}", dir.join("summary.csv").display()))?;
+    register_font();
+    let real_plots = dir.join("plots");
+    let plots = staging
+        .dir("plots")
+        .map_err(|e| format!("{}: {e}", real_plots.display()))?;
+    let figs = charts::draw_all(dir, &plots, &real_plots, &sums)?;
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());
-    let report = report::render(meta.as_ref(), &sums, &figs, rows.len());
-    let report_path = dir.join("report.md");
-    std::fs::write(&report_path, report).map_err(|e| format!("{}: {e}", report_path.display()))?;
-    let mut out = vec![summary_path, report_path];
+    let mut report = report::render(meta.as_ref(), &sums, &figs, rows.len());
+    if !bad.is_empty() {
+        report += &format!(
+            "\n{} row(s) of runs.csv hold an infinite, NaN or out-of-range value and are left \
+             out of this report.\n",
+            bad.len()
+        );
+    }
+    std::fs::write(staging.path("report.md"), report)
+        .map_err(|e| format!("{}: {e}", dir.join("report.md").display()))?;
+    commit(staging)?;
+    let mut out = vec![dir.join("summary.csv"), dir.join("report.md")];
     out.extend(figs.iter().map(|f| dir.join(&f.file)));
     Ok(out)
 }

@@ -307,8 +307,10 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
     s: &mut Sampler,
     rays: &mut u64,
 ) -> Vec3 {
+    // Unlimited: Russian roulette ends the path, the hard cap at the latest (a lossless scene
+    // would never end otherwise).
     let max_depth = if scene.settings.max_depth < 0 {
-        u32::MAX
+        crate::limits::MAX_DEPTH
     } else {
         scene.settings.max_depth as u32
     };

@@ -105,13 +105,25 @@ pub struct CameraKeySpec {
     /// The frame this key poses: after the previous key's, before `frames`.
     pub frame: u32,
     /// Camera position in world space.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exactly_3_opt"
+    )]
     pub origin: Option<[f64; 3]>,
     /// Point looked at, in world space.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exactly_3_opt"
+    )]
     pub target: Option<[f64; 3]>,
     /// Up direction.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exactly_3_opt"
+    )]
     pub up: Option<[f64; 3]>,
     /// Field of view in degrees.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -123,10 +135,13 @@ pub struct CameraKeySpec {
 #[serde(deny_unknown_fields)]
 pub struct CameraSpec {
     /// Camera position; it becomes the render-space origin.
+    #[serde(deserialize_with = "exactly_3")]
     pub origin: [f64; 3],
     /// Point looked at; must differ from `origin`.
+    #[serde(deserialize_with = "exactly_3")]
     pub target: [f64; 3],
     /// Up direction; must not be zero or parallel to the view direction.
+    #[serde(deserialize_with = "exactly_3")]
     pub up: [f64; 3],
     /// Field of view in degrees, in (0, 180), across the smaller film side.
     pub fov_deg: f64,
@@ -134,6 +149,19 @@ pub struct CameraSpec {
     pub width: u32,
     /// Image height in pixels (≥ 1).
     pub height: u32,
+}
+
+/// A vector of exactly 3 numbers: serde reads a plain struct field `[f64; 3]` from a longer
+/// TOML array without a word (tagged enums already check the length).
+fn exactly_3<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    let n = v.len();
+    <[f64; 3]>::try_from(v)
+        .map_err(|_| serde::de::Error::invalid_length(n, &"an array of exactly 3 numbers"))
+}
+
+fn exactly_3_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
+    exactly_3(d).map(Some)
 }
 
 /// `[render]`: sampling and transport settings.
@@ -331,6 +359,17 @@ macro_rules! common_fields {
     };
 }
 
+/// Every shape `type`, in declaration order.
+pub const SHAPE_TYPES: &[&str] = &[
+    "sphere",
+    "rectangle",
+    "cube",
+    "mesh",
+    "displaced_sphere",
+    "random_triangles",
+    "sphere_grid",
+];
+
 impl ShapeSpec {
     /// The `type` as written in the file.
     pub fn type_name(&self) -> &'static str {
@@ -470,6 +509,22 @@ fn shapes_by_index<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<ShapeSp
                 .get("type")
                 .and_then(|t| t.as_str())
                 .map(str::to_owned);
+            // Checked first: serde, meeting an unknown tag, may report another field instead.
+            match (value.get("type"), kind.as_deref()) {
+                (Some(_), None) => {
+                    return Err(serde::de::Error::custom(format!(
+                        "shapes[{i}].type: must be a string (one of {})",
+                        SHAPE_TYPES.join(", ")
+                    )))
+                }
+                (_, Some(k)) if !SHAPE_TYPES.contains(&k) => {
+                    return Err(serde::de::Error::custom(format!(
+                        "shapes[{i}].type: unknown shape type '{k}' (expected {})",
+                        SHAPE_TYPES.join(", ")
+                    )))
+                }
+                _ => {}
+            }
             ShapeSpec::deserialize(value)
                 .map_err(|e| serde::de::Error::custom(shape_error(i, kind.as_deref(), e.message())))
         })
@@ -613,7 +668,8 @@ mod tests {
             err.starts_with("shapes[1].radius: does not apply to a shape of type 'mesh'"),
             "{err}"
         );
-        let err = parse("[[shapes]]\ntype = \"torus\"\nmaterial = \"m\"\n").unwrap_err();
+        let err =
+            parse("[[shapes]]\ntype = \"torus\"\nmaterial = \"m\"\nradius = 1\n").unwrap_err();
         assert_eq!(
             err,
             "shapes[0].type: unknown shape type 'torus' (expected sphere, rectangle, cube, mesh, \

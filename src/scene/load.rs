@@ -9,6 +9,8 @@ use super::{
     Camera, Features, Geometry, Light, Material, RenderSettings, Scene, SceneOverrides, Texture,
 };
 use crate::hash::Fnv64;
+pub use crate::limits::MAX_FRAMES;
+use crate::limits::{MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SAMPLES, MAX_SPP};
 use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -42,17 +44,30 @@ pub fn load_scene_str(
     default_name: &str,
     overrides: &SceneOverrides,
 ) -> Result<Scene, SceneError> {
-    let mut file: SceneFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let toml_error = |e: toml::de::Error| {
+        let (at, key, msg) = super::check::toml_error_at(text, &e);
+        // The message of a shape error already names `shapes[i].field`.
+        let key = if msg.starts_with("shapes[") {
+            String::new()
+        } else {
+            key
+        };
         SceneError {
             path: display.to_string(),
-            line,
-            field: String::new(),
-            msg: e.message().replace('\n', " "),
+            line: at.map(|(line, _)| line),
+            field: key,
+            msg,
         }
+    };
+    // Syntax first, then vector lengths (serde would cut or blame the table), then types.
+    let raw: toml::Value = toml::from_str(text).map_err(toml_error)?;
+    super::check::vector_lengths(&raw, "").map_err(|(field, msg)| SceneError {
+        path: display.to_string(),
+        line: None,
+        field,
+        msg,
     })?;
+    let mut file: SceneFile = toml::from_str(text).map_err(toml_error)?;
     overrides.apply(&mut file);
     build_scene(&file, display, base, default_name)
 }
@@ -70,8 +85,9 @@ fn build_scene(
     hash.write(format!("{file:?}").as_bytes());
     // 2. Cameras; render space is world space minus frame 0's camera origin.
     let (origin, cameras) = cameras(&cx, file)?;
-    // 3. Render settings.
+    // 3. Render settings, and the render's size against the limits.
     let settings = render_settings(&cx, &file.render)?;
+    check_size(&cx, &file.camera, cameras.len() as u64, settings.spp)?;
     // 4. Materials, in name order so ids are stable.
     let (material_ids, materials) = materials(&cx, &file.materials)?;
     // 5. Shapes, placed in render space; emitting ones become area lights.
@@ -127,13 +143,10 @@ fn first_camera(cx: &Ctx, cam: &CameraSpec) -> Result<(Pose, Camera), SceneError
     if !(fov > 0.0 && fov < 180.0) {
         return Err(cx.err("camera.fov_deg", format!("must be in (0, 180) (got {fov})")));
     }
-    if cam.width == 0 || cam.height == 0 {
-        let field = if cam.width == 0 {
-            "camera.width"
-        } else {
-            "camera.height"
-        };
-        return Err(cx.err(field, "must be ≥ 1 (got 0)"));
+    for (field, v) in [("camera.width", cam.width), ("camera.height", cam.height)] {
+        if !(1..=MAX_IMAGE_SIDE).contains(&v) {
+            return Err(cx.err(field, format!("must be in 1..={MAX_IMAGE_SIDE} (got {v})")));
+        }
     }
     let forward = target - origin;
     if forward.length() == 0.0 {
@@ -152,14 +165,48 @@ fn first_camera(cx: &Ctx, cam: &CameraSpec) -> Result<(Pose, Camera), SceneError
     Ok((pose, camera))
 }
 
-fn render_settings(cx: &Ctx, r: &RenderSpec) -> Result<RenderSettings, SceneError> {
-    if r.spp == 0 {
-        return Err(cx.err("render.spp", "must be ≥ 1 (got 0)"));
+/// Pixels (every frame) and samples of the render within [`MAX_PIXELS`] and [`MAX_SAMPLES`],
+/// so the image and its work items can be allocated.
+fn check_size(cx: &Ctx, cam: &CameraSpec, frames: u64, spp: u32) -> Result<(), SceneError> {
+    let pixels = cam.width as u64 * cam.height as u64 * frames;
+    if pixels > MAX_PIXELS {
+        return Err(cx.err(
+            "camera.width",
+            format!(
+                "width × height × frames = {} × {} × {frames} = {pixels} pixels is more than \
+                 the limit of {MAX_PIXELS}",
+                cam.width, cam.height
+            ),
+        ));
     }
-    if r.max_depth == 0 || r.max_depth < -1 {
+    let samples = pixels * spp as u64; // ≤ 2²⁵ · 2²⁰: no overflow
+    if samples > MAX_SAMPLES {
+        return Err(cx.err(
+            "render.spp",
+            format!(
+                "pixels × spp = {pixels} × {spp} = {samples} samples is more than the limit \
+                 of {MAX_SAMPLES}"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn render_settings(cx: &Ctx, r: &RenderSpec) -> Result<RenderSettings, SceneError> {
+    if !(1..=MAX_SPP).contains(&r.spp) {
+        return Err(cx.err(
+            "render.spp",
+            format!("must be in 1..={MAX_SPP} (got {})", r.spp),
+        ));
+    }
+    if r.max_depth == 0 || r.max_depth < -1 || r.max_depth as i64 > MAX_DEPTH as i64 {
         return Err(cx.err(
             "render.max_depth",
-            format!("must be ≥ 1, or −1 for unlimited (got {})", r.max_depth),
+            format!(
+                "must be in 1..={MAX_DEPTH}, or −1 for unlimited (Russian roulette ends the \
+                 path, at {MAX_DEPTH} segments at the latest) (got {})",
+                r.max_depth
+            ),
         ));
     }
     Ok(RenderSettings {
@@ -230,10 +277,11 @@ fn file_lights(
                 position,
                 intensity,
             } => {
-                let p = cx.vec3(&format!("{at}.position"), *position)?;
+                let field = format!("{at}.position");
+                let p = cx.vec3(&field, *position)?;
                 let i = cx.non_negative3(&format!("{at}.intensity"), *intensity)?;
                 lights.push(Light::Point {
-                    position: (p - origin).as_vec3(),
+                    position: cx.placed(&field, p - origin)?,
                     intensity: i.as_vec3(),
                 });
             }
@@ -262,10 +310,6 @@ fn link_area_lights(g: &mut Geometry, lights: &[Light]) {
         }
     }
 }
-
-/// The most frames an animation may have (a sanity bound: every frame keeps a camera, and a
-/// 1-pixel decomposition makes frames·width·height items).
-pub const MAX_FRAMES: u32 = 100_000;
 
 /// A camera pose in world space (f64), as written in the scene.
 #[derive(Clone, Copy, Debug)]
@@ -384,7 +428,11 @@ fn animation_cameras(
             first.width,
             first.height,
         );
-        cameras.push(cam.with_eye((pose.origin - pose0.origin).as_vec3()));
+        let eye = cx.placed(
+            &format!("animation.keys[{}]", next - 1),
+            pose.origin - pose0.origin,
+        )?;
+        cameras.push(cam.with_eye(eye));
     }
     Ok(cameras)
 }

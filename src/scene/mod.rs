@@ -17,6 +17,7 @@ pub mod load;
 mod shapes;
 
 pub use camera::Camera;
+pub use check::toml_error_at;
 pub use format::{SceneFile, SceneOverrides};
 pub use load::{load_scene, load_scene_str, SceneError};
 
@@ -294,6 +295,32 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A warning for a render whose paths may run to the hard cap: `max_depth = -1` with a
+    /// material that loses no energy in some channel, where Russian roulette may never end a
+    /// path (docs/conventions.md, `max_depth`).
+    pub fn depth_warning(&self) -> Option<String> {
+        if self.settings.max_depth >= 0 {
+            return None;
+        }
+        let lossless = |m: &Material| match m {
+            Material::Dielectric { .. } => true,
+            Material::Mirror { reflectance } => reflectance.max_element() >= 1.0,
+            Material::Diffuse {
+                reflectance: Texture::Constant(c),
+            } => c.max_element() >= 1.0,
+            Material::Diffuse {
+                reflectance: Texture::Checker { even, odd, .. },
+            } => even.max_element().max(odd.max_element()) >= 1.0,
+        };
+        let used = |id: usize| self.geometry.info.iter().any(|i| i.material as usize == id);
+        (0..self.materials.len()).find(|&i| used(i) && lossless(&self.materials[i]))?;
+        Some(format!(
+            "render.max_depth = -1 with a lossless material (reflectance 1 or a dielectric): \
+             a path Russian roulette does not end stops at the hard cap of {} segments",
+            crate::limits::MAX_DEPTH
+        ))
+    }
+
     /// Image width in pixels.
     pub fn width(&self) -> u32 {
         self.camera.width

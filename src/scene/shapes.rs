@@ -6,6 +6,7 @@ use super::format::{ScaleSpec, ShapeSpec, TransformStep};
 use super::{generators, Geometry, Light, LoadStats, PrimInfo, NO_LIGHT};
 use crate::geometry::{Sphere, Triangle};
 use crate::hash::Fnv64;
+use crate::limits::{MAX_GENERATOR_COUNT, MAX_PRIMITIVES};
 use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -34,6 +35,8 @@ pub(super) struct Builder<'a> {
     /// Per emitting shape: its primitives as (is_sphere, index among its kind), radiance.
     #[allow(clippy::type_complexity)]
     pending_area: Vec<(Vec<(bool, usize)>, Vec3)>,
+    /// Primitives counted so far by [`Self::reserve`].
+    primitives: u64,
 }
 
 impl<'a> Builder<'a> {
@@ -53,6 +56,7 @@ impl<'a> Builder<'a> {
             tri_info: Vec::new(),
             stats: LoadStats::default(),
             pending_area: Vec::new(),
+            primitives: 0,
         }
     }
 
@@ -107,13 +111,14 @@ impl<'a> Builder<'a> {
                 let radius = cx.positive(&field("radius"), radius.unwrap_or(1.0))?;
                 let what = "a sphere's placement must be rotation, uniform scale and translation";
                 let scale = similarity_scale(cx, at, m, what)?;
-                self.push_sphere(m.transform_point3(center), radius * scale);
+                self.push_sphere(at, m.transform_point3(center), radius * scale)?;
             }
-            ShapeSpec::Rectangle { .. } => self.push_triangles(m, &rectangle_triangles()),
-            ShapeSpec::Cube { .. } => self.push_triangles(m, &cube_triangles()),
+            ShapeSpec::Rectangle { .. } => self.push_triangles(at, m, &rectangle_triangles())?,
+            ShapeSpec::Cube { .. } => self.push_triangles(at, m, &cube_triangles())?,
             ShapeSpec::Mesh { path, .. } => {
                 let tris = load_mesh(cx, at, path.as_deref(), self.base, hash)?;
-                self.push_triangles(m, &tris);
+                self.reserve(&field("path"), tris.len() as u64)?;
+                self.push_triangles(at, m, &tris)?;
             }
             ShapeSpec::DisplacedSphere {
                 count,
@@ -121,8 +126,9 @@ impl<'a> Builder<'a> {
                 ..
             } => {
                 let count = generator_count(cx, at, *count)?;
+                self.reserve(&field("count"), count)?;
                 let d = cx.finite(&field("displacement"), displacement.unwrap_or(0.1))?;
-                self.push_triangles(m, &generators::displaced_sphere(count, d));
+                self.push_triangles(at, m, &generators::displaced_sphere(count, d))?;
             }
             ShapeSpec::RandomTriangles {
                 count,
@@ -131,17 +137,18 @@ impl<'a> Builder<'a> {
                 ..
             } => {
                 let count = generator_count(cx, at, *count)?;
+                self.reserve(&field("count"), count)?;
                 let size = cx.positive(&field("triangle_size"), triangle_size.unwrap_or(0.05))?;
                 let tris = generators::random_triangles(count, size, seed.unwrap_or(0));
-                self.push_triangles(m, &tris);
+                self.push_triangles(at, m, &tris)?;
             }
             ShapeSpec::SphereGrid { count, .. } => {
                 let count = generator_count(cx, at, *count)?;
-                let spheres = generators::sphere_grid(count);
+                self.reserve(&field("count"), count)?;
                 let what = "sphere_grid needs rotation, uniform scale and translation";
                 let scale = similarity_scale(cx, at, m, what)?;
-                for (c, r) in spheres {
-                    self.push_sphere(m.transform_point3(c), r * scale);
+                for (c, r) in generators::sphere_grid(count) {
+                    self.push_sphere(at, m.transform_point3(c), r * scale)?;
                 }
             }
         }
@@ -167,19 +174,61 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn push_sphere(&mut self, center: DVec3, radius: f64) {
-        self.geometry.spheres.push(Sphere {
-            center: (center - self.origin).as_vec3(),
-            radius: radius as f32,
-        });
+    /// Count `n` more primitives against [`MAX_PRIMITIVES`] before they are made; an error
+    /// on `field` (the size knob) when the scene would exceed it.
+    fn reserve(&mut self, field: &str, n: u64) -> Result<(), SceneError> {
+        let total = self.primitives.saturating_add(n);
+        if total > MAX_PRIMITIVES {
+            return Err(self.cx.err(
+                field,
+                format!(
+                    "{n} more primitives would make {total} in the scene, more than the limit \
+                 of {MAX_PRIMITIVES}"
+                ),
+            ));
+        }
+        self.primitives = total;
+        Ok(())
+    }
+
+    fn push_sphere(&mut self, at: &str, center: DVec3, radius: f64) -> Result<(), SceneError> {
+        let center = self
+            .cx
+            .placed(&format!("{at}.center"), center - self.origin)?;
+        let radius = radius as f32;
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(self.cx.err(
+                format!("{at}.radius"),
+                format!("placed radius {radius} is not a positive f32 (|x| ≤ 3.4e38)"),
+            ));
+        }
+        self.geometry.spheres.push(Sphere { center, radius });
+        Ok(())
     }
 
     /// Place local triangles, keep their facing under mirroring transforms, move them to
-    /// render space, and drop (and count) those with zero area after rounding to f32.
-    fn push_triangles(&mut self, m: &DMat4, tris: &[[DVec3; 3]]) {
+    /// render space, and drop (and count) those with zero area after rounding to f32. A vertex
+    /// the placement takes out of f32's range is an error on `at`'s placement.
+    fn push_triangles(
+        &mut self,
+        at: &str,
+        m: &DMat4,
+        tris: &[[DVec3; 3]],
+    ) -> Result<(), SceneError> {
         let flip = m.determinant() < 0.0;
         for t in tris {
-            let [a, b, c] = t.map(|p| (m.transform_point3(p) - self.origin).as_vec3());
+            let placed = t.map(|p| m.transform_point3(p) - self.origin);
+            let [a, b, c] = placed.map(|p| p.as_vec3());
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                let bad = placed.into_iter().find(|p| !p.as_vec3().is_finite());
+                return Err(self.cx.err(
+                    format!("{at}.transform"),
+                    format!(
+                        "places a vertex at {}, outside f32's range (|x| ≤ 3.4e38)",
+                        bad.unwrap_or_default()
+                    ),
+                ));
+            }
             let tri = if flip {
                 Triangle::new(a, c, b)
             } else {
@@ -192,6 +241,7 @@ impl<'a> Builder<'a> {
                 self.stats.degenerate_triangles += 1;
             }
         }
+        Ok(())
     }
 
     /// Number the primitives (spheres first) and turn the emitting shapes into area lights.
@@ -241,8 +291,11 @@ fn generator_count(cx: &Ctx, at: &str, count: Option<u64>) -> Result<u64, SceneE
     let field = format!("{at}.count");
     match count {
         None => Err(cx.err(field, "a generator needs `count` (its size)")),
-        Some(0) => Err(cx.err(field, "must be ≥ 1 (got 0)")),
-        Some(n) => Ok(n),
+        Some(n) if (1..=MAX_GENERATOR_COUNT).contains(&n) => Ok(n),
+        Some(n) => Err(cx.err(
+            field,
+            format!("must be in 1..={MAX_GENERATOR_COUNT} (got {n})"),
+        )),
     }
 }
 
@@ -377,6 +430,12 @@ fn read_obj(path: &Path) -> Result<Vec<[DVec3; 3]>, String> {
         ..Default::default()
     };
     let (models, _) = tobj::load_obj(path, &opts).map_err(|e| e.to_string())?;
+    if models
+        .iter()
+        .any(|m| m.mesh.positions.iter().any(|x| !x.is_finite()))
+    {
+        return Err(non_finite_vertex(path));
+    }
     let mut tris = Vec::new();
     for m in models {
         let pos = &m.mesh.positions;
@@ -392,4 +451,27 @@ fn read_obj(path: &Path) -> Result<Vec<[DVec3; 3]>, String> {
         return Err("the OBJ file has no triangles".into());
     }
     Ok(tris)
+}
+
+/// Where an OBJ file's first non-finite vertex is (`line N: …`): tobj reads coordinates as f32
+/// without saying where, so a NaN, an infinity or a value beyond f32's range (1e39) is found
+/// again here, by line.
+fn non_finite_vertex(path: &Path) -> String {
+    let text = std::fs::read(path).unwrap_or_default();
+    let text = String::from_utf8_lossy(&text);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("v") {
+            continue;
+        }
+        for w in words.take(3) {
+            if !w.parse::<f32>().is_ok_and(f32::is_finite) {
+                return format!(
+                    "line {}: vertex coordinate '{w}' is not a finite number within f32's range",
+                    i + 1
+                );
+            }
+        }
+    }
+    "a vertex coordinate is not a finite number within f32's range".into()
 }

@@ -25,9 +25,8 @@ pub(crate) fn err(field: &str, msg: impl Into<String>) -> SpecError {
     }
 }
 
-/// The largest count a parameter may take: far beyond any useful buffer or grab, small enough
-/// that nothing sized by it can exhaust memory.
-pub const MAX_COUNT: usize = 1 << 20;
+pub use crate::limits::MAX_COUNT;
+use crate::limits::MAX_IMAGE_SIDE;
 
 /// A value a scheduler parameter can hold, with its one text form.
 pub trait ParamValue: Sized {
@@ -166,9 +165,12 @@ impl Chunk {
     pub fn parse(s: &str) -> Result<Self, SpecError> {
         let bad = |m: &str| err("chunk", format!("'{s}': {m}"));
         let pos = |t: &str| -> Result<u32, SpecError> {
-            match t.trim().parse::<u32>() {
+            match t.trim().parse::<u64>() {
                 Ok(0) => Err(bad("sizes must be ≥ 1 (chunk 0 has no pixels)")),
-                Ok(v) => Ok(v),
+                Ok(v) if v <= MAX_IMAGE_SIDE as u64 => Ok(v as u32),
+                Ok(v) => Err(bad(&format!(
+                    "sizes must be ≤ {MAX_IMAGE_SIDE}, the largest image side (got {v})"
+                ))),
                 Err(_) => Err(bad("expected N, WxH, rows:N, frame or frames")),
             }
         };

@@ -95,7 +95,8 @@ fn bad_configs_exit_2_naming_file_and_field() {
             "tracers[0]",
         ),
         ("width = 16", "width = 0", "scenes[0]"),
-        ("width = 16", "widht = 16", "line"),
+        // A TOML error: `file:line:column: key: message`.
+        ("width = 16", "widht = 16", "bad.toml:7:1: scenes[0].widht"),
     ];
     for (i, (from, to, field)) in cases.into_iter().enumerate() {
         let res = format!("res{i}");
@@ -112,7 +113,7 @@ fn bad_configs_exit_2_naming_file_and_field() {
         }
         assert_eq!(out.status.code(), Some(2), "{to}: {err}");
         assert!(
-            err.contains("bad.toml: ") && err.contains(field),
+            err.contains("bad.toml:") && err.contains(field),
             "{to}: {err}"
         );
         // Validation happens before anything is measured.

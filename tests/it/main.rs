@@ -10,6 +10,8 @@ mod bad_input;
 mod determinism;
 mod embree;
 mod experiment;
+mod fuzz;
+mod hostile;
 mod mpi;
 mod schedulers;
 mod stability;

@@ -1,0 +1,465 @@
+//! Fuzz-style property tests: scene and experiment texts, random in structure or mutated from
+//! the shipped files of scenes/ and experiments/ (byte flips, deleted, duplicated and swapped
+//! lines, hostile numbers, wrong types), go through the library's loaders (and loaded scenes
+//! through a tracer build and one sample). None may panic, and every error is one line.
+//! Random flags go through the binary the same way.
+//!
+//! `cargo test` runs a bounded number of cases. Longer runs:
+//!
+//! ```sh
+//! RAYSCHED_FUZZ_CASES=100000 cargo test --release --test it fuzz:: -- --nocapture
+//! RAYSCHED_FUZZ_SECS=600 cargo test --release --test it fuzz:: -- --nocapture  # 10 minutes
+//! ```
+//!
+//! With `RAYSCHED_FUZZ_SECS` each property runs batches of cases until that time has passed
+//! (split between the properties); the number of cases run is printed.
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestCaseError, TestRunner};
+use raysched::scene::{load_scene_str, SceneOverrides};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+/// Values a hostile user types: beyond every limit, beyond f32, negative, NaN, wrong types.
+const HOSTILE: &[&str] = &[
+    "0",
+    "-1",
+    "-3",
+    "1",
+    "2",
+    "nan",
+    "inf",
+    "-inf",
+    "1e39",
+    "-1e39",
+    "1e308",
+    "1e-320",
+    "0.5",
+    "65536",
+    "65537",
+    "33554433",
+    "1048577",
+    "16777217",
+    "4294967296",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "\"x\"",
+    "\"\"",
+    "\"max\"",
+    "\"1..99999999999\"",
+    "\"frame\"",
+    "\"rows:0\"",
+    "\"0x0\"",
+    "\"99999999x99999999\"",
+    "true",
+    "[]",
+    "[1, 2]",
+    "[1, 2, 3, 4]",
+    "[nan, inf, 1e39]",
+    "[0, 0, 0]",
+    "[[1, 2], [3]]",
+    "{ a = 1 }",
+    "{ translate = [1e39, 0, 0] }",
+    "[{ scale = 1e30 }, { scale = 1e30 }]",
+];
+
+/// Keys of both file formats, to build texts of random structure.
+const KEYS: &[&str] = &[
+    "origin",
+    "target",
+    "up",
+    "fov_deg",
+    "width",
+    "height",
+    "spp",
+    "max_depth",
+    "seed",
+    "type",
+    "material",
+    "emission",
+    "transform",
+    "matrix",
+    "center",
+    "radius",
+    "flip_normals",
+    "path",
+    "count",
+    "displacement",
+    "triangle_size",
+    "reflectance",
+    "checker",
+    "ior",
+    "position",
+    "intensity",
+    "radiance",
+    "frames",
+    "frame",
+    "name",
+    "workers",
+    "repetitions",
+    "warmup",
+    "tracers",
+    "timeline",
+    "kind",
+    "chunk",
+    "order",
+    "buffer",
+    "grab",
+    "guided_k",
+    "requeue",
+    "wait",
+    "max_spp",
+    "ref_spp",
+    "ranks",
+    "transports",
+    "silence_ms",
+    "generator_count",
+];
+
+const HEADERS: &[&str] = &[
+    "",
+    "[camera]",
+    "[render]",
+    "[materials.m]",
+    "[[shapes]]",
+    "[[lights]]",
+    "[animation]",
+    "[[animation.keys]]",
+    "[[scenes]]",
+    "[[schedulers]]",
+    "[mpi]",
+];
+
+/// One edit of a text.
+#[derive(Clone, Debug)]
+enum Mutation {
+    FlipByte(usize, u8),
+    DeleteLine(usize),
+    DuplicateLine(usize),
+    SwapLines(usize, usize),
+    /// Replace the value of the line's `key = value` by a hostile one.
+    Value(usize, &'static str),
+    /// Insert `key = value` before a line.
+    Insert(usize, &'static str, &'static str),
+    Truncate(usize),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let idx = any::<usize>();
+    prop_oneof![
+        1 => (idx, any::<u8>()).prop_map(|(i, b)| Mutation::FlipByte(i, b)),
+        1 => idx.prop_map(Mutation::DeleteLine),
+        1 => idx.prop_map(Mutation::DuplicateLine),
+        1 => (idx, idx).prop_map(|(a, b)| Mutation::SwapLines(a, b)),
+        4 => (idx, prop::sample::select(HOSTILE)).prop_map(|(i, v)| Mutation::Value(i, v)),
+        2 => (idx, prop::sample::select(KEYS), prop::sample::select(HOSTILE))
+            .prop_map(|(i, k, v)| Mutation::Insert(i, k, v)),
+        1 => idx.prop_map(Mutation::Truncate),
+    ]
+}
+
+fn apply(text: &[u8], m: &Mutation) -> Vec<u8> {
+    let mut lines: Vec<Vec<u8>> = text.split(|&b| b == b'\n').map(<[u8]>::to_vec).collect();
+    let n = lines.len().max(1);
+    match *m {
+        Mutation::FlipByte(i, b) => {
+            let mut t = text.to_vec();
+            if !t.is_empty() {
+                let i = i % t.len();
+                t[i] = b;
+            }
+            return t;
+        }
+        Mutation::DeleteLine(i) => {
+            if !lines.is_empty() {
+                lines.remove(i % n);
+            }
+        }
+        Mutation::DuplicateLine(i) => {
+            if !lines.is_empty() {
+                let l = lines[i % n].clone();
+                lines.insert(i % n, l);
+            }
+        }
+        Mutation::SwapLines(a, b) => {
+            if !lines.is_empty() {
+                lines.swap(a % n, b % n);
+            }
+        }
+        Mutation::Value(i, v) => {
+            // The i-th `key = value` line (counting only such lines).
+            let with_value: Vec<usize> = (0..lines.len())
+                .filter(|&k| lines[k].contains(&b'=') && !lines[k].starts_with(b"#"))
+                .collect();
+            if !with_value.is_empty() {
+                let k = with_value[i % with_value.len()];
+                let eq = lines[k].iter().position(|&b| b == b'=').expect("has =");
+                let mut l = lines[k][..=eq].to_vec();
+                l.push(b' ');
+                l.extend_from_slice(v.as_bytes());
+                lines[k] = l;
+            }
+        }
+        Mutation::Insert(i, k, v) => {
+            let at = i % (lines.len() + 1);
+            lines.insert(at, format!("{k} = {v}").into_bytes());
+        }
+        Mutation::Truncate(i) => {
+            let mut t = text.to_vec();
+            t.truncate(i % (text.len() + 1));
+            return t;
+        }
+    }
+    lines.join(&b'\n')
+}
+
+/// A text of random structure: headers and `key = value` lines drawn from both formats.
+fn random_text() -> impl Strategy<Value = Vec<u8>> {
+    let line = prop_oneof![
+        prop::sample::select(HEADERS).prop_map(str::to_string),
+        (prop::sample::select(KEYS), prop::sample::select(HOSTILE))
+            .prop_map(|(k, v)| format!("{k} = {v}")),
+    ];
+    prop::collection::vec(line, 0..40).prop_map(|l| l.join("\n").into_bytes())
+}
+
+/// Shipped files (`dir` of the repository), made cheap to load: the 1 M-triangle generator
+/// counts shrunk, so a case takes milliseconds.
+fn shipped(dir: &str) -> Vec<(String, Vec<u8>)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join(dir);
+    let mut out: Vec<(String, Vec<u8>)> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap();
+            let cheap: String = text
+                .lines()
+                .map(|l| {
+                    let key = l.split('=').next().unwrap_or("").trim();
+                    if key == "count" || key == "generator_count" {
+                        format!("{key} = 300")
+                    } else {
+                        l.to_string()
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n");
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                cheap.into_bytes(),
+            )
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// A text: a shipped file with 1 or 2 mutations, or one of random structure.
+fn text_from(files: Vec<(String, Vec<u8>)>) -> impl Strategy<Value = Vec<u8>> {
+    let files: Vec<Vec<u8>> = files.into_iter().map(|(_, t)| t).collect();
+    prop_oneof![
+        4 => (prop::sample::select(files), prop::collection::vec(mutation(), 1..3)).prop_map(
+            |(base, ms)| ms.iter().fold(base, |t, m| apply(&t, m))
+        ),
+        1 => random_text(),
+    ]
+}
+
+/// How many cases, or for how long: see the module docs. `share` splits a time budget.
+fn budget(default_cases: u32, share: u32) -> (u32, Option<Duration>) {
+    let secs = std::env::var("RAYSCHED_FUZZ_SECS")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok());
+    let cases = std::env::var("RAYSCHED_FUZZ_CASES")
+        .ok()
+        .and_then(|s| s.parse::<u32>().ok())
+        .unwrap_or(default_cases);
+    (cases, secs.map(|s| Duration::from_secs(s / share as u64)))
+}
+
+/// Run `test` over `strategy` in batches of `cases` until `time` (if any) has passed; returns
+/// the number of cases run.
+fn fuzz<S: Strategy>(
+    what: &str,
+    strategy: S,
+    (cases, time): (u32, Option<Duration>),
+    test: impl Fn(S::Value) -> Result<(), TestCaseError>,
+) -> u64 {
+    let t0 = Instant::now();
+    let mut total = 0u64;
+    let mut batch = 0u64;
+    loop {
+        let config = Config {
+            cases,
+            failure_persistence: None,
+            // A different stream per batch; each batch is reproducible from its number.
+            rng_algorithm: proptest::test_runner::RngAlgorithm::ChaCha,
+            ..Config::default()
+        };
+        let seed: [u8; 32] = std::array::from_fn(|i| (batch >> (8 * (i % 8))) as u8 ^ i as u8);
+        let rng = proptest::test_runner::TestRng::from_seed(
+            proptest::test_runner::RngAlgorithm::ChaCha,
+            &seed,
+        );
+        let mut runner = TestRunner::new_with_rng(config, rng);
+        if let Err(e) = runner.run(&strategy, &test) {
+            panic!("{what}: batch {batch}: {e}");
+        }
+        total += cases as u64;
+        batch += 1;
+        if time.is_none_or(|t| t0.elapsed() >= t) {
+            break;
+        }
+    }
+    eprintln!(
+        "fuzz {what}: {total} cases in {:.1} s, 0 panics",
+        t0.elapsed().as_secs_f64()
+    );
+    total
+}
+
+/// `f` must not panic; its error, if any, must be one line.
+fn no_panic_one_line<T, E: std::fmt::Display>(
+    what: &str,
+    text: &[u8],
+    f: impl FnOnce() -> Result<T, E>,
+) -> Result<Option<T>, TestCaseError> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Err(_) => Err(TestCaseError::fail(format!(
+            "{what} panicked on:\n{}",
+            String::from_utf8_lossy(text)
+        ))),
+        Ok(Err(e)) => {
+            let msg = e.to_string();
+            if msg.contains('\n') || msg.is_empty() {
+                Err(TestCaseError::fail(format!(
+                    "{what}: not one line: {msg:?}"
+                )))
+            } else {
+                Ok(None)
+            }
+        }
+        Ok(Ok(v)) => Ok(Some(v)),
+    }
+}
+
+/// The shipped scenes beside their (shrunk) copies, so mesh paths and `../scenes` resolve.
+fn scratch() -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = dir.path().join("scenes");
+    let exps = dir.path().join("experiments");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::create_dir_all(&exps).unwrap();
+    for (name, text) in shipped("scenes") {
+        std::fs::write(scenes.join(name), text).unwrap();
+    }
+    (dir, scenes, exps)
+}
+
+#[test]
+fn scene_texts_never_panic_and_every_error_is_one_line() {
+    let (_dir, scenes, _) = scratch();
+    let strategy = text_from(shipped("scenes"));
+    let loaded_ok = AtomicU64::new(0);
+    fuzz("scenes", strategy, budget(200, 3), |bytes| {
+        let text = String::from_utf8_lossy(&bytes).into_owned();
+        let over = SceneOverrides::default();
+        let loaded = no_panic_one_line("load_scene_str", &bytes, || {
+            load_scene_str(&text, "fuzz.toml", &scenes, "fuzz", &over)
+        })?;
+        if let Some(scene) = loaded {
+            loaded_ok.fetch_add(1, Ordering::Relaxed);
+            // A scene that loads renders: its first and last pixel, one sample each.
+            no_panic_one_line("render", &bytes, || {
+                let tracer = raysched::tracer::BvhTracer::new(&scene.geometry);
+                let mut rays = 0;
+                let last = scene.pixel_count() as u32 - 1;
+                for p in [0, last] {
+                    let _ = raysched::render::sample_pixel(&scene, &tracer, p, 0, &mut rays);
+                }
+                Ok::<_, String>(())
+            })?;
+        }
+        Ok(())
+    });
+    eprintln!("fuzz scenes: {} texts loaded", loaded_ok.into_inner());
+}
+
+#[test]
+fn experiment_texts_never_panic_and_every_error_is_one_line() {
+    let (_dir, _, exps) = scratch();
+    let strategy = text_from(shipped("experiments"));
+    let path = exps.join("fuzz.toml");
+    let planned = AtomicU64::new(0);
+    fuzz("experiments", strategy, budget(100, 3), |bytes| {
+        std::fs::write(&path, &bytes).unwrap();
+        let plan = no_panic_one_line("load_plan", &bytes, || {
+            raysched::experiment::load_plan(&path)
+        })?;
+        if plan.is_some() {
+            planned.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(())
+    });
+    eprintln!("fuzz experiments: {} texts planned", planned.into_inner());
+}
+
+#[test]
+fn random_flags_exit_0_or_2_with_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
+                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
+                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    const FLAGS: &[&str] = &[
+        "--threads",
+        "--spp",
+        "--chunk",
+        "--buffer",
+        "--grab",
+        "--guided-k",
+        "--order",
+        "--scheduler",
+        "--requeue",
+        "--wait",
+        "--tracer",
+        "--deadline-ms",
+        "--local-threads",
+    ];
+    let (cases, time) = budget(128, 3);
+    let flag = (prop::sample::select(FLAGS), prop::sample::select(HOSTILE));
+    fuzz(
+        "flags",
+        prop::collection::vec(flag, 1..3),
+        (cases.div_ceil(8), time),
+        |flags| {
+            let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"));
+            cmd.current_dir(dir.path())
+                .args(["render", "s.toml", "-o", "o.exr", "--threads", "1"]);
+            for (f, v) in &flags {
+                cmd.arg(f).arg(v.trim_matches('"'));
+            }
+            let out = cmd.output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            let code = out.status.code();
+            prop_assert!(
+                code == Some(0) || code == Some(2) || code == Some(1),
+                "{flags:?}: exit {code:?}: {stderr}"
+            );
+            prop_assert!(!stderr.contains("panicked"), "{flags:?}: {stderr}");
+            if code != Some(0) {
+                prop_assert_eq!(
+                    stderr.trim_end().lines().count(),
+                    1,
+                    "{:?}: {}",
+                    flags,
+                    stderr
+                );
+            }
+            Ok(())
+        },
+    );
+}
