@@ -139,7 +139,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         stats.nonfinite
     );
     print!("{}", stats.summary());
-    let (used, left_out) = scene.features.report(tracer.accelerated());
+    let (used, left_out) = scene.feature_report(tracer.accelerated());
     println!(
         "features used: {}; left out: {}",
         used.join(","),

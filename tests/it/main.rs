@@ -10,6 +10,7 @@ mod bad_input;
 mod determinism;
 mod embree;
 mod experiment;
+mod models;
 mod mpi;
 mod schedulers;
 mod stability;
