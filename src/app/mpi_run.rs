@@ -291,8 +291,7 @@ impl Remote for MpiRemote<'_> {
         let image = assemble(scene.width(), scene.height(), &items, &results)
             .map_err(|source| RunError::Sched { config, source })?;
         let tracer = &plan.baselines[c.baseline].tracer;
-        (stats.features_used, stats.features_left_out) =
-            scene.features.report(tracer.accelerated());
+        (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
         Ok((image, stats))
     }
 }

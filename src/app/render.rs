@@ -141,7 +141,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         stats.nonfinite
     );
     super::write_stdout(format_args!("{}", stats.summary()));
-    let (used, left_out) = scene.features.report(tracer.accelerated());
+    let (used, left_out) = scene.feature_report(tracer.accelerated());
     out!(
         "features used: {}; left out: {}",
         used.join(","),

@@ -443,7 +443,7 @@ fn measure(
                 nonfinite: counters.nonfinite,
                 ..Default::default()
             };
-            let (used, left_out) = scene.features.report(b.tracer.accelerated());
+            let (used, left_out) = scene.feature_report(b.tracer.accelerated());
             Ok((
                 image,
                 RunStats {

@@ -27,10 +27,7 @@ pub fn package(
     let file: SceneFile = toml::from_str(&text)?;
     let mut meshes = Vec::new();
     for (i, shape) in file.shapes.iter().enumerate() {
-        let ShapeSpec::Mesh {
-            path: Some(rel), ..
-        } = shape
-        else {
+        let Some(rel) = shape.path() else {
             continue;
         };
         if Path::new(rel).is_absolute() {
@@ -38,10 +35,23 @@ pub fn package(
                 "{display}: shapes[{i}].path: '{rel}' is absolute; MPI ranks get meshes by path relative to the scene file"
             );
         }
-        let bytes = std::fs::read(base.join(rel)).map_err(|e| {
-            anyhow::anyhow!("{display}: shapes[{i}].path: cannot read '{rel}': {e}")
-        })?;
-        meshes.push((rel.to_string(), bytes));
+        let mut files = vec![rel.to_string()];
+        if let ShapeSpec::Gltf { .. } = shape {
+            // A .gltf's buffers travel too, at their place beside it.
+            let dir = Path::new(rel).parent().unwrap_or(Path::new(""));
+            let uris = crate::scene::gltf::external_buffers(&base.join(rel))
+                .map_err(|e| anyhow::anyhow!("{display}: shapes[{i}].path: '{rel}': {e}"))?;
+            files.extend(
+                uris.iter()
+                    .map(|u| dir.join(u).to_string_lossy().into_owned()),
+            );
+        }
+        for f in files {
+            let bytes = std::fs::read(base.join(&f)).map_err(|e| {
+                anyhow::anyhow!("{display}: shapes[{i}].path: cannot read '{f}': {e}")
+            })?;
+            meshes.push((f, bytes));
+        }
     }
     let pkg = ScenePackage {
         text,

@@ -297,6 +297,38 @@ pub enum ShapeSpec {
         /// The OBJ file, relative to the scene file's folder (required).
         path: Option<String>,
     },
+    /// The triangles of a glTF 2.0 file (`.gltf` with its buffers, or `.glb`), `path` relative
+    /// to the scene file: the default scene's nodes with their transforms, under this shape's
+    /// own placement. Materials come from the file ([`super::gltf`] states the mapping) unless
+    /// `material` overrides them all.
+    Gltf {
+        /// Name of a `[materials]` entry that replaces every material of the file; `None`
+        /// maps the file's own materials.
+        material: Option<String>,
+        /// Radiance from the front side (each channel ≥ 0); makes the whole shape one area
+        /// light, replacing the file's emissive materials.
+        emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
+        transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
+        matrix: Option<[[f64; 4]; 4]>,
+        /// The `.gltf` or `.glb` file, relative to the scene file's folder (required).
+        path: Option<String>,
+    },
+    /// The faces of a PLY file (ASCII or binary), `path` relative to the scene file; polygons
+    /// are split into triangle fans ([`super::ply`]).
+    Ply {
+        /// Name of a `[materials]` entry.
+        material: String,
+        /// Radiance from the front side (each channel ≥ 0); makes the shape an area light.
+        emission: Option<[f64; 3]>,
+        /// Placement as steps multiplied left to right, so the last applies first (`T·R·S`).
+        transform: Option<Vec<TransformStep>>,
+        /// Placement as a row-major 4×4 affine matrix (last row `[0, 0, 0, 1]`).
+        matrix: Option<[[f64; 4]; 4]>,
+        /// The PLY file, relative to the scene file's folder (required).
+        path: Option<String>,
+    },
     /// [`super::generators::displaced_sphere`]: about `count` triangles.
     DisplacedSphere {
         /// Name of a `[materials]` entry.
@@ -352,6 +384,8 @@ macro_rules! common_fields {
             | ShapeSpec::Rectangle { $($field,)+ .. }
             | ShapeSpec::Cube { $($field,)+ .. }
             | ShapeSpec::Mesh { $($field,)+ .. }
+            | ShapeSpec::Gltf { $($field,)+ .. }
+            | ShapeSpec::Ply { $($field,)+ .. }
             | ShapeSpec::DisplacedSphere { $($field,)+ .. }
             | ShapeSpec::RandomTriangles { $($field,)+ .. }
             | ShapeSpec::SphereGrid { $($field,)+ .. } => $body,
@@ -378,14 +412,36 @@ impl ShapeSpec {
             ShapeSpec::Rectangle { .. } => "rectangle",
             ShapeSpec::Cube { .. } => "cube",
             ShapeSpec::Mesh { .. } => "mesh",
+            ShapeSpec::Gltf { .. } => "gltf",
+            ShapeSpec::Ply { .. } => "ply",
             ShapeSpec::DisplacedSphere { .. } => "displaced_sphere",
             ShapeSpec::RandomTriangles { .. } => "random_triangles",
             ShapeSpec::SphereGrid { .. } => "sphere_grid",
         }
     }
-    /// The `material` field, whatever the type.
-    pub fn material(&self) -> &str {
-        common_fields!(self, material => material)
+    /// The `material` field, whatever the type; `None` only for a `gltf` shape that keeps
+    /// the file's own materials.
+    pub fn material(&self) -> Option<&str> {
+        match self {
+            ShapeSpec::Gltf { material, .. } => material.as_deref(),
+            ShapeSpec::Sphere { material, .. }
+            | ShapeSpec::Rectangle { material, .. }
+            | ShapeSpec::Cube { material, .. }
+            | ShapeSpec::Mesh { material, .. }
+            | ShapeSpec::Ply { material, .. }
+            | ShapeSpec::DisplacedSphere { material, .. }
+            | ShapeSpec::RandomTriangles { material, .. }
+            | ShapeSpec::SphereGrid { material, .. } => Some(material),
+        }
+    }
+    /// The file a shape reads (`mesh`, `gltf`, `ply`), as written; `None` for the others.
+    pub fn path(&self) -> Option<&str> {
+        match self {
+            ShapeSpec::Mesh { path, .. }
+            | ShapeSpec::Gltf { path, .. }
+            | ShapeSpec::Ply { path, .. } => path.as_deref(),
+            _ => None,
+        }
     }
     /// The `emission` field, whatever the type.
     pub fn emission(&self) -> Option<[f64; 3]> {
@@ -414,7 +470,9 @@ impl ShapeSpec {
             ShapeSpec::Sphere { .. }
             | ShapeSpec::Rectangle { .. }
             | ShapeSpec::Cube { .. }
-            | ShapeSpec::Mesh { .. } => None,
+            | ShapeSpec::Mesh { .. }
+            | ShapeSpec::Gltf { .. }
+            | ShapeSpec::Ply { .. } => None,
         }
     }
 }
@@ -451,7 +509,9 @@ impl std::fmt::Debug for ShapeSpec {
                 ..Default::default()
             },
             ShapeSpec::Rectangle { .. } | ShapeSpec::Cube { .. } => FlatFields::default(),
-            ShapeSpec::Mesh { path, .. } => FlatFields {
+            ShapeSpec::Mesh { path, .. }
+            | ShapeSpec::Gltf { path, .. }
+            | ShapeSpec::Ply { path, .. } => FlatFields {
                 path: path.as_deref(),
                 ..Default::default()
             },
@@ -482,7 +542,9 @@ impl std::fmt::Debug for ShapeSpec {
         };
         f.debug_struct("ShapeSpec")
             .field("kind", &self.type_name())
-            .field("material", &self.material())
+            // A shape without `material` (a gltf keeping the file's) prints "": no earlier
+            // scene had one, so no earlier hash changes.
+            .field("material", &self.material().unwrap_or(""))
             .field("emission", &self.emission())
             .field("transform", &self.transform())
             .field("matrix", &self.matrix())
@@ -673,7 +735,7 @@ mod tests {
         assert_eq!(
             err,
             "shapes[0].type: unknown shape type 'torus' (expected sphere, rectangle, cube, mesh, \
-             displaced_sphere, random_triangles, sphere_grid)"
+             gltf, ply, displaced_sphere, random_triangles, sphere_grid)"
         );
         let err = parse("[[shapes]]\nmaterial = \"m\"\n").unwrap_err();
         assert_eq!(err, "shapes[0].type: missing");

@@ -99,7 +99,11 @@ fn build_scene(
         mut geometry,
         area_lights: mut lights,
         stats,
+        file_materials,
+        ignored,
     } = builder.finish();
+    let mut materials = materials;
+    materials.extend(file_materials);
     // 6. The file's lights after the area lights; each emitting primitive points at its light.
     let environment = file_lights(&cx, &file.lights, origin, &mut lights)?;
     link_area_lights(&mut geometry, &lights);
@@ -120,6 +124,7 @@ fn build_scene(
         lights,
         environment,
         features,
+        ignored_input: ignored.into_iter().collect(),
         load_stats: stats,
     })
 }

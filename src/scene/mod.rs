@@ -13,7 +13,9 @@ pub mod camera;
 mod check;
 pub mod format;
 pub mod generators;
+pub mod gltf;
 pub mod load;
+pub mod ply;
 mod shapes;
 
 pub use camera::Camera;
@@ -290,6 +292,9 @@ pub struct Scene {
     pub environment: Option<u32>,
     /// What the scene uses.
     pub features: Features,
+    /// What its model files hold that is not rendered (`gltf_textures`, …), sorted; reported
+    /// among the left-out features by [`Scene::feature_report`].
+    pub ignored_input: Vec<String>,
     /// Counts made while loading.
     pub load_stats: LoadStats,
 }
@@ -343,6 +348,13 @@ impl Scene {
     /// If `frame ≥ frames()` (items come from a decomposition of this scene).
     pub fn frame_camera(&self, frame: u32) -> &Camera {
         &self.cameras[frame as usize]
+    }
+    /// `(features_used, features_left_out)` for `RunStats` and CSV: [`Features::report`], with
+    /// what the model files hold and the renderer ignores appended to the left-out list.
+    pub fn feature_report(&self, accelerated: bool) -> (Vec<String>, Vec<String>) {
+        let (used, mut left_out) = self.features.report(accelerated);
+        left_out.extend(self.ignored_input.iter().cloned());
+        (used, left_out)
     }
     /// Radiance of the environment in direction-independent form (zero without one).
     pub fn environment_radiance(&self) -> Vec3 {

@@ -3,7 +3,8 @@
 
 use super::check::{Ctx, SceneError};
 use super::format::{ScaleSpec, ShapeSpec, TransformStep};
-use super::{generators, Geometry, Light, LoadStats, PrimInfo, NO_LIGHT};
+use super::gltf::{read_gltf, MappedSurface};
+use super::{generators, Geometry, Light, LoadStats, Material, PrimInfo, Texture, NO_LIGHT};
 use crate::geometry::{Sphere, Triangle};
 use crate::hash::Fnv64;
 use crate::limits::{MAX_GENERATOR_COUNT, MAX_PRIMITIVES};
@@ -18,6 +19,10 @@ pub(super) struct Shapes {
     /// One per emitting shape with a positive area, not yet linked from `geometry.info`.
     pub area_lights: Vec<Light>,
     pub stats: LoadStats,
+    /// Materials the model files brought (glTF), ids following the scene file's.
+    pub file_materials: Vec<Material>,
+    /// What model files hold that is not rendered, as left-out feature names.
+    pub ignored: std::collections::BTreeSet<String>,
 }
 
 /// Where the shapes go, and what the shape loop needs to know about the scene.
@@ -37,6 +42,8 @@ pub(super) struct Builder<'a> {
     pending_area: Vec<(Vec<(bool, usize)>, Vec3)>,
     /// Primitives counted so far by [`Self::reserve`].
     primitives: u64,
+    file_materials: Vec<Material>,
+    ignored: std::collections::BTreeSet<String>,
 }
 
 impl<'a> Builder<'a> {
@@ -57,6 +64,8 @@ impl<'a> Builder<'a> {
             stats: LoadStats::default(),
             pending_area: Vec::new(),
             primitives: 0,
+            file_materials: Vec::new(),
+            ignored: Default::default(),
         }
     }
 
@@ -68,17 +77,24 @@ impl<'a> Builder<'a> {
         hash: &mut Fnv64,
     ) -> Result<(), SceneError> {
         let cx = self.cx;
-        let material = *self.material_ids.get(shape.material()).ok_or_else(|| {
-            cx.err(
-                format!("{at}.material"),
-                format!("unknown material '{}'", shape.material()),
-            )
-        })?;
+        let material = match shape.material() {
+            Some(name) => Some(*self.material_ids.get(name).ok_or_else(|| {
+                cx.err(
+                    format!("{at}.material"),
+                    format!("unknown material '{name}'"),
+                )
+            })?),
+            None => None,
+        };
         let emission = match shape.emission() {
             Some(e) => cx.non_negative3(&format!("{at}.emission"), e)?,
             None => DVec3::ZERO,
         };
         let m = placement(cx, at, shape)?;
+        if let ShapeSpec::Gltf { path, .. } = shape {
+            return self.add_gltf(at, path.as_deref(), material, emission, &m, hash);
+        }
+        let material = material.expect("only a gltf shape may leave out `material`");
         let info = PrimInfo {
             material,
             light: NO_LIGHT, // set once the light list is final
@@ -120,6 +136,14 @@ impl<'a> Builder<'a> {
                 self.reserve(&field("path"), tris.len() as u64)?;
                 self.push_triangles(at, m, &tris)?;
             }
+            ShapeSpec::Ply { path, .. } => {
+                let full = model_path(cx, at, path.as_deref(), self.base, "a PLY file")?;
+                let tris = super::ply::read_ply(&full, hash)
+                    .map_err(|e| cx.err(field("path"), format!("'{}': {e}", full.display())))?;
+                self.reserve(&field("path"), tris.len() as u64)?;
+                self.push_triangles(at, m, &tris)?;
+            }
+            ShapeSpec::Gltf { .. } => unreachable!("gltf shapes are added by add_gltf"),
             ShapeSpec::DisplacedSphere {
                 count,
                 displacement,
@@ -155,6 +179,71 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
+    /// Add the triangles of a glTF file: one material per glTF material (or `material` for
+    /// all), one area light per emitting part (or one for the whole shape with `emission`).
+    fn add_gltf(
+        &mut self,
+        at: &str,
+        path: Option<&str>,
+        material: Option<u32>,
+        emission: DVec3,
+        m: &DMat4,
+        hash: &mut Fnv64,
+    ) -> Result<(), SceneError> {
+        let cx = self.cx;
+        let full = model_path(cx, at, path, self.base, "a .gltf or .glb file")?;
+        let mesh = read_gltf(&full, hash)
+            .map_err(|e| cx.err(format!("{at}.path"), format!("'{}': {e}", full.display())))?;
+        self.ignored.extend(mesh.ignored.iter().cloned());
+        let base_id = (self.material_ids.len() + self.file_materials.len()) as u32;
+        if material.is_some() && mesh.has_materials {
+            self.ignored.insert("gltf_materials".into());
+        }
+        let mut used = vec![None; mesh.materials.len()];
+        let shape_first = self.counts();
+        for part in &mesh.parts {
+            let id = match material {
+                Some(id) => id,
+                None => *used[part.material].get_or_insert_with(|| {
+                    let surface = match mesh.materials[part.material].surface {
+                        MappedSurface::Diffuse(c) => Material::Diffuse {
+                            reflectance: Texture::Constant(c),
+                        },
+                        MappedSurface::Mirror(c) => Material::Mirror { reflectance: c },
+                        MappedSurface::Dielectric(ior) => Material::Dielectric { ior },
+                    };
+                    self.file_materials.push(surface);
+                    base_id + self.file_materials.len() as u32 - 1
+                }),
+            };
+            let first = self.counts();
+            self.reserve(&format!("{at}.path"), part.triangles.len() as u64)?;
+            self.push_triangles(at, m, &part.triangles)?;
+            let info = PrimInfo {
+                material: id,
+                light: NO_LIGHT,
+                flip: false,
+            };
+            // The file's emission counts only where neither `material` nor `emission` of the
+            // shape replaces it.
+            let part_emission = if material.is_none() && emission == DVec3::ZERO {
+                mesh.materials[part.material].emission
+            } else {
+                DVec3::ZERO
+            };
+            self.tag_since(first, info, part_emission);
+        }
+        if emission != DVec3::ZERO {
+            self.queue_area(shape_first, emission);
+        }
+        Ok(())
+    }
+
+    /// (spheres, triangles) added so far.
+    fn counts(&self) -> (usize, usize) {
+        (self.geometry.spheres.len(), self.geometry.triangles.len())
+    }
+
     /// Give the primitives added since `first` (spheres, triangles) their `info`, and queue
     /// them as one area light when the shape emits.
     fn tag_since(&mut self, first: (usize, usize), info: PrimInfo, emission: DVec3) {
@@ -165,13 +254,21 @@ impl<'a> Builder<'a> {
             .extend(std::iter::repeat_n(info, new_spheres));
         self.tri_info.extend(std::iter::repeat_n(info, new_tris));
         if emission != DVec3::ZERO {
-            // Sphere prims are renumbered at the end (spheres first), so record local indices.
-            let prims: Vec<(bool, usize)> = (first_sphere..first_sphere + new_spheres)
-                .map(|s| (true, s))
-                .chain((first_tri..first_tri + new_tris).map(|t| (false, t)))
-                .collect();
-            self.pending_area.push((prims, emission.as_vec3()));
+            self.queue_area(first, emission);
         }
+    }
+
+    /// Queue the primitives added since `first` as one area light of radiance `emission`.
+    fn queue_area(&mut self, first: (usize, usize), emission: DVec3) {
+        let (first_sphere, first_tri) = first;
+        let new_spheres = self.geometry.spheres.len() - first_sphere;
+        let new_tris = self.geometry.triangles.len() - first_tri;
+        // Sphere prims are renumbered at the end (spheres first), so record local indices.
+        let prims: Vec<(bool, usize)> = (first_sphere..first_sphere + new_spheres)
+            .map(|s| (true, s))
+            .chain((first_tri..first_tri + new_tris).map(|t| (false, t)))
+            .collect();
+        self.pending_area.push((prims, emission.as_vec3()));
     }
 
     /// Count `n` more primitives against [`MAX_PRIMITIVES`] before they are made; an error
@@ -257,6 +354,8 @@ impl<'a> Builder<'a> {
             geometry,
             area_lights,
             stats: self.stats,
+            file_materials: self.file_materials,
+            ignored: self.ignored,
         }
     }
 }
@@ -299,6 +398,18 @@ fn generator_count(cx: &Ctx, at: &str, count: Option<u64>) -> Result<u64, SceneE
     }
 }
 
+/// The file of model shape `at` (`what` names its kind in the error when `path` is missing).
+fn model_path(
+    cx: &Ctx,
+    at: &str,
+    path: Option<&str>,
+    base: &Path,
+    what: &str,
+) -> Result<PathBuf, SceneError> {
+    let rel = path.ok_or_else(|| cx.err(format!("{at}.path"), format!("needs `path` ({what})")))?;
+    Ok(base.join(rel))
+}
+
 /// The triangles of mesh `at`'s OBJ file; its bytes are fed to `hash`.
 fn load_mesh(
     cx: &Ctx,
@@ -313,7 +424,7 @@ fn load_mesh(
     let bytes = std::fs::read(&full)
         .map_err(|e| cx.err(&field, format!("cannot read '{}': {e}", full.display())))?;
     hash.write(&bytes);
-    read_obj(&full).map_err(|e| cx.err(&field, format!("'{}': {e}", full.display())))
+    read_obj(&bytes).map_err(|e| cx.err(&field, format!("'{}': {e}", full.display())))
 }
 
 /// The shape's placement matrix: `transform` steps multiplied left to right (so the last step
@@ -423,18 +534,52 @@ fn cube_triangles() -> Vec<[DVec3; 3]> {
     tris
 }
 
-fn read_obj(path: &Path) -> Result<Vec<[DVec3; 3]>, String> {
+/// OBJ text as tobj reads it: UTF-16 (with its byte-order mark) decoded, invalid UTF-8 replaced
+/// (tobj stops at the first undecodable line), and `mtllib`/`usemtl` lines dropped: a mesh
+/// shape takes its material from the scene, and a missing `.mtl` file or an empty `usemtl`
+/// would otherwise fail the whole file.
+fn obj_text(bytes: &[u8]) -> String {
+    let utf16 = |be: bool| {
+        let units: Vec<u16> = bytes[2..]
+            .chunks_exact(2)
+            .map(|c| {
+                if be {
+                    u16::from_be_bytes([c[0], c[1]])
+                } else {
+                    u16::from_le_bytes([c[0], c[1]])
+                }
+            })
+            .collect();
+        String::from_utf16_lossy(&units)
+    };
+    let text = match bytes {
+        [0xFE, 0xFF, ..] => utf16(true),
+        [0xFF, 0xFE, ..] => utf16(false),
+        _ => String::from_utf8_lossy(bytes).into_owned(),
+    };
+    text.lines()
+        .filter(|l| {
+            let w = l.split_whitespace().next();
+            w != Some("mtllib") && w != Some("usemtl")
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+fn read_obj(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, String> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ..Default::default()
     };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| e.to_string())?;
+    let text = obj_text(bytes);
+    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| Ok(Default::default()))
+        .map_err(|e| e.to_string())?;
     if models
         .iter()
         .any(|m| m.mesh.positions.iter().any(|x| !x.is_finite()))
     {
-        return Err(non_finite_vertex(path));
+        return Err(non_finite_vertex(&text));
     }
     let mut tris = Vec::new();
     for m in models {
@@ -456,9 +601,7 @@ fn read_obj(path: &Path) -> Result<Vec<[DVec3; 3]>, String> {
 /// Where an OBJ file's first non-finite vertex is (`line N: …`): tobj reads coordinates as f32
 /// without saying where, so a NaN, an infinity or a value beyond f32's range (1e39) is found
 /// again here, by line.
-fn non_finite_vertex(path: &Path) -> String {
-    let text = std::fs::read(path).unwrap_or_default();
-    let text = String::from_utf8_lossy(&text);
+fn non_finite_vertex(text: &str) -> String {
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         if words.next() != Some("v") {

@@ -141,7 +141,7 @@ pub fn run_scheduler_frames<T: Tracer + 'static>(
     let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
     let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
-    (stats.features_used, stats.features_left_out) = scene.features.report(tracer.accelerated());
+    (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))
 }
 

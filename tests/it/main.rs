@@ -12,6 +12,7 @@ mod embree;
 mod experiment;
 mod fuzz;
 mod hostile;
+mod models;
 mod mpi;
 mod schedulers;
 mod stability;
