@@ -23,6 +23,9 @@ pub(crate) struct ProfileArgs {
     #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,frame", value_delimiter = ',',
           value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
     chunks: Vec<Chunk>,
+    /// Passes over the image; each pixel keeps its cheapest (drops preemption spikes).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    passes: u32,
     /// The heat map of cost per pixel (PNG).
     #[arg(short, long, default_value = "results/profile.png")]
     output: PathBuf,
@@ -57,15 +60,17 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let tracer = Arc::new(AnyTracer::build(kind, &scene, 1).map_err(CliError::input)?);
-    let p = Profile::measure(&scene, &tracer).map_err(CliError::runtime)?;
+    let p = Profile::measure_min(&scene, &tracer, args.passes).map_err(CliError::runtime)?;
     println!(
-        "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, one worker, one pixel per item",
+        "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, one worker, one pixel per item, \
+         cheapest of {} passes per pixel",
         scene.name,
         scene.width(),
         scene.height(),
         scene.settings.spp,
         scene.settings.max_depth,
-        args.tracer
+        args.tracer,
+        args.passes
     );
     println!(
         "{:>10} {:>8} {:>10} {:>10} {:>6} {:>10} {:>9}",
@@ -76,10 +81,12 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
         println!("{}", line(&c.to_string(), &p.items(*c)));
     }
     println!(
-        "total {:.3} s; the costliest 1 % of pixels hold {:.1} % of it, the costliest 10 % {:.1} %",
+        "total {:.3} s; the costliest 1 % of pixels hold {:.1} % of it, the costliest 10 % {:.1} %; \
+         the costliest 10 % cost {:.0}× the median pixel",
         p.pixels().total,
         100.0 * p.share_of_top(0.01),
-        100.0 * p.share_of_top(0.10)
+        100.0 * p.share_of_top(0.10),
+        p.hot_over_median(0.10)
     );
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)

@@ -78,6 +78,23 @@ pub struct Profile {
 }
 
 impl Profile {
+    /// [`Profile::measure`] `passes` times, keeping each pixel's cheapest pass: a pixel whose
+    /// worker was preempted on a shared machine costs milliseconds in one pass, not in all.
+    pub fn measure_min<T: Tracer + 'static>(
+        scene: &Arc<Scene>,
+        tracer: &Arc<T>,
+        passes: u32,
+    ) -> Result<Self, SchedError> {
+        let mut best = Self::measure(scene, tracer)?;
+        for _ in 1..passes {
+            let p = Self::measure(scene, tracer)?;
+            for (b, c) in best.pixel_s.iter_mut().zip(p.pixel_s) {
+                *b = b.min(c);
+            }
+        }
+        Ok(best)
+    }
+
     /// Render frame 0 of `scene` pixel by pixel on one worker with a timeline and keep each
     /// pixel's span. Frames after the first are rendered too (the scene decides) but not kept.
     pub fn measure<T: Tracer + 'static>(
@@ -122,6 +139,23 @@ impl Profile {
     /// The items' cost statistics at `chunk`.
     pub fn items(&self, chunk: Chunk) -> CostStats {
         CostStats::of(&self.item_costs(chunk))
+    }
+
+    /// The mean pixel cost of the costliest `fraction` of the pixels over the median pixel's:
+    /// how much dearer a hot spot is than the rest.
+    pub fn hot_over_median(&self, fraction: f64) -> f64 {
+        let mut v = self.pixel_s.clone();
+        v.sort_by(|a, b| b.total_cmp(a));
+        let k = ((v.len() as f64 * fraction).ceil() as usize).clamp(1, v.len().max(1));
+        let Some(&median) = v.get(v.len() / 2) else {
+            return 0.0;
+        };
+        let hot = v[..k].iter().sum::<f64>() / k as f64;
+        if median > 0.0 {
+            hot / median
+        } else {
+            0.0
+        }
     }
 
     /// The share of the total cost in the costliest `fraction` of the pixels.
@@ -180,6 +214,14 @@ mod tests {
         assert_eq!(p.item_costs(Chunk::Tile { w: 2, h: 2 }), [4.0, 12.0]);
         assert_eq!(p.items(Chunk::Frame).total, 16.0);
         assert_eq!(p.share_of_top(0.5), 0.75);
+        assert_eq!(p.hot_over_median(0.5), 1.0);
+        assert_eq!(p.hot_over_median(0.25), 1.0);
+        let q = Profile {
+            width: 4,
+            height: 1,
+            pixel_s: vec![1.0, 1.0, 1.0, 30.0],
+        };
+        assert_eq!(q.hot_over_median(0.25), 30.0);
         let img = p.heat_map();
         assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
         assert_eq!(img.get_pixel(3, 1).0, [255, 255, 255]);
