@@ -21,7 +21,7 @@ pub fn kruskal_weiss(n: usize, p: usize, h: f64, sigma: f64) -> usize {
     if p <= 1 || sigma <= 0.0 {
         return cap;
     }
-    if !(h > 0.0) {
+    if h.is_nan() || h <= 0.0 {
         return 1;
     }
     let k = (std::f64::consts::SQRT_2 * n as f64 * h / (sigma * p as f64 * ln_p.sqrt()))
