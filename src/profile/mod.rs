@@ -214,8 +214,9 @@ mod tests {
         assert_eq!(p.item_costs(Chunk::Tile { w: 2, h: 2 }), [4.0, 12.0]);
         assert_eq!(p.items(Chunk::Frame).total, 16.0);
         assert_eq!(p.share_of_top(0.5), 0.75);
-        assert_eq!(p.hot_over_median(0.5), 1.0);
-        assert_eq!(p.hot_over_median(0.25), 1.0);
+        // Sorted: 3, 3, 3, 3, 1, 1, 1, 1: the median (index 4) is 1, the costliest half 3.
+        assert_eq!(p.hot_over_median(0.5), 3.0);
+        assert_eq!(p.hot_over_median(0.25), 3.0);
         let q = Profile {
             width: 4,
             height: 1,
