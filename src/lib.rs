@@ -52,6 +52,7 @@ pub mod metrics;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;
+pub mod profile;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -18,6 +18,7 @@ mod experiment;
 mod mpi_render;
 #[cfg(feature = "mpi")]
 mod mpi_run;
+mod profile;
 mod render;
 mod sched_flags;
 mod stability;
@@ -51,6 +52,9 @@ enum Command {
     Converge(converge::ConvergeArgs),
     /// The numerical stability suite: CSV + markdown table of every case.
     Stability(stability::StabilityArgs),
+    /// Per-pixel and per-item cost distribution (μ, σ, CV, max/mean) and a heat map PNG of
+    /// cost per pixel, from a per-pixel render on one worker.
+    Profile(profile::ProfileArgs),
 }
 
 /// Parse the command line, run it, print an error once with its chain. A usage error is one
@@ -128,6 +132,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Plot(args) => experiment::plot(args),
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
+        Command::Profile(args) => profile::profile(args),
     }
 }
 

@@ -5,7 +5,7 @@
 
 use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
 use raysched::sched::spec::kinds_with;
-use raysched::sched::{param_columns, Chunk, Order, Policy, SchedulerKind, SchedulerSpec};
+use raysched::sched::{param_columns, Chunk, Order, Policy, SchedulerKind, SchedulerSpec, Slow};
 
 /// What the scheduler flags said, before the worker count is known.
 #[derive(Clone, Debug)]
@@ -13,6 +13,7 @@ pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
     chunk: Chunk,
     order: Order,
+    slow: Slow,
     /// (parameter name, text given), in column order.
     params: Vec<(&'static str, String)>,
 }
@@ -23,6 +24,7 @@ impl SchedulerFlags {
         let mut spec = SchedulerSpec {
             timeline,
             order: self.order,
+            slow: self.slow,
             ..SchedulerSpec::new(self.kind, self.chunk, workers)
         };
         for (name, text) in &self.params {
@@ -91,6 +93,17 @@ impl Args for SchedulerFlags {
                     .default_value(Order::Scanline.id())
                     .value_parser(|s: &str| Order::from_id(s).map_err(|e| e.msg))
                     .help(format!("Hand-out order of the items: {}", ids(&orders))),
+            )
+            .arg(
+                Arg::new("slow")
+                    .long("slow")
+                    .value_name("K:F")
+                    .default_value("none")
+                    .value_parser(|s: &str| Slow::parse(s).map_err(|e| e.msg))
+                    .help(
+                        "Heterogeneous run: the first K workers take F× as long per item \
+                         (they render it, then spin), e.g. 1:4; none for equal workers",
+                    ),
             );
         for p in param_columns() {
             cmd = cmd.arg(
@@ -115,6 +128,7 @@ impl FromArgMatches for SchedulerFlags {
             kind: *m.get_one("scheduler").expect("has a default"),
             chunk: *m.get_one("chunk").expect("has a default"),
             order: *m.get_one("order").expect("has a default"),
+            slow: *m.get_one("slow").expect("has a default"),
             params: param_columns()
                 .iter()
                 .filter_map(|p| Some((p.name, get(p.name)?)))

@@ -10,7 +10,7 @@ use crate::limits::{
     checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
 };
 use crate::scene::{load_scene, Scene, SceneOverrides};
-use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec};
+use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec, Slow};
 use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -665,13 +665,17 @@ struct Axis {
     values: Vec<String>,
 }
 
-/// Apply one axis value to `spec`: `chunk` and `order` are common to every kind, the rest are
-/// the kind's parameters.
+/// The grid keys every kind has: granularity, order and the heterogeneous-run setting.
+const COMMON: [&str; 3] = ["chunk", "order", "slow"];
+
+/// Apply one axis value to `spec`: `chunk`, `order` and `slow` are common to every kind, the
+/// rest are the kind's parameters.
 fn apply(spec: &mut SchedulerSpec, name: &str, value: &str) -> Result<(), (String, String)> {
     let fail = |e: crate::sched::SpecError| (name.to_string(), e.msg);
     match name {
         "chunk" => spec.chunk = Chunk::parse(value).map_err(fail)?,
         "order" => spec.order = Order::from_id(value).map_err(fail)?,
+        "slow" => spec.slow = Slow::parse(value).map_err(fail)?,
         _ => spec.set(name, value).map_err(fail)?,
     }
     Ok(())
@@ -681,23 +685,39 @@ fn apply(spec: &mut SchedulerSpec, name: &str, value: &str) -> Result<(), (Strin
 /// in column order; a parameter left out takes its default.
 fn axes(s: &SchedulerEntry, base: &SchedulerSpec) -> Result<Vec<Axis>, (String, String)> {
     for key in s.grid.keys() {
-        if key != "chunk" && key != "order" {
+        if !COMMON.contains(&key.as_str()) {
             base.check_name(key).map_err(|e| (key.clone(), e.msg))?;
         }
     }
-    if !s.grid.contains_key("chunk") {
+    let own = base.kind().picks_own_layout();
+    if own && (s.grid.contains_key("chunk") || s.grid.contains_key("order")) {
+        return Err((
+            "chunk".to_string(),
+            format!(
+                "'{}' picks its own tile size and order from the image and the thread count; \
+                 leave chunk and order out",
+                base.kind().id()
+            ),
+        ));
+    }
+    if !own && !s.grid.contains_key("chunk") {
         return Err((
             "chunk".to_string(),
             "missing (e.g. chunk = [\"1\", \"8\", \"frame\"])".to_string(),
         ));
     }
-    let mut names = vec!["chunk", "order"];
+    let mut names = if own {
+        vec!["slow"]
+    } else {
+        vec!["chunk", "order", "slow"]
+    };
     names.extend(base.policy.info().iter().map(|p| p.name));
     let mut out = Vec::new();
     for name in names {
         let values = match s.grid.get(name) {
             Some(v) => axis_texts(name, v)?,
             None if name == "order" => vec![base.order.id().to_string()],
+            None if name == "slow" => vec![base.slow.to_string()],
             None => vec![base.get(name).unwrap_or_default()],
         };
         for v in &values {

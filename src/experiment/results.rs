@@ -112,6 +112,10 @@ pub struct RunRow {
     /// The launch's transport (`shared_memory`, `tcp_loopback`, … or `unknown`), MPI rows only.
     #[serde(default)]
     pub transport: Option<String>,
+    /// The heterogeneous-run setting (`K:F`: the first K workers F× slower), empty for equal
+    /// workers and the baseline. Files written before it are read with it empty.
+    #[serde(default)]
+    pub slow: Option<String>,
 }
 
 fn local() -> String {
@@ -205,6 +209,7 @@ impl RunRow {
             sources: local(),
             ranks: None,
             transport: None,
+            slow: None,
         }
     }
 
@@ -239,9 +244,12 @@ impl RunRow {
             Some(s) => {
                 r.scheduler = s.kind().id().into();
                 r.label = s.label();
-                r.chunk = Some(s.chunk.to_string());
-                r.chunk_px = Some(s.chunk.pixels(sc.width(), sc.height()));
-                r.order = Some(s.order.id().into());
+                // The tiles actually cut (the production-renderer policies choose their own).
+                let (chunk, order) = s.layout(sc.width(), sc.height());
+                r.chunk = Some(chunk.to_string());
+                r.chunk_px = Some(chunk.pixels(sc.width(), sc.height()));
+                r.order = Some(order.id().into());
+                r.slow = (!s.slow.is_none()).then(|| s.slow.to_string());
                 r.params = param_columns().iter().map(|p| s.get(p.name)).collect();
                 r.workers = s.workers;
             }
@@ -277,6 +285,10 @@ impl RunRow {
         // Only rows of an MPI experiment carry these, so every older id stays what it was.
         if self.ranks.is_some() {
             key += &format!("|{}|{}|{}", self.sources, n(self.ranks), o(&self.transport));
+        }
+        // Likewise only heterogeneous rows carry a slowdown.
+        if let Some(slow) = &self.slow {
+            key += &format!("|slow={slow}");
         }
         key
     }

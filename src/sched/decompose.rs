@@ -30,6 +30,7 @@ pub fn decompose(width: u32, height: u32, chunk: Chunk, order: Order) -> Vec<Wor
             let side = gx.max(gy).next_power_of_two();
             cells.sort_by_key(|&(x, y)| hilbert(side, x, y));
         }
+        Order::Spiral => cells = spiral(gx, gy),
     }
     cells
         .into_iter()
@@ -74,6 +75,31 @@ pub fn morton(x: u32, y: u32) -> u64 {
         v
     }
     spread(x) | (spread(y) << 1)
+}
+
+/// The cells of a `gx`×`gy` grid in a square spiral from the centre cell (⌊gx/2⌋, ⌊gy/2⌋)
+/// outward: right 1, down 1, left 2, up 2, right 3, … skipping steps outside the grid, as
+/// Mitsuba's `Spiral` walks its blocks.
+pub fn spiral(gx: u32, gy: u32) -> Vec<(u32, u32)> {
+    let total = gx as usize * gy as usize;
+    let mut out = Vec::with_capacity(total);
+    let (mut x, mut y) = ((gx / 2) as i64, (gy / 2) as i64);
+    let dirs = [(1i64, 0i64), (0, 1), (-1, 0), (0, -1)];
+    let (mut leg, mut d) = (1i64, 0usize);
+    out.push((x as u32, y as u32));
+    while out.len() < total {
+        for _ in 0..2 {
+            for _ in 0..leg {
+                (x, y) = (x + dirs[d].0, y + dirs[d].1);
+                if (0..gx as i64).contains(&x) && (0..gy as i64).contains(&y) {
+                    out.push((x as u32, y as u32));
+                }
+            }
+            d = (d + 1) % 4;
+        }
+        leg += 1;
+    }
+    out
 }
 
 /// Distance of (x, y) along the Hilbert curve filling a `side`×`side` square (side a power of
@@ -219,6 +245,31 @@ mod tests {
                 }
             ]
         );
+    }
+
+    #[test]
+    fn spiral_starts_at_the_centre_and_winds_outward() {
+        // 3×3: centre, then right, down, left, left, up, up, right, right.
+        assert_eq!(
+            spiral(3, 3),
+            [
+                (1, 1),
+                (2, 1),
+                (2, 2),
+                (1, 2),
+                (0, 2),
+                (0, 1),
+                (0, 0),
+                (1, 0),
+                (2, 0)
+            ]
+        );
+        // Each ring of a square grid is visited after the one inside it.
+        let cells = spiral(8, 8);
+        let ring = |&(x, y): &(u32, u32)| (x as i32 - 4).abs().max((y as i32 - 4).abs());
+        assert!(cells.windows(2).all(|w| ring(&w[0]) <= ring(&w[1])));
+        assert_eq!(cells.len(), 64);
+        assert_eq!(spiral(1, 5).len(), 5);
     }
 
     #[test]

@@ -6,26 +6,34 @@
 //! it with `render_item`.
 
 pub mod decompose;
+pub mod dls;
 pub mod master;
 pub mod param;
+pub mod renderers;
 mod results;
 mod shared;
 pub mod spec;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
-pub use param::{Chunk, Order, ParamInfo, ParamValue, Params, Requeue, SpecError, Wait};
+pub use param::{
+    Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Slow, SpecError, Wait, Weights,
+};
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
 pub use spec::{
-    param_columns, GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec,
-    SelfSchedulingParams, WorkStealingParams,
+    param_columns, AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams,
+    GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
+    TrapezoidParams, WeightedFactoringParams, WorkStealingParams,
 };
 
 use crate::metrics::{Probe, RunStats};
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
-use crate::source::{faulty::faulty_sources, ComputeSource, FaultPlan, Job, LocalThreadSource};
+use crate::source::{
+    faulty::{faulty_source, faulty_sources},
+    slowed_job, ComputeSource, FaultPlan, Job, LocalThreadSource,
+};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;
@@ -138,7 +146,8 @@ pub fn run_scheduler_frames<T: Tracer + 'static>(
 ) -> Result<(Vec<Image>, RunStats), SchedError> {
     spec.validate()?;
     let (w, h) = (scene.width(), scene.height());
-    let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
+    let (chunk, order) = spec.layout(w, h);
+    let items = decompose_frames(w, h, scene.frames(), chunk, order);
     let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
@@ -155,12 +164,44 @@ pub fn run_items(
     spec.validate()?;
     debug_assert!(items.iter().enumerate().all(|(i, it)| it.id == i as u32));
     let probe = Probe::new(opts.stats, spec.timeline);
+    let jobs = worker_jobs(&job, spec.workers, spec.slow);
     match spec.policy {
         Policy::Master(m) => {
-            let sources = make_sources(&job, spec.workers, opts.faults.as_ref(), probe);
+            let sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
             master::run_master(&m, items, sources, opts, probe)
         }
-        _ => shared::run_shared(spec, items, &job, probe),
+        _ => shared::run_shared(spec, items, &jobs, probe),
+    }
+}
+
+/// Worker i's job: `job`, slowed by `slow`'s factor for the slowed workers.
+pub fn worker_jobs(job: &Job, workers: usize, slow: Slow) -> Vec<Job> {
+    (0..workers)
+        .map(|i| slowed_job(job.clone(), slow.factor_of(i)))
+        .collect()
+}
+
+/// One local thread source per job, source i running `jobs[i]` (fault-injecting ones when
+/// `faults` is given).
+fn make_sources_of(
+    jobs: &[Job],
+    faults: Option<&FaultPlan>,
+    probe: Probe,
+) -> Vec<Box<dyn ComputeSource>> {
+    match faults {
+        Some(plan) => jobs
+            .iter()
+            .enumerate()
+            .map(|(id, j)| faulty_source(j, id as u32, plan, probe))
+            .collect(),
+        None => jobs
+            .iter()
+            .enumerate()
+            .map(|(id, j)| {
+                Box::new(LocalThreadSource::spawn(id as u32, j.clone(), probe))
+                    as Box<dyn ComputeSource>
+            })
+            .collect(),
     }
 }
 

@@ -282,6 +282,96 @@ id_enum! {
         Morton = "morton",
         /// Along a Hilbert curve.
         Hilbert = "hilbert",
+        /// Outward from the centre cell in a square spiral (Mitsuba's block order: the centre
+        /// of the image, where the subject usually is, first).
+        Spiral = "spiral",
+    }
+}
+
+id_enum! {
+    /// Where weighted factoring's per-worker weights come from.
+    pub enum Weights("weights", "weight source") {
+        /// From the run's known slowdown ([`Slow`]): a worker slowed F× gets weight 1/F
+        /// (all weights equal when no worker is slowed).
+        Known = "known",
+        /// Measured online: each worker's time per item over its first chunk, then fixed.
+        Measured = "measured",
+    }
+}
+
+/// A heterogeneous run on one machine: the first `workers` workers run every item `factor`×
+/// as long (they render it, then spin for `factor − 1` times its render time), so they are
+/// a known factor slower than the others. Text form `none` or `K:F` (`1:4`: one worker at a
+/// quarter speed).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Slow {
+    /// How many workers (the lowest ids) are slowed; 0: none.
+    pub workers: u32,
+    /// How many times longer each of their items takes (≥ 1).
+    pub factor: f64,
+}
+
+impl Slow {
+    /// No worker slowed.
+    pub const NONE: Self = Self {
+        workers: 0,
+        factor: 1.0,
+    };
+
+    /// Is any worker slowed?
+    pub fn is_none(&self) -> bool {
+        self.workers == 0 || self.factor == 1.0
+    }
+
+    /// The slowdown factor of worker `id` (1 for an unslowed one).
+    pub fn factor_of(&self, id: usize) -> f64 {
+        if (id as u64) < self.workers as u64 {
+            self.factor
+        } else {
+            1.0
+        }
+    }
+
+    /// `none` or `K:F` with K ≥ 1 workers and 1 ≤ F ≤ 1000.
+    pub fn parse(s: &str) -> Result<Self, SpecError> {
+        let bad = || {
+            err(
+                "slow",
+                format!(
+                    "'{s}': expected none or K:F (K slowed workers, each F× slower, 1 ≤ F ≤ 1000)"
+                ),
+            )
+        };
+        let t = s.trim();
+        if t == "none" {
+            return Ok(Self::NONE);
+        }
+        let (k, f) = t.split_once(':').ok_or_else(bad)?;
+        let k: u32 = k.trim().parse().map_err(|_| bad())?;
+        let f: f64 = f.trim().parse().map_err(|_| bad())?;
+        if k == 0 || k as usize > MAX_COUNT || !(1.0..=1000.0).contains(&f) {
+            return Err(bad());
+        }
+        Ok(Self {
+            workers: k,
+            factor: f,
+        })
+    }
+}
+
+impl Default for Slow {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
+
+impl fmt::Display for Slow {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_none() {
+            write!(f, "none")
+        } else {
+            write!(f, "{}:{}", self.workers, self.factor)
+        }
     }
 }
 
@@ -390,12 +480,25 @@ mod tests {
         }
         assert_eq!(
             Order::from_id("zigzag").unwrap_err().msg,
-            "unknown order 'zigzag' (expected scanline, morton or hilbert)"
+            "unknown order 'zigzag' (expected scanline, morton, hilbert or spiral)"
         );
         assert_eq!(
             Wait::from_id("nap").unwrap_err().msg,
             "unknown wait strategy 'nap' (expected spin, yield or block)"
         );
+    }
+
+    #[test]
+    fn slow_parsing() {
+        assert_eq!(Slow::parse("none").unwrap(), Slow::NONE);
+        let s = Slow::parse("1:4").unwrap();
+        assert_eq!((s.workers, s.factor), (1, 4.0));
+        assert_eq!((s.factor_of(0), s.factor_of(1)), (4.0, 1.0));
+        assert_eq!(s.to_string(), "1:4");
+        assert_eq!(Slow::parse("2:1.5").unwrap().to_string(), "2:1.5");
+        for bad in ["0:4", "1:0.5", "1", "a:b", "1:2000", ""] {
+            assert_eq!(Slow::parse(bad).unwrap_err().field, "slow", "{bad}");
+        }
     }
 
     #[test]

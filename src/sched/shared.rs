@@ -1,6 +1,8 @@
 //! Schedulers without a master: the workers take their own items from shared structures.
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
+use super::dls::{self, ItemTimes, Report, Timing};
+use super::renderers::mitsuba_grain;
 use super::{wire, Policy, Results, SchedError, SchedulerSpec, Tally};
 use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
@@ -9,6 +11,7 @@ use crate::source::Job;
 use crossbeam::deque::{Steal, Stealer, Worker};
 use crossbeam::utils::CachePadded;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 /// What one worker thread accumulates; merged once at the end (no shared counters).
@@ -93,18 +96,21 @@ fn spawn_workers<S: Send>(
     })
 }
 
+/// `jobs[i]` is worker i's job (the same job for all but in a heterogeneous run).
 pub(super) fn run_shared(
     spec: &SchedulerSpec,
     items: &[WorkItem],
-    job: &Job,
+    jobs: &[Job],
     probe: Probe,
 ) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
     let (n, w) = (items.len(), spec.workers);
+    debug_assert_eq!(jobs.len(), w);
     let grab = match spec.policy {
         Policy::WorkStealing(p) => p.grab,
         Policy::SelfScheduling(p) => p.grab,
         Policy::Guided(p) => p.grab,
+        Policy::Mitsuba => mitsuba_grain(n, w),
         _ => 1,
     };
     let units = vec![(); w];
@@ -114,34 +120,35 @@ pub(super) fn run_shared(
         Policy::Static => spawn_workers(units, &probe, expect, |id, (), l| {
             let id = id as usize;
             for it in &items[id * n / w..(id + 1) * n / w] {
-                l.run(job, it, &probe);
+                l.run(&jobs[id], it, &probe);
             }
         })?,
         Policy::StaticCyclic => spawn_workers(units, &probe, expect, |id, (), l| {
             for it in items.iter().skip(id as usize).step_by(w) {
-                l.run(job, it, &probe);
+                l.run(&jobs[id as usize], it, &probe);
             }
         })?,
-        Policy::SelfScheduling(_) => {
+        Policy::SelfScheduling(_) | Policy::Mitsuba => {
             // Padded: nothing the workers read per item shares the counter's line (no
             // measurable change on the dispatch bench, 23–26 ns per item either way: the cost
             // is the counter's own line moving between cores at every grab, see
             // `dispatch/shared_counter_only`).
             let next = CachePadded::new(AtomicUsize::new(0));
-            spawn_workers(units, &probe, expect, |_, (), l| loop {
+            spawn_workers(units, &probe, expect, |id, (), l| loop {
                 let s = next.fetch_add(grab, Ordering::Relaxed);
                 if s >= n {
                     break;
                 }
                 for it in &items[s..(s + grab).min(n)] {
-                    l.run(job, it, &probe);
+                    l.run(&jobs[id as usize], it, &probe);
                 }
             })?
         }
         Policy::Guided(p) => {
             let next = AtomicUsize::new(0);
             let k = p.guided_k * w;
-            spawn_workers(units, &probe, expect, |_, (), l| {
+            spawn_workers(units, &probe, expect, |id, (), l| {
+                let job = &jobs[id as usize];
                 let mut cur = next.load(Ordering::Relaxed);
                 while cur < n {
                     let c = grab.max((n - cur).div_ceil(k)).min(n - cur);
@@ -173,14 +180,120 @@ pub(super) fn run_shared(
             let stealers: Vec<Stealer<u32>> = deques.iter().map(Worker::stealer).collect();
             spawn_workers(deques, &probe, expect, |id, own, l| {
                 while let Some(i) = find_task(id as usize, &own, &stealers) {
-                    l.run(job, &items[i as usize], &probe);
+                    l.run(&jobs[id as usize], &items[i as usize], &probe);
                 }
             })?
         }
-        Policy::WorkStealing(_) => rayon_locals(items, job, w, grab, probe)?,
+        Policy::Pbrt => {
+            // pbrt-v4 hands out the next tile under its loop's mutex, one tile per grab.
+            let next = Mutex::new(0usize);
+            spawn_workers(units, &probe, expect, |id, (), l| loop {
+                let i = {
+                    let mut g = next.lock().unwrap_or_else(PoisonError::into_inner);
+                    let i = *g;
+                    *g += 1;
+                    i
+                };
+                let Some(it) = items.get(i) else { break };
+                l.run(&jobs[id as usize], it, &probe);
+            })?
+        }
+        Policy::Factoring(_)
+        | Policy::WeightedFactoring(_)
+        | Policy::Trapezoid(_)
+        | Policy::FixedSize(_)
+        | Policy::AdaptiveFactoring(_)
+        | Policy::Awf(_) => {
+            let rule = dls::rule(&spec.policy, n, w, spec.slow).expect("a dls policy");
+            let dispenser = Mutex::new((0usize, rule));
+            spawn_workers(units, &probe, expect, |id, (), l| {
+                run_dispensed(
+                    id as usize,
+                    &dispenser,
+                    items,
+                    &jobs[id as usize],
+                    l,
+                    &probe,
+                )
+            })?
+        }
+        Policy::WorkStealing(_) => rayon_locals(items, jobs, w, grab, probe)?,
         Policy::Master(_) => unreachable!("the master has its own loop"),
     };
     Ok(finish(locals, n, t0, probe))
+}
+
+/// One worker of a dynamic-loop-scheduling rule: ask the dispenser for a chunk (reporting the
+/// previous one), run it, timing what the rule asks for, until no item is left.
+fn run_dispensed(
+    id: usize,
+    dispenser: &Mutex<(usize, Box<dyn dls::ChunkRule>)>,
+    items: &[WorkItem],
+    job: &Job,
+    l: &mut Local,
+    probe: &Probe,
+) {
+    let n = items.len();
+    let mut last: Option<Report> = None;
+    let mut times = ItemTimes::default();
+    // Timed from the first request on: the rule's own answer comes with the first chunk.
+    let mut timing = Timing::Chunks;
+    loop {
+        let asked = (timing != Timing::None).then(Instant::now);
+        let (s, c) = {
+            let mut g = dispenser.lock().unwrap_or_else(PoisonError::into_inner);
+            let (next, rule) = &mut *g;
+            if let Some(r) = last.take() {
+                rule.report(id, &r);
+            }
+            if *next >= n {
+                break;
+            }
+            let left = n - *next;
+            let c = rule.next(id, left).clamp(1, left);
+            let s = *next;
+            *next += c;
+            timing = rule.timing();
+            (s, c)
+        };
+        let grab_secs = asked.map_or(0.0, |t| t.elapsed().as_secs_f64());
+        let chunk = &items[s..s + c];
+        match timing {
+            Timing::None => {
+                for it in chunk {
+                    l.run(job, it, probe);
+                }
+            }
+            Timing::Chunks => {
+                let t0 = Instant::now();
+                for it in chunk {
+                    l.run(job, it, probe);
+                }
+                last = Some(Report {
+                    items: c,
+                    secs: t0.elapsed().as_secs_f64(),
+                    grab_secs,
+                    times,
+                });
+            }
+            Timing::Items => {
+                let t0 = Instant::now();
+                let mut t = t0;
+                for it in chunk {
+                    l.run(job, it, probe);
+                    let now = Instant::now();
+                    times.add((now - t).as_secs_f64());
+                    t = now;
+                }
+                last = Some(Report {
+                    items: c,
+                    secs: (t - t0).as_secs_f64(),
+                    grab_secs,
+                    times,
+                });
+            }
+        }
+    }
 }
 
 fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<u32> {
@@ -205,7 +318,7 @@ fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<
 
 fn rayon_locals(
     items: &[WorkItem],
-    job: &Job,
+    jobs: &[Job],
     w: usize,
     grab: usize,
     probe: Probe,
@@ -224,7 +337,7 @@ fn rayon_locals(
                 .fold(
                     || Local::new(rayon::current_thread_index().unwrap_or(0) as u32, &probe, 0),
                     |mut l, it| {
-                        l.run(job, it, &probe);
+                        l.run(&jobs[l.id as usize], it, &probe);
                         l
                     },
                 )

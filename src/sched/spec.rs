@@ -8,7 +8,7 @@
 
 use super::param::{
     err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Requeue,
-    SpecError, Wait,
+    Slow, SpecError, Wait, Weights,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
@@ -31,6 +31,27 @@ id_enum! {
         SelfScheduling = "self_scheduling",
         /// Grabs of max(grab, remaining / (k·workers)) items from a shared counter.
         Guided = "guided",
+        /// Factoring (FAC2): batches of P chunks of ⌈R/(2P)⌉ items, R left at the batch start.
+        Factoring = "factoring",
+        /// Weighted factoring: FAC2 batches, each worker's chunk scaled by its relative speed.
+        WeightedFactoring = "weighted_factoring",
+        /// Trapezoid self-scheduling (TSS): chunks shrinking linearly from ⌈N/(2P)⌉ to 1.
+        Trapezoid = "trapezoid",
+        /// Fixed-size chunking (FSC): one chunk size K from the measured hand-out cost and the
+        /// spread of item times (Kruskal–Weiss).
+        FixedSize = "fixed_size",
+        /// Adaptive factoring (AF): each chunk from the worker's running mean and spread of
+        /// item times.
+        AdaptiveFactoring = "adaptive_factoring",
+        /// Adaptive weighted factoring, variant C (AWF-C): FAC2 batches, weights updated from
+        /// measured speed after every chunk.
+        Awf = "awf",
+        /// pbrt-v4's parallel loop: tiles of clamp(⌊√(W·H/(8·threads))⌋, 1, 32), row order,
+        /// one tile per grab under a lock.
+        Pbrt = "pbrt",
+        /// Mitsuba 3 (scalar): 32² blocks halved until blocks ≥ threads, spiral order, grabs
+        /// of max(blocks/(4·threads), 1) blocks.
+        Mitsuba = "mitsuba",
     }
 }
 
@@ -38,6 +59,26 @@ impl SchedulerKind {
     /// Can this scheduler hand items to MPI ranks (a source in another process)?
     pub fn over_mpi(self) -> bool {
         matches!(self, Self::Master | Self::Static | Self::SelfScheduling)
+    }
+
+    /// Does this scheduler choose its own tile size and order from the image and the thread
+    /// count (the production renderers' policies)? Its `chunk` and `order` are then ignored.
+    pub fn picks_own_layout(self) -> bool {
+        matches!(self, Self::Pbrt | Self::Mitsuba)
+    }
+
+    /// Is this one of the dynamic-loop-scheduling rules of `sched::dls` (a chunk size per
+    /// grab from a shared dispenser)?
+    pub fn is_dls(self) -> bool {
+        matches!(
+            self,
+            Self::Factoring
+                | Self::WeightedFactoring
+                | Self::Trapezoid
+                | Self::FixedSize
+                | Self::AdaptiveFactoring
+                | Self::Awf
+        )
     }
 }
 
@@ -80,6 +121,58 @@ scheduler_params! {
     }
 }
 
+scheduler_params! {
+    /// Factoring's parameters.
+    pub struct FactoringParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
+scheduler_params! {
+    /// Weighted factoring's parameters.
+    pub struct WeightedFactoringParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+        /// Where the per-worker weights come from: known (the run's slow setting) or measured
+        /// (each worker's first chunk).
+        weights: Weights = Weights::Known, label Some("weights");
+    }
+}
+
+scheduler_params! {
+    /// Trapezoid self-scheduling's parameters.
+    pub struct TrapezoidParams {
+        /// The last (smallest) chunk, l in TSS.
+        grab: usize = 1, label None;
+    }
+}
+
+scheduler_params! {
+    /// Fixed-size chunking's parameters.
+    pub struct FixedSizeParams {
+        /// Items handed out one at a time first, to measure the hand-out cost h and the spread
+        /// σ of item times online.
+        fsc_warm: usize = 32, label Some("warm");
+    }
+}
+
+scheduler_params! {
+    /// Adaptive factoring's parameters.
+    pub struct AdaptiveFactoringParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
+scheduler_params! {
+    /// Adaptive weighted factoring's parameters.
+    pub struct AwfParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
 /// A scheduler kind with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Policy {
@@ -97,6 +190,22 @@ pub enum Policy {
     SelfScheduling(SelfSchedulingParams),
     /// See [`SchedulerKind::Guided`].
     Guided(GuidedParams),
+    /// See [`SchedulerKind::Factoring`].
+    Factoring(FactoringParams),
+    /// See [`SchedulerKind::WeightedFactoring`].
+    WeightedFactoring(WeightedFactoringParams),
+    /// See [`SchedulerKind::Trapezoid`].
+    Trapezoid(TrapezoidParams),
+    /// See [`SchedulerKind::FixedSize`].
+    FixedSize(FixedSizeParams),
+    /// See [`SchedulerKind::AdaptiveFactoring`].
+    AdaptiveFactoring(AdaptiveFactoringParams),
+    /// See [`SchedulerKind::Awf`].
+    Awf(AwfParams),
+    /// See [`SchedulerKind::Pbrt`].
+    Pbrt,
+    /// See [`SchedulerKind::Mitsuba`].
+    Mitsuba,
 }
 
 impl Policy {
@@ -110,6 +219,18 @@ impl Policy {
             SchedulerKind::WorkStealingDeque => Self::WorkStealingDeque,
             SchedulerKind::SelfScheduling => Self::SelfScheduling(SelfSchedulingParams::DEFAULT),
             SchedulerKind::Guided => Self::Guided(GuidedParams::DEFAULT),
+            SchedulerKind::Factoring => Self::Factoring(FactoringParams::DEFAULT),
+            SchedulerKind::WeightedFactoring => {
+                Self::WeightedFactoring(WeightedFactoringParams::DEFAULT)
+            }
+            SchedulerKind::Trapezoid => Self::Trapezoid(TrapezoidParams::DEFAULT),
+            SchedulerKind::FixedSize => Self::FixedSize(FixedSizeParams::DEFAULT),
+            SchedulerKind::AdaptiveFactoring => {
+                Self::AdaptiveFactoring(AdaptiveFactoringParams::DEFAULT)
+            }
+            SchedulerKind::Awf => Self::Awf(AwfParams::DEFAULT),
+            SchedulerKind::Pbrt => Self::Pbrt,
+            SchedulerKind::Mitsuba => Self::Mitsuba,
         }
     }
 
@@ -123,6 +244,14 @@ impl Policy {
             Self::WorkStealingDeque => SchedulerKind::WorkStealingDeque,
             Self::SelfScheduling(_) => SchedulerKind::SelfScheduling,
             Self::Guided(_) => SchedulerKind::Guided,
+            Self::Factoring(_) => SchedulerKind::Factoring,
+            Self::WeightedFactoring(_) => SchedulerKind::WeightedFactoring,
+            Self::Trapezoid(_) => SchedulerKind::Trapezoid,
+            Self::FixedSize(_) => SchedulerKind::FixedSize,
+            Self::AdaptiveFactoring(_) => SchedulerKind::AdaptiveFactoring,
+            Self::Awf(_) => SchedulerKind::Awf,
+            Self::Pbrt => SchedulerKind::Pbrt,
+            Self::Mitsuba => SchedulerKind::Mitsuba,
         }
     }
 
@@ -133,7 +262,17 @@ impl Policy {
             Self::WorkStealing(p) => Some(p),
             Self::SelfScheduling(p) => Some(p),
             Self::Guided(p) => Some(p),
-            Self::Static | Self::StaticCyclic | Self::WorkStealingDeque => None,
+            Self::Factoring(p) => Some(p),
+            Self::WeightedFactoring(p) => Some(p),
+            Self::Trapezoid(p) => Some(p),
+            Self::FixedSize(p) => Some(p),
+            Self::AdaptiveFactoring(p) => Some(p),
+            Self::Awf(p) => Some(p),
+            Self::Static
+            | Self::StaticCyclic
+            | Self::WorkStealingDeque
+            | Self::Pbrt
+            | Self::Mitsuba => None,
         }
     }
 
@@ -143,7 +282,17 @@ impl Policy {
             Self::WorkStealing(p) => Some(p),
             Self::SelfScheduling(p) => Some(p),
             Self::Guided(p) => Some(p),
-            Self::Static | Self::StaticCyclic | Self::WorkStealingDeque => None,
+            Self::Factoring(p) => Some(p),
+            Self::WeightedFactoring(p) => Some(p),
+            Self::Trapezoid(p) => Some(p),
+            Self::FixedSize(p) => Some(p),
+            Self::AdaptiveFactoring(p) => Some(p),
+            Self::Awf(p) => Some(p),
+            Self::Static
+            | Self::StaticCyclic
+            | Self::WorkStealingDeque
+            | Self::Pbrt
+            | Self::Mitsuba => None,
         }
     }
 
@@ -194,6 +343,9 @@ pub struct SchedulerSpec {
     pub workers: usize,
     /// Record a (worker, item, start, end) timeline for Gantt plots.
     pub timeline: bool,
+    /// Workers slowed by a known factor (a heterogeneous run); [`Slow::NONE`] by default.
+    #[serde(default)]
+    pub slow: Slow,
 }
 
 impl SchedulerSpec {
@@ -205,6 +357,24 @@ impl SchedulerSpec {
             order: Order::Scanline,
             workers,
             timeline: false,
+            slow: Slow::NONE,
+        }
+    }
+
+    /// The tile size and order this run cuts a `width`×`height` image into: `chunk` and
+    /// `order`, except for the policies that choose their own ([`SchedulerKind::picks_own_layout`]).
+    pub fn layout(&self, width: u32, height: u32) -> (Chunk, Order) {
+        use super::renderers::{mitsuba_block, pbrt_tile};
+        match self.policy {
+            Policy::Pbrt => {
+                let t = pbrt_tile(width, height, self.workers);
+                (Chunk::Tile { w: t, h: t }, Order::Scanline)
+            }
+            Policy::Mitsuba => {
+                let b = mitsuba_block(width, height, self.workers);
+                (Chunk::Tile { w: b, h: b }, Order::Spiral)
+            }
+            _ => (self.chunk, self.order),
         }
     }
 
@@ -269,7 +439,14 @@ impl SchedulerSpec {
 
     /// A short label for plots and logs, e.g. `master chunk=16 B=2 requeue=never wait=block`.
     pub fn label(&self) -> String {
-        let mut s = format!("{} chunk={}", self.kind().id(), self.chunk);
+        let mut s = if self.kind().picks_own_layout() {
+            format!("{} chunk=auto", self.kind().id())
+        } else {
+            format!("{} chunk={}", self.kind().id(), self.chunk)
+        };
+        if !self.slow.is_none() {
+            s += &format!(" slow={}", self.slow);
+        }
         for p in self.policy.info() {
             if let (Some(short), Some(v)) = (p.label, self.get(p.name)) {
                 s += &format!(" {short}={v}");
@@ -303,14 +480,22 @@ mod tests {
     #[test]
     fn columns_are_the_union_of_every_kinds_parameters_in_order() {
         let names: Vec<&str> = param_columns().iter().map(|p| p.name).collect();
-        assert_eq!(names, ["buffer", "requeue", "wait", "grab", "guided_k"]);
+        assert_eq!(
+            names,
+            ["buffer", "requeue", "wait", "grab", "guided_k", "weights", "fsc_warm"]
+        );
         let grab: Vec<SchedulerKind> = kinds_with("grab").iter().map(|(k, _)| *k).collect();
         assert_eq!(
             grab,
             [
                 SchedulerKind::WorkStealing,
                 SchedulerKind::SelfScheduling,
-                SchedulerKind::Guided
+                SchedulerKind::Guided,
+                SchedulerKind::Factoring,
+                SchedulerKind::WeightedFactoring,
+                SchedulerKind::Trapezoid,
+                SchedulerKind::AdaptiveFactoring,
+                SchedulerKind::Awf,
             ]
         );
     }

@@ -133,9 +133,12 @@ pub fn faulty_sources(
     probe: Probe,
 ) -> Vec<Box<dyn ComputeSource>> {
     (0..workers as u32)
-        .map(|id| {
-            let local = LocalThreadSource::spawn(id, faulty_job(job.clone(), plan, id), probe);
-            Box::new(FaultySource::new(Box::new(local), plan.clone())) as Box<dyn ComputeSource>
-        })
+        .map(|id| faulty_source(job, id, plan, probe))
         .collect()
+}
+
+/// Local thread source `id` running `job` under `plan`.
+pub fn faulty_source(job: &Job, id: u32, plan: &FaultPlan, probe: Probe) -> Box<dyn ComputeSource> {
+    let local = LocalThreadSource::spawn(id, faulty_job(job.clone(), plan, id), probe);
+    Box::new(FaultySource::new(Box::new(local), plan.clone()))
 }

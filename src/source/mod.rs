@@ -12,11 +12,13 @@ pub mod delayed;
 pub mod doorbell;
 pub mod faulty;
 pub mod local;
+pub mod slow;
 
 pub use delayed::{Completer, DelayedResult};
 pub use doorbell::{Doorbell, Notifier, Wait};
 pub use faulty::{FaultPlan, FaultySource};
 pub use local::LocalThreadSource;
+pub use slow::slowed_job;
 
 use crate::metrics::{Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};

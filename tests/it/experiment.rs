@@ -97,6 +97,16 @@ fn bad_configs_exit_2_naming_file_and_field() {
         ("width = 16", "width = 0", "scenes[0]"),
         // A TOML error: `file:line:column: key: message`.
         ("width = 16", "widht = 16", "bad.toml:7:1: scenes[0].widht"),
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"static\"\nchunk = \"rows:1\"\nslow = \"0:3\"",
+            "schedulers[1].slow",
+        ),
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"pbrt\"\nchunk = \"rows:1\"",
+            "schedulers[1].chunk",
+        ),
     ];
     for (i, (from, to, field)) in cases.into_iter().enumerate() {
         let res = format!("res{i}");

@@ -5,7 +5,8 @@ use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
     decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Policy,
-    Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
+    Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Slow,
+    Wait, Weights,
 };
 use raysched::source::{FaultPlan, Job};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -109,7 +110,8 @@ fn check_run(spec: &SchedulerSpec) {
         f.serial.hash(),
         "{label}: image differs from the serial render"
     );
-    let n = decompose(17, 13, spec.chunk, spec.order).len() as u64;
+    let (chunk, order) = spec.layout(17, 13);
+    let n = decompose(17, 13, chunk, order).len() as u64;
     assert_eq!(stats.items, n, "{label}");
     assert_eq!(
         stats.workers.len(),
@@ -153,7 +155,7 @@ fn every_scheduler_granularity_and_worker_count_matches_serial() {
         for (ci, chunk) in CHUNKS.into_iter().enumerate() {
             for workers in [1, 2, 3, 5] {
                 let mut spec = SchedulerSpec::new(kind, chunk, workers);
-                spec.order = Order::ALL[(ci + workers) % 3];
+                spec.order = Order::ALL[(ci + workers) % Order::ALL.len()];
                 set_grab(&mut spec, 1 + ci % 3);
                 spec.timeline = workers == 3;
                 check_run(&spec);
@@ -161,7 +163,53 @@ fn every_scheduler_granularity_and_worker_count_matches_serial() {
             }
         }
     }
-    assert_eq!(runs, 6 * 6 * 4);
+    assert_eq!(runs, (SchedulerKind::ALL.len() - 1) * 6 * 4);
+}
+
+/// A heterogeneous run (one worker 3× slower) changes who renders what, never the image.
+#[test]
+fn every_scheduler_matches_serial_with_a_slowed_worker() {
+    for kind in SchedulerKind::ALL {
+        for workers in [2, 3] {
+            let mut spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, workers);
+            spec.slow = Slow::parse("1:3").unwrap();
+            assert!(spec.label().contains("slow=1:3"), "{}", spec.label());
+            check_run(&spec);
+        }
+    }
+    for weights in Weights::ALL {
+        let mut spec = SchedulerSpec::new(
+            SchedulerKind::WeightedFactoring,
+            Chunk::Tile { w: 1, h: 1 },
+            2,
+        );
+        spec.set("weights", weights.id()).unwrap();
+        spec.slow = Slow::parse("1:2").unwrap();
+        check_run(&spec);
+    }
+}
+
+/// pbrt and Mitsuba cut the image themselves: 17×13 on 2 threads gives pbrt tiles of
+/// ⌊√(221/16)⌋ = 3 in row order and Mitsuba 16² blocks (1 block at 32, 2 ≥ 2 threads at 16)
+/// from the centre.
+#[test]
+fn production_renderer_policies_choose_their_own_tiles() {
+    let pbrt = SchedulerSpec::new(SchedulerKind::Pbrt, Chunk::Frame, 2);
+    assert_eq!(
+        pbrt.layout(17, 13),
+        (Chunk::Tile { w: 3, h: 3 }, Order::Scanline)
+    );
+    assert_eq!(pbrt.label(), "pbrt chunk=auto");
+    let mitsuba = SchedulerSpec::new(SchedulerKind::Mitsuba, Chunk::Frame, 2);
+    assert_eq!(
+        mitsuba.layout(17, 13),
+        (Chunk::Tile { w: 8, h: 8 }, Order::Spiral)
+    );
+    let f = fixture();
+    let (_, stats) = run_scheduler(&pbrt, &f.scene, &f.tracer).unwrap();
+    assert_eq!(stats.items, 6 * 5);
+    let (_, stats) = run_scheduler(&mitsuba, &f.scene, &f.tracer).unwrap();
+    assert_eq!(stats.items, 2);
 }
 
 #[test]

@@ -1,0 +1,103 @@
+//! `raysched profile SCENE`: the per-pixel and per-item cost distribution of a scene, and a
+//! heat map of cost per pixel.
+
+use super::error::CliError;
+use raysched::profile::{CostStats, Profile};
+use raysched::scene::{load_scene, SceneOverrides};
+use raysched::sched::Chunk;
+use raysched::tracer::{AnyTracer, TracerKind};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct ProfileArgs {
+    /// Scene file (TOML), see scenes/.
+    scene: PathBuf,
+    /// Samples per pixel (overrides the scene's render.spp).
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Tracer id (bvh, brute, embree, embree_robust).
+    #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
+    tracer: TracerKind,
+    /// Granularities whose per-item distribution to show, comma-separated.
+    #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,frame", value_delimiter = ',',
+          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+    chunks: Vec<Chunk>,
+    /// Passes over the image; each pixel keeps its cheapest (drops preemption spikes).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    passes: u32,
+    /// The heat map of cost per pixel (PNG).
+    #[arg(short, long, default_value = "results/profile.png")]
+    output: PathBuf,
+}
+
+fn line(what: &str, s: &CostStats) -> String {
+    format!(
+        "{what:>10} {:>8} {:>10.3} {:>10.3} {:>6.2} {:>10.3} {:>9.1}",
+        s.n,
+        s.mean * 1e6,
+        s.sd * 1e6,
+        s.cv(),
+        s.max * 1e6,
+        s.max_over_mean()
+    )
+}
+
+pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
+    if args.spp == Some(0) {
+        return Err(CliError::message("--spp: must be ≥ 1 (got 0)"));
+    }
+    if args.output.extension().and_then(|e| e.to_str()) != Some("png") {
+        return Err(CliError::message(format!(
+            "--output {}: the heat map is a .png",
+            args.output.display()
+        )));
+    }
+    let overrides = SceneOverrides {
+        spp: args.spp,
+        ..Default::default()
+    };
+    let kind = args.tracer.available().map_err(CliError::input)?;
+    let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
+    let tracer = Arc::new(AnyTracer::build(kind, &scene, 1).map_err(CliError::input)?);
+    let p = Profile::measure_min(&scene, &tracer, args.passes).map_err(CliError::runtime)?;
+    println!(
+        "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, one worker, one pixel per item, \
+         cheapest of {} passes per pixel",
+        scene.name,
+        scene.width(),
+        scene.height(),
+        scene.settings.spp,
+        scene.settings.max_depth,
+        args.tracer,
+        args.passes
+    );
+    println!(
+        "{:>10} {:>8} {:>10} {:>10} {:>6} {:>10} {:>9}",
+        "chunk", "items", "mean µs", "σ µs", "CV", "max µs", "max/mean"
+    );
+    println!("{}", line("pixel", &p.pixels()));
+    for c in &args.chunks {
+        println!("{}", line(&c.to_string(), &p.items(*c)));
+    }
+    println!(
+        "total {:.3} s; the costliest 1 % of pixels hold {:.1} % of it, the costliest 10 % {:.1} %; \
+         the costliest 10 % cost {:.0}× the median pixel",
+        p.pixels().total,
+        100.0 * p.share_of_top(0.01),
+        100.0 * p.share_of_top(0.10),
+        p.hot_over_median(0.10)
+    );
+    if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", dir.display())))?;
+    }
+    p.heat_map()
+        .save_with_format(&args.output, image::ImageFormat::Png)
+        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
+    println!(
+        "wrote {} (cost per pixel, log scale: black cheapest … white costliest)",
+        args.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,75 @@
+//! Trapezoid self-scheduling (TSS; Tzen & Ni, "Trapezoid self-scheduling: a practical
+//! scheduling scheme for parallel compilers", IEEE TPDS 4(1), 1993).
+//!
+//! Chunk sizes fall linearly from the first, f = ⌈N/(2P)⌉, to the last, l (here `grab`,
+//! default 1), over n = ⌈2N/(f+l)⌉ chunks, decrement δ = (f−l)/(n−1). Chunk k (from 0) holds
+//! ⌈f − k·δ⌉ items, never fewer than l; δ is kept as a real number (the paper rounds it to an
+//! integer in its integer-only implementation), so the n chunks sum to about N and the last
+//! one is cut to what is left.
+
+use super::{ceil_count, ChunkRule};
+
+/// TSS over `n` items on `p` workers.
+pub struct Trapezoid {
+    first: f64,
+    last: usize,
+    delta: f64,
+    k: usize,
+}
+
+impl Trapezoid {
+    /// The TSS sequence of `n` items on `p` workers, last chunk `last` items.
+    pub fn new(n: usize, p: usize, last: usize) -> Self {
+        let f = n.div_ceil(2 * p.max(1)).max(last).max(1);
+        let chunks = (2 * n).div_ceil(f + last).max(1);
+        let delta = if chunks > 1 {
+            (f - last) as f64 / (chunks - 1) as f64
+        } else {
+            0.0
+        };
+        Self {
+            first: f as f64,
+            last,
+            delta,
+            k: 0,
+        }
+    }
+}
+
+impl ChunkRule for Trapezoid {
+    fn next(&mut self, _worker: usize, _remaining: usize) -> usize {
+        let c = ceil_count(self.first - self.k as f64 * self.delta - 1e-9).max(self.last);
+        self.k += 1;
+        c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::sequence;
+    use super::*;
+
+    #[test]
+    fn tss_n1000_p4_by_hand() {
+        // f = ⌈1000/8⌉ = 125, l = 1, n = ⌈2000/126⌉ = 16, δ = 124/15 = 8.2667: chunks
+        // ⌈125 − 8.2667k⌉ = 125, 117, 109, 101, 92, 84, 76, 68, 59, 51, 43, 35, 26, then 14 of
+        // the 18 that would come (986 handed out by then).
+        let got = sequence(&mut Trapezoid::new(1000, 4, 1), 1000, 4, |_, _| None);
+        assert_eq!(
+            got,
+            [125, 117, 109, 101, 92, 84, 76, 68, 59, 51, 43, 35, 26, 14]
+        );
+    }
+
+    #[test]
+    fn tss_small_loops_and_the_last_chunk() {
+        // N = 10, P = 2: f = 3, n = ⌈20/4⌉ = 5, δ = 0.5: 3, 3 (2.5), 2, 2 (1.5) = 10.
+        let got = sequence(&mut Trapezoid::new(10, 2, 1), 10, 2, |_, _| None);
+        assert_eq!(got, [3, 3, 2, 2]);
+        // l = 4 holds the tail at 4 items.
+        let got = sequence(&mut Trapezoid::new(100, 2, 4), 100, 2, |_, _| None);
+        assert_eq!(got.first(), Some(&25));
+        assert!(got[..got.len() - 1].iter().all(|&c| c >= 4), "{got:?}");
+        assert_eq!(got.iter().sum::<usize>(), 100);
+    }
+}
