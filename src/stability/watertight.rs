@@ -1,8 +1,8 @@
 //! Leaks through shared edges, per tracer: rays from inside a closed, star-shaped mesh aimed at
 //! its vertices and edge midpoints must all hit it. Möller–Trumbore (`bvh`, `brute`) and Embree's
-//! default intersector are not watertight, Embree's `RTC_SCENE_FLAG_ROBUST` is meant to be: the
-//! rows show the difference. Reported, not required (no tracer here promises watertightness
-//! except `embree_robust`).
+//! default intersector (3 and 4) are not watertight, Embree's `RTC_SCENE_FLAG_ROBUST` is meant to
+//! be: the rows show the difference, one per tracer this build has (every [`TracerKind`]).
+//! Reported, not required (no tracer here promises watertightness except the robust Embrees).
 
 use super::{count_case, failed, CaseResult};
 use crate::geometry::Ray;
