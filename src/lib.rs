@@ -5,7 +5,7 @@
 //!
 //! - [`scene`]: TOML scenes, validated into an immutable, `Sync` [`scene::Scene`].
 //! - [`tracer`]: the [`tracer::Tracer`] seam (closest hit + occlusion): `bvh` (obvhs CWBVH),
-//!   `brute` (reference), `embree` (feature `embree`).
+//!   `brute` (reference), `embree` (feature `embree`, Embree 3), `embree4` (feature `embree4`).
 //! - [`render`]: the path tracer and [`render::render_item`], a pure function of
 //!   (scene, tracer, item, seed), so every scheduler produces bit-identical images.
 //!
@@ -43,6 +43,8 @@ pub mod converge;
 pub mod csv_out;
 #[cfg(feature = "embree")]
 pub mod embree;
+#[cfg(feature = "embree4")]
+pub mod embree4;
 pub mod experiment;
 pub mod geometry;
 pub mod hash;

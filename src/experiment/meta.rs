@@ -132,6 +132,9 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
     if cfg!(feature = "embree") {
         features.push("embree".to_string());
     }
+    if cfg!(feature = "embree4") {
+        features.push("embree4".to_string());
+    }
     if cfg!(feature = "mpi") {
         features.push("mpi".to_string());
     }

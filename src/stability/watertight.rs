@@ -1,8 +1,8 @@
 //! Leaks through shared edges, per tracer: rays from inside a closed, star-shaped mesh aimed at
 //! its vertices and edge midpoints must all hit it. `bvh` and `brute` use the watertight triangle
 //! test (`geometry::ShearedRay`) behind a conservative slab test, so their rows are required to
-//! be 0. Embree's rows (default and `RTC_SCENE_FLAG_ROBUST`) are reported only: its rounding
-//! depends on the kernels it picks for the CPU.
+//! be 0. Embree's rows (3 and 4, default and `RTC_SCENE_FLAG_ROBUST`) are reported only: its
+//! rounding depends on the kernels it picks for the CPU.
 
 use super::{count_case, failed, CaseResult};
 use crate::geometry::Ray;

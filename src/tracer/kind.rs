@@ -28,24 +28,33 @@ pub enum TracerKind {
     Embree,
     /// Embree with `RTC_SCENE_FLAG_ROBUST` (fewer leaks through shared edges).
     EmbreeRobust,
+    /// Intel Embree 4, default intersector.
+    Embree4,
+    /// Embree 4 with `RTC_SCENE_FLAG_ROBUST`.
+    Embree4Robust,
 }
 
 impl TracerKind {
     /// Every tracer, including those whose cargo feature this build lacks.
-    pub const ALL: [TracerKind; 4] = [
+    pub const ALL: [TracerKind; 6] = [
         TracerKind::Bvh,
         TracerKind::Brute,
         TracerKind::Embree,
         TracerKind::EmbreeRobust,
+        TracerKind::Embree4,
+        TracerKind::Embree4Robust,
     ];
 
-    /// The stable snake_case id (`bvh`, `brute`, `embree`, `embree_robust`).
+    /// The stable snake_case id (`bvh`, `brute`, `embree`, `embree_robust`, `embree4`,
+    /// `embree4_robust`).
     pub fn id(self) -> &'static str {
         match self {
             TracerKind::Bvh => "bvh",
             TracerKind::Brute => "brute",
             TracerKind::Embree => "embree",
             TracerKind::EmbreeRobust => "embree_robust",
+            TracerKind::Embree4 => "embree4",
+            TracerKind::Embree4Robust => "embree4_robust",
         }
     }
 
@@ -68,6 +77,7 @@ impl TracerKind {
         match self {
             TracerKind::Bvh | TracerKind::Brute => None,
             TracerKind::Embree | TracerKind::EmbreeRobust => Some("embree"),
+            TracerKind::Embree4 | TracerKind::Embree4Robust => Some("embree4"),
         }
     }
 
@@ -76,6 +86,7 @@ impl TracerKind {
         match self {
             TracerKind::Bvh | TracerKind::Brute => true,
             TracerKind::Embree | TracerKind::EmbreeRobust => cfg!(feature = "embree"),
+            TracerKind::Embree4 | TracerKind::Embree4Robust => cfg!(feature = "embree4"),
         }
     }
 
@@ -122,7 +133,8 @@ mod tests {
         let err = TracerKind::from_id("optix").unwrap_err();
         assert_eq!(
             err.to_string(),
-            "unknown tracer 'optix' (expected one of: bvh, brute, embree, embree_robust)"
+            "unknown tracer 'optix' (expected one of: bvh, brute, embree, embree_robust, embree4, \
+             embree4_robust)"
         );
     }
 
@@ -133,6 +145,11 @@ mod tests {
         assert_eq!(
             TracerKind::EmbreeRobust.available().is_ok(),
             cfg!(feature = "embree")
+        );
+        assert_eq!(TracerKind::Embree4Robust.feature(), Some("embree4"));
+        assert_eq!(
+            TracerKind::Embree4.available().is_ok(),
+            cfg!(feature = "embree4")
         );
     }
 }

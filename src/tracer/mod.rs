@@ -9,6 +9,8 @@ pub mod bvh;
 pub mod bvh4;
 #[cfg(feature = "embree")]
 mod embree;
+#[cfg(feature = "embree4")]
+mod embree4;
 pub mod kind;
 
 pub use brute::BruteTracer;
@@ -71,10 +73,14 @@ pub enum AnyTracer {
     /// Intel Embree, default or robust.
     #[cfg(feature = "embree")]
     Embree(crate::embree::EmbreeTracer),
+    /// Intel Embree 4, default or robust.
+    #[cfg(feature = "embree4")]
+    Embree4(crate::embree4::Embree4Tracer),
 }
 
 impl AnyTracer {
-    /// Build tracer `kind` for `scene`. `threads` is the build's thread budget (Embree only).
+    /// Build tracer `kind` for `scene`. `threads` is the build's thread budget (Embree 3 and 4
+    /// only).
     ///
     /// # Errors
     /// A tracer this build lacks ([`TracerError::FeatureOff`]) or one that fails to build.
@@ -89,6 +95,12 @@ impl AnyTracer {
             }
             #[cfg(not(feature = "embree"))]
             TracerKind::Embree | TracerKind::EmbreeRobust => Err(kind.feature_off()),
+            #[cfg(feature = "embree4")]
+            TracerKind::Embree4 | TracerKind::Embree4Robust => {
+                embree4::build(kind, &scene.geometry, threads).map(Self::Embree4)
+            }
+            #[cfg(not(feature = "embree4"))]
+            TracerKind::Embree4 | TracerKind::Embree4Robust => Err(kind.feature_off()),
         }
     }
 }
@@ -100,6 +112,8 @@ impl Tracer for AnyTracer {
             Self::Brute(t) => t.accelerated(),
             #[cfg(feature = "embree")]
             Self::Embree(t) => t.accelerated(),
+            #[cfg(feature = "embree4")]
+            Self::Embree4(t) => t.accelerated(),
         }
     }
     fn id(&self) -> &'static str {
@@ -108,6 +122,8 @@ impl Tracer for AnyTracer {
             Self::Brute(t) => t.id(),
             #[cfg(feature = "embree")]
             Self::Embree(t) => t.id(),
+            #[cfg(feature = "embree4")]
+            Self::Embree4(t) => t.id(),
         }
     }
     #[inline]
@@ -117,6 +133,8 @@ impl Tracer for AnyTracer {
             Self::Brute(t) => t.intersect(ray, t_max),
             #[cfg(feature = "embree")]
             Self::Embree(t) => t.intersect(ray, t_max),
+            #[cfg(feature = "embree4")]
+            Self::Embree4(t) => t.intersect(ray, t_max),
         }
     }
     #[inline]
@@ -126,6 +144,8 @@ impl Tracer for AnyTracer {
             Self::Brute(t) => t.occluded(ray, t_max),
             #[cfg(feature = "embree")]
             Self::Embree(t) => t.occluded(ray, t_max),
+            #[cfg(feature = "embree4")]
+            Self::Embree4(t) => t.occluded(ray, t_max),
         }
     }
 }

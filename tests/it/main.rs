@@ -1,6 +1,7 @@
 //! The integration tests as one binary, one module per theme: the crate is linked once instead
-//! of once per test file. `tests/embree_threads.rs` stays a binary of its own: it counts the
-//! process's OS threads and Embree devices, which tests running beside it would change.
+//! of once per test file. `tests/embree_threads.rs` and `tests/embree4_threads.rs` stay binaries of
+//! their own: they count the process's OS threads and Embree devices, which tests running beside
+//! them would change.
 
 mod support;
 
@@ -9,6 +10,7 @@ mod animation;
 mod bad_input;
 mod determinism;
 mod embree;
+mod embree4;
 mod experiment;
 mod fuzz;
 mod hostile;

@@ -579,8 +579,21 @@ mod cli {
 #[cfg(feature = "embree")]
 #[test]
 fn every_scheduler_matches_serial_with_embree() {
+    every_scheduler_matches_serial_with(TracerKind::Embree);
+}
+
+/// The same identity with Embree 4.
+#[cfg(feature = "embree4")]
+#[test]
+fn every_scheduler_matches_serial_with_embree4() {
+    every_scheduler_matches_serial_with(TracerKind::Embree4);
+}
+
+#[cfg(any(feature = "embree", feature = "embree4"))]
+fn every_scheduler_matches_serial_with(tracer: TracerKind) {
+    use raysched::tracer::Tracer;
     let scene = scene(17, 13);
-    let tracer = Arc::new(AnyTracer::build(TracerKind::Embree, &scene, 1).unwrap());
+    let tracer = Arc::new(AnyTracer::build(tracer, &scene, 1).unwrap());
     let (serial, _) = render_serial(&scene, &*tracer);
     for kind in SchedulerKind::ALL {
         for chunk in [
@@ -592,7 +605,13 @@ fn every_scheduler_matches_serial_with_embree() {
                 let spec = SchedulerSpec::new(kind, chunk, workers);
                 let (image, _) = run_scheduler(&spec, &scene, &tracer)
                     .unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
-                assert_eq!(image.hash(), serial.hash(), "embree {}", spec.label());
+                assert_eq!(
+                    image.hash(),
+                    serial.hash(),
+                    "{} {}",
+                    tracer.id(),
+                    spec.label()
+                );
             }
         }
     }
