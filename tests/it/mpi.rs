@@ -384,7 +384,7 @@ fn a_bad_scene_on_one_rank_is_a_clear_error_on_rank_0() {
     let (_, stderr) = text(&o);
     assert!(!o.status.success());
     assert!(
-        stderr.contains("camera.width: must be ≥ 1"),
+        stderr.contains("camera.width: must be in 1..="),
         "stderr:\n{stderr}"
     );
     assert_eq!(
