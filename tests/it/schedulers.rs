@@ -203,7 +203,7 @@ fn production_renderer_policies_choose_their_own_tiles() {
     let mitsuba = SchedulerSpec::new(SchedulerKind::Mitsuba, Chunk::Frame, 2);
     assert_eq!(
         mitsuba.layout(17, 13),
-        (Chunk::Tile { w: 8, h: 8 }, Order::Spiral)
+        (Chunk::Tile { w: 16, h: 16 }, Order::Spiral)
     );
     let f = fixture();
     let (_, stats) = run_scheduler(&pbrt, &f.scene, &f.tracer).unwrap();
