@@ -40,6 +40,7 @@
 //! ```
 
 pub mod converge;
+pub mod cpu_time;
 pub mod csv_out;
 #[cfg(feature = "embree")]
 pub mod embree;
@@ -51,6 +52,7 @@ pub mod metrics;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;
+pub mod provenance;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -2,6 +2,7 @@
 //! their chain and mapped to exit codes (bad input 2, other failures 1). The library never
 //! sees a clap struct: each command turns its arguments into the library's typed specs.
 
+mod compare;
 mod converge;
 mod error;
 mod experiment;
@@ -21,6 +22,7 @@ use std::process::ExitCode;
 #[command(
     name = "raysched",
     version,
+    long_version = long_version(),
     about = "Measure how parallel ray-tracing work should be handed out, and by whom"
 )]
 struct Cli {
@@ -37,10 +39,19 @@ enum Command {
     Run(experiment::RunArgs),
     /// Regenerate summary.csv, every plot and report.md of a results folder from its CSV files.
     Plot(experiment::PlotArgs),
+    /// Compare two results folders configuration by configuration: change of median wall time
+    /// and speedup with 95 % intervals, a Mann–Whitney p-value and a verdict.
+    Compare(compare::CompareArgs),
     /// Error against run time: progressive render (1, 2, 4, … spp) vs a reference; CSV + plot.
     Converge(converge::ConvergeArgs),
     /// The numerical stability suite: CSV + markdown table of every case.
     Stability(stability::StabilityArgs),
+}
+
+/// `raysched --version`: the version and the build's provenance.
+fn long_version() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| raysched::provenance::Build::current().long_version())
 }
 
 /// Parse the command line, run it, print an error once with its chain. A usage error is one
@@ -82,9 +93,29 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Run(args) if under_mpirun() => mpi_run::run(args),
         Command::Run(args) => experiment::run(args),
         Command::Plot(args) => experiment::plot(args),
+        Command::Compare(args) => compare::compare(args),
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
     }
+}
+
+/// Refuse to replace `csv` (a result with more rows than the `new_rows` about to be written)
+/// unless `force`: a quick or partial run must not overwrite a full one.
+pub(crate) fn refuse_partial_overwrite(
+    csv: &std::path::Path,
+    new_rows: usize,
+    force: bool,
+) -> Result<(), CliError> {
+    let old_rows = std::fs::read_to_string(csv)
+        .map(|t| t.lines().count().saturating_sub(1))
+        .unwrap_or(0);
+    if !force && old_rows > new_rows {
+        return Err(CliError::input(anyhow::anyhow!(
+            "{}: holds {old_rows} rows, this run only {new_rows}; it would replace a fuller result (write elsewhere with -o, or pass --force)",
+            csv.display()
+        )));
+    }
+    Ok(())
 }
 
 /// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?

@@ -31,6 +31,17 @@ pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     charts::draw_all(dir, &plots, sums)
 }
 
+/// The warnings of the run in `dir` (see [`report::warnings`]), from its CSV and meta alone.
+pub fn warnings_of(dir: &Path) -> Vec<String> {
+    let Ok((rows, _)) = results::read_runs(&dir.join("runs.csv")) else {
+        return vec![];
+    };
+    let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
+        .ok()
+        .and_then(|t| toml::from_str(&t).ok());
+    report::warnings(meta.as_ref(), &summary::summarize(&rows))
+}
+
 /// Recompute `summary.csv`, every plot and `report.md` in `dir` from `dir/runs.csv` (for a
 /// convergence experiment: its plot from `convergence.csv`). Returns the paths written.
 pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
@@ -58,6 +69,7 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let summary_path = dir.join("summary.csv");
     summary::write_summary(&summary_path, &sums)
         .map_err(|e| format!("{}: {e}", summary_path.display()))?;
+    let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
     let figs = draw_all(dir, &sums)?;
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
@@ -66,6 +78,7 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let report_path = dir.join("report.md");
     std::fs::write(&report_path, report).map_err(|e| format!("{}: {e}", report_path.display()))?;
     let mut out = vec![summary_path, report_path];
+    out.extend(json);
     out.extend(figs.iter().map(|f| dir.join(&f.file)));
     Ok(out)
 }
