@@ -156,9 +156,10 @@ pub(crate) fn finish_experiment(
             written.len(),
             outcome.dir.join("report.md").display()
         );
-        for w in raysched::plot::warnings_of(&outcome.dir) {
-            println!("warning: {w}");
-        }
+    }
+    // Warnings go to stderr even with --quiet: they say whether the numbers can be trusted.
+    for w in raysched::plot::warnings_of(&outcome.dir) {
+        eprintln!("warning: {w}");
     }
     if outcome.mismatches > 0 {
         return Err(CliError::runtime(anyhow::anyhow!(

@@ -171,7 +171,7 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
             .collect();
         if !wide.is_empty() {
             out.push(format!(
-                "{} configuration(s) stopped with a median CI wider than the ±{:.1} % target (budget spent): {}",
+                "{} configuration(s) stopped with a median CI wider than the ±{:.1} % target (their runs or seconds ran out): {}",
                 wide.len(),
                 target * 100.0,
                 wide.join(", ")

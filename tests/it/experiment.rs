@@ -871,3 +871,50 @@ fn published_snapshots_still_read() {
         assert!(rows.iter().all(|r| r.inner == 1 && r.timestamp.is_empty()));
     }
 }
+
+/// The report's warnings and ties, on forged wall times: serial 3 ms and every configuration
+/// 1 ms (± 0.1 %) gives 3× on 2 workers (efficiency above 100 % beyond noise) and a fastest
+/// configuration tied with all the others; `plot` prints them in report.md.
+#[test]
+fn report_warns_of_impossible_efficiency_and_lists_ties() {
+    use raysched::experiment::results::RunsFile;
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 6);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
+    let (mut f, _) = RunsFile::open(&res.join("runs.csv"), true).unwrap();
+    for r in &rows {
+        let mut r = r.clone();
+        let jitter = 1.0 + f64::from(r.repetition % 3) / 1000.0;
+        r.wall_s = if r.scheduler == "serial" { 3e-3 } else { 1e-3 } * jitter;
+        f.append(&r).unwrap();
+    }
+    drop(f);
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains("## Warnings"), "{report}");
+    assert!(
+        report.contains("×2: efficiency 150 %") && report.contains("above 100 % beyond noise"),
+        "{report}"
+    );
+    assert!(report.contains("×1: efficiency 300 %"), "{report}");
+    assert!(report.contains("statistically tied with it"), "{report}");
+    assert!(
+        report.contains("speedup 3.00× (95 % CI 3.00–3.00)"),
+        "{report}"
+    );
+}
