@@ -610,7 +610,7 @@ struct Sample {
 
 /// Renders per timed sample for a render of `t` seconds: enough to fill `min_sample_s`.
 pub fn inner_count(t: f64, min_sample_s: f64) -> u32 {
-    if !(t > 0.0) || t >= min_sample_s {
+    if t.is_nan() || t <= 0.0 || t >= min_sample_s {
         return 1;
     }
     ((min_sample_s / t).ceil() as u32).clamp(1, MAX_INNER)

@@ -43,7 +43,7 @@ pub fn mad_outliers(v: &[f64]) -> usize {
     let m = median(v);
     let dev: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
     let mad = median(&dev);
-    if !(mad > 0.0) {
+    if mad.is_nan() || mad <= 0.0 {
         return 0;
     }
     dev.iter().filter(|d| 0.6745 * **d / mad > 3.5).count()
@@ -252,7 +252,7 @@ pub fn mann_whitney_p(a: &[f64], b: &[f64]) -> f64 {
     let mean = n1 * n2 / 2.0;
     let nn = n1 + n2;
     let var = n1 * n2 / 12.0 * ((nn + 1.0) - ties / (nn * (nn - 1.0)));
-    if !(var > 0.0) {
+    if var.is_nan() || var <= 0.0 {
         return 1.0;
     }
     let z = ((u - mean).abs() - 0.5).max(0.0) / var.sqrt();

@@ -181,8 +181,8 @@ fn line_chart<DB: DrawingBackend>(
     x_desc: &str,
     y_desc: &str,
     data: &Series,
-    log2_x: bool,
-    ideal: bool,
+    // (x on a log₂ scale, draw the ideal diagonal)
+    (log2_x, ideal): (bool, bool),
     refs: &[(f64, &str)],
 ) -> R {
     let (x0, x1) = range(data, |p| p.0);
@@ -309,15 +309,14 @@ fn two_charts<DB: DrawingBackend>(
     bottom_refs: &[(f64, &str)],
 ) -> R {
     let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
-    line_chart(&upper, titles.0, x_desc, top.0, top.1, true, false, &[])?;
+    line_chart(&upper, titles.0, x_desc, top.0, top.1, (true, false), &[])?;
     line_chart(
         &lower,
         titles.1,
         x_desc,
         bottom.0,
         bottom.1,
-        true,
-        false,
+        (true, false),
         bottom_refs,
     )
 }
@@ -484,7 +483,7 @@ fn gantt_chart<DB: DrawingBackend>(
     let scale = |d: f64| if log { d.ln() } else { d };
     let bin_of = |d: f64| {
         let span = scale(dmax) - scale(dmin);
-        if !(span > 0.0) {
+        if span.is_nan() || span <= 0.0 {
             return 0;
         }
         (((scale(d) - scale(dmin)) / span * 5.0) as usize).min(4)
@@ -650,8 +649,7 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
             "worker threads",
             "speedup (t_serial / t)",
             &data,
-            false,
-            true,
+            (false, true),
             &[(1.0, "speedup 1 (serial)")]
         )
     );
@@ -726,8 +724,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
             "items outstanding per worker, B (log₂ scale)",
             "speedup (t_serial / t)",
             &data,
-            true,
-            false,
+            (true, false),
             &[(1.0, "speedup 1 (serial)")]
         )
     );
