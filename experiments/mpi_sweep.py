@@ -4,7 +4,7 @@ of its [mpi] table; each launch appends its rows to OUT/<name>/runs.csv (the ser
 local-thread baselines are measured by the first launch that needs them) and redraws the plots
 and report.md.
 
-    python3 experiments/mpi_sweep.py [experiments/mpi.toml] [--fresh] [--out results]
+    python3 experiments/mpi_sweep.py [experiments/mpi.toml] [--fresh] [--out results/runs]
 
 Needs a binary built with `cargo build --features mpi`. Every mpirun has a deadline; past it
 its whole process group is killed. A transport this script cannot set up is skipped with a
@@ -68,7 +68,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("experiment", nargs="?", default=str(ROOT / "experiments" / "mpi.toml"))
     ap.add_argument("--fresh", action="store_true", help="start runs.csv over (first launch only)")
-    ap.add_argument("--out", default=str(ROOT / "results"))
+    ap.add_argument("--out", default=str(ROOT / "results" / "runs"))
     a = ap.parse_args()
     spec = tomllib.loads(pathlib.Path(a.experiment).read_text())
     mpi = spec["mpi"]

@@ -57,6 +57,13 @@ pub fn kernel() -> String {
     read("/proc/sys/kernel/osrelease").trim().to_string()
 }
 
+/// The 1-, 5- and 15-minute load averages (/proc/loadavg; `None` where it does not exist).
+pub fn load_average() -> Option<[f64; 3]> {
+    let text = read("/proc/loadavg");
+    let mut it = text.split_whitespace().map(|v| v.parse::<f64>().ok());
+    Some([it.next()??, it.next()??, it.next()??])
+}
+
 fn read(path: &str) -> String {
     std::fs::read_to_string(path).unwrap_or_default()
 }

@@ -40,6 +40,7 @@
 //! ```
 
 pub mod converge;
+pub mod cpu_time;
 pub mod csv_out;
 #[cfg(feature = "embree")]
 pub mod embree;
@@ -55,6 +56,7 @@ pub mod metrics;
 pub mod mpi;
 pub mod plot;
 pub mod profile;
+pub mod provenance;
 pub mod render;
 pub mod rng;
 pub mod scene;

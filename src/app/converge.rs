@@ -15,7 +15,7 @@ pub(crate) struct ConvergeArgs {
     /// Largest sample count of the progression.
     #[arg(long, default_value_t = 256, value_parser = super::spp_arg())]
     pub(crate) max_spp: u32,
-    /// Samples of a rendered reference (cached under results/refs/).
+    /// Samples of a rendered reference (cached under results/runs/refs/).
     #[arg(long, default_value_t = 4096, value_parser = super::spp_arg())]
     pub(crate) ref_spp: u32,
     /// Tracers to compare, comma separated.
@@ -24,8 +24,11 @@ pub(crate) struct ConvergeArgs {
     #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for convergence.csv and convergence.png.
-    #[arg(short, long, default_value = "results/converge")]
+    #[arg(short, long, default_value = "results/runs/converge")]
     pub(crate) output: PathBuf,
+    /// Replace a convergence.csv with more rows than this run.
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
@@ -69,7 +72,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         None => cv::reference::reference(
             &scene,
             &first,
-            Path::new("results/refs"),
+            Path::new("results/runs/refs"),
             args.ref_spp,
             args.threads,
         )
@@ -88,6 +91,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     }
     let csv = args.output.join("convergence.csv");
     let png = args.output.join("convergence.png");
+    super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
+    std::fs::create_dir_all(&args.output).map_err(CliError::runtime)?;
     cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
     cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
     out!("reference: {}", reference.kind.label());

@@ -12,17 +12,68 @@ pub(crate) struct RunArgs {
     /// Discard earlier results of this experiment and start over.
     #[arg(long)]
     pub(crate) fresh: bool,
-    /// No progress bar (for scripts).
+    /// No progress bar or lines (for scripts).
     #[arg(long)]
     pub(crate) quiet: bool,
-    /// Results root; the experiment writes to OUT/<experiment name>/.
-    #[arg(long, default_value = "results")]
+    /// Results root; the experiment writes to OUT/<experiment name>/. The published snapshots
+    /// under results/published/ are never the default.
+    #[arg(long, default_value = DEFAULT_OUT)]
     pub(crate) out: PathBuf,
+    /// Print the plan (configurations, runs, estimated time from one probe render per scene
+    /// and tracer) and measure nothing.
+    #[arg(long)]
+    pub(crate) dry_run: bool,
+    /// Relative 95 % CI half-width of each median to reach (overrides ci_target; 0: fixed
+    /// `repetitions`).
+    #[arg(long)]
+    pub(crate) ci_target: Option<f64>,
+    /// Most timed runs per configuration (overrides max_repetitions).
+    #[arg(long)]
+    pub(crate) max_runs: Option<u32>,
+    /// Most seconds of timed runs per configuration (overrides budget_s).
+    #[arg(long)]
+    pub(crate) budget_s: Option<f64>,
+}
+
+/// Where `raysched run` writes by default: ignored by git, never the published snapshots.
+pub(crate) const DEFAULT_OUT: &str = "results/runs";
+
+/// Apply `--ci-target`, `--max-runs` and `--budget-s` to the plan's settings, checked like
+/// the experiment file's keys.
+pub(crate) fn apply_stats_flags(plan: &mut ExperimentPlan, args: &RunArgs) -> Result<(), CliError> {
+    let st = &mut plan.stats;
+    let bad = |flag: &str, msg: String| CliError::input(anyhow::anyhow!("{flag}: {msg}"));
+    if let Some(t) = args.ci_target {
+        if !(0.0..=0.5).contains(&t) {
+            return Err(bad("--ci-target", format!("must be in [0, 0.5] (got {t})")));
+        }
+        st.ci_target = t;
+        if t == 0.0 && args.max_runs.is_none() {
+            st.max_runs = st.min_runs;
+        }
+    }
+    if let Some(m) = args.max_runs {
+        if m == 0 || m > 10_000 {
+            return Err(bad("--max-runs", format!("must be in 1..=10000 (got {m})")));
+        }
+        st.max_runs = m;
+        st.min_runs = st.min_runs.min(m);
+    }
+    if let Some(b) = args.budget_s {
+        if !(b > 0.0 && b <= 86_400.0) {
+            return Err(bad(
+                "--budget-s",
+                format!("must be in (0, 86400] (got {b})"),
+            ));
+        }
+        st.budget_s = b;
+    }
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct PlotArgs {
-    /// A results folder, e.g. results/quick.
+    /// A results folder, e.g. results/runs/quick.
     pub(crate) dir: PathBuf,
 }
 
@@ -40,7 +91,8 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
             args.experiment.display()
         )));
     }
-    let plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
+    let mut plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
+    apply_stats_flags(&mut plan, &args)?;
     if plan.mpi.is_some() {
         return Err(CliError::input(anyhow::anyhow!(
             "{}: mpi: this experiment needs `mpirun -n K raysched run {}` with K in mpi.ranks (this process was not started by mpirun)",
@@ -65,6 +117,11 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
         fresh: args.fresh,
         quiet: args.quiet,
     };
+    if args.dry_run {
+        let text = experiment::dry_run::plan_text(&plan, &opts).map_err(CliError::runtime)?;
+        super::write_stdout(format_args!("{text}"));
+        return Ok(());
+    }
     let outcome = experiment::run_experiment(&plan, &opts);
     finish_experiment(&plan, outcome, args.quiet)
 }
@@ -83,18 +140,26 @@ pub(crate) fn finish_experiment(
         raysched::plot::redraw(&outcome.dir).map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
     if !quiet {
         let others = if outcome.other_launches > 0 {
-            format!(", {} left to other mpirun launches", outcome.other_launches)
+            format!(
+                ", {} configurations left to other mpirun launches",
+                outcome.other_launches
+            )
         } else {
             String::new()
         };
         out!(
-            "{}: {} runs measured, {} already done{others}; wrote {} files (report: {})",
+            "{}: {} runs measured ({} untimed warm-ups and probes), {} already done{others}; wrote {} files (report: {})",
             plan.name,
             outcome.measured,
+            outcome.untimed,
             outcome.skipped,
             written.len(),
             outcome.dir.join("report.md").display()
         );
+    }
+    // Warnings go to stderr even with --quiet: they say whether the numbers can be trusted.
+    for w in raysched::plot::warnings_of(&outcome.dir) {
+        eprintln!("warning: {w}");
     }
     if outcome.mismatches > 0 {
         return Err(CliError::runtime(anyhow::anyhow!(

@@ -11,6 +11,7 @@ macro_rules! out {
     };
 }
 
+mod compare;
 mod converge;
 mod error;
 mod experiment;
@@ -32,6 +33,7 @@ use std::process::ExitCode;
 #[command(
     name = "raysched",
     version,
+    long_version = long_version(),
     about = "Measure how parallel ray-tracing work should be handed out, and by whom"
 )]
 struct Cli {
@@ -48,6 +50,9 @@ enum Command {
     Run(experiment::RunArgs),
     /// Regenerate summary.csv, every plot and report.md of a results folder from its CSV files.
     Plot(experiment::PlotArgs),
+    /// Compare two results folders configuration by configuration: change of median wall time
+    /// and speedup with 95 % intervals, a Mann–Whitney p-value and a verdict.
+    Compare(compare::CompareArgs),
     /// Error against run time: progressive render (1, 2, 4, … spp) vs a reference; CSV + plot.
     Converge(converge::ConvergeArgs),
     /// The numerical stability suite: CSV + markdown table of every case.
@@ -55,6 +60,12 @@ enum Command {
     /// Per-pixel and per-item cost distribution (μ, σ, CV, max/mean) and a heat map PNG of
     /// cost per pixel, from a per-pixel render on one worker.
     Profile(profile::ProfileArgs),
+}
+
+/// `raysched --version`: the version and the build's provenance.
+fn long_version() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| raysched::provenance::Build::current().long_version())
 }
 
 /// Parse the command line, run it, print an error once with its chain. A usage error is one
@@ -130,6 +141,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Run(args) if under_mpirun() => mpi_run::run(args),
         Command::Run(args) => experiment::run(args),
         Command::Plot(args) => experiment::plot(args),
+        Command::Compare(args) => compare::compare(args),
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
         Command::Profile(args) => profile::profile(args),
@@ -157,6 +169,26 @@ pub(crate) fn threads_arg(min: u64) -> clap::builder::RangedU64ValueParser<usize
 /// A samples-per-pixel flag: `1..=`[`MAX_SPP`].
 pub(crate) fn spp_arg() -> clap::builder::RangedU64ValueParser<u32> {
     clap::builder::RangedU64ValueParser::<u32>::new().range(1..=MAX_SPP as u64)
+
+}
+
+/// Refuse to replace `csv` (a result with more rows than the `new_rows` about to be written)
+/// unless `force`: a quick or partial run must not overwrite a full one.
+pub(crate) fn refuse_partial_overwrite(
+    csv: &std::path::Path,
+    new_rows: usize,
+    force: bool,
+) -> Result<(), CliError> {
+    let old_rows = std::fs::read_to_string(csv)
+        .map(|t| t.lines().count().saturating_sub(1))
+        .unwrap_or(0);
+    if !force && old_rows > new_rows {
+        return Err(CliError::input(anyhow::anyhow!(
+            "{}: holds {old_rows} rows, this run only {new_rows}; it would replace a fuller result (write elsewhere with -o, or pass --force)",
+            csv.display()
+        )));
+    }
+    Ok(())
 }
 
 /// Was this process started by `mpirun`/`srun` (OpenMPI, PMI or PMIx set these)?

@@ -82,7 +82,8 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
     let all: Vec<i32> = (1..comm.size).collect();
     let path = args.experiment.display().to_string();
     let plan = (|| {
-        let plan = load_plan(&args.experiment).map_err(CliError::input)?;
+        let mut plan = load_plan(&args.experiment).map_err(CliError::input)?;
+        super::experiment::apply_stats_flags(&mut plan, args)?;
         let Some(m) = &plan.mpi else {
             return Err(input(format!(
                 "{path}: mpi: missing: started by mpirun with {} rank(s), but the experiment has no [mpi] table (run it without mpirun, or add [mpi])",

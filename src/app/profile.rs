@@ -61,7 +61,7 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let tracer = Arc::new(AnyTracer::build(kind, &scene, 1).map_err(CliError::input)?);
     let p = Profile::measure_min(&scene, &tracer, args.passes).map_err(CliError::runtime)?;
-    println!(
+    out!(
         "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, one worker, one pixel per item, \
          cheapest of {} passes per pixel",
         scene.name,
@@ -72,15 +72,15 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
         args.tracer,
         args.passes
     );
-    println!(
+    out!(
         "{:>10} {:>8} {:>10} {:>10} {:>6} {:>10} {:>9}",
         "chunk", "items", "mean µs", "σ µs", "CV", "max µs", "max/mean"
     );
-    println!("{}", line("pixel", &p.pixels()));
+    out!("{}", line("pixel", &p.pixels()));
     for c in &args.chunks {
-        println!("{}", line(&c.to_string(), &p.items(*c)));
+        out!("{}", line(&c.to_string(), &p.items(*c)));
     }
-    println!(
+    out!(
         "total {:.3} s; the costliest 1 % of pixels hold {:.1} % of it, the costliest 10 % {:.1} %; \
          the costliest 10 % cost {:.0}× the median pixel",
         p.pixels().total,
@@ -95,7 +95,7 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     p.heat_map()
         .save_with_format(&args.output, image::ImageFormat::Png)
         .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
-    println!(
+    out!(
         "wrote {} (cost per pixel, log scale: black cheapest … white costliest)",
         args.output.display()
     );

@@ -35,7 +35,7 @@ pub(crate) struct RenderArgs {
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = parse_tracer)]
     pub(crate) tracer: TracerKind,
     /// Output image; the format follows the extension (.exr or .pfm).
-    #[arg(short, long, default_value = "results/render.exr")]
+    #[arg(short, long, default_value = "results/runs/render.exr")]
     pub(crate) output: PathBuf,
     #[command(flatten)]
     pub(crate) scheduler: SchedulerFlags,

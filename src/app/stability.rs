@@ -16,8 +16,11 @@ pub(crate) struct StabilityArgs {
     #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for stability.csv and stability.md.
-    #[arg(short, long, default_value = "results/stability")]
+    #[arg(short, long, default_value = "results/runs/stability")]
     pub(crate) output: PathBuf,
+    /// Replace a stability.csv with more cases than this run (a full suite by --quick).
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
@@ -43,6 +46,8 @@ pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
     let rows = st::cases::run_suite(&budget);
     let table = st::markdown(&rows);
     let csv = args.output.join("stability.csv");
+    super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
+    std::fs::create_dir_all(&args.output).map_err(CliError::runtime)?;
     st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
     std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
     out!("{table}");

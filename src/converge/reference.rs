@@ -1,6 +1,6 @@
 //! Reference images: analytic where the scene has a closed form (the furnaces and the point
 //! light of docs/conventions.md, and a few stability cases), otherwise a high-spp render
-//! cached under `results/refs/` keyed by the scene hash.
+//! cached under `results/runs/refs/` (the `converge` command; an experiment uses `<out>/refs/`) keyed by the scene hash.
 //!
 //! Analytic kinds recognised structurally (not by name), so the transformed variants of the
 //! stability suite are recognised too:

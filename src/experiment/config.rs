@@ -3,7 +3,12 @@
 //! ```toml
 //! name = "quick"                  # optional, defaults to the file stem
 //! description = "…"
-//! repetitions = 3                 # timed runs per configuration
+//! repetitions = 5                 # timed runs per configuration, at least
+//! ci_target = 0.02                # then more until the median's 95 % CI is ±2 % …
+//! max_repetitions = 30            # … or 30 runs …
+//! budget_s = 10                   # … or 10 s of timed runs have been spent
+//! min_sample_s = 0.05             # shorter renders are repeated inside one timed sample
+//! seed = 1                        # seeds the shuffled order of each round
 //! warmup = 1                      # untimed runs before them
 //! workers = [1, 2]                # or "1..max", or [1, 2, "max"]
 //! tracers = ["bvh"]
@@ -31,9 +36,22 @@ pub struct ExperimentFile {
     /// Free text copied into the report.
     #[serde(default)]
     pub description: String,
-    /// Timed runs per configuration (default 1).
+    /// Timed runs per configuration at least (default 1); with a `ci_target` more follow until
+    /// the target or the budget is reached.
     #[serde(default = "one")]
     pub repetitions: u32,
+    /// Stop repeating a configuration once the 95 % CI half-width of its median wall time is
+    /// at most this fraction of the median (default 0.02; 0: exactly `repetitions` runs).
+    pub ci_target: Option<f64>,
+    /// At most this many timed runs per configuration (default 30, at least `repetitions`).
+    pub max_repetitions: Option<u32>,
+    /// At most this many seconds of timed runs per configuration (default 10).
+    pub budget_s: Option<f64>,
+    /// A render shorter than this (seconds, default 0.05) is repeated inside one timed sample,
+    /// which records the mean and the count (`inner`); 0 disables.
+    pub min_sample_s: Option<f64>,
+    /// Seeds the shuffled order of each round (default 1).
+    pub seed: Option<u64>,
     /// Untimed runs before each configuration's timed ones (default 0).
     #[serde(default)]
     pub warmup: u32,

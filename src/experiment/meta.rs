@@ -1,9 +1,10 @@
 //! `meta.toml`: the machine and build a run was measured on, and the experiment file's hash
-//! (a changed file is refused on resume unless `--fresh`).
+//! (a changed file is refused on resume unless `--fresh`). What it records about the rows is
+//! written once, when runs.csv is started; each later start only appends a [`Start`] to its
+//! `history`, and a start on another machine or build is refused ([`resume_conflict`]).
 
 use super::plan::ExperimentPlan;
 use serde::{Deserialize, Serialize};
-use std::process::Command;
 
 /// The contents of `meta.toml`.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -20,9 +21,10 @@ pub struct Meta {
     pub resumed: Option<String>,
     /// The crate version (`CARGO_PKG_VERSION`) of the binary that measured.
     pub raysched_version: String,
-    /// `git rev-parse HEAD` in the working directory, `-dirty` if it had local changes.
+    /// The commit the binary was built from, `-dirty+<diff hash>` if its sources had local
+    /// changes (fixed at build time; older files: read from the working directory at run time).
     pub git_commit: String,
-    /// `rustc -V` on PATH at run time.
+    /// `rustc -V` of the compiler that built the binary.
     pub rustc: String,
     /// Cargo features compiled in (`embree`, `mpi`).
     pub features: Vec<String>,
@@ -30,6 +32,90 @@ pub struct Meta {
     pub machine: Machine,
     /// Plan stage, never timed with a run.
     pub scenes: Vec<SceneMeta>,
+    /// The measuring binary's provenance (absent in files written before it was recorded).
+    #[serde(default)]
+    pub build: Option<crate::provenance::Build>,
+    /// Every start of `raysched run` on this folder, the first one included, oldest first.
+    #[serde(default)]
+    pub history: Vec<Start>,
+}
+
+/// One start of `raysched run` on a results folder: when, where, with what, under what load.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Start {
+    /// UTC.
+    pub time: String,
+    /// The host name.
+    pub host: String,
+    /// The CPU model.
+    pub cpu_model: String,
+    /// Logical CPUs available.
+    pub cores: usize,
+    /// The binary's commit label ([`crate::provenance::Build::commit_label`]).
+    pub commit: String,
+    /// The binary's rustc.
+    pub rustc: String,
+    /// The binary's profile.
+    pub profile: String,
+    /// 1-minute load average when the start began (`-1` if unknown).
+    pub load1: f64,
+    /// Rows already in runs.csv at this start.
+    pub rows_before: usize,
+    /// The statistics settings this start measured with.
+    pub stats: crate::experiment::plan::StatsSettings,
+}
+
+impl Start {
+    /// This process starting now on `rows_before` existing rows.
+    pub fn now(rows_before: usize, stats: crate::experiment::plan::StatsSettings) -> Self {
+        let b = crate::provenance::Build::current();
+        let m = machine();
+        Self {
+            time: now_utc(),
+            host: crate::host::hostname(),
+            cpu_model: m.cpu_model,
+            cores: m.cores,
+            commit: b.commit_label(),
+            rustc: b.rustc,
+            profile: b.profile,
+            load1: crate::host::load_average().map_or(-1.0, |l| l[0]),
+            rows_before,
+            stats,
+        }
+    }
+}
+
+/// Why rows measured under `old` cannot be resumed by `now` (another machine, commit, rustc or
+/// profile), as "what: old → new" parts; empty when they match. Files written before the
+/// history was recorded are compared on their machine, commit and rustc fields.
+pub fn resume_conflict(old: &Meta, now: &Start) -> Vec<String> {
+    let mut diffs = Vec::new();
+    let mut check = |what: &str, a: &str, b: &str| {
+        if a != b {
+            diffs.push(format!("{what} {a} → {b}"));
+        }
+    };
+    match old.history.first() {
+        Some(first) => {
+            check("host", &first.host, &now.host);
+            check("CPU", &first.cpu_model, &now.cpu_model);
+            check("cores", &first.cores.to_string(), &now.cores.to_string());
+            check("commit", &first.commit, &now.commit);
+            check("rustc", &first.rustc, &now.rustc);
+            check("profile", &first.profile, &now.profile);
+        }
+        None => {
+            check("CPU", &old.machine.cpu_model, &now.cpu_model);
+            check(
+                "cores",
+                &old.machine.cores.to_string(),
+                &now.cores.to_string(),
+            );
+            check("commit", &old.git_commit, &now.commit);
+            check("rustc", &old.rustc, &now.rustc);
+        }
+    }
+    diffs
 }
 
 /// The host a run was measured on.
@@ -72,13 +158,6 @@ pub struct SceneMeta {
     pub tracers: Vec<(String, f64)>,
 }
 
-fn cmd(program: &str, args: &[&str]) -> Option<String> {
-    let out = Command::new(program).args(args).output().ok()?;
-    out.status
-        .success()
-        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
-}
-
 /// Describe this host.
 pub fn machine() -> Machine {
     use crate::host;
@@ -116,28 +195,10 @@ pub fn now_utc() -> String {
     )
 }
 
-/// The meta of a run of `plan` starting now (`started` is now, `resumed` unset); runs `git`
-/// and `rustc` from PATH.
+/// The meta of a run of `plan` starting now (`started` is now, `resumed` unset, no history
+/// yet); the build facts come from [`crate::provenance::Build::current`].
 pub fn collect(plan: &ExperimentPlan) -> Meta {
-    let git = cmd("git", &["rev-parse", "HEAD"]).map(|h| {
-        let dirty = cmd("git", &["status", "--porcelain", "--untracked-files=no"])
-            .is_some_and(|s| !s.is_empty());
-        if dirty {
-            h + "-dirty"
-        } else {
-            h
-        }
-    });
-    let mut features = vec![];
-    if cfg!(feature = "embree") {
-        features.push("embree".to_string());
-    }
-    if cfg!(feature = "embree4") {
-        features.push("embree4".to_string());
-    }
-    if cfg!(feature = "mpi") {
-        features.push("mpi".to_string());
-    }
+    let build = crate::provenance::Build::current();
     let scenes = plan
         .scenes
         .iter()
@@ -166,11 +227,13 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
         started: now_utc(),
         resumed: None,
         raysched_version: env!("CARGO_PKG_VERSION").to_string(),
-        git_commit: git.unwrap_or_else(|| "unknown".into()),
-        rustc: cmd("rustc", &["-V"]).unwrap_or_else(|| "unknown".into()),
-        features,
+        git_commit: build.commit_label(),
+        rustc: build.rustc.clone(),
+        features: build.features.clone(),
         machine: machine(),
         scenes,
+        build: Some(build),
+        history: vec![],
     }
 }
 

@@ -5,13 +5,18 @@
 //! starts. [`run`] measures (resumably, see [`results`]); `crate::plot::redraw` derives everything
 //! else from the CSV alone, so `raysched plot` can redo it for any old run.
 
+pub mod compare;
 pub mod config;
 pub mod convergence;
+pub mod dry_run;
+pub mod export;
 pub mod lock;
 pub mod meta;
 pub mod plan;
+pub mod progress;
 pub mod results;
 pub mod run;
+pub mod stats;
 pub mod summary;
 
 pub use plan::{ConfigError, ExperimentPlan, Launch, Sources};

@@ -146,8 +146,10 @@ pub struct ExperimentPlan {
     pub file: PathBuf,
     /// FNV-1a of the experiment file's bytes, 16 hex digits.
     pub file_hash: String,
-    /// Timed runs per configuration (≥ 1).
+    /// Timed runs per configuration at least (≥ 1).
     pub repetitions: u32,
+    /// When to stop repeating, and how to time short renders.
+    pub stats: StatsSettings,
     /// Untimed runs before each configuration's timed ones.
     pub warmup: u32,
     /// Record a Gantt timeline on repetition 0 of each scheduler configuration.
@@ -219,6 +221,7 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         file: path.to_path_buf(),
         file_hash: hex(fnv(&bytes)),
         repetitions: file.repetitions,
+        stats: settings.stats,
         warmup: file.warmup,
         timeline: file.timeline,
         scenes,
@@ -274,6 +277,7 @@ fn plan_name(path: &Path, file: &ExperimentFile) -> Result<String, FieldError> {
 
 /// What the file says besides its scenes and schedulers, checked.
 struct Settings {
+    stats: StatsSettings,
     workers: Vec<usize>,
     tracers: Vec<TracerKind>,
     mpi: Option<MpiSettings>,
@@ -337,10 +341,96 @@ fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
         ));
     }
     Ok(Settings {
+        stats: check_stats(file)?,
         workers,
         tracers,
         mpi,
         convergence: check_convergence(file)?,
+    })
+}
+
+/// The adaptive-repetition settings of a timing experiment.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StatsSettings {
+    /// Timed runs per configuration at least.
+    pub min_runs: u32,
+    /// At most.
+    pub max_runs: u32,
+    /// Relative 95 % CI half-width of the median to reach (0: fixed `min_runs`).
+    pub ci_target: f64,
+    /// Seconds of timed runs per configuration at most.
+    pub budget_s: f64,
+    /// Renders shorter than this are repeated inside one timed sample.
+    pub min_sample_s: f64,
+    /// Seeds each round's shuffled order (bootstrap intervals are seeded by the configuration
+    /// id, so `raysched plot` reproduces them from the CSV alone).
+    pub seed: u64,
+}
+
+/// Default relative CI half-width: ±2 % of the median.
+pub const DEFAULT_CI_TARGET: f64 = 0.02;
+/// Default cap on timed runs per configuration.
+pub const DEFAULT_MAX_RUNS: u32 = 30;
+/// Default seconds of timed runs per configuration.
+pub const DEFAULT_BUDGET_S: f64 = 10.0;
+/// Default shortest timed sample: below ~50 ms, scheduling noise of a shared machine (a 4 ms
+/// time slice, a page-cache flush) is a large fraction of the sample.
+pub const DEFAULT_MIN_SAMPLE_S: f64 = 0.05;
+
+impl StatsSettings {
+    /// Is the number of runs fixed (no CI target)?
+    pub fn fixed(&self) -> bool {
+        self.ci_target == 0.0
+    }
+}
+
+fn check_stats(file: &ExperimentFile) -> Result<StatsSettings, FieldError> {
+    let ci_target = file.ci_target.unwrap_or(DEFAULT_CI_TARGET);
+    if !(0.0..=0.5).contains(&ci_target) {
+        return Err(field(
+            "ci_target",
+            format!("must be in [0, 0.5] (a fraction of the median; got {ci_target})"),
+        ));
+    }
+    let min_runs = file.repetitions;
+    let max_runs = match file.max_repetitions {
+        Some(m) if m < min_runs => {
+            return Err(field(
+                "max_repetitions",
+                format!("must be ≥ repetitions ({min_runs}; got {m})"),
+            ))
+        }
+        Some(m) if m > 10_000 => {
+            return Err(field(
+                "max_repetitions",
+                format!("must be ≤ 10000 (got {m})"),
+            ))
+        }
+        Some(m) => m,
+        None if ci_target == 0.0 => min_runs,
+        None => DEFAULT_MAX_RUNS.max(min_runs),
+    };
+    let budget_s = file.budget_s.unwrap_or(DEFAULT_BUDGET_S);
+    if !(budget_s > 0.0 && budget_s <= 86_400.0) {
+        return Err(field(
+            "budget_s",
+            format!("must be in (0, 86400] seconds (got {budget_s})"),
+        ));
+    }
+    let min_sample_s = file.min_sample_s.unwrap_or(DEFAULT_MIN_SAMPLE_S);
+    if !(0.0..=10.0).contains(&min_sample_s) {
+        return Err(field(
+            "min_sample_s",
+            format!("must be in [0, 10] seconds (got {min_sample_s})"),
+        ));
+    }
+    Ok(StatsSettings {
+        min_runs,
+        max_runs,
+        ci_target,
+        budget_s,
+        min_sample_s,
+        seed: file.seed.unwrap_or(1),
     })
 }
 

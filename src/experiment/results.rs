@@ -116,10 +116,31 @@ pub struct RunRow {
     /// workers and the baseline. Files written before it are read with it empty.
     #[serde(default)]
     pub slow: Option<String>,
+    /// Renders inside this timed sample; `wall_s` is their mean (1 in files before it).
+    #[serde(default = "one")]
+    pub inner: u32,
+    /// UTC when the sample was taken (empty in files before it).
+    #[serde(default)]
+    pub timestamp: String,
+    /// User CPU seconds of the whole process during the sample (all renders of it).
+    #[serde(default)]
+    pub user_s: Option<f64>,
+    /// System CPU seconds of the whole process during the sample.
+    #[serde(default)]
+    pub sys_s: Option<f64>,
+    /// 1-minute load average just before the sample.
+    #[serde(default)]
+    pub load_before: Option<f64>,
+    /// 1-minute load average just after it.
+    #[serde(default)]
+    pub load_after: Option<f64>,
 }
 
 fn local() -> String {
     "local".into()
+}
+fn one() -> u32 {
+    1
 }
 
 /// Where the parameter columns start: right after `order`.
@@ -129,9 +150,11 @@ fn params_at(cols: &[String]) -> usize {
         .map_or(cols.len(), |i| i + 1)
 }
 
-/// The columns added with MPI, at the end of the row: a header without them is the previous
-/// version's.
+/// The columns added with MPI, before [`SAMPLE_COLUMNS`].
 const MPI_COLUMNS: usize = 3;
+/// The columns added with adaptive repetitions, at the end of the row: `inner`, `timestamp`,
+/// `user_s`, `sys_s`, `load_before`, `load_after`.
+const SAMPLE_COLUMNS: usize = 6;
 
 impl RunRow {
     /// The column names, in order: the struct's fields (from serde, so they never drift from
@@ -210,6 +233,12 @@ impl RunRow {
             ranks: None,
             transport: None,
             slow: None,
+            inner: 1,
+            timestamp: String::new(),
+            user_s: None,
+            sys_s: None,
+            load_before: None,
+            load_after: None,
         }
     }
 
@@ -412,8 +441,8 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
     };
     let ncols = if bytes[..h_end] == *header.as_bytes() {
         columns.len()
-    } else if is_legacy_header(&bytes[..h_end]) {
-        columns.len() - MPI_COLUMNS
+    } else if let Some(n) = legacy_columns(&bytes[..h_end]) {
+        n
     } else {
         return Err(format!(
             "the header is not this version's columns (expected '{header}'); rerun with --fresh"
@@ -460,10 +489,18 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
     Ok((rows, valid))
 }
 
-/// The header of runs.csv files written before the MPI columns.
-fn is_legacy_header(line: &[u8]) -> bool {
+/// The column count of an earlier version's header (before the sample columns, or before
+/// the MPI columns too), `None` for anything else.
+fn legacy_columns(line: &[u8]) -> Option<usize> {
     let columns = RunRow::header();
-    line == columns[..columns.len() - MPI_COLUMNS].join(",").as_bytes()
+    [SAMPLE_COLUMNS, SAMPLE_COLUMNS + MPI_COLUMNS]
+        .into_iter()
+        .map(|k| columns.len() - k)
+        .find(|&n| line == columns[..n].join(",").as_bytes())
+}
+
+fn is_legacy_header(line: &[u8]) -> bool {
+    legacy_columns(line).is_some()
 }
 
 /// runs.csv opened for appending, with the (config, repetition) pairs already in it.
@@ -609,11 +646,11 @@ mod tests {
     #[test]
     fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {
         let cols = RunRow::header();
-        let old_header = cols[..cols.len() - MPI_COLUMNS].join(",");
+        let old_header = cols[..cols.len() - MPI_COLUMNS - SAMPLE_COLUMNS].join(",");
         let strip = |r: &RunRow| {
             let line = String::from_utf8(r.to_line()).unwrap();
             let fields: Vec<&str> = line.trim_end().split(',').collect();
-            fields[..fields.len() - MPI_COLUMNS].join(",") + "\n"
+            fields[..fields.len() - MPI_COLUMNS - SAMPLE_COLUMNS].join(",") + "\n"
         };
         let text = format!(
             "{old_header}\n{}{}",

@@ -1,16 +1,17 @@
-//! The measurement loop: serial baselines first, then every configuration × repetition not yet
-//! in `runs.csv`, each row appended whole as soon as it is measured.
+//! The measurement loop: rounds of one sample per open configuration, in a seeded shuffled
+//! order, until each configuration's CI target or budget is reached; each row appended whole
+//! as soon as it is measured.
 
 use super::meta::{self, Meta};
 use super::plan::{ExperimentPlan, Launch, RunConfig, Sources};
+use super::progress::Progress;
 use super::results::{ResultsError, RunRow, RunsFile};
-use super::summary::median;
+use super::stats::{median, relative_half_width, shuffle};
 use crate::hash::hex;
 use crate::metrics::{RunStats, WorkerStats};
 use crate::render::{render_serial, Image};
 use crate::sched::{run_scheduler, SchedError, SchedulerSpec};
 use crate::tracer::Tracer;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -31,13 +32,15 @@ pub struct RunOptions {
 pub struct RunOutcome {
     /// The experiment's results folder, `out/<name>/`.
     pub dir: PathBuf,
-    /// Repetitions measured by this run.
+    /// Timed samples measured by this run (rows appended).
     pub measured: usize,
-    /// Repetitions of this launch already in runs.csv, not measured again.
+    /// Rows already in runs.csv, not measured again.
     pub skipped: usize,
+    /// Untimed renders: warm-ups and the probes that size short samples.
+    pub untimed: usize,
     /// Rows (old and new) whose image differs from the serial baseline's.
     pub mismatches: usize,
-    /// Configurations × repetitions that belong to other `mpirun` launches (not measured here).
+    /// Configurations that belong to other `mpirun` launches (not measured here).
     pub other_launches: usize,
 }
 
@@ -110,40 +113,58 @@ pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
     dir.join("timelines").join(format!("{config}.csv"))
 }
 
-/// Check (or start) `meta.toml`: an existing one must carry this experiment file's hash.
-fn prepare_meta(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), RunError> {
+/// Check (or start) `meta.toml` and append this start to its history. An existing one must
+/// carry this experiment file's hash and have been measured by this machine and build; what it
+/// says about the earlier rows is kept as written.
+fn prepare_meta(
+    plan: &ExperimentPlan,
+    dir: &Path,
+    fresh: bool,
+    rows_before: usize,
+) -> Result<Meta, RunError> {
     let path = dir.join("meta.toml");
     let runs = dir.join("runs.csv");
-    let mut meta = meta::collect(plan);
-    if !fresh && runs.exists() {
+    let start = meta::Start::now(rows_before, plan.stats);
+    let resuming = !fresh && runs.exists() && rows_before > 0;
+    let mut meta = if resuming {
         let old: Option<Meta> = std::fs::read_to_string(&path)
             .ok()
             .and_then(|t| toml::from_str(&t).ok());
-        match old {
-            None => {
-                return Err(RunError::Refused(format!(
-                    "{}: missing or unreadable beside {}; rerun with --fresh to start over",
-                    path.display(),
-                    runs.display()
-                )))
-            }
-            Some(old) if old.experiment_hash != plan.file_hash => {
-                return Err(RunError::Refused(format!(
-                    "{}: changed since {} was started (hash {} → {}); rerun with --fresh to start over",
-                    plan.file.display(),
-                    runs.display(),
-                    old.experiment_hash,
-                    plan.file_hash
-                )))
-            }
-            Some(old) => {
-                meta.started = old.started;
-                meta.resumed = Some(meta::now_utc());
-            }
+        let Some(old) = old else {
+            return Err(RunError::Refused(format!(
+                "{}: missing or unreadable beside {}; rerun with --fresh to start over",
+                path.display(),
+                runs.display()
+            )));
+        };
+        if old.experiment_hash != plan.file_hash {
+            return Err(RunError::Refused(format!(
+                "{}: changed since {} was started (hash {} → {}); rerun with --fresh to start over",
+                plan.file.display(),
+                runs.display(),
+                old.experiment_hash,
+                plan.file_hash
+            )));
         }
-    }
+        let diffs = meta::resume_conflict(&old, &start);
+        if !diffs.is_empty() {
+            return Err(RunError::Refused(format!(
+                "{}: its {rows_before} rows were measured elsewhere ({}); resuming would mix them: use --fresh or another --out",
+                runs.display(),
+                diffs.join(", ")
+            )));
+        }
+        Meta {
+            resumed: Some(start.time.clone()),
+            ..old
+        }
+    } else {
+        meta::collect(plan)
+    };
+    meta.history.push(start);
     let text = toml::to_string(&meta).map_err(|e| io_err(&path, e))?;
-    write_atomic(&path, text.as_bytes())
+    write_atomic(&path, text.as_bytes())?;
+    Ok(meta)
 }
 
 /// What the serial baseline of one (scene, tracer) measured so far.
@@ -153,14 +174,22 @@ struct SerialInfo {
     hash: Option<String>,
 }
 
-/// Measure every configuration × repetition of `plan` not yet in `out/<name>/runs.csv`,
-/// outside any `mpirun` launch: configurations of an `[mpi]` launch are left out.
+/// Measure `plan` into `out/<name>/`, resuming what runs.csv already holds, outside any
+/// `mpirun` launch: configurations of an `[mpi]` launch are left out.
 pub fn run_experiment(plan: &ExperimentPlan, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     run_experiment_with(plan, opts, None)
 }
 
 /// [`run_experiment`] inside an `mpirun` launch: `remote` measures the MPI rows of its launch;
 /// configurations of other launches are left for them (their rows may already be in runs.csv).
+///
+/// Rounds: each round takes one timed sample of every configuration not yet done, serial
+/// baselines first, each group in an order shuffled with the experiment's seed and the round,
+/// so drift and a neighbour's load hit every configuration alike, and sample k of a
+/// configuration pairs with sample k of its baseline (the speedup intervals rest on the
+/// pairs). A configuration is done after `min_runs` samples once its median's CI reaches the
+/// target, or when its runs or seconds are spent; a baseline runs on while any of its
+/// configurations does.
 pub fn run_experiment_with(
     plan: &ExperimentPlan,
     opts: &RunOptions,
@@ -170,30 +199,51 @@ pub fn run_experiment_with(
     let dir = opts.out.join(&plan.name);
     let _lock = super::lock::ResultsLock::acquire(&dir)?;
     prepare_dir(plan, &dir, opts.fresh)?;
-    prepare_meta(plan, &dir, opts.fresh)?;
-    let (runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), opts.fresh)?;
+    let runs_path = dir.join("runs.csv");
+    let rows_before = if opts.fresh || !runs_path.exists() {
+        0
+    } else {
+        super::results::read_runs(&runs_path)?.0.len()
+    };
+    prepare_meta(plan, &dir, opts.fresh, rows_before)?;
+    let (runs, old_rows) = RunsFile::open(&runs_path, opts.fresh)?;
     let serial = check_old_rows(plan, &runs, &old_rows)?;
-    let todo = Todo::of(plan, &runs, launch.as_ref());
+    let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
     let mut session = Session {
         plan,
         dir,
         runs,
         serial,
-        bar: progress_bar(opts.quiet, todo.total_runs(plan)),
+        progress: Progress::new(opts.quiet, todo.upper_bound(plan)),
         remote,
         mismatches: old_rows.iter().filter(|r| !r.identical).count(),
         measured: 0,
+        untimed: 0,
     };
-    for (c, reps) in &todo.pending {
-        session.run_config(c, reps)?;
+    let skipped = old_rows.len();
+    let mut round = 0u64;
+    loop {
+        todo.update_done(plan);
+        let order = todo.round_order(plan, round);
+        if order.is_empty() {
+            break;
+        }
+        for i in order {
+            session.sample(&mut todo.states[i])?;
+            session
+                .progress
+                .set_bound(todo.upper_bound_now(plan) + session.measured as u64);
+        }
+        round += 1;
     }
-    session.bar.finish_and_clear();
+    session.progress.finish(session.measured);
     Ok(RunOutcome {
         dir: session.dir,
         measured: session.measured,
-        skipped: todo.skipped,
+        skipped,
         mismatches: session.mismatches,
         other_launches: todo.other_launches,
+        untimed: session.untimed,
     })
 }
 
@@ -250,62 +300,138 @@ fn check_old_rows(
     Ok(serial)
 }
 
-/// What this launch still has to measure.
+/// One configuration's samples so far and whether it needs more.
+struct ConfigState<'p> {
+    config: &'p RunConfig,
+    /// Wall times by repetition, in repetition order.
+    walls: Vec<f64>,
+    /// The next repetition's index.
+    next_rep: u32,
+    /// Seconds of timed renders spent (inner renders included).
+    timed_s: f64,
+    /// Renders per timed sample, once known.
+    inner: Option<u32>,
+    done: bool,
+}
+
+impl ConfigState<'_> {
+    /// Enough samples by its own criteria (runs, budget, CI target).
+    fn own_criteria_met(&self, plan: &ExperimentPlan) -> bool {
+        let st = &plan.stats;
+        let n = self.walls.len() as u32;
+        if n < st.min_runs {
+            return false;
+        }
+        if st.fixed() || n >= st.max_runs || self.timed_s >= st.budget_s {
+            return true;
+        }
+        // The summary's own seed, so a configuration stopped here shows the same interval there.
+        let seed = super::summary::seed_of(&self.config.id);
+        n >= MIN_ADAPTIVE_RUNS && relative_half_width(&self.walls, seed) <= st.ci_target
+    }
+}
+
+/// The fewest samples whose bootstrap interval the stopping rule trusts: with fewer, the
+/// percentile interval of a median is the whole sample range or a single value.
+pub const MIN_ADAPTIVE_RUNS: u32 = 5;
+
+/// The most renders inside one timed sample.
+pub const MAX_INNER: u32 = 1000;
+
+/// What this launch measures.
 struct Todo<'p> {
-    /// Each configuration with the repetitions not yet in runs.csv.
-    pending: Vec<(&'p RunConfig, Vec<u32>)>,
-    /// Configurations × repetitions that belong to other `mpirun` launches.
+    states: Vec<ConfigState<'p>>,
+    /// Configurations that belong to other `mpirun` launches.
     other_launches: usize,
-    /// Repetitions of this launch already in runs.csv.
-    skipped: usize,
 }
 
 impl<'p> Todo<'p> {
-    fn of(plan: &'p ExperimentPlan, runs: &RunsFile, launch: Option<&Launch>) -> Self {
+    fn of(plan: &'p ExperimentPlan, old_rows: &[RunRow], launch: Option<&Launch>) -> Self {
         let mine = |c: &&RunConfig| c.in_launch(launch);
-        let other_launches =
-            plan.configs.iter().filter(|c| !mine(c)).count() * plan.repetitions as usize;
-        let pending: Vec<(&RunConfig, Vec<u32>)> = plan
+        let other_launches = plan.configs.iter().filter(|c| !mine(c)).count();
+        let mut by_id: HashMap<&str, Vec<&RunRow>> = HashMap::new();
+        for r in old_rows {
+            by_id.entry(r.config.as_str()).or_default().push(r);
+        }
+        let states = plan
             .configs
             .iter()
             .filter(mine)
             .map(|c| {
-                let reps = (0..plan.repetitions)
-                    .filter(|&k| !runs.is_done(&c.id, k))
-                    .collect();
-                (c, reps)
+                let mut rows = by_id.remove(c.id.as_str()).unwrap_or_default();
+                rows.sort_by_key(|r| r.repetition);
+                ConfigState {
+                    config: c,
+                    walls: rows.iter().map(|r| r.wall_s).collect(),
+                    next_rep: rows.last().map_or(0, |r| r.repetition + 1),
+                    timed_s: rows.iter().map(|r| r.wall_s * f64::from(r.inner)).sum(),
+                    inner: rows.first().map(|r| r.inner),
+                    done: false,
+                }
             })
-            .filter(|(_, reps): &(_, Vec<u32>)| !reps.is_empty())
             .collect();
-        let skipped = plan.configs.len() * plan.repetitions as usize
-            - other_launches
-            - pending.iter().map(|(_, r)| r.len()).sum::<usize>();
         Self {
-            pending,
+            states,
             other_launches,
-            skipped,
         }
     }
 
-    /// Runs to make, warm-ups included (the progress bar's length).
-    fn total_runs(&self, plan: &ExperimentPlan) -> u64 {
-        self.pending
+    /// Mark what is done: a configuration by its own criteria, a serial baseline once every
+    /// configuration compared with it is done too (or its runs are spent).
+    fn update_done(&mut self, plan: &ExperimentPlan) {
+        for s in &mut self.states {
+            s.done = s.own_criteria_met(plan);
+        }
+        let open: Vec<usize> = self
+            .states
             .iter()
-            .map(|(_, reps)| (plan.warmup as usize + reps.len()) as u64)
+            .filter(|s| s.config.spec.is_some() && !s.done)
+            .map(|s| s.config.baseline)
+            .collect();
+        for s in &mut self.states {
+            if s.config.spec.is_none()
+                && s.done
+                && open.contains(&s.config.baseline)
+                && (s.walls.len() as u32) < plan.stats.max_runs
+            {
+                s.done = false;
+            }
+        }
+    }
+
+    /// This round's samples: the open baselines, then the open configurations, each shuffled.
+    fn round_order(&self, plan: &ExperimentPlan, round: u64) -> Vec<usize> {
+        let open = |serial: bool| -> Vec<usize> {
+            self.states
+                .iter()
+                .enumerate()
+                .filter(|(_, s)| !s.done && s.config.spec.is_none() == serial)
+                .map(|(i, _)| i)
+                .collect()
+        };
+        let seed = plan.stats.seed ^ round.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let (mut a, mut b) = (open(true), open(false));
+        shuffle(&mut a, seed);
+        shuffle(&mut b, seed.rotate_left(17));
+        a.extend(b);
+        a
+    }
+
+    /// The most samples still to come (every open configuration up to its run cap).
+    fn upper_bound_now(&self, plan: &ExperimentPlan) -> u64 {
+        self.states
+            .iter()
+            .filter(|s| match s.config.spec {
+                Some(_) => !s.own_criteria_met(plan),
+                None => !s.done,
+            })
+            .map(|s| u64::from(plan.stats.max_runs.saturating_sub(s.walls.len() as u32)))
             .sum()
     }
-}
 
-fn progress_bar(quiet: bool, total: u64) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
+    fn upper_bound(&self, plan: &ExperimentPlan) -> u64 {
+        self.upper_bound_now(plan)
     }
-    let b = ProgressBar::new(total);
-    b.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} runs, ETA {eta} · {msg}")
-            .expect("valid template"),
-    );
-    b
 }
 
 /// The measurement loop's state: where rows go and what has been seen.
@@ -314,62 +440,124 @@ struct Session<'p, 'r> {
     dir: PathBuf,
     runs: RunsFile,
     serial: HashMap<usize, SerialInfo>,
-    bar: ProgressBar,
+    progress: Progress,
     remote: Option<&'r mut dyn Remote>,
     mismatches: usize,
     measured: usize,
+    untimed: usize,
+}
+
+/// A configuration's label for the progress line.
+fn label_of(plan: &ExperimentPlan, c: &RunConfig) -> String {
+    let label = c
+        .spec
+        .as_ref()
+        .map_or("serial".to_string(), |s| match &c.sources {
+            Sources::Local => format!("{} ×{}", s.label(), s.workers),
+            Sources::Mpi { transport } => {
+                format!("{} over {} ranks ({transport})", s.label(), s.workers)
+            }
+        });
+    let b = &plan.baselines[c.baseline];
+    format!(
+        "{} · {} · {label}",
+        plan.scene_of(c).scene.name,
+        b.tracer_id
+    )
 }
 
 impl Session<'_, '_> {
-    /// Warm-ups, then each repetition of `c` measured and appended.
-    fn run_config(&mut self, c: &RunConfig, reps: &[u32]) -> Result<(), RunError> {
+    /// One timed sample of `st` (its warm-ups first when it has none yet), appended.
+    fn sample(&mut self, st: &mut ConfigState<'_>) -> Result<(), RunError> {
         let plan = self.plan;
-        let label = c
-            .spec
-            .as_ref()
-            .map_or("serial".to_string(), |s| match &c.sources {
-                Sources::Local => format!("{} ×{}", s.label(), s.workers),
-                Sources::Mpi { transport } => {
-                    format!("{} over {} ranks ({transport})", s.label(), s.workers)
+        let c = st.config;
+        self.progress.set_message(label_of(plan, c));
+        let inner = match st.inner {
+            Some(k) => k,
+            None => {
+                let mut last = None;
+                for _ in 0..plan.warmup {
+                    last = Some(measure(plan, c, false, &mut self.remote)?.1.wall_s);
+                    self.untimed += 1;
                 }
-            });
-        let b = &plan.baselines[c.baseline];
-        let scene = &plan.scene_of(c).scene;
-        self.bar
-            .set_message(format!("{} · {} · {label}", scene.name, b.tracer_id));
-        for _ in 0..plan.warmup {
-            measure(plan, c, false, &mut self.remote)?;
-            self.bar.inc(1);
+                let k = if plan.stats.min_sample_s > 0.0 {
+                    let t = match last {
+                        Some(t) => t,
+                        None => {
+                            self.untimed += 1;
+                            measure(plan, c, false, &mut self.remote)?.1.wall_s
+                        }
+                    };
+                    inner_count(t, plan.stats.min_sample_s)
+                } else {
+                    1
+                };
+                st.inner = Some(k);
+                k
+            }
+        };
+        let rep = st.next_rep;
+        let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
+        let load_before = crate::host::load_average().map(|l| l[0]);
+        let cpu0 = crate::cpu_time::process_cpu_s();
+        let timestamp = meta::now_utc();
+        let mut total = 0.0;
+        let mut first_hash = None;
+        let mut same = true;
+        let mut last = None;
+        for k in 0..inner {
+            let (image, stats) = measure(plan, c, want_timeline && k == 0, &mut self.remote)?;
+            total += stats.wall_s;
+            let h = image.hash();
+            same &= *first_hash.get_or_insert(h) == h;
+            last = Some((image, stats));
         }
-        for &rep in reps {
-            let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
-            let (image, stats) = measure(plan, c, want_timeline, &mut self.remote)?;
-            self.record(c, rep, &image, &stats)?;
-            self.measured += 1;
-            self.bar.inc(1);
-        }
+        let cpu1 = crate::cpu_time::process_cpu_s();
+        let (image, mut stats) = last.expect("inner ≥ 1");
+        stats.wall_s = total / f64::from(inner);
+        let sample = Sample {
+            rep,
+            inner,
+            timestamp,
+            cpu: cpu0.zip(cpu1).map(|(a, b)| (b.0 - a.0, b.1 - a.1)),
+            load: (load_before, crate::host::load_average().map(|l| l[0])),
+            same,
+        };
+        self.record(c, &sample, &image, &stats)?;
+        st.walls.push(stats.wall_s);
+        st.timed_s += total;
+        st.next_rep += 1;
+        self.measured += 1;
+        self.progress.inc();
         Ok(())
     }
 
-    /// One measured repetition: its row (compared with the serial image), its timeline, and
-    /// for the serial baseline's first repetition its image.
+    /// One measured sample: its row (compared with the serial image), its timeline, and for
+    /// the serial baseline's first repetition its image.
     fn record(
         &mut self,
         c: &RunConfig,
-        rep: u32,
+        sample: &Sample,
         image: &Image,
         stats: &RunStats,
     ) -> Result<(), RunError> {
         let plan = self.plan;
+        let rep = sample.rep;
         let hash = hex(image.hash());
         let mut row = RunRow::for_config(plan, c);
         row.repetition = rep;
         fill_stats(&mut row, stats);
         row.image_hash = hash.clone();
+        row.inner = sample.inner;
+        row.timestamp = sample.timestamp.clone();
+        row.user_s = sample.cpu.map(|c| c.0);
+        row.sys_s = sample.cpu.map(|c| c.1);
+        row.load_before = sample.load.0;
+        row.load_after = sample.load.1;
         let info = self.serial.entry(c.baseline).or_default();
         match &c.spec {
             None => {
-                if rep == 0 {
+                if info.hash.is_none() {
                     // The image goes first: a row on disk implies its image is too.
                     let name = &plan.scene_of(c).scene.name;
                     let stem =
@@ -386,7 +574,7 @@ impl Session<'_, '_> {
             }
             Some(_) => row.serial_s = median(&info.walls),
         }
-        row.identical = info.hash.as_deref() == Some(hash.as_str());
+        row.identical = sample.same && info.hash.as_deref() == Some(hash.as_str());
         let w = row.workers as f64;
         row.speedup = row.serial_s / row.wall_s;
         row.efficiency = row.speedup / w;
@@ -401,15 +589,35 @@ impl Session<'_, '_> {
         if !row.identical {
             self.mismatches += 1;
             let serial = info.hash.as_deref().unwrap_or("?");
-            self.bar.suspend(|| {
-                eprintln!(
-                    "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {serial}",
-                    row.label, row.image_hash
-                )
-            });
+            let msg = format!(
+                "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {serial}",
+                row.label, row.image_hash
+            );
+            self.progress.println(&msg);
         }
         self.runs.append(&row).map_err(RunError::from)
     }
+}
+
+/// What one timed sample recorded besides its renders.
+struct Sample {
+    rep: u32,
+    inner: u32,
+    timestamp: String,
+    /// (user, system) CPU seconds of the process during the sample.
+    cpu: Option<(f64, f64)>,
+    /// 1-minute load average before and after.
+    load: (Option<f64>, Option<f64>),
+    /// Every render of the sample gave the same image.
+    same: bool,
+}
+
+/// Renders per timed sample for a render of `t` seconds: enough to fill `min_sample_s`.
+pub fn inner_count(t: f64, min_sample_s: f64) -> u32 {
+    if t.is_nan() || t <= 0.0 || t >= min_sample_s {
+        return 1;
+    }
+    ((min_sample_s / t).ceil() as u32).clamp(1, MAX_INNER)
 }
 
 /// One timed run. Only the render is inside the timed section (scenes and tracers were built by

@@ -1,5 +1,7 @@
-//! `summary.csv`: per configuration, the median, min, max and a 95 % confidence interval of the
-//! mean wall time, plus median speedup and overhead parts. Always recomputed from `runs.csv`.
+//! `summary.csv`: per configuration, the median, mean, σ, min and max wall time with a seeded
+//! bootstrap interval of the median, the speedup over the serial baseline with an interval from
+//! the paired samples, outliers, and the median overhead parts. Always recomputed from
+//! `runs.csv`.
 
 use super::results::RunRow;
 use crate::sched::param_columns;
@@ -22,6 +24,24 @@ pub struct Summary {
     pub wall_mean: f64,
     /// Student-t 95 % interval of the mean (equal to the mean when n = 1).
     pub wall_ci95: (f64, f64),
+    /// Sample standard deviation of the wall time, seconds.
+    pub wall_sd: f64,
+    /// Seeded bootstrap 95 % interval of the median wall time.
+    pub wall_median_ci: (f64, f64),
+    /// Half that interval's width over the median: the median's relative precision.
+    pub ci_half_rel: f64,
+    /// Samples with a modified z-score above 3.5 (median/MAD rule).
+    pub outliers: usize,
+    /// Speedup as median(serial) / median(this) over samples paired by repetition (measured in
+    /// the same round), with its bootstrap interval; `None` for the baseline itself or without
+    /// pairs.
+    pub speedup: Option<Ratio>,
+    /// Renders per timed sample (the largest of the configuration's rows).
+    pub inner: u32,
+    /// The highest 1-minute load average seen before or after a sample (`None`: not recorded).
+    pub load_max: Option<f64>,
+    /// (repetition, wall time) of every sample, in repetition order: what pairs are made of.
+    pub walls: Vec<(u32, f64)>,
     /// Median speedup (serial median / wall).
     pub speedup_median: f64,
     /// Lowest speedup.
@@ -62,15 +82,20 @@ pub fn group_of(r: &RunRow) -> String {
     g + &format!(" {}", r.tracer)
 }
 
-/// The median of `v` (the mean of the middle two for an even count; NaN when empty).
-pub fn median(v: &[f64]) -> f64 {
-    let mut s: Vec<f64> = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    match s.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => s[n / 2],
-        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
-    }
+pub use super::stats::median;
+use super::stats::{mad_outliers, median_ci, paired_ratio, std_dev, Ratio};
+
+/// The bootstrap seed of a configuration: fixed by its id, so a summary is reproducible.
+pub fn seed_of(config: &str) -> u64 {
+    crate::hash::fnv(config.as_bytes())
+}
+
+/// Pair two (repetition, value) lists on their common repetitions: (a values, b values).
+pub fn pair_by_rep(a: &[(u32, f64)], b: &[(u32, f64)]) -> (Vec<f64>, Vec<f64>) {
+    let bm: std::collections::HashMap<u32, f64> = b.iter().copied().collect();
+    a.iter()
+        .filter_map(|(r, x)| bm.get(r).map(|y| (*x, *y)))
+        .unzip()
 }
 
 /// Two-sided 97.5 % Student-t quantile for `df` degrees of freedom.
@@ -113,6 +138,17 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
             })
             .push(r);
     }
+    let walls_of = |rs: &[&RunRow]| {
+        let mut w: Vec<(u32, f64)> = rs.iter().map(|r| (r.repetition, r.wall_s)).collect();
+        w.sort_by_key(|x| x.0);
+        w
+    };
+    // The serial baseline of each group (scene, settings, tracer), by repetition.
+    let serial: std::collections::HashMap<String, Vec<(u32, f64)>> = order
+        .iter()
+        .filter(|c| groups[*c][0].scheduler == "serial")
+        .map(|c| (group_of(groups[c][0]), walls_of(&groups[c])))
+        .collect();
     order
         .into_iter()
         .map(|c| {
@@ -120,7 +156,29 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
             let col = |f: fn(&RunRow) -> f64| rs.iter().map(|r| f(r)).collect::<Vec<f64>>();
             let wall = col(|r| r.wall_s);
             let speed = col(|r| r.speedup);
+            let walls = walls_of(rs);
+            let seed = seed_of(c);
+            let wall_median_ci = median_ci(&wall, seed);
+            let speedup = match serial.get(&group_of(rs[0])) {
+                Some(base) if rs[0].scheduler != "serial" => {
+                    let (s, w) = pair_by_rep(base, &walls);
+                    (!s.is_empty()).then(|| paired_ratio(&s, &w, seed))
+                }
+                _ => None,
+            };
+            let loads = rs
+                .iter()
+                .flat_map(|r| [r.load_before, r.load_after])
+                .flatten();
             Summary {
+                wall_sd: std_dev(&wall),
+                ci_half_rel: 0.5 * (wall_median_ci.1 - wall_median_ci.0) / median(&wall),
+                wall_median_ci,
+                outliers: mad_outliers(&wall),
+                speedup,
+                inner: rs.iter().map(|r| r.inner).max().unwrap_or(1),
+                load_max: loads.reduce(f64::max),
+                walls,
                 row: rs[0].clone(),
                 n: rs.len(),
                 wall_median: median(&wall),
@@ -187,6 +245,16 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "sources",
         "ranks",
         "transport",
+        "wall_sd_s",
+        "wall_median_ci_lo_s",
+        "wall_median_ci_hi_s",
+        "ci_half_rel",
+        "outliers",
+        "speedup",
+        "speedup_ci_lo",
+        "speedup_ci_hi",
+        "inner",
+        "load_max",
     ];
     let params = param_columns().iter().map(|p| p.name);
     w.write_record(head.into_iter().chain(params).chain(tail))?;
@@ -234,6 +302,22 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
             r.sources.clone(),
             n(r.ranks),
             o(&r.transport),
+            f(s.wall_sd),
+            f(s.wall_median_ci.0),
+            f(s.wall_median_ci.1),
+            format!("{:.5}", s.ci_half_rel),
+            s.outliers.to_string(),
+            s.speedup
+                .map(|x| format!("{:.4}", x.value))
+                .unwrap_or_default(),
+            s.speedup
+                .map(|x| format!("{:.4}", x.lo))
+                .unwrap_or_default(),
+            s.speedup
+                .map(|x| format!("{:.4}", x.hi))
+                .unwrap_or_default(),
+            s.inner.to_string(),
+            s.load_max.map(|l| format!("{l:.2}")).unwrap_or_default(),
         ];
         let params = r.params.iter().map(o);
         w.write_record(head.into_iter().chain(params).chain(tail))?;
@@ -248,8 +332,6 @@ mod tests {
 
     #[test]
     fn median_and_interval() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
         let (lo, hi) = ci95(&[1.0, 2.0, 3.0]);
         // mean 2, sd 1, t(2) = 4.303: 2 ± 4.303/√3
         assert!((lo - (2.0 - 4.303 / 3f64.sqrt())).abs() < 1e-9);

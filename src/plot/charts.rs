@@ -66,8 +66,43 @@ fn colour(kind: &str) -> RGBColor {
     }
 }
 
-/// (name, best value) lines: for each scheduler kind, `pick` over the configs at each x.
-type Series = Vec<(String, Vec<(f64, f64)>)>;
+/// One point of a line: x, y and the 95 % interval of y (both equal to y without one).
+type Pt = (f64, f64, f64, f64);
+
+/// (name, points) lines: for each scheduler kind, the best config at each x.
+type Series = Vec<(String, Vec<Pt>)>;
+
+/// A value without an interval.
+fn point(y: f64) -> (f64, f64, f64) {
+    (y, y, y)
+}
+
+/// Median wall time with its bootstrap interval.
+fn wall_ci(s: &Summary) -> (f64, f64, f64) {
+    (s.wall_median, s.wall_median_ci.0, s.wall_median_ci.1)
+}
+
+/// Speedup (paired ratio of medians) with its interval, else the median of row speedups.
+fn speed_ci(s: &Summary) -> (f64, f64, f64) {
+    match &s.speedup {
+        Some(r) => (r.value, r.lo, r.hi),
+        None => point(s.speedup_median),
+    }
+}
+
+/// A tick label without exponent clutter: 3 significant digits, trailing zeros dropped.
+fn tidy(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return "0".into();
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 9) as usize;
+    let t = format!("{v:.digits$}");
+    if t.contains('.') {
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        t
+    }
+}
 
 /// x of the granularity charts: log₂ of the pixels per item.
 fn log2_chunk(s: &Summary) -> Option<f64> {
@@ -88,7 +123,7 @@ fn series(
     sums: &[&Summary],
     key: impl Fn(&Summary) -> Option<String>,
     x: impl Fn(&Summary) -> Option<f64>,
-    y: impl Fn(&Summary) -> f64,
+    y: impl Fn(&Summary) -> (f64, f64, f64),
     better: impl Fn(f64, f64) -> bool,
 ) -> Series {
     let mut out: Series = Vec::new();
@@ -99,10 +134,15 @@ fn series(
         if !xv.is_finite() {
             continue;
         }
-        let yv = y(s);
+        let (yv, lo, hi) = y(s);
         if !yv.is_finite() {
             continue;
         }
+        let (lo, hi) = if lo.is_finite() && hi.is_finite() {
+            (lo, hi)
+        } else {
+            (yv, yv)
+        };
         let line = match out.iter_mut().position(|(n, _)| *n == k) {
             Some(i) => &mut out[i].1,
             None => {
@@ -110,10 +150,10 @@ fn series(
                 &mut out.last_mut().expect("just pushed").1
             }
         };
-        match line.iter_mut().find(|(px, _)| *px == xv) {
-            Some(p) if better(yv, p.1) => p.1 = yv,
+        match line.iter_mut().find(|p| p.0 == xv) {
+            Some(p) if better(yv, p.1) => *p = (xv, yv, lo, hi),
             Some(_) => {}
-            None => line.push((xv, yv)),
+            None => line.push((xv, yv, lo, hi)),
         }
     }
     for (_, l) in &mut out {
@@ -122,7 +162,7 @@ fn series(
     out
 }
 
-fn range(series: &Series, f: impl Fn(&(f64, f64)) -> f64) -> (f64, f64) {
+fn range(series: &Series, f: impl Fn(&Pt) -> f64) -> (f64, f64) {
     let v = series.iter().flat_map(|(_, l)| l.iter().map(&f));
     let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
         (a.min(x), b.max(x))
@@ -144,19 +184,22 @@ fn line_chart<DB: DrawingBackend>(
     x_desc: &str,
     y_desc: &str,
     data: &Series,
-    log2_x: bool,
-    ideal: bool,
+    // (x on a log₂ scale, draw the ideal diagonal)
+    (log2_x, ideal): (bool, bool),
+    refs: &[(f64, &str)],
 ) -> R {
     let (x0, x1) = range(data, |p| p.0);
-    let (_, y1) = range(data, |p| p.1);
+    let (_, y1) = range(data, |p| p.3);
     let y1 = if ideal { y1.max(x1) } else { y1 };
+    let y1 = refs.iter().map(|r| r.0).fold(y1, f64::max);
     let pad = ((x1 - x0) * 0.05).max(0.5);
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.15).max(1e-9))
+        // Head room above the data for the legend.
+        .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.5).max(1e-9))
         .map_err(e)?;
     let fmt_x = |v: &f64| {
         if log2_x {
@@ -176,6 +219,7 @@ fn line_chart<DB: DrawingBackend>(
         .x_desc(x_desc)
         .y_desc(y_desc)
         .x_label_formatter(&fmt_x)
+        .y_label_formatter(&|v: &f64| tidy(*v))
         .x_labels(((x1 - x0) as usize + 3).min(16))
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
@@ -188,6 +232,21 @@ fn line_chart<DB: DrawingBackend>(
             .map_err(e)?
             .label("ideal (speedup = workers)")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    }
+    for (k, &(y, name)) in refs.iter().enumerate() {
+        let c = if k == 0 {
+            RGBColor(120, 120, 120)
+        } else {
+            BLACK
+        };
+        chart
+            .draw_series(LineSeries::new(
+                vec![(x0 - pad, y), (x1 + pad, y)],
+                c.stroke_width(1),
+            ))
+            .map_err(e)?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
     }
     for (i, (name, pts)) in data.iter().enumerate() {
         let mut c = colour(kind_of(name));
@@ -202,13 +261,36 @@ fn line_chart<DB: DrawingBackend>(
             c = colour(SchedulerKind::ALL[i % SchedulerKind::ALL.len()].id());
         }
         chart
-            .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                pts.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>(),
+                c.stroke_width(2),
+            ))
             .map_err(e)?
             .label(name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        // 95 % intervals, where the summary has them.
         chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+            .draw_series(
+                pts.iter().filter(|p| p.3 > p.2).map(|&(x, _, lo, hi)| {
+                    PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(2))
+                }),
+            )
             .map_err(e)?;
+        // A marker shape per line, larger for a line of one point, so none hides another.
+        let size = if pts.len() == 1 { 7 } else { 4 };
+        let xy = pts.iter().map(|p| (p.0, p.1));
+        match i % 3 {
+            0 => chart
+                .draw_series(xy.map(|p| Circle::new(p, size, c.filled())))
+                .map(|_| ()),
+            1 => chart
+                .draw_series(xy.map(|p| TriangleMarker::new(p, size + 2, c.filled())))
+                .map(|_| ()),
+            _ => chart
+                .draw_series(xy.map(|p| Cross::new(p, size + 1, c.stroke_width(3))))
+                .map(|_| ()),
+        }
+        .map_err(e)?;
     }
     chart
         .configure_series_labels()
@@ -227,10 +309,19 @@ fn two_charts<DB: DrawingBackend>(
     x_desc: &str,
     top: (&str, &Series),
     bottom: (&str, &Series),
+    bottom_refs: &[(f64, &str)],
 ) -> R {
     let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
-    line_chart(&upper, titles.0, x_desc, top.0, top.1, true, false)?;
-    line_chart(&lower, titles.1, x_desc, bottom.0, bottom.1, true, false)
+    line_chart(&upper, titles.0, x_desc, top.0, top.1, (true, false), &[])?;
+    line_chart(
+        &lower,
+        titles.1,
+        x_desc,
+        bottom.0,
+        bottom.1,
+        (true, false),
+        bottom_refs,
+    )
 }
 
 /// Stacked bars: work, imbalance, other idle, dispatch; a dashed line at the serial time.
@@ -276,8 +367,8 @@ fn overhead_chart<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_x_mesh()
-        .x_desc("scheduler (best configuration)")
-        .y_desc("CPU time = workers × wall (s)")
+        .x_desc("scheduler (its fastest configuration, named in the caption)")
+        .y_desc("Σ over workers of wall-clock spans (s)")
         .x_label_formatter(&fmt)
         .x_labels(n + 1)
         .label_style(("sans-serif", 13))
@@ -354,10 +445,11 @@ fn gantt_chart<DB: DrawingBackend>(
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(80)
-        .build_cartesian_2d(0.0..end_ms * 1.02, -0.5..lanes as f64 - 0.5)
+        // One empty lane of head room at the top for the legend.
+        .build_cartesian_2d(0.0..end_ms * 1.02, -0.5..lanes as f64 + 0.5)
         .map_err(e)?;
     let fmt_y = |v: &f64| {
-        if (v - v.round()).abs() > 1e-6 || *v < 0.0 {
+        if (v - v.round()).abs() > 1e-6 || *v < 0.0 || v.round() as u32 >= lanes {
             String::new()
         } else if has_master && v.round() as u32 == workers {
             "master".into()
@@ -370,21 +462,67 @@ fn gantt_chart<DB: DrawingBackend>(
         .disable_y_mesh()
         .x_desc("time since the run started (ms)")
         .y_desc("lane")
-        .y_labels(lanes as usize * 2 + 1)
+        .y_labels((lanes as usize + 1) * 2 + 1)
         .y_label_formatter(&fmt_y)
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
         .draw()
         .map_err(e)?;
+    // Colour = the item's duration, in five bins of a colour-blind-safe sequential scale
+    // (viridis), log-spaced when durations spread over more than a decade.
+    const BINS: [RGBColor; 5] = [
+        RGBColor(68, 1, 84),
+        RGBColor(59, 82, 139),
+        RGBColor(33, 145, 140),
+        RGBColor(94, 201, 98),
+        RGBColor(253, 231, 37),
+    ];
+    let dur = |s: &(u32, u32, u64, u64)| (s.3.saturating_sub(s.2)).max(1) as f64 / 1e6;
+    let (dmin, dmax) = spans
+        .iter()
+        .map(dur)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), d| (a.min(d), b.max(d)));
+    let log = dmax > 10.0 * dmin;
+    let scale = |d: f64| if log { d.ln() } else { d };
+    let bin_of = |d: f64| {
+        let span = scale(dmax) - scale(dmin);
+        if span.is_nan() || span <= 0.0 {
+            return 0;
+        }
+        (((scale(d) - scale(dmin)) / span * 5.0) as usize).min(4)
+    };
+    let edge = |k: usize| {
+        let v = scale(dmin) + (scale(dmax) - scale(dmin)) * k as f64 / 5.0;
+        if log {
+            v.exp()
+        } else {
+            v
+        }
+    };
+    for (k, &c) in BINS.iter().enumerate() {
+        let mine: Vec<_> = spans.iter().filter(|s| bin_of(dur(s)) == k).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        chart
+            .draw_series(mine.into_iter().map(|&(w, _, s, t)| {
+                let y = lane(w);
+                Rectangle::new(
+                    [(s as f64 / 1e6, y - 0.38), (t as f64 / 1e6, y + 0.38)],
+                    c.filled(),
+                )
+            }))
+            .map_err(e)?
+            .label(format!("item {}–{} ms", tidy(edge(k)), tidy(edge(k + 1))))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
+    }
     chart
-        .draw_series(spans.iter().map(|&(w, item, s, t)| {
-            let c = Palette99::pick(item as usize % 20);
-            let y = lane(w);
-            Rectangle::new(
-                [(s as f64 / 1e6, y - 0.38), (t as f64 / 1e6, y + 0.38)],
-                c.filled(),
-            )
-        }))
+        .configure_series_labels()
+        .label_font(("sans-serif", 13))
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
         .map_err(e)?;
     Ok(())
 }
@@ -513,7 +651,7 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
         &gr.all,
         kind,
         |s| Some(s.row.workers as f64),
-        |s| s.speedup_median,
+        speed_ci,
         higher,
     );
     let stem = out.plots.join(format!("speedup_vs_workers_{}", gr.slug));
@@ -526,11 +664,11 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
             "worker threads",
             "speedup (t_serial / t)",
             &data,
-            false,
-            true
+            (false, true),
+            &[(1.0, "speedup 1 (serial)")]
         )
     );
-    out.push(&stem, title, "Median speedup of each scheduler's best configuration per worker count; the black line is ideal linear speedup, and the gap below it is overhead.");
+    out.push(&stem, title, "Speedup (median serial / median wall, paired by round) of each scheduler's best configuration per worker count, with its 95 % interval; the black diagonal is ideal linear speedup, the grey line speedup 1 (as fast as serial).");
     Ok(())
 }
 
@@ -541,8 +679,9 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
         return Ok(());
     }
     let (g, max_w) = (gr.name, gr.max_w);
-    let wall = series(&gr.at_max, kind, log2_chunk, |s| s.wall_median, lower);
-    let speed = series(&gr.at_max, kind, log2_chunk, |s| s.speedup_median, higher);
+    let wall = series(&gr.at_max, kind, log2_chunk, wall_ci, lower);
+    let speed = series(&gr.at_max, kind, log2_chunk, speed_ci, higher);
+    let ideal_label = format!("ideal (speedup {max_w})");
     let stem = out.plots.join(format!("granularity_{}", gr.slug));
     let title = format!("Granularity, {max_w} workers — {g}");
     both!(
@@ -555,10 +694,11 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
             ),
             "pixels per work item (log₂ scale)",
             ("median wall time (s)", &wall),
-            ("speedup (t_serial / t)", &speed)
+            ("speedup (t_serial / t)", &speed),
+            &[(1.0, "speedup 1 (serial)"), (max_w as f64, &ideal_label)]
         )
     );
-    out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve.");
+    out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve. Bars: 95 % intervals of the median (top) and of the paired speedup (bottom).");
     Ok(())
 }
 
@@ -583,7 +723,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
             ))
         },
         |s| s.row.buffer().map(|b| (b as f64).log2()),
-        |s| s.speedup_median,
+        speed_ci,
         higher,
     );
     let stem = out.plots.join(format!("buffer_{}", gr.slug));
@@ -599,8 +739,8 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
             "items outstanding per worker, B (log₂ scale)",
             "speedup (t_serial / t)",
             &data,
-            true,
-            false
+            (true, false),
+            &[(1.0, "speedup 1 (serial)")]
         )
     );
     out.push(&stem, title, "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.");
@@ -640,7 +780,9 @@ fn overhead(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
     let stem = out.plots.join(format!("overhead_{}", gr.slug));
     let title = format!("Where the time goes, {} workers — {}", gr.max_w, gr.name);
     both!(stem, SIZE, overhead_chart(&title, &bars, serial_s));
-    out.push(&stem, title, "Total height = workers × wall time (+ the master's dispatch time on its own thread). Everything above the black serial line is overhead.");
+    let drawn: Vec<String> = best.iter().map(|s| format!("`{}`", s.row.label)).collect();
+    let caption = format!("Medians of wall-clock spans summed over the workers (busy, idle split into imbalance and the rest) plus the master's dispatch time on its own thread; total height ≈ workers × wall time. Everything above the black serial line is overhead. Drawn: {}.", drawn.join(", "));
+    out.push(&stem, title, &caption);
     Ok(())
 }
 
@@ -677,7 +819,7 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
             out.missing.skipped += 1;
             continue;
         }
-        out.push(&stem, title, "One lane per worker (the master on its own lane); each bar is one work item, white gaps are idle time.");
+        out.push(&stem, title, "One lane per worker (the master on its own lane); each bar is one work item, coloured by its duration (legend), white gaps are idle time.");
     }
     Ok(())
 }
@@ -742,8 +884,20 @@ fn mpi_throughput(
     if !rows.iter().any(|s| s.row.sources == "mpi") {
         return Ok(None);
     }
-    let rays = series(&rows, mpi_line, log2_chunk, |s| throughput(s).0, higher);
-    let items = series(&rows, mpi_line, log2_chunk, |s| throughput(s).1, higher);
+    let rays = series(
+        &rows,
+        mpi_line,
+        log2_chunk,
+        |s| point(throughput(s).0),
+        higher,
+    );
+    let items = series(
+        &rows,
+        mpi_line,
+        log2_chunk,
+        |s| point(throughput(s).1),
+        higher,
+    );
     let stem = plots.join(format!("mpi_throughput_{gs}"));
     let title = format!("MPI ranks vs local threads — {g}");
     both!(
@@ -756,7 +910,8 @@ fn mpi_throughput(
             ),
             "pixels per work item (log₂ scale)",
             ("Mrays/s (median run)", &rays),
-            ("items/s (median run)", &items)
+            ("items/s (median run)", &items),
+            &[]
         )
     );
     let stem = final_plots.join(stem.strip_prefix(plots).unwrap_or(&stem));

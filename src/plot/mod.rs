@@ -54,6 +54,17 @@ fn plottable(r: &results::RunRow) -> bool {
         && r.chunk_px != Some(0)
 }
 
+/// The warnings of the run in `dir` (see [`report::warnings`]), from its CSV and meta alone.
+pub fn warnings_of(dir: &Path) -> Vec<String> {
+    let Ok((rows, _)) = results::read_runs(&dir.join("runs.csv")) else {
+        return vec![];
+    };
+    let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
+        .ok()
+        .and_then(|t| toml::from_str(&t).ok());
+    report::warnings(meta.as_ref(), &summary::summarize(&rows))
+}
+
 /// Recompute `summary.csv`, every plot and `report.md` in `dir` from `dir/runs.csv` (for a
 /// convergence experiment: its plot from `convergence.csv`). Returns the paths written.
 /// Rows holding an infinite, NaN or absurd value are left out (and counted in the report and
@@ -108,6 +119,7 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let plots = staging
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
+    let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
     let figs = charts::draw_all(dir, &plots, &real_plots, &sums)?;
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
@@ -124,6 +136,7 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
         .map_err(|e| format!("{}: {e}", dir.join("report.md").display()))?;
     commit(staging)?;
     let mut out = vec![dir.join("summary.csv"), dir.join("report.md")];
+    out.extend(json);
     out.extend(figs.iter().map(|f| dir.join(&f.file)));
     Ok(out)
 }

@@ -3,15 +3,56 @@
 
 use super::Figure;
 use crate::experiment::meta::Meta;
-use crate::experiment::summary::Summary;
+use crate::experiment::stats::{paired_ratio, unpaired_ratio, Ratio};
+use crate::experiment::summary::{pair_by_rep, seed_of, Summary};
 use std::fmt::Write;
 
 fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
     v.min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
 }
 
+/// wall(a) / wall(b) as a ratio of medians over samples paired by repetition (same round), or
+/// unpaired when they share too few repetitions.
+pub fn wall_ratio(a: &Summary, b: &Summary) -> Ratio {
+    let (x, y) = pair_by_rep(&a.walls, &b.walls);
+    let seed = seed_of(&a.row.config) ^ seed_of(&b.row.config).rotate_left(1);
+    if x.len() >= 5 {
+        paired_ratio(&x, &y, seed)
+    } else {
+        let wa: Vec<f64> = a.walls.iter().map(|w| w.1).collect();
+        let wb: Vec<f64> = b.walls.iter().map(|w| w.1).collect();
+        unpaired_ratio(&wa, &wb, seed)
+    }
+}
+
+/// "1.99× (95 % CI 1.95–2.03)".
+pub fn with_ci(r: &Ratio) -> String {
+    format!("{:.2}× (95 % CI {:.2}–{:.2})", r.value, r.lo, r.hi)
+}
+
+/// A configuration's speedup over serial with its interval where it has one.
+pub fn speedup_text(s: &Summary) -> String {
+    match &s.speedup {
+        Some(r) => with_ci(r),
+        None => format!("{:.2}×", s.speedup_median),
+    }
+}
+
+/// The fastest configuration of `at` and every other one not shown slower than it: those whose
+/// 95 % interval of wall(other) / wall(best) reaches down to 1.
+pub fn tied_with_best<'a>(at: &[&'a Summary]) -> Option<(&'a Summary, Vec<&'a Summary>)> {
+    let best = best_by(at.iter().copied())?;
+    let tied = at
+        .iter()
+        .copied()
+        .filter(|s| s.row.config != best.row.config && wall_ratio(s, best).lo <= 1.0)
+        .collect();
+    Some((best, tied))
+}
+
 /// The comparison sentence for one group at its largest worker count, if it has a per-ray
-/// master (master with 1-pixel items) and some other configuration.
+/// master (master with 1-pixel items) and some other configuration: the fastest one, those
+/// statistically tied with it, and the ratio to the per-ray master with its interval.
 pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
     let max_w = sums
         .iter()
@@ -28,21 +69,126 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
             .copied()
             .filter(|s| s.row.scheduler == "master" && s.row.chunk_px == Some(1)),
     )?;
-    let best = best_by(
-        at.iter()
-            .copied()
-            .filter(|s| s.row.config != per_ray.row.config),
-    )?;
-    let ratio = per_ray.wall_median / best.wall_median;
-    let verdict = if ratio >= 1.0 {
-        format!("{ratio:.2}× faster than")
+    let others: Vec<&Summary> = at
+        .iter()
+        .copied()
+        .filter(|s| s.row.config != per_ray.row.config)
+        .collect();
+    let (best, tied) = tied_with_best(&others)?;
+    let r = wall_ratio(per_ray, best);
+    let verdict = if r.value >= 1.0 {
+        format!("{} faster than", with_ci(&r))
     } else {
-        format!("{:.2}× slower than", 1.0 / ratio)
+        let inv = Ratio {
+            value: 1.0 / r.value,
+            lo: 1.0 / r.hi,
+            hi: 1.0 / r.lo,
+            n: r.n,
+        };
+        format!("{} slower than", with_ci(&inv))
+    };
+    let ties = if tied.is_empty() {
+        "no other configuration is statistically tied with it".to_string()
+    } else {
+        format!(
+            "statistically tied with it (not shown slower at 95 %): {}",
+            tied.iter()
+                .map(|s| format!("`{}` ({})", s.row.label, speedup_text(s)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
     };
     Some(format!(
-        "On {group} with {max_w} workers, the best scheduler (`{}`, speedup {:.2}×) was {verdict} the per-ray master (`{}`, speedup {:.2}×).",
-        best.row.label, best.speedup_median, per_ray.row.label, per_ray.speedup_median
+        "On {group} with {max_w} workers, the fastest configuration (`{}`, speedup {}) was {verdict} the per-ray master (`{}`, speedup {}); {ties}.",
+        best.row.label,
+        speedup_text(best),
+        per_ray.row.label,
+        speedup_text(per_ray)
     ))
+}
+
+/// What a reader must know before trusting the numbers: efficiency above 100 % beyond noise,
+/// a fastest configuration slower than serial, medians less precise than the target (their
+/// budget ran out), and a load average above the core count while measuring.
+pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
+    let mut out = Vec::new();
+    for s in sums {
+        if let Some(r) = &s.speedup {
+            let w = s.row.workers as f64;
+            if r.lo / w > 1.0 {
+                out.push(format!(
+                    "`{}` ×{}: efficiency {:.0} % (95 % CI {:.0}–{:.0} %) is above 100 % beyond noise; suspect the serial baseline (code placement, frequency) before the scheduler",
+                    s.row.label,
+                    s.row.workers,
+                    r.value / w * 100.0,
+                    r.lo / w * 100.0,
+                    r.hi / w * 100.0
+                ));
+            }
+        }
+    }
+    let mut groups: Vec<String> = Vec::new();
+    for s in sums {
+        if !groups.contains(&s.group()) {
+            groups.push(s.group());
+        }
+    }
+    for g in &groups {
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.scheduler != "serial" && s.row.sources != "mpi")
+            .collect();
+        if let Some(b) = best_by(in_g.iter().copied()) {
+            let slower = b.speedup.map_or(b.speedup_median < 1.0, |r| r.hi < 1.0);
+            if slower {
+                out.push(format!(
+                    "{g}: the fastest configuration `{}` ×{} is slower than serial (speedup {})",
+                    b.row.label,
+                    b.row.workers,
+                    speedup_text(b)
+                ));
+            }
+        }
+    }
+    let target = meta
+        .and_then(|m| m.history.last())
+        .map(|h| h.stats.ci_target)
+        .unwrap_or(0.0);
+    if target > 0.0 {
+        let wide: Vec<String> = sums
+            .iter()
+            .filter(|s| s.ci_half_rel > target)
+            .map(|s| {
+                format!(
+                    "`{}` ×{} ({}, ±{:.1} % after {} runs)",
+                    s.row.label,
+                    s.row.workers,
+                    s.group(),
+                    s.ci_half_rel * 100.0,
+                    s.n
+                )
+            })
+            .collect();
+        if !wide.is_empty() {
+            out.push(format!(
+                "{} configuration(s) stopped with a median CI wider than the ±{:.1} % target (their runs or seconds ran out): {}",
+                wide.len(),
+                target * 100.0,
+                wide.join(", ")
+            ));
+        }
+    }
+    if let Some(m) = meta {
+        let cores = m.machine.cores as f64;
+        let load = sums.iter().filter_map(|s| s.load_max).reduce(f64::max);
+        if let Some(l) = load.filter(|&l| l > cores) {
+            out.push(format!(
+                "the 1-minute load average reached {l:.1} on {} cores while measuring: other work shared the CPUs, so wall times include waiting",
+                m.machine.cores
+            ));
+        }
+    }
+    out
 }
 
 /// The text of `report.md`: `meta` (if readable) for the run and machine sections, `sums` for
@@ -61,6 +207,14 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             mismatched.len(),
             mismatched.iter().map(|s| format!("`{}` ×{}", s.row.label, s.row.workers)).collect::<Vec<_>>().join(", ")
         );
+    }
+    let warns = warnings(meta, sums);
+    if !warns.is_empty() {
+        let _ = writeln!(md, "## Warnings\n");
+        for w in &warns {
+            let _ = writeln!(md, "- {w}");
+        }
+        let _ = writeln!(md);
     }
     let _ = writeln!(md, "## What ran\n");
     if let Some(m) = meta {
@@ -119,12 +273,41 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         let _ = writeln!(md, "- OS: {} (kernel {}, {})", c.os, c.kernel, c.arch);
         let _ = writeln!(
             md,
-            "- raysched {} at `{}`, {}, features: [{}]\n",
+            "- raysched {} at `{}`, {}, features: [{}]",
             m.raysched_version,
             m.git_commit,
             m.rustc,
             m.features.join(", ")
         );
+        if let Some(b) = &m.build {
+            let _ = writeln!(md, "- build: {} profile, target {}", b.profile, b.target);
+        }
+        if !m.history.is_empty() {
+            let _ = writeln!(
+                md,
+                "- starts on this folder (time, host, commit, load, rows already there):"
+            );
+            for h in &m.history {
+                let _ = writeln!(
+                    md,
+                    "  - {} on {} at `{}`, load {:.2}, {} rows",
+                    h.time, h.host, h.commit, h.load1, h.rows_before
+                );
+            }
+        }
+        if let Some(h) = m.history.last() {
+            let st = &h.stats;
+            let rule = if st.fixed() {
+                format!("{} timed runs per configuration", st.min_runs)
+            } else {
+                format!(
+                    "{}–{} timed runs per configuration, until the median's 95 % CI is within ±{:.1} % or {:.0} s are spent",
+                    st.min_runs, st.max_runs, st.ci_target * 100.0, st.budget_s
+                )
+            };
+            let _ = writeln!(md, "- statistics: {rule}; renders under {:.0} ms repeated inside one sample; rounds in a shuffled order (seed {}); intervals: seeded percentile bootstrap of the median, speedups from samples paired by round", st.min_sample_s * 1e3, st.seed);
+        }
+        let _ = writeln!(md);
     }
     let _ = writeln!(md, "## Result\n");
     let mut any = false;
@@ -154,7 +337,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             .filter(|s| &s.group() == g && s.row.sources != "mpi")
             .collect();
         let _ = writeln!(md, "### {g}\n");
-        let _ = writeln!(md, "| scheduler | best configuration | workers | median wall (s) | 95 % CI of mean (s) | speedup | efficiency | runs |");
+        let _ = writeln!(md, "| scheduler | best configuration | workers | median wall (s) | 95 % CI of median (s) | speedup (95 % CI) | efficiency | runs |");
         let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
         let mut kinds: Vec<&str> = Vec::new();
         for s in &in_g {
@@ -174,13 +357,13 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             };
             let _ = writeln!(
                 md,
-                "| {k} | `{}` | {} | {:.4} | {:.4} – {:.4} | {:.2}× | {:.0} % | {} |",
+                "| {k} | `{}` | {} | {:.4} | {:.4} – {:.4} | {} | {:.0} % | {} |",
                 b.row.label,
                 b.row.workers,
                 b.wall_median,
-                b.wall_ci95.0,
-                b.wall_ci95.1,
-                b.speedup_median,
+                b.wall_median_ci.0,
+                b.wall_median_ci.1,
+                speedup_text(b),
                 b.efficiency_median * 100.0,
                 b.n
             );

@@ -247,6 +247,33 @@ fn moments_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
 // speedup measures scheduling, not where the optimiser happened to inline the renderer.
 #[inline(never)]
 pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
+    let Some(extra) = extra_work() else {
+        return render_item_pure(scene, tracer, item);
+    };
+    let t0 = std::time::Instant::now();
+    let r = render_item_pure(scene, tracer, item);
+    let until = t0.elapsed().mul_f64(1.0 + extra);
+    while t0.elapsed() < until {
+        std::hint::spin_loop();
+    }
+    r
+}
+
+/// A testing aid for the measurement pipeline: with `RAYSCHED_EXTRA_WORK=F` (0 < F ≤ 10) in
+/// the environment, every work item spins for F times its own render time after rendering,
+/// a known slowdown that `raysched compare` must flag. The image is unchanged.
+pub fn extra_work() -> Option<f64> {
+    static EXTRA: std::sync::OnceLock<Option<f64>> = std::sync::OnceLock::new();
+    *EXTRA.get_or_init(|| {
+        std::env::var("RAYSCHED_EXTRA_WORK")
+            .ok()
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|f| *f > 0.0 && *f <= 10.0)
+    })
+}
+
+#[inline(always)]
+fn render_item_pure<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
     let spp = scene.settings.spp;
     let (sums, rays, nonfinite) = render_sums(scene, tracer, item, 0..spp);
     let inv = 1.0 / spp as f64;

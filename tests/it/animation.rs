@@ -106,7 +106,7 @@ fn frame_0_is_the_static_scene_bit_for_bit() {
 
 #[test]
 fn static_scenes_keep_their_hash_and_image_from_before_animations() {
-    // Values from results/quick/runs.csv (simple, 256×256, 8 spp, serial), committed before
+    // Values from results/published/quick/runs.csv (simple, 256×256, 8 spp, serial), committed before
     // animations existed.
     let scene = crate::support::load(
         "simple.toml",

@@ -17,6 +17,8 @@ fn write_tiny(dir: &Path, reps: u32) -> PathBuf {
     let text = format!(
         r#"name = "tiny"
 repetitions = {reps}
+ci_target = 0
+min_sample_s = 0
 warmup = 0
 workers = [1, 2]
 [[scenes]]
@@ -368,6 +370,8 @@ fn runs_record_what_each_scene_uses_and_leaves_out() {
     let text = format!(
         r#"name = "feats"
 repetitions = 1
+ci_target = 0
+min_sample_s = 0
 warmup = 0
 workers = [1]
 [[scenes]]
@@ -585,5 +589,343 @@ fn convergence_per_scheduler_same_errors_and_budget_winner() {
                 "schedulers[0].guided_k",
             ),
         ],
+    );
+}
+
+/// The README's main command writes to the default results root, `results/runs/`: on a fresh
+/// clone it measures (resumes nothing from the published snapshots under `results/published/`,
+/// which it never touches), and a second run resumes, appending only a start record.
+#[test]
+fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_records() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let cmd = "cargo run --release -- run experiments/quick.toml\n";
+    assert!(readme.contains(cmd), "the README's main command changed");
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 2);
+    // A published snapshot of the same experiment, as a clone has it.
+    let out = run(
+        &[
+            "run",
+            exp.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            "results/published",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let published = dir.path().join("results/published/tiny");
+    let snapshot: Vec<Vec<u8>> = ["runs.csv", "meta.toml", "report.md", "summary.csv"]
+        .iter()
+        .map(|f| std::fs::read(published.join(f)).unwrap())
+        .collect();
+
+    // The command as the README gives it: no --out.
+    let out = run(&["run", exp.to_str().unwrap()], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let configs = 2 * (1 + 8 + 2);
+    assert!(
+        stdout.contains(&format!("tiny: {} runs measured", configs * 2))
+            && stdout.contains(", 0 already done"),
+        "{stdout}"
+    );
+    let mine = dir.path().join("results/runs/tiny");
+    assert_eq!(
+        read_runs(&mine.join("runs.csv")).unwrap().0.len(),
+        configs * 2
+    );
+    for (f, before) in ["runs.csv", "meta.toml", "report.md", "summary.csv"]
+        .iter()
+        .zip(&snapshot)
+    {
+        assert_eq!(
+            &std::fs::read(published.join(f)).unwrap(),
+            before,
+            "{f} changed"
+        );
+    }
+
+    // A second run measures nothing and keeps every earlier record: runs.csv byte for byte,
+    // meta.toml as a prefix (the new start is appended to its history).
+    let csv = std::fs::read(mine.join("runs.csv")).unwrap();
+    let meta = std::fs::read_to_string(mine.join("meta.toml")).unwrap();
+    let out = run(&["run", exp.to_str().unwrap()], dir.path());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains(&format!(
+            "tiny: 0 runs measured (0 untimed warm-ups and probes), {} already done",
+            configs * 2
+        )),
+        "{stdout}"
+    );
+    assert_eq!(std::fs::read(mine.join("runs.csv")).unwrap(), csv);
+    let meta2 = std::fs::read_to_string(mine.join("meta.toml")).unwrap();
+    let parsed: raysched::experiment::meta::Meta = toml::from_str(&meta2).unwrap();
+    assert_eq!(parsed.history.len(), 2);
+    assert_eq!(parsed.history[1].rows_before, configs * 2);
+    let first: raysched::experiment::meta::Meta = toml::from_str(&meta).unwrap();
+    assert_eq!(first.history[..], parsed.history[..1]);
+    assert_eq!(
+        (first.started, first.git_commit, first.machine, first.scenes),
+        (
+            parsed.started.clone(),
+            parsed.git_commit.clone(),
+            parsed.machine.clone(),
+            parsed.scenes.clone()
+        )
+    );
+
+    // Rows from another build are refused in one line naming what differs, unless --fresh.
+    let forged = meta2.replace(&parsed.history[0].commit, "0123abcd");
+    std::fs::write(mine.join("meta.toml"), forged).unwrap();
+    let out = run(&["run", exp.to_str().unwrap()], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("commit 0123abcd →") && err.contains("--fresh"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(mine.join("runs.csv")).unwrap(), csv);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--fresh"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Adaptive repetitions: a configuration stops early only with its median's interval within
+/// the target (the summary shows the same interval), else at its run cap; short renders are
+/// repeated inside one sample; every row records its timestamp, CPU time and load.
+#[test]
+fn adaptive_runs_stop_at_the_ci_target_or_the_cap() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 2);
+    let text = std::fs::read_to_string(&exp).unwrap().replace(
+        "ci_target = 0\nmin_sample_s = 0\n",
+        "ci_target = 0.02\nmax_repetitions = 7\nbudget_s = 1000\nmin_sample_s = 0.002\n",
+    );
+    std::fs::write(&exp, text).unwrap();
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
+    let sums = raysched::experiment::summary::summarize(&rows);
+    assert_eq!(sums.len(), 2 * (1 + 8 + 2));
+    for s in &sums {
+        assert!((2..=7).contains(&s.n), "{} runs: {}", s.row.label, s.n);
+        if s.n < 7 {
+            assert!(
+                s.n >= 5 && s.ci_half_rel <= 0.02,
+                "{} stopped at {} with ±{}",
+                s.row.label,
+                s.n,
+                s.ci_half_rel
+            );
+        }
+        // Reps are 0..n, each once.
+        let reps: Vec<u32> = s.walls.iter().map(|w| w.0).collect();
+        assert_eq!(reps, (0..s.n as u32).collect::<Vec<_>>());
+    }
+    for r in &rows {
+        assert!(r.inner >= 1 && r.timestamp.ends_with('Z'), "{r:?}");
+        if cfg!(target_os = "linux") {
+            assert!(r.user_s.is_some() && r.load_before.is_some() && r.load_after.is_some());
+        }
+    }
+    // A 16×16 render takes well under 2 ms, so the samples are built of several renders.
+    assert!(rows.iter().any(|r| r.inner > 1), "no inner repetition");
+    // Exports beside the CSVs.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("res/tiny/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(json["schema"], "raysched.summary/1");
+    assert_eq!(json["configurations"].as_array().unwrap().len(), sums.len());
+    let runs: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("res/tiny/runs.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(runs["rows"].as_array().unwrap().len(), rows.len());
+}
+
+/// `compare`: a run against itself is "no change" everywhere; against a copy 20 % slower,
+/// "slower" everywhere with p < 0.01, and `--fail-on-regression` exits 1.
+#[test]
+fn compare_flags_a_known_slowdown_and_nothing_else() {
+    use raysched::experiment::results::RunsFile;
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 8);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Known wall times: A = 1 ms × (1 + k/1000), B = A × 1.2, same other columns.
+    let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
+    for (name, factor) in [("a", 1.0), ("b", 1.2)] {
+        let d = dir.path().join(name).join("tiny");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
+        for r in &rows {
+            let mut r = r.clone();
+            r.wall_s = 1e-3 * (1.0 + f64::from(r.repetition) / 1000.0) * factor;
+            f.append(&r).unwrap();
+        }
+    }
+    let cmp = |a: &str, b: &str, extra: &[&str]| {
+        let mut args = vec!["compare", a, b, "--json"];
+        args.extend(extra);
+        run(&args, dir.path())
+    };
+    let same = cmp("a/tiny", "a/tiny", &["--fail-on-regression"]);
+    assert!(
+        same.status.success(),
+        "{}",
+        String::from_utf8_lossy(&same.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&same.stdout).unwrap();
+    let changes = v["changes"].as_array().unwrap();
+    assert_eq!(changes.len(), 2 * (1 + 8 + 2));
+    assert!(changes.iter().all(|c| c["verdict"] == "no_change"), "{v}");
+    let slow = cmp("a/tiny", "b/tiny", &[]);
+    assert!(slow.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&slow.stdout).unwrap();
+    for c in v["changes"].as_array().unwrap() {
+        assert_eq!(c["verdict"], "slower", "{c}");
+        assert!(c["p_value"].as_f64().unwrap() < 0.01, "{c}");
+        let r = &c["wall_ratio"];
+        assert!((r["value"].as_f64().unwrap() - 1.2).abs() < 1e-9, "{c}");
+        assert!(
+            r["lo"].as_f64().unwrap() <= 1.2 && r["hi"].as_f64().unwrap() >= 1.2,
+            "{c}"
+        );
+    }
+    let fail = cmp("a/tiny", "b/tiny", &["--fail-on-regression"]);
+    assert_eq!(fail.status.code(), Some(1));
+    // Markdown by default, one table row per configuration.
+    let md = run(&["compare", "b/tiny", "a/tiny"], dir.path());
+    let text = String::from_utf8_lossy(&md.stdout);
+    assert!(
+        text.contains("22 faster, 0 slower, 0 no change") && text.contains("Mann–Whitney"),
+        "{text}"
+    );
+    assert_eq!(
+        run(&["compare", "a/tiny", "nowhere"], dir.path())
+            .status
+            .code(),
+        Some(2)
+    );
+}
+
+/// `run --dry-run` prints the plan and measures nothing.
+#[test]
+fn dry_run_plans_without_measuring() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 3);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--dry-run", "--out", "res"],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("22 configurations; estimated") && stdout.contains("Nothing was measured"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("exactly 3 timed runs"), "{stdout}");
+    assert!(!dir.path().join("res/tiny/runs.csv").exists());
+}
+
+/// The published snapshots are read by this version (their runs.csv predates the sample
+/// columns) and are where the README says.
+#[test]
+fn published_snapshots_still_read() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/published");
+    for name in ["quick", "seed", "frames"] {
+        let (rows, _) = read_runs(&root.join(name).join("runs.csv")).unwrap();
+        assert!(!rows.is_empty(), "{name}");
+        assert!(rows.iter().all(|r| r.inner == 1 && r.timestamp.is_empty()));
+    }
+}
+
+/// The report's warnings and ties, on forged wall times: serial 3 ms and every configuration
+/// 1 ms (± 0.1 %) gives 3× on 2 workers (efficiency above 100 % beyond noise) and a fastest
+/// configuration tied with all the others; `plot` prints them in report.md.
+#[test]
+fn report_warns_of_impossible_efficiency_and_lists_ties() {
+    use raysched::experiment::results::RunsFile;
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 6);
+    let out = run(
+        &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let res = dir.path().join("res/tiny");
+    let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
+    let (mut f, _) = RunsFile::open(&res.join("runs.csv"), true).unwrap();
+    for r in &rows {
+        let mut r = r.clone();
+        let jitter = 1.0 + f64::from(r.repetition % 3) / 1000.0;
+        r.wall_s = if r.scheduler == "serial" { 3e-3 } else { 1e-3 } * jitter;
+        f.append(&r).unwrap();
+    }
+    drop(f);
+    let out = run(&["plot", res.to_str().unwrap()], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains("## Warnings"), "{report}");
+    assert!(
+        report.contains("×2: efficiency 150 %") && report.contains("above 100 % beyond noise"),
+        "{report}"
+    );
+    assert!(report.contains("×1: efficiency 300 %"), "{report}");
+    assert!(report.contains("statistically tied with it"), "{report}");
+    assert!(
+        report.contains("speedup 3.00× (95 % CI 3.00–3.00)"),
+        "{report}"
     );
 }

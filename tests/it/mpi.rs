@@ -432,6 +432,8 @@ fn mpi_experiment(dir: &Path, mpi: &str) -> PathBuf {
 {top}
 name = "tiny_mpi"
 repetitions = 1
+ci_target = 0
+min_sample_s = 0
 [[scenes]]
 path = "scene.toml"
 [[schedulers]]

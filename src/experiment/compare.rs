@@ -1,0 +1,294 @@
+//! `raysched compare A B`: how each configuration changed between two results folders (two
+//! commits, two machines, two days).
+//!
+//! Per configuration: the ratio of median wall times B / A with a bootstrap interval (the two
+//! runs are independent, so each is resampled on its own), the p-value of a two-sided
+//! Mann–Whitney U test on the wall times, and the speedup of each run with the change between
+//! them. The rank test is used rather than Welch's t because run times are skewed (a sample can
+//! only be slowed down) and carry outliers; it assumes neither normality nor equal spread, and
+//! a single slow sample moves it by one rank, not by its size. A change counts only when it is
+//! both significant (p < `alpha`) and larger than `threshold`, so a real but negligible drift
+//! of a shared machine reads as "no change".
+
+use super::meta::Meta;
+use super::results::read_runs;
+use super::stats::{mann_whitney_p, paired_ratio_change, unpaired_ratio, Ratio};
+use super::summary::{pair_by_rep, seed_of, summarize, Summary};
+use serde::Serialize;
+use std::fmt::Write;
+use std::path::Path;
+
+/// When a change counts.
+#[derive(Clone, Copy, Debug)]
+pub struct Criteria {
+    /// Smallest relative change of the median wall time that counts (0.05 = 5 %).
+    pub threshold: f64,
+    /// Largest p-value that counts as significant.
+    pub alpha: f64,
+}
+
+impl Default for Criteria {
+    fn default() -> Self {
+        Self {
+            threshold: 0.05,
+            alpha: 0.01,
+        }
+    }
+}
+
+/// The verdict on one configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// B's median wall time is significantly lower, by more than the threshold.
+    Faster,
+    /// B's median wall time is significantly higher, by more than the threshold.
+    Slower,
+    /// Neither.
+    NoChange,
+}
+
+impl Verdict {
+    /// The word in the table.
+    pub fn word(self) -> &'static str {
+        match self {
+            Self::Faster => "faster",
+            Self::Slower => "slower",
+            Self::NoChange => "no change",
+        }
+    }
+}
+
+/// A ratio with its interval, as serialised.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Interval {
+    /// The point estimate.
+    pub value: f64,
+    /// 2.5 % bound.
+    pub lo: f64,
+    /// 97.5 % bound.
+    pub hi: f64,
+}
+
+impl From<Ratio> for Interval {
+    fn from(r: Ratio) -> Self {
+        Self {
+            value: r.value,
+            lo: r.lo,
+            hi: r.hi,
+        }
+    }
+}
+
+/// One configuration in both folders.
+#[derive(Clone, Debug, Serialize)]
+pub struct Change {
+    /// The configuration id.
+    pub config: String,
+    /// Scene, settings and tracer.
+    pub group: String,
+    /// The scheduler label.
+    pub label: String,
+    /// Workers.
+    pub workers: usize,
+    /// Samples in A and in B.
+    pub n: (usize, usize),
+    /// Median wall time in A and in B, seconds.
+    pub wall_median_s: (f64, f64),
+    /// median wall B / median wall A.
+    pub wall_ratio: Interval,
+    /// Two-sided Mann–Whitney U p-value of the wall times.
+    pub p_value: f64,
+    /// Speedup over serial in A and in B (paired within each run).
+    pub speedup: (Option<f64>, Option<f64>),
+    /// speedup B / speedup A.
+    pub speedup_ratio: Option<Interval>,
+    /// faster, slower or no change.
+    pub verdict: Verdict,
+}
+
+/// The comparison of two folders.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// Folder A (the reference).
+    pub a: String,
+    /// Folder B.
+    pub b: String,
+    /// The commit and machine of each, from meta.toml.
+    pub provenance: (String, String),
+    /// The change threshold used.
+    pub threshold: f64,
+    /// The significance level used.
+    pub alpha: f64,
+    /// The test behind `p_value`.
+    pub test: &'static str,
+    /// Configurations in both.
+    pub changes: Vec<Change>,
+    /// Configuration ids only in A, then only in B.
+    pub unmatched: (Vec<String>, Vec<String>),
+}
+
+impl Comparison {
+    /// How many configurations got each verdict: (faster, slower, no change).
+    pub fn counts(&self) -> (usize, usize, usize) {
+        let c = |v| self.changes.iter().filter(|x| x.verdict == v).count();
+        (c(Verdict::Faster), c(Verdict::Slower), c(Verdict::NoChange))
+    }
+}
+
+fn load(dir: &Path) -> Result<(Vec<Summary>, String), String> {
+    let runs = dir.join("runs.csv");
+    if !runs.exists() {
+        return Err(format!(
+            "{}: not found (is {} a results folder?)",
+            runs.display(),
+            dir.display()
+        ));
+    }
+    let (rows, _) = read_runs(&runs).map_err(|e| e.to_string())?;
+    let meta: Option<Meta> = std::fs::read_to_string(dir.join("meta.toml"))
+        .ok()
+        .and_then(|t| toml::from_str(&t).ok());
+    let prov = meta.map_or("meta.toml unreadable".into(), |m| {
+        format!(
+            "`{}` on {} ({} cores)",
+            m.git_commit, m.machine.cpu_model, m.machine.cores
+        )
+    });
+    Ok((summarize(&rows), prov))
+}
+
+/// The serial baseline walls of `s`'s group in `sums`.
+fn serial_of<'a>(sums: &'a [Summary], s: &Summary) -> Option<&'a Summary> {
+    sums.iter()
+        .find(|x| x.row.scheduler == "serial" && x.group() == s.group())
+}
+
+/// Compare every configuration of `a` with the same configuration (same id) of `b`.
+pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String> {
+    let (sa, pa) = load(a)?;
+    let (sb, pb) = load(b)?;
+    let mut changes = Vec::new();
+    let mut only_a = Vec::new();
+    for x in &sa {
+        let Some(y) = sb.iter().find(|y| y.row.config == x.row.config) else {
+            only_a.push(x.row.config.clone());
+            continue;
+        };
+        let wa: Vec<f64> = x.walls.iter().map(|w| w.1).collect();
+        let wb: Vec<f64> = y.walls.iter().map(|w| w.1).collect();
+        let seed = seed_of(&x.row.config);
+        let ratio = unpaired_ratio(&wb, &wa, seed);
+        let p = mann_whitney_p(&wa, &wb);
+        let significant = p < crit.alpha;
+        let verdict = if significant && ratio.value >= 1.0 + crit.threshold {
+            Verdict::Slower
+        } else if significant && ratio.value <= 1.0 / (1.0 + crit.threshold) {
+            Verdict::Faster
+        } else {
+            Verdict::NoChange
+        };
+        let speedup_ratio = match (serial_of(&sa, x), serial_of(&sb, y)) {
+            (Some(ba), Some(bb)) if x.row.scheduler != "serial" => {
+                let (na, da) = pair_by_rep(&ba.walls, &x.walls);
+                let (nb, db) = pair_by_rep(&bb.walls, &y.walls);
+                (!na.is_empty() && !nb.is_empty())
+                    .then(|| paired_ratio_change((&na, &da), (&nb, &db), seed).into())
+            }
+            _ => None,
+        };
+        changes.push(Change {
+            config: x.row.config.clone(),
+            group: x.group(),
+            label: x.row.label.clone(),
+            workers: x.row.workers,
+            n: (x.n, y.n),
+            wall_median_s: (x.wall_median, y.wall_median),
+            wall_ratio: ratio.into(),
+            p_value: p,
+            speedup: (x.speedup.map(|r| r.value), y.speedup.map(|r| r.value)),
+            speedup_ratio,
+            verdict,
+        });
+    }
+    let only_b = sb
+        .iter()
+        .filter(|y| !sa.iter().any(|x| x.row.config == y.row.config))
+        .map(|y| y.row.config.clone())
+        .collect();
+    Ok(Comparison {
+        a: a.display().to_string(),
+        b: b.display().to_string(),
+        provenance: (pa, pb),
+        threshold: crit.threshold,
+        alpha: crit.alpha,
+        test: "two-sided Mann–Whitney U (normal approximation, tie-corrected)",
+        changes,
+        unmatched: (only_a, only_b),
+    })
+}
+
+fn pct(r: f64) -> String {
+    format!("{:+.1} %", (r - 1.0) * 100.0)
+}
+
+/// The comparison as a markdown report.
+pub fn markdown(c: &Comparison) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "# {} → {}\n", c.a, c.b);
+    let _ = writeln!(md, "- A: {}\n- B: {}", c.provenance.0, c.provenance.1);
+    let _ = writeln!(
+        md,
+        "- change = median wall B / median wall A − 1, 95 % CI by bootstrap (each run resampled on its own); p: {} on the wall times; verdict faster/slower when p < {} and the change exceeds ±{:.1} %\n",
+        c.test,
+        c.alpha,
+        c.threshold * 100.0
+    );
+    let (f, s, n) = c.counts();
+    let _ = writeln!(
+        md,
+        "**{} configurations: {f} faster, {s} slower, {n} no change.**\n",
+        c.changes.len()
+    );
+    let _ = writeln!(md, "| group | configuration | workers | runs A/B | median A (ms) | median B (ms) | change (95 % CI) | p | speedup A → B | speedup change (95 % CI) | verdict |");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for x in &c.changes {
+        let sp = match x.speedup {
+            (Some(a), Some(b)) => format!("{a:.2}× → {b:.2}×"),
+            _ => "–".into(),
+        };
+        let spc = x.speedup_ratio.map_or("–".into(), |r| {
+            format!("{} ({} – {})", pct(r.value), pct(r.lo), pct(r.hi))
+        });
+        let _ = writeln!(
+            md,
+            "| {} | `{}` | {} | {}/{} | {:.3} | {:.3} | {} ({} – {}) | {:.2e} | {sp} | {spc} | {} |",
+            x.group,
+            x.label,
+            x.workers,
+            x.n.0,
+            x.n.1,
+            x.wall_median_s.0 * 1e3,
+            x.wall_median_s.1 * 1e3,
+            pct(x.wall_ratio.value),
+            pct(x.wall_ratio.lo),
+            pct(x.wall_ratio.hi),
+            x.p_value,
+            if x.verdict == Verdict::NoChange {
+                x.verdict.word().to_string()
+            } else {
+                format!("**{}**", x.verdict.word())
+            }
+        );
+    }
+    let (oa, ob) = &c.unmatched;
+    if !oa.is_empty() || !ob.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nNot compared: {} configuration(s) only in A, {} only in B.",
+            oa.len(),
+            ob.len()
+        );
+    }
+    md
+}

@@ -1,0 +1,110 @@
+//! `raysched run --dry-run`: what a run would do (configurations, samples, time) without timing
+//! anything. The time estimate rests on one untimed serial render per (scene, tracer): a
+//! configuration with w workers is guessed at serial / min(w, cores), the guess a real run
+//! replaces with its own samples.
+
+use super::meta::{self, Meta};
+use super::plan::ExperimentPlan;
+use super::run::{inner_count, RunError, RunOptions, MIN_ADAPTIVE_RUNS};
+use crate::render::render_serial;
+use std::fmt::Write;
+use std::time::Instant;
+
+/// The plan as text, ending with the estimated total.
+pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, RunError> {
+    let st = &plan.stats;
+    let dir = opts.out.join(&plan.name);
+    let mut out = String::new();
+    let _ = writeln!(out, "experiment {} → {}", plan.name, dir.display());
+    let rule = if st.fixed() {
+        format!("exactly {} timed runs per configuration", st.min_runs)
+    } else {
+        format!(
+            "{}–{} timed runs per configuration: until the median's 95 % CI is within ±{:.1} % (checked from {} runs on) or {:.0} s are spent",
+            st.min_runs,
+            st.max_runs,
+            st.ci_target * 100.0,
+            MIN_ADAPTIVE_RUNS.max(st.min_runs),
+            st.budget_s
+        )
+    };
+    let _ = writeln!(out, "{rule}; {} warm-up(s); seed {}", plan.warmup, st.seed);
+    let runs = dir.join("runs.csv");
+    if runs.exists() && !opts.fresh {
+        let rows = super::results::read_runs(&runs)?.0.len();
+        let old: Option<Meta> = std::fs::read_to_string(dir.join("meta.toml"))
+            .ok()
+            .and_then(|t| toml::from_str(&t).ok());
+        let conflict = old
+            .map(|m| meta::resume_conflict(&m, &meta::Start::now(rows, *st)))
+            .unwrap_or_else(|| vec!["meta.toml missing".into()]);
+        if conflict.is_empty() {
+            let _ = writeln!(out, "resumes {rows} rows already in {}", runs.display());
+        } else {
+            let _ = writeln!(
+                out,
+                "would be refused: {} has {rows} rows measured elsewhere ({}); use --fresh or another --out",
+                runs.display(),
+                conflict.join(", ")
+            );
+        }
+    }
+    let probes: Vec<f64> = plan
+        .baselines
+        .iter()
+        .map(|b| {
+            let t0 = Instant::now();
+            let _ = render_serial(plan.scenes[b.scene].scene.as_ref(), b.tracer.as_ref());
+            t0.elapsed().as_secs_f64()
+        })
+        .collect();
+    let cores = crate::host::available_threads();
+    let _ = writeln!(
+        out,
+        "\n{:<17} {:>9} {:>6} {:>9} {:>14}  configuration",
+        "config", "est. run", "inner", "samples", "est. time"
+    );
+    let (mut lo_total, mut hi_total) = (0.0, 0.0);
+    for c in &plan.configs {
+        let t_serial = probes[c.baseline];
+        let t = match &c.spec {
+            None => t_serial,
+            Some(s) => t_serial / s.workers.min(cores).max(1) as f64,
+        };
+        let inner = if st.min_sample_s > 0.0 {
+            inner_count(t, st.min_sample_s)
+        } else {
+            1
+        };
+        let per_sample = t * f64::from(inner);
+        let by_budget = (st.budget_s / per_sample).ceil() as u32;
+        let most = st.max_runs.min(by_budget.max(st.min_runs));
+        let setup = f64::from(plan.warmup.max(u32::from(st.min_sample_s > 0.0))) * t;
+        let lo = setup + f64::from(st.min_runs) * per_sample;
+        let hi = setup + f64::from(most) * per_sample;
+        lo_total += lo;
+        hi_total += hi;
+        let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
+            format!("{} ×{}", s.label(), s.workers)
+        });
+        let _ = writeln!(
+            out,
+            "{:<17} {:>8.1}ms {:>6} {:>9} {:>14}  {} · {label}",
+            c.id,
+            t * 1e3,
+            inner,
+            format!("{}–{most}", st.min_runs),
+            format!("{:.1}–{:.1} s", lo, hi),
+            plan.scenes[plan.baselines[c.baseline].scene].scene.name
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\n{} configurations; estimated {:.0}–{:.0} s of rendering (probe: one serial render per scene and tracer, {:.2} s). Nothing was measured.",
+        plan.configs.len(),
+        lo_total,
+        hi_total,
+        probes.iter().sum::<f64>()
+    );
+    Ok(out)
+}
