@@ -11,6 +11,7 @@ mod mpi_render;
 mod mpi_run;
 mod render;
 mod sched_flags;
+mod simulate;
 mod stability;
 
 use clap::{Parser, Subcommand};
@@ -41,6 +42,12 @@ enum Command {
     Converge(converge::ConvergeArgs),
     /// The numerical stability suite: CSV + markdown table of every case.
     Stability(stability::StabilityArgs),
+    /// Simulate every scheduler with SimGrid on platform XML files (feature `simgrid`): rows
+    /// like a measured run's, plots, and a validation against measured runs.
+    Simulate(simulate::SimulateArgs),
+    /// Run one SimGrid simulation (what `simulate` starts in a child process).
+    #[command(name = "simgrid-child", hide = true)]
+    SimgridChild(simulate::ChildArgs),
 }
 
 /// Parse the command line, run it, print an error once with its chain. A usage error is one
@@ -84,6 +91,8 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Plot(args) => experiment::plot(args),
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
+        Command::Simulate(args) => simulate::simulate(args),
+        Command::SimgridChild(args) => simulate::child(args),
     }
 }
 
