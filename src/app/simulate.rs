@@ -43,8 +43,8 @@ pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
     use raysched::simulate;
     let exe = std::env::current_exe().map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
     let plan = simulate::config::load(&args.experiment, &exe).map_err(CliError::input)?;
-    let dir = simulate::sweep::run(&plan, &exe, &args.out, args.quiet)
-        .map_err(CliError::runtime)?;
+    let dir =
+        simulate::sweep::run(&plan, &exe, &args.out, args.quiet).map_err(CliError::runtime)?;
     if !args.quiet {
         println!("{}: wrote {}", plan.name, dir.join("report.md").display());
     }

@@ -72,7 +72,10 @@ pub fn init(options: &[String]) {
         .chain(options.iter().cloned())
         .map(|s| CString::new(s).unwrap_or_default())
         .collect();
-    let mut argv: Vec<*mut c_char> = owned.iter_mut().map(|s| s.as_ptr() as *mut c_char).collect();
+    let mut argv: Vec<*mut c_char> = owned
+        .iter_mut()
+        .map(|s| s.as_ptr() as *mut c_char)
+        .collect();
     argv.push(std::ptr::null_mut());
     let mut argc = owned.len() as c_int;
     // SAFETY: argc/argv describe NUL-terminated strings that outlive the call (SimGrid copies
@@ -164,7 +167,8 @@ extern "C-unwind" fn trampoline(argc: c_int, argv: *mut *mut c_char) {
     } else {
         None
     };
-    let body = index.and_then(|i| BODIES.with(|b| b.borrow_mut().get_mut(i).and_then(Option::take)));
+    let body =
+        index.and_then(|i| BODIES.with(|b| b.borrow_mut().get_mut(i).and_then(Option::take)));
     if let Some(body) = body {
         body();
     }

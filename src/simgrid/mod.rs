@@ -55,7 +55,10 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
     ffi::load_platform(&job.platform.to_string_lossy());
     let hosts = hosts_in_order();
     let info = PlatformInfo {
-        hosts: hosts.iter().map(|h| (h.name(), h.speed(), h.cores())).collect(),
+        hosts: hosts
+            .iter()
+            .map(|h| (h.name(), h.speed(), h.cores()))
+            .collect(),
     };
     if job.workers == 0 || job.workers > info.worker_slots() {
         return Err(format!(
@@ -66,7 +69,10 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
         ));
     }
     if let Some(l) = job.lost.iter().find(|l| l.worker >= job.workers) {
-        return Err(format!("lost worker {} of {} workers", l.worker, job.workers));
+        return Err(format!(
+            "lost worker {} of {} workers",
+            l.worker, job.workers
+        ));
     }
     let (master, placed) = info.placement(job.workers);
     let world = Rc::new(protocols::World::new(

@@ -109,11 +109,19 @@ fn count_message(tally: &Shared<Tally>, bytes: u64) {
 }
 
 fn result_bytes(job: &SimJob, items: &[usize]) -> u64 {
-    items.iter().map(|&i| job.result_bytes[i] as u64).sum::<u64>().max(EMPTY_MESSAGE)
+    items
+        .iter()
+        .map(|&i| job.result_bytes[i] as u64)
+        .sum::<u64>()
+        .max(EMPTY_MESSAGE)
 }
 
 fn item_bytes(job: &SimJob, items: &[usize]) -> u64 {
-    items.iter().map(|&i| job.item_bytes[i] as u64).sum::<u64>().max(EMPTY_MESSAGE)
+    items
+        .iter()
+        .map(|&i| job.item_bytes[i] as u64)
+        .sum::<u64>()
+        .max(EMPTY_MESSAGE)
 }
 
 /// Start the actors of `world.job`'s scheduler. Adding a scheduler: one arm here and, when it
@@ -163,7 +171,8 @@ fn spawn_killers(world: &Rc<World>, policy: &Policy) {
             }
             host.turn_off();
             if tells_master {
-                Mailbox::<MasterMsg>::by_name("master").put_detached(MasterMsg::Lost, EMPTY_MESSAGE);
+                Mailbox::<MasterMsg>::by_name("master")
+                    .put_detached(MasterMsg::Lost, EMPTY_MESSAGE);
             }
         });
     }
@@ -254,13 +263,19 @@ fn result_sink(world: &Rc<World>) {
 fn stealing(world: Rc<World>, grab: usize) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     let deques: Shared<Vec<VecDeque<usize>>> = Rc::new(RefCell::new(
-        (0..w).map(|k| (k * n / w..(k + 1) * n / w).collect()).collect(),
+        (0..w)
+            .map(|k| (k * n / w..(k + 1) * n / w).collect())
+            .collect(),
     ));
     let unassigned = Rc::new(RefCell::new(n));
     world.tally.borrow_mut().out.issued = n as u64;
     result_sink(&world);
     for k in 0..w {
-        let (wd, dq, left) = (Rc::clone(&world), Rc::clone(&deques), Rc::clone(&unassigned));
+        let (wd, dq, left) = (
+            Rc::clone(&world),
+            Rc::clone(&deques),
+            Rc::clone(&unassigned),
+        );
         ffi::spawn("steal-server", world.worker_hosts[k], true, move || {
             let inbox = Mailbox::<usize>::by_name(&format!("steal{k}"));
             inbox.set_receiver();
@@ -281,8 +296,14 @@ fn stealing(world: Rc<World>, grab: usize) {
     }
     let mut seed = world.job.seed | 1;
     for k in 0..w {
-        let (wd, dq, left) = (Rc::clone(&world), Rc::clone(&deques), Rc::clone(&unassigned));
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let (wd, dq, left) = (
+            Rc::clone(&world),
+            Rc::clone(&deques),
+            Rc::clone(&unassigned),
+        );
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         let mut rng = seed;
         ffi::spawn("worker", world.worker_hosts[k], false, move || {
             let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));

@@ -152,32 +152,66 @@ fn field(path: &Path, name: &str, msg: impl std::fmt::Display) -> anyhow::Error 
 
 /// Read and check `path`; `exe` is the raysched binary that loads platforms in a child.
 pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
-    let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let file: SimFile = toml::from_str(&text).map_err(|e| {
         let msg = e.message().to_string();
         anyhow::anyhow!("{}: {}", path.display(), msg.lines().next().unwrap_or(""))
     })?;
     if file.kind != "simulation" {
-        return Err(field(path, "kind", format!("'{}': `raysched simulate` takes kind = \"simulation\"", file.kind)));
+        return Err(field(
+            path,
+            "kind",
+            format!(
+                "'{}': `raysched simulate` takes kind = \"simulation\"",
+                file.kind
+            ),
+        ));
     }
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let name = file.name.clone().unwrap_or_else(|| {
-        path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        path.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
     });
-    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
-        return Err(field(path, "name", format!("'{name}': letters, digits, _ and - only")));
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(field(
+            path,
+            "name",
+            format!("'{name}': letters, digits, _ and - only"),
+        ));
     }
     if file.workers.is_empty() {
-        return Err(field(path, "workers", "must list at least one simulated worker count"));
+        return Err(field(
+            path,
+            "workers",
+            "must list at least one simulated worker count",
+        ));
     }
-    if let Some(bad) = file.workers.iter().find(|&&w| !(1..=MAX_SIM_WORKERS).contains(&w)) {
-        return Err(field(path, "workers", format!("must be between 1 and {MAX_SIM_WORKERS} (got {bad})")));
+    if let Some(bad) = file
+        .workers
+        .iter()
+        .find(|&&w| !(1..=MAX_SIM_WORKERS).contains(&w))
+    {
+        return Err(field(
+            path,
+            "workers",
+            format!("must be between 1 and {MAX_SIM_WORKERS} (got {bad})"),
+        ));
     }
     let mut workers: Vec<usize> = file.workers.iter().map(|&w| w as usize).collect();
     workers.sort_unstable();
     workers.dedup();
     if file.schedulers.is_empty() {
-        return Err(field(path, "schedulers", "must list at least one [[schedulers]] grid"));
+        return Err(field(
+            path,
+            "schedulers",
+            "must list at least one [[schedulers]] grid",
+        ));
     }
     let mut specs = Vec::new();
     for (i, s) in file.schedulers.iter().enumerate() {
@@ -185,27 +219,43 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
     }
     let load_platform = |what: &str, p: &str| -> anyhow::Result<Platform> {
         let full = base.join(p);
-        let info = child::inspect(exe, &full).map_err(|m| field(path, what, format!("{}: {m}", full.display())))?;
+        let info = child::inspect(exe, &full)
+            .map_err(|m| field(path, what, format!("{}: {m}", full.display())))?;
         Ok(Platform {
-            name: full.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+            name: full
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default(),
             path: full,
             info,
         })
     };
     if file.platforms.is_empty() {
-        return Err(field(path, "platforms", "must list at least one SimGrid platform file"));
+        return Err(field(
+            path,
+            "platforms",
+            "must list at least one SimGrid platform file",
+        ));
     }
     let mut platforms = Vec::new();
     for (i, p) in file.platforms.iter().enumerate() {
         let pf = load_platform(&format!("platforms[{i}]"), p)?;
         let most = *workers.last().unwrap_or(&1);
         if most > pf.info.worker_slots() {
-            return Err(field(path, &format!("platforms[{i}]"), format!(
-                "{} holds {} workers (one per core{}), not {most}",
-                pf.path.display(),
-                pf.info.worker_slots(),
-                if pf.info.hosts.len() > 1 { " of the hosts after the master's" } else { "" }
-            )));
+            return Err(field(
+                path,
+                &format!("platforms[{i}]"),
+                format!(
+                    "{} holds {} workers (one per core{}), not {most}",
+                    pf.path.display(),
+                    pf.info.worker_slots(),
+                    if pf.info.hosts.len() > 1 {
+                        " of the hosts after the master's"
+                    } else {
+                        ""
+                    }
+                ),
+            ));
         }
         platforms.push(pf);
     }
@@ -218,10 +268,14 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             )));
         }
         if let Some(p) = platforms.iter().find(|p| p.info.hosts.len() < 2) {
-            return Err(field(path, &format!("lost[{i}]"), format!(
-                "{} is one node: turning its host off would stop the master too",
-                p.path.display()
-            )));
+            return Err(field(
+                path,
+                &format!("lost[{i}]"),
+                format!(
+                    "{} is one node: turning its host off would stop the master too",
+                    p.path.display()
+                ),
+            ));
         }
     }
     let probe = &file.probe;
@@ -229,13 +283,23 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         .and_then(crate::tracer::TracerKind::available)
         .map_err(|e| field(path, "probe.tracer", e))?;
     if probe.dispatch_items < 64 || probe.dispatch_workers == 0 || probe.dispatch_repetitions == 0 {
-        return Err(field(path, "probe", "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1"));
+        return Err(field(
+            path,
+            "probe",
+            "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1",
+        ));
     }
     let validation = match &file.validation {
         None => None,
         Some(v) => {
             let measured = base.join(&v.measured);
-            std::fs::metadata(&measured).map_err(|e| field(path, "validation.measured", format!("{}: {e}", measured.display())))?;
+            std::fs::metadata(&measured).map_err(|e| {
+                field(
+                    path,
+                    "validation.measured",
+                    format!("{}: {e}", measured.display()),
+                )
+            })?;
             Some((measured, load_platform("validation.platform", &v.platform)?))
         }
     };
@@ -254,7 +318,11 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             ..Default::default()
         },
         tracer,
-        dispatch: (probe.dispatch_items, probe.dispatch_workers, probe.dispatch_repetitions),
+        dispatch: (
+            probe.dispatch_items,
+            probe.dispatch_workers,
+            probe.dispatch_repetitions,
+        ),
         specs,
         lost: file.lost,
         validation,
@@ -278,7 +346,10 @@ fn texts(v: &toml::Value) -> Result<Vec<String>, String> {
 /// One grid's configurations: `chunk` × `order` × every parameter the kind has.
 fn expand(s: &SchedEntry) -> Result<Vec<SchedulerSpec>, (String, String)> {
     let kind = SchedulerKind::from_id(&s.kind).map_err(|e| ("kind".to_string(), e.msg))?;
-    let chunks = s.grid.get("chunk").ok_or(("chunk".to_string(), "missing".to_string()))?;
+    let chunks = s
+        .grid
+        .get("chunk")
+        .ok_or(("chunk".to_string(), "missing".to_string()))?;
     let mut out = Vec::new();
     for c in texts(chunks).map_err(|m| ("chunk".to_string(), m))? {
         let chunk = Chunk::parse(&c).map_err(|e| ("chunk".to_string(), e.msg))?;
@@ -294,7 +365,8 @@ fn expand(s: &SchedEntry) -> Result<Vec<SchedulerSpec>, (String, String)> {
             for v in &vals {
                 let mut spec = base.clone();
                 if name == "order" {
-                    spec.order = crate::sched::Order::from_id(v).map_err(|e| (name.clone(), e.msg))?;
+                    spec.order =
+                        crate::sched::Order::from_id(v).map_err(|e| (name.clone(), e.msg))?;
                 } else {
                     spec.set(name, v).map_err(|e| (name.clone(), e.msg))?;
                 }

@@ -40,8 +40,13 @@ impl PixelCosts {
         let mut spec = SchedulerSpec::new(SchedulerKind::Static, Chunk::Tile { w: 1, h: 1 }, 1);
         spec.timeline = true;
         let items = decompose(w, h, spec.chunk, Order::Scanline);
-        let (_, stats) = run_items(&spec, &items, render_job(scene, tracer), &RunOptions::default())
-            .map_err(|e| e.to_string())?;
+        let (_, stats) = run_items(
+            &spec,
+            &items,
+            render_job(scene, tracer),
+            &RunOptions::default(),
+        )
+        .map_err(|e| e.to_string())?;
         let mut cost_s = vec![0.0; (w * h) as usize];
         for span in stats.timeline.unwrap_or_default() {
             if let Some(item) = items.get(span.item as usize) {
@@ -148,5 +153,10 @@ pub fn master_h_s(buffer: usize, items: u32, workers: usize, reps: u32) -> Resul
 
 /// The shared counter's cost per grab: zero-work self-scheduling at grab 1, per item.
 pub fn counter_s(items: u32, workers: usize, reps: u32) -> Result<f64, String> {
-    zero_work_s(Policy::defaults(SchedulerKind::SelfScheduling), items, workers, reps)
+    zero_work_s(
+        Policy::defaults(SchedulerKind::SelfScheduling),
+        items,
+        workers,
+        reps,
+    )
 }

@@ -118,7 +118,11 @@ pub fn placement_order(a: &str, b: &str) -> std::cmp::Ordering {
     let split = |s: &str| {
         let digits = s.len() - s.trim_end_matches(|c: char| c.is_ascii_digit()).len();
         let (head, tail) = s.split_at(s.len() - digits);
-        (head.to_string(), tail.parse::<u64>().unwrap_or(0), s.to_string())
+        (
+            head.to_string(),
+            tail.parse::<u64>().unwrap_or(0),
+            s.to_string(),
+        )
     };
     split(a).cmp(&split(b))
 }

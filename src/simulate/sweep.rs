@@ -25,9 +25,14 @@ pub struct Inputs {
 impl Inputs {
     /// Measure everything `specs` need: the probe render of the plan's scene, h for each
     /// buffer size, the counter's cost.
-    pub fn measure(plan: &SimPlan, specs: &[SchedulerSpec], quiet: bool) -> anyhow::Result<Self> {
+    pub fn measure(
+        plan: &SimPlan,
+        overrides: &crate::scene::SceneOverrides,
+        specs: &[SchedulerSpec],
+        quiet: bool,
+    ) -> anyhow::Result<Self> {
         let scene = Arc::new(
-            crate::scene::load_scene(&plan.scene, &plan.overrides)
+            crate::scene::load_scene(&plan.scene, overrides)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
         );
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
@@ -37,7 +42,10 @@ impl Inputs {
         for s in specs {
             if let Policy::Master(p) = s.policy {
                 if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
-                    e.insert(inputs::master_h_s(p.buffer, n, workers, reps).map_err(anyhow::Error::msg)?);
+                    e.insert(
+                        inputs::master_h_s(p.buffer, n, workers, reps)
+                            .map_err(anyhow::Error::msg)?,
+                    );
                 }
             }
         }
@@ -126,7 +134,11 @@ impl SimRow {
     }
     /// Σ (wall − busy) over workers.
     pub fn idle_s(&self) -> f64 {
-        self.out.busy_s.iter().map(|b| (self.out.wall_s - b).max(0.0)).sum()
+        self.out
+            .busy_s
+            .iter()
+            .map(|b| (self.out.wall_s - b).max(0.0))
+            .sum()
     }
     /// max busy / mean busy.
     pub fn imbalance(&self) -> f64 {
@@ -142,15 +154,38 @@ impl SimRow {
 
     /// Column names of `sim_runs.csv`.
     pub fn header() -> Vec<String> {
-        let mut h: Vec<String> = ["simulated", "platform", "scheduler", "label", "chunk", "chunk_px", "order"]
-            .map(String::from)
-            .to_vec();
+        let mut h: Vec<String> = [
+            "simulated",
+            "platform",
+            "scheduler",
+            "label",
+            "chunk",
+            "chunk_px",
+            "order",
+        ]
+        .map(String::from)
+        .to_vec();
         h.extend(param_columns().iter().map(|p| p.name.to_string()));
         h.extend(
             [
-                "workers", "wall_s", "serial_s", "speedup", "efficiency", "dispatch_s", "idle_s",
-                "imbalance", "items", "issued", "reissued", "duplicates", "bytes", "messages",
-                "lost_workers", "completed", "error", "host_s",
+                "workers",
+                "wall_s",
+                "serial_s",
+                "speedup",
+                "efficiency",
+                "dispatch_s",
+                "idle_s",
+                "imbalance",
+                "items",
+                "issued",
+                "reissued",
+                "duplicates",
+                "bytes",
+                "messages",
+                "lost_workers",
+                "completed",
+                "error",
+                "host_s",
             ]
             .map(String::from),
         );
@@ -170,7 +205,11 @@ impl SimRow {
             self.chunk_px.to_string(),
             s.order.id().into(),
         ];
-        r.extend(param_columns().iter().map(|p| s.get(p.name).unwrap_or_default()));
+        r.extend(
+            param_columns()
+                .iter()
+                .map(|p| s.get(p.name).unwrap_or_default()),
+        );
         r.extend([
             s.workers.to_string(),
             format!("{:.9}", o.wall_s),
@@ -204,8 +243,14 @@ pub fn simulate_one(
     spec: &SchedulerSpec,
 ) -> anyhow::Result<SimRow> {
     let job = inputs.job(spec, &platform.path, plan);
-    let out = child::simulate(exe, &job)
-        .map_err(|m| anyhow::anyhow!("simulating {} on {} workers of {}: {m}", spec.label(), spec.workers, platform.name))?;
+    let out = child::simulate(exe, &job).map_err(|m| {
+        anyhow::anyhow!(
+            "simulating {} on {} workers of {}: {m}",
+            spec.label(),
+            spec.workers,
+            platform.name
+        )
+    })?;
     Ok(SimRow {
         platform: platform.name.clone(),
         spec: spec.clone(),
@@ -230,18 +275,20 @@ pub fn write_rows(path: &Path, rows: &[SimRow]) -> anyhow::Result<()> {
 
 /// Run the whole experiment; returns its results folder.
 pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Result<PathBuf> {
-    let mut all_specs: Vec<SchedulerSpec> = plan.specs.clone();
+    // The validation's measured runs are read first: a bad file fails before any measurement.
     let measured = match &plan.validation {
-        Some((csv, _)) => validate::measured_configs(csv, plan)?,
-        None => Vec::new(),
+        Some((csv, _)) => Some(validate::measured_configs(csv)?),
+        None => None,
     };
-    all_specs.extend(measured.iter().map(|m| m.spec.clone()));
-    let mut inputs = Inputs::measure(plan, &all_specs, quiet)?;
+    let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, quiet)?;
     let mut rows = Vec::new();
     for p in &plan.platforms {
         for spec in &plan.specs {
             for &w in &plan.workers {
-                let spec = SchedulerSpec { workers: w, ..spec.clone() };
+                let spec = SchedulerSpec {
+                    workers: w,
+                    ..spec.clone()
+                };
                 let row = simulate_one(&mut inputs, plan, exe, p, &spec)?;
                 if !quiet {
                     println!(
@@ -252,16 +299,31 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
                         row.out.wall_s,
                         row.speedup(),
                         row.out.host_s,
-                        row.out.error.as_deref().map(|e| format!(" — {e}")).unwrap_or_default()
+                        row.out
+                            .error
+                            .as_deref()
+                            .map(|e| format!(" — {e}"))
+                            .unwrap_or_default()
                     );
                 }
                 rows.push(row);
             }
         }
     }
-    let validation = match &plan.validation {
-        Some((_, platform)) => Some(validate::compare(&measured, &mut inputs, plan, exe, platform, quiet)?),
-        None => None,
+    let validation = match (&plan.validation, &measured) {
+        (Some((_, platform)), Some((configs, overrides))) => {
+            let specs: Vec<SchedulerSpec> = configs.iter().map(|m| m.spec.clone()).collect();
+            let mut v_inputs = Inputs::measure(plan, overrides, &specs, quiet)?;
+            Some(validate::compare(
+                configs,
+                &mut v_inputs,
+                plan,
+                exe,
+                platform,
+                quiet,
+            )?)
+        }
+        _ => None,
     };
     let dir = out.join(&plan.name);
     std::fs::create_dir_all(dir.join("plots"))?;
@@ -280,7 +342,10 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     );
     crate::experiment::run::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
     let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(anyhow::Error::msg)?;
-    let mut report = format!("# {} (simulated with SimGrid)\n\n{}\n\n", plan.name, plan.description);
+    let mut report = format!(
+        "# {} (simulated with SimGrid)\n\n{}\n\n",
+        plan.name, plan.description
+    );
     if let Some(v) = &validation {
         validate::write(&dir, v)?;
         figures.extend(plot::validation(&dir.join("plots"), v).map_err(anyhow::Error::msg)?);

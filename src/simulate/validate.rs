@@ -4,6 +4,7 @@
 use super::config::{Platform, SimPlan};
 use super::sweep::{simulate_one, Inputs};
 use crate::experiment::results::{read_runs, RunRow};
+use crate::scene::SceneOverrides;
 use crate::sched::{param_columns, Chunk, Order, SchedulerKind, SchedulerSpec};
 use std::path::Path;
 
@@ -43,19 +44,25 @@ fn spec_of(r: &RunRow) -> Result<SchedulerSpec, String> {
     Ok(spec)
 }
 
-/// The local-thread configurations of `csv` measured on the probe's image size.
-pub fn measured_configs(csv: &Path, plan: &SimPlan) -> anyhow::Result<Vec<Measured>> {
+/// The local-thread configurations of `csv`, and the scene settings they were measured with
+/// (one size for all: the validation's probe renders the scene at it).
+pub fn measured_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)> {
     let (rows, _) = read_runs(csv)?;
-    let size = (plan.overrides.width, plan.overrides.height, plan.overrides.spp);
     let mut out: Vec<Measured> = Vec::new();
-    for r in rows.iter().filter(|r| r.sources == "local" && r.scheduler != "serial") {
-        if (Some(r.width), Some(r.height), Some(r.spp)) != size {
+    let mut size: Option<(u32, u32, u32, i32)> = None;
+    for r in rows
+        .iter()
+        .filter(|r| r.sources == "local" && r.scheduler != "serial")
+    {
+        let this = (r.width, r.height, r.spp, r.max_depth);
+        if *size.get_or_insert(this) != this {
             anyhow::bail!(
-                "{}: row {} is {}×{} at {} spp; the probe renders {:?}×{:?} at {:?} spp (set probe.width, height and spp to the measured scene's)",
-                csv.display(), r.label, r.width, r.height, r.spp, size.0, size.1, size.2
+                "{}: row {} renders {}×{} at {} spp, max_depth {}; a validation takes one scene setting",
+                csv.display(), r.label, r.width, r.height, r.spp, r.max_depth
             );
         }
-        let spec = spec_of(r).map_err(|m| anyhow::anyhow!("{}: {}: {m}", csv.display(), r.label))?;
+        let spec =
+            spec_of(r).map_err(|m| anyhow::anyhow!("{}: {}: {m}", csv.display(), r.label))?;
         match out.iter_mut().find(|m| m.spec == spec) {
             Some(m) => m.walls.push(r.wall_s),
             None => out.push(Measured {
@@ -65,10 +72,20 @@ pub fn measured_configs(csv: &Path, plan: &SimPlan) -> anyhow::Result<Vec<Measur
             }),
         }
     }
-    if out.is_empty() {
-        anyhow::bail!("{}: no local-thread scheduler rows to validate against", csv.display());
-    }
-    Ok(out)
+    let Some((width, height, spp, max_depth)) = size else {
+        anyhow::bail!(
+            "{}: no local-thread scheduler rows to validate against",
+            csv.display()
+        );
+    };
+    let overrides = SceneOverrides {
+        width: Some(width),
+        height: Some(height),
+        spp: Some(spp),
+        max_depth: Some(max_depth),
+        ..Default::default()
+    };
+    Ok((out, overrides))
 }
 
 /// One configuration, measured and simulated.
@@ -175,9 +192,18 @@ pub fn compare(
 pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
-        "platform", "label", "workers", "repetitions", "measured_wall_s", "measured_min_s",
-        "measured_max_s", "simulated_wall_s", "wall_error", "measured_speedup",
-        "simulated_speedup", "speedup_error",
+        "platform",
+        "label",
+        "workers",
+        "repetitions",
+        "measured_wall_s",
+        "measured_min_s",
+        "measured_max_s",
+        "simulated_wall_s",
+        "wall_error",
+        "measured_speedup",
+        "simulated_speedup",
+        "speedup_error",
     ])?;
     for c in &v.rows {
         w.write_record([

@@ -12,5 +12,6 @@ mod embree;
 mod experiment;
 mod mpi;
 mod schedulers;
+mod simulate;
 mod stability;
 mod tracers;
