@@ -15,6 +15,7 @@
 //! tracer = "bvh"
 //! dispatch_items = 65536                          # zero-work runs for h
 //! dispatch_workers = 2
+//! probe_repetitions = 3                           # fastest time per pixel kept
 //!
 //! [[schedulers]]                                  # as in a timing experiment
 //! kind = "master"
@@ -73,6 +74,8 @@ struct ProbeEntry {
     dispatch_workers: usize,
     #[serde(default = "three")]
     dispatch_repetitions: u32,
+    #[serde(default = "three")]
+    probe_repetitions: u32,
 }
 
 fn bvh() -> String {
@@ -133,6 +136,8 @@ pub struct SimPlan {
     pub tracer: crate::tracer::TracerKind,
     /// Zero-work items, threads and runs of the dispatch measurement.
     pub dispatch: (u32, usize, u32),
+    /// Probe renders; each pixel's fastest is kept.
+    pub probe_repetitions: u32,
     /// Every scheduler configuration (workers set per simulated run).
     pub specs: Vec<SchedulerSpec>,
     /// Workers lost in every simulated run.
@@ -318,6 +323,7 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             ..Default::default()
         },
         tracer,
+        probe_repetitions: probe.probe_repetitions.max(1),
         dispatch: (
             probe.dispatch_items,
             probe.dispatch_workers,

@@ -36,7 +36,8 @@ impl Inputs {
                 .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
         );
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
-        let pixels = PixelCosts::probe(&scene, &tracer).map_err(anyhow::Error::msg)?;
+        let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions)
+            .map_err(anyhow::Error::msg)?;
         let (n, workers, reps) = plan.dispatch;
         let mut master_h_s = BTreeMap::new();
         for s in specs {
