@@ -61,6 +61,9 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod sched;
+#[cfg(feature = "simgrid")]
+pub mod simgrid;
+pub mod simulate;
 pub mod source;
 pub mod stability;
 pub mod staging;

@@ -22,6 +22,7 @@ mod mpi_run;
 mod profile;
 mod render;
 mod sched_flags;
+mod simulate;
 mod stability;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
@@ -60,6 +61,12 @@ enum Command {
     /// Per-pixel and per-item cost distribution (μ, σ, CV, max/mean) and a heat map PNG of
     /// cost per pixel, from a per-pixel render on one worker.
     Profile(profile::ProfileArgs),
+    /// Simulate every scheduler with SimGrid on platform XML files (feature `simgrid`): rows
+    /// like a measured run's, plots, and a validation against measured runs.
+    Simulate(simulate::SimulateArgs),
+    /// Run one SimGrid simulation (what `simulate` starts in a child process).
+    #[command(name = "simgrid-child", hide = true)]
+    SimgridChild(simulate::ChildArgs),
 }
 
 /// `raysched --version`: the version and the build's provenance.
@@ -145,6 +152,8 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
         Command::Profile(args) => profile::profile(args),
+        Command::Simulate(args) => simulate::simulate(args),
+        Command::SimgridChild(args) => simulate::child(args),
     }
 }
 

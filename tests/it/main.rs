@@ -17,5 +17,6 @@ mod hostile;
 mod models;
 mod mpi;
 mod schedulers;
+mod simulate;
 mod stability;
 mod tracers;

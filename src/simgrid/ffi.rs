@@ -1,0 +1,270 @@
+//! Hand-written bindings to SimGrid 3.32's C API (Debian's `libsimgrid-dev`) and the safe
+//! wrappers the simulation protocols use. The only `unsafe` of the simulator lives here.
+//!
+//! Imports and actor callbacks are `extern "C-unwind"`: SimGrid ends daemon actors and actors
+//! of a host turned off by unwinding their stacks, and with `"C"` the Rust destructors on those
+//! stacks would be skipped. SimGrid runs every actor on one thread (boost contexts), so the
+//! wrappers keep their registry in a thread-local.
+
+use std::cell::RefCell;
+use std::ffi::{c_char, c_int, c_long, c_void, CStr, CString};
+use std::marker::PhantomData;
+
+#[repr(C)]
+struct OpaqueHost {
+    _private: [u8; 0],
+}
+#[repr(C)]
+struct OpaqueActor {
+    _private: [u8; 0],
+}
+#[repr(C)]
+struct OpaqueMailbox {
+    _private: [u8; 0],
+}
+#[repr(C)]
+struct OpaqueComm {
+    _private: [u8; 0],
+}
+
+type ActorMain = extern "C-unwind" fn(c_int, *mut *mut c_char);
+type Cleanup = extern "C" fn(*mut c_void);
+
+#[link(name = "simgrid")]
+extern "C-unwind" {
+    fn simgrid_init(argc: *mut c_int, argv: *mut *mut c_char);
+    fn simgrid_load_platform(file: *const c_char);
+    fn simgrid_run();
+    fn simgrid_get_clock() -> f64;
+    fn sg_host_count() -> usize;
+    fn sg_host_list() -> *mut *mut OpaqueHost;
+    fn sg_host_get_name(host: *const OpaqueHost) -> *const c_char;
+    fn sg_host_get_speed(host: *const OpaqueHost) -> f64;
+    fn sg_host_core_count(host: *const OpaqueHost) -> c_int;
+    fn sg_host_turn_off(host: *mut OpaqueHost);
+    fn sg_actor_create_(
+        name: *const c_char,
+        host: *mut OpaqueHost,
+        code: ActorMain,
+        argc: c_int,
+        argv: *mut *mut c_char,
+    ) -> *mut OpaqueActor;
+    fn sg_actor_daemonize(actor: *mut OpaqueActor);
+    fn sg_actor_execute(flops: f64);
+    fn sg_actor_sleep_for(duration: f64);
+    fn sg_mailbox_by_name(alias: *const c_char) -> *mut OpaqueMailbox;
+    fn sg_mailbox_set_receiver(alias: *const c_char);
+    fn sg_mailbox_listen(alias: *const c_char) -> c_int;
+    fn sg_mailbox_put_init(
+        mailbox: *mut OpaqueMailbox,
+        payload: *mut c_void,
+        size: c_long,
+    ) -> *mut OpaqueComm;
+    fn sg_comm_detach(comm: *mut OpaqueComm, clean: Option<Cleanup>);
+    fn sg_mailbox_get(mailbox: *mut OpaqueMailbox) -> *mut c_void;
+    fn free(p: *mut c_void);
+}
+
+/// Start the engine with SimGrid command-line options (`--cfg=…`, `--log=…`). Once per process:
+/// SimGrid's engine is a singleton that cannot be re-created after a run.
+pub fn init(options: &[String]) {
+    let mut owned: Vec<CString> = std::iter::once("raysched".to_string())
+        .chain(options.iter().cloned())
+        .map(|s| CString::new(s).unwrap_or_default())
+        .collect();
+    let mut argv: Vec<*mut c_char> = owned
+        .iter_mut()
+        .map(|s| s.as_ptr() as *mut c_char)
+        .collect();
+    argv.push(std::ptr::null_mut());
+    let mut argc = owned.len() as c_int;
+    // SAFETY: argc/argv describe NUL-terminated strings that outlive the call (SimGrid copies
+    // what it keeps); the array ends with a null pointer as a C main's argv does.
+    unsafe { simgrid_init(&mut argc, argv.as_mut_ptr()) };
+    std::mem::forget(owned); // SimGrid may keep argv[0]; a few bytes, once per process.
+}
+
+/// Load a platform XML file. A malformed file makes SimGrid abort the process: callers load
+/// it in a child process first ([`crate::simgrid::inspect_platform`]).
+pub fn load_platform(path: &str) {
+    let c = CString::new(path).unwrap_or_default();
+    // SAFETY: a valid NUL-terminated path, read during the call only.
+    unsafe { simgrid_load_platform(c.as_ptr()) }
+}
+
+/// Run the simulation until no non-daemon actor is left.
+pub fn run() {
+    // SAFETY: no arguments; the engine was initialised and the platform loaded by the caller.
+    unsafe { simgrid_run() }
+}
+
+/// Simulated time, seconds.
+pub fn clock() -> f64 {
+    // SAFETY: reads the engine's clock; no pointers.
+    unsafe { simgrid_get_clock() }
+}
+
+/// A host of the loaded platform.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Host(*mut OpaqueHost);
+
+impl Host {
+    /// Every host, in the engine's order.
+    pub fn all() -> Vec<Host> {
+        // SAFETY: sg_host_count/sg_host_list read the loaded platform; the list holds
+        // sg_host_count() pointers, is owned by the caller and freed with free() after copying.
+        unsafe {
+            let n = sg_host_count();
+            let list = sg_host_list();
+            if list.is_null() {
+                return Vec::new();
+            }
+            let hosts = std::slice::from_raw_parts(list, n)
+                .iter()
+                .map(|&h| Host(h))
+                .collect();
+            free(list as *mut c_void);
+            hosts
+        }
+    }
+    /// The host's name.
+    pub fn name(self) -> String {
+        // SAFETY: self is a live host of the platform; the returned string is owned by SimGrid
+        // and copied before anything can free it.
+        unsafe { CStr::from_ptr(sg_host_get_name(self.0)) }
+            .to_string_lossy()
+            .into_owned()
+    }
+    /// Peak speed of one core, flop/s.
+    pub fn speed(self) -> f64 {
+        // SAFETY: self is a live host of the platform.
+        unsafe { sg_host_get_speed(self.0) }
+    }
+    /// Number of cores.
+    pub fn cores(self) -> usize {
+        // SAFETY: self is a live host of the platform.
+        unsafe { sg_host_core_count(self.0) }.max(0) as usize
+    }
+    /// Turn the host off: its actors are killed (their stacks unwound), its comms fail.
+    pub fn turn_off(self) {
+        // SAFETY: self is a live host; called from an actor during the run.
+        unsafe { sg_host_turn_off(self.0) }
+    }
+}
+
+thread_local! {
+    /// Bodies of actors created but not started yet; an actor's argv[1] is its index here.
+    static BODIES: RefCell<Vec<Option<Box<dyn FnOnce()>>>> = const { RefCell::new(Vec::new()) };
+}
+
+extern "C-unwind" fn trampoline(argc: c_int, argv: *mut *mut c_char) {
+    let index = if argc >= 2 {
+        // SAFETY: SimGrid passes argc valid NUL-terminated strings in argv.
+        unsafe { CStr::from_ptr(*argv.add(1)) }
+            .to_str()
+            .ok()
+            .and_then(|s| s.parse::<usize>().ok())
+    } else {
+        None
+    };
+    let body =
+        index.and_then(|i| BODIES.with(|b| b.borrow_mut().get_mut(i).and_then(Option::take)));
+    if let Some(body) = body {
+        body();
+    }
+}
+
+/// Create an actor named `name` on `host` running `body`; a daemon is killed when the last
+/// non-daemon actor ends.
+pub fn spawn(name: &str, host: Host, daemon: bool, body: impl FnOnce() + 'static) {
+    let index = BODIES.with(|b| {
+        let mut b = b.borrow_mut();
+        b.push(Some(Box::new(body)));
+        b.len() - 1
+    });
+    let name = CString::new(name).unwrap_or_default();
+    let arg = CString::new(index.to_string()).unwrap_or_default();
+    let mut argv = [name.as_ptr() as *mut c_char, arg.as_ptr() as *mut c_char];
+    // SAFETY: host is a live host; argv holds two NUL-terminated strings that outlive the call
+    // (SimGrid copies them into the actor's own argument vector); trampoline has the C
+    // signature SimGrid expects.
+    unsafe {
+        let actor = sg_actor_create_(name.as_ptr(), host.0, trampoline, 2, argv.as_mut_ptr());
+        if daemon && !actor.is_null() {
+            sg_actor_daemonize(actor);
+        }
+    }
+}
+
+/// Compute `flops` on the calling actor's host (shared with the host's other executions).
+pub fn execute(flops: f64) {
+    if flops > 0.0 {
+        // SAFETY: called from an actor; no pointers.
+        unsafe { sg_actor_execute(flops) }
+    }
+}
+
+/// Let `seconds` of simulated time pass for the calling actor, using no CPU.
+pub fn sleep_for(seconds: f64) {
+    if seconds > 0.0 {
+        // SAFETY: called from an actor; no pointers.
+        unsafe { sg_actor_sleep_for(seconds) }
+    }
+}
+
+/// A mailbox carrying boxed values of type `T` only.
+pub struct Mailbox<T> {
+    raw: *mut OpaqueMailbox,
+    name: CString,
+    _t: PhantomData<fn(T) -> T>,
+}
+
+extern "C" fn drop_box<T>(p: *mut c_void) {
+    if !p.is_null() {
+        // SAFETY: p came from Box::<T>::into_raw in put_detached and was not delivered.
+        drop(unsafe { Box::from_raw(p as *mut T) });
+    }
+}
+
+impl<T: 'static> Mailbox<T> {
+    /// The mailbox called `name` (created on first use).
+    pub fn by_name(name: &str) -> Self {
+        let name = CString::new(name).unwrap_or_default();
+        // SAFETY: a valid NUL-terminated name; SimGrid owns the mailbox for the whole run.
+        let raw = unsafe { sg_mailbox_by_name(name.as_ptr()) };
+        Self {
+            raw,
+            name,
+            _t: PhantomData,
+        }
+    }
+    /// Make the calling actor this mailbox's receiver: messages are transferred as soon as
+    /// they are sent (eager), not when `get` is called.
+    pub fn set_receiver(&self) {
+        // SAFETY: a valid NUL-terminated name; called from an actor.
+        unsafe { sg_mailbox_set_receiver(self.name.as_ptr()) }
+    }
+    /// Is a message waiting (sent or already transferred)?
+    pub fn has_message(&self) -> bool {
+        // SAFETY: a valid NUL-terminated name; called from an actor.
+        unsafe { sg_mailbox_listen(self.name.as_ptr()) != 0 }
+    }
+    /// Send `value`, simulated as `bytes` bytes, without waiting for its delivery. An
+    /// undeliverable value (its receiver's host turned off) is dropped by SimGrid's cleanup.
+    pub fn put_detached(&self, value: T, bytes: u64) {
+        let payload = Box::into_raw(Box::new(value)) as *mut c_void;
+        // SAFETY: the mailbox is live; payload is a Box<T> pointer owned from here on by the
+        // comm, which either delivers it to `get` (which boxes it back) or frees it with
+        // drop_box::<T>, the matching destructor.
+        unsafe {
+            let comm = sg_mailbox_put_init(self.raw, payload, bytes.max(1) as c_long);
+            sg_comm_detach(comm, Some(drop_box::<T>));
+        }
+    }
+    /// Wait for the next value.
+    pub fn get(&self) -> T {
+        // SAFETY: every payload on a Mailbox<T> was put by put_detached as a Box<T> (the type
+        // parameter makes another type impossible), and each is delivered exactly once.
+        unsafe { *Box::from_raw(sg_mailbox_get(self.raw) as *mut T) }
+    }
+}

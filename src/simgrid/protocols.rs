@@ -1,0 +1,505 @@
+//! Each scheduler's protocol as SimGrid actors, one small function per
+//! [`SchedulerKind`](crate::sched::SchedulerKind) (see [`spawn_protocol`]).
+//!
+//! Costs: an item's measured seconds × [`REFERENCE_FLOPS`] are executed on its worker's host
+//! (a slower host takes longer; on a shared node the master's executions share its cores);
+//! the master executes its per-hand-out cost h for each item it hands out; the shared counter
+//! and a steal take `counter_s` of simulated time without using a core (an atomic operation
+//! serialises, it does not compute). Messages carry their wire-format sizes.
+//!
+//! State shared by the actors is a `Rc<RefCell<…>>`: SimGrid runs every actor on one thread,
+//! and no borrow is held across a call that can switch actors (execute, sleep, put, get).
+
+use super::ffi::{self, clock, execute, sleep_for, Host, Mailbox};
+use crate::sched::{Policy, Requeue};
+use crate::simulate::job::{SimJob, SimOutcome, REFERENCE_FLOPS};
+use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::rc::Rc;
+
+/// Bytes of a message that carries nothing but its envelope (a steal request, an empty grab).
+const EMPTY_MESSAGE: u64 = 1;
+
+/// Tallies every protocol fills in.
+pub(crate) struct Tally {
+    pub(crate) out: SimOutcome,
+    done: Vec<bool>,
+    /// Simulated time each worker finished its last item (or its host went off).
+    end: Vec<f64>,
+    /// Last arrival of a result at the master's host.
+    last_result: f64,
+    lost: Vec<bool>,
+}
+
+type Shared<T> = Rc<RefCell<T>>;
+
+/// Everything one run's actors share.
+pub(crate) struct World {
+    pub(crate) job: SimJob,
+    pub(crate) master_host: Host,
+    pub(crate) worker_hosts: Vec<Host>,
+    pub(crate) tally: Shared<Tally>,
+}
+
+impl World {
+    pub(crate) fn new(job: SimJob, master_host: Host, worker_hosts: Vec<Host>) -> Self {
+        let (n, w) = (job.cost_s.len(), job.workers);
+        let tally = Tally {
+            out: SimOutcome {
+                busy_s: vec![0.0; w],
+                worker_items: vec![0; w],
+                ..Default::default()
+            },
+            done: vec![false; n],
+            end: vec![0.0; w],
+            last_result: 0.0,
+            lost: vec![false; w],
+        };
+        Self {
+            job,
+            master_host,
+            worker_hosts,
+            tally: Rc::new(RefCell::new(tally)),
+        }
+    }
+
+    /// The outcome once the simulation has ended.
+    pub(crate) fn finish(&self) -> SimOutcome {
+        let t = self.tally.borrow();
+        let mut out = t.out.clone();
+        out.done = t.done.iter().filter(|d| **d).count() as u64;
+        let ends = t.end.iter().cloned().fold(0.0, f64::max);
+        out.wall_s = out.wall_s.max(ends).max(t.last_result);
+        out.lost_workers = t.lost.iter().filter(|l| **l).count() as u64;
+        if out.error.is_none() && out.done < t.done.len() as u64 {
+            out.error = Some(format!(
+                "{} of {} items lost with {} worker(s); '{}' cannot redo them",
+                t.done.len() as u64 - out.done,
+                t.done.len(),
+                out.lost_workers,
+                self.job.scheduler
+            ));
+        }
+        out
+    }
+}
+
+/// Execute `items` on the calling worker `w` (one execution for all of them: fewer activities)
+/// and count them done.
+fn work(tally: &Shared<Tally>, job: &SimJob, w: usize, items: &[usize]) {
+    let cost: f64 = items.iter().map(|&i| job.cost_s[i]).sum();
+    let t0 = clock();
+    execute(cost * REFERENCE_FLOPS);
+    let mut t = tally.borrow_mut();
+    let now = clock();
+    t.out.busy_s[w] += now - t0;
+    t.out.worker_items[w] += items.len() as u64;
+    t.end[w] = now;
+    for &i in items {
+        if std::mem::replace(&mut t.done[i], true) {
+            t.out.duplicates += 1;
+        }
+    }
+}
+
+fn count_message(tally: &Shared<Tally>, bytes: u64) {
+    let mut t = tally.borrow_mut();
+    t.out.messages += 1;
+    t.out.bytes += bytes;
+}
+
+fn result_bytes(job: &SimJob, items: &[usize]) -> u64 {
+    items
+        .iter()
+        .map(|&i| job.result_bytes[i] as u64)
+        .sum::<u64>()
+        .max(EMPTY_MESSAGE)
+}
+
+fn item_bytes(job: &SimJob, items: &[usize]) -> u64 {
+    items
+        .iter()
+        .map(|&i| job.item_bytes[i] as u64)
+        .sum::<u64>()
+        .max(EMPTY_MESSAGE)
+}
+
+/// Start the actors of `world.job`'s scheduler. Adding a scheduler: one arm here and, when it
+/// grabs from a shared counter, one arm in [`grab_rule`].
+pub(crate) fn spawn_protocol(world: Rc<World>, policy: Policy) {
+    spawn_killers(&world, &policy);
+    match policy {
+        Policy::Static => static_split(world, |n, w, k| (k * n / w..(k + 1) * n / w).collect()),
+        Policy::StaticCyclic => static_split(world, |n, w, k| (k..n).step_by(w).collect()),
+        Policy::Master(p) => master(world, p.buffer, p.requeue),
+        Policy::WorkStealing(p) => stealing(world, p.grab),
+        Policy::WorkStealingDeque => stealing(world, 1),
+        Policy::SelfScheduling(_) | Policy::Guided(_) => counter(world, grab_rule(&policy)),
+    }
+}
+
+/// How many items a grab from the shared counter takes, given the next free item, the item
+/// count and the worker count: the chunk-size sequence of a self-scheduling family member.
+pub(crate) fn grab_rule(policy: &Policy) -> Box<dyn Fn(usize, usize, usize) -> usize> {
+    match *policy {
+        Policy::SelfScheduling(p) => Box::new(move |next, n, _| p.grab.min(n - next)),
+        Policy::Guided(p) => Box::new(move |next, n, w| {
+            let rest = n - next;
+            p.grab.max(rest.div_ceil(p.guided_k * w)).min(rest)
+        }),
+        _ => Box::new(|next, n, _| 1.min(n - next)),
+    }
+}
+
+/// Turn the lost workers' hosts off at their times; the master hears of it at once (a local
+/// source's failure is seen on its next result; over MPI after a silence, not modelled).
+fn spawn_killers(world: &Rc<World>, policy: &Policy) {
+    for lost in world.job.lost.clone() {
+        let w = Rc::clone(world);
+        let tells_master = matches!(policy, Policy::Master(_));
+        ffi::spawn("killer", world.master_host, true, move || {
+            sleep_for(lost.at_s);
+            let host = w.worker_hosts[lost.worker];
+            {
+                let mut t = w.tally.borrow_mut();
+                for (k, h) in w.worker_hosts.iter().enumerate() {
+                    if *h == host && !t.lost[k] {
+                        t.lost[k] = true;
+                        t.end[k] = t.end[k].min(lost.at_s);
+                    }
+                }
+            }
+            host.turn_off();
+            if tells_master {
+                Mailbox::<MasterMsg>::by_name("master")
+                    .put_detached(MasterMsg::Lost, EMPTY_MESSAGE);
+            }
+        });
+    }
+}
+
+/// `static` / `static_cyclic`: each worker computes its fixed share; no messages.
+fn static_split(world: Rc<World>, share: fn(usize, usize, usize) -> Vec<usize>) {
+    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+    for k in 0..w {
+        let wd = Rc::clone(&world);
+        let items = share(n, w, k);
+        ffi::spawn("worker", world.worker_hosts[k], false, move || {
+            wd.tally.borrow_mut().out.issued += items.len() as u64;
+            work(&wd.tally, &wd.job, k, &items);
+        });
+    }
+}
+
+/// A grab request: the worker, and the results of its previous grab riding with it (over MPI
+/// the RESULT message is the request).
+struct Request {
+    worker: usize,
+}
+
+/// Self-scheduling family: a counter actor on the master's host answers each request with the
+/// next `rule(next, n, workers)` items; an empty answer ends the worker.
+fn counter(world: Rc<World>, rule: Box<dyn Fn(usize, usize, usize) -> usize>) {
+    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+    let wd = Rc::clone(&world);
+    ffi::spawn("counter", world.master_host, true, move || {
+        let inbox = Mailbox::<Request>::by_name("counter");
+        inbox.set_receiver();
+        let mut next = 0;
+        loop {
+            let req = inbox.get();
+            sleep_for(wd.job.counter_s);
+            let c = if next < n { rule(next, n, w).max(1) } else { 0 };
+            let items: Vec<usize> = (next..next + c).collect();
+            next += c;
+            let bytes = item_bytes(&wd.job, &items);
+            wd.tally.borrow_mut().out.issued += c as u64;
+            count_message(&wd.tally, bytes);
+            Mailbox::<Vec<usize>>::by_name(&format!("w{}", req.worker)).put_detached(items, bytes);
+        }
+    });
+    for k in 0..w {
+        let wd = Rc::clone(&world);
+        ffi::spawn("worker", world.worker_hosts[k], false, move || {
+            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
+            inbox.set_receiver();
+            let counter = Mailbox::<Request>::by_name("counter");
+            let mut last: Vec<usize> = Vec::new();
+            loop {
+                let bytes = result_bytes(&wd.job, &last);
+                count_message(&wd.tally, bytes);
+                counter.put_detached(Request { worker: k }, bytes);
+                let items = inbox.get();
+                if items.is_empty() {
+                    let mut t = wd.tally.borrow_mut();
+                    t.end[k] = clock();
+                    return;
+                }
+                work(&wd.tally, &wd.job, k, &items);
+                last = items;
+            }
+        });
+    }
+}
+
+/// Results of stolen or own work travel to the master's host (nothing waits for them; the run
+/// ends when the last one has arrived).
+fn result_sink(world: &Rc<World>) {
+    let wd = Rc::clone(world);
+    ffi::spawn("sink", world.master_host, true, move || {
+        let inbox = Mailbox::<()>::by_name("sink");
+        inbox.set_receiver();
+        loop {
+            inbox.get();
+            wd.tally.borrow_mut().last_result = clock();
+        }
+    });
+}
+
+/// Work stealing: worker k starts with the contiguous band k of the items in its deque, takes
+/// `grab` items at a time from its front, and when empty asks a random victim's steal server
+/// (an actor on the victim's host) for the back half of the victim's deque. Rayon's recursive
+/// splitting is modelled by these halves.
+fn stealing(world: Rc<World>, grab: usize) {
+    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+    let deques: Shared<Vec<VecDeque<usize>>> = Rc::new(RefCell::new(
+        (0..w)
+            .map(|k| (k * n / w..(k + 1) * n / w).collect())
+            .collect(),
+    ));
+    let unassigned = Rc::new(RefCell::new(n));
+    world.tally.borrow_mut().out.issued = n as u64;
+    result_sink(&world);
+    for k in 0..w {
+        let (wd, dq, left) = (
+            Rc::clone(&world),
+            Rc::clone(&deques),
+            Rc::clone(&unassigned),
+        );
+        ffi::spawn("steal-server", world.worker_hosts[k], true, move || {
+            let inbox = Mailbox::<usize>::by_name(&format!("steal{k}"));
+            inbox.set_receiver();
+            loop {
+                let thief = inbox.get();
+                sleep_for(wd.job.counter_s);
+                let loot: Vec<usize> = {
+                    let mut d = dq.borrow_mut();
+                    let keep = d[k].len() / 2;
+                    d[k].split_off(keep).into()
+                };
+                *left.borrow_mut() -= loot.len();
+                let bytes = item_bytes(&wd.job, &loot);
+                count_message(&wd.tally, bytes);
+                Mailbox::<Vec<usize>>::by_name(&format!("w{thief}")).put_detached(loot, bytes);
+            }
+        });
+    }
+    let mut seed = world.job.seed | 1;
+    for k in 0..w {
+        let (wd, dq, left) = (
+            Rc::clone(&world),
+            Rc::clone(&deques),
+            Rc::clone(&unassigned),
+        );
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let mut rng = seed;
+        ffi::spawn("worker", world.worker_hosts[k], false, move || {
+            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
+            inbox.set_receiver();
+            let sink = Mailbox::<()>::by_name("sink");
+            loop {
+                let items: Vec<usize> = {
+                    let mut d = dq.borrow_mut();
+                    let take = grab.min(d[k].len());
+                    d[k].drain(..take).collect()
+                };
+                if !items.is_empty() {
+                    *left.borrow_mut() -= items.len();
+                    work(&wd.tally, &wd.job, k, &items);
+                    let bytes = result_bytes(&wd.job, &items);
+                    count_message(&wd.tally, bytes);
+                    sink.put_detached((), bytes);
+                    continue;
+                }
+                if *left.borrow() == 0 || w == 1 {
+                    return;
+                }
+                // xorshift: a victim other than k.
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                let victim = (k + 1 + (rng % (w as u64 - 1)) as usize) % w;
+                count_message(&wd.tally, EMPTY_MESSAGE);
+                Mailbox::<usize>::by_name(&format!("steal{victim}")).put_detached(k, EMPTY_MESSAGE);
+                let loot = inbox.get();
+                *left.borrow_mut() += loot.len();
+                dq.borrow_mut()[k].extend(loot);
+            }
+        });
+    }
+}
+
+/// What reaches the master: a result, or the news that a worker's host went off.
+enum MasterMsg {
+    Result { worker: usize, item: usize },
+    Lost,
+}
+
+/// The master's ledger: the same rules as `sched::master` (FIFO queue; ≤ B fresh items per
+/// worker; under a re-queue policy a handed-out item goes to the back of the queue and is
+/// handed out again when met unfinished, never to the worker holding it).
+struct Ledger {
+    queue: VecDeque<usize>,
+    handed: Vec<bool>,
+    done: Vec<bool>,
+    done_count: usize,
+    held: Vec<Vec<usize>>,
+    alive: Vec<bool>,
+    known_lost: usize,
+    buffer: usize,
+    requeue: Requeue,
+}
+
+impl Ledger {
+    fn top_up(&mut self, k: usize) -> (Vec<usize>, u64) {
+        let mut batch = Vec::new();
+        let mut reissued = 0;
+        let len = self.queue.len();
+        let mut scanned = 0;
+        while self.held[k].len() < self.buffer && scanned < len {
+            let Some(i) = self.queue.pop_front() else {
+                break;
+            };
+            scanned += 1;
+            if self.done[i] {
+                continue;
+            }
+            if self.handed[i] {
+                // Timeout re-queue is simulated like seed: no wall clock to compare with.
+                if self.requeue == Requeue::Never || self.held[k].contains(&i) {
+                    self.queue.push_back(i);
+                    continue;
+                }
+                reissued += 1;
+            }
+            self.handed[i] = true;
+            self.held[k].push(i);
+            batch.push(i);
+            if self.requeue != Requeue::Never {
+                self.queue.push_back(i);
+            }
+        }
+        (batch, reissued)
+    }
+}
+
+/// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue.
+fn master(world: Rc<World>, buffer: usize, requeue: Requeue) {
+    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+    for k in 0..w {
+        let wd = Rc::clone(&world);
+        ffi::spawn("worker", world.worker_hosts[k], true, move || {
+            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
+            inbox.set_receiver();
+            let master = Mailbox::<MasterMsg>::by_name("master");
+            let mut local: VecDeque<usize> = VecDeque::new();
+            loop {
+                while local.is_empty() || inbox.has_message() {
+                    local.extend(inbox.get());
+                }
+                let Some(item) = local.pop_front() else {
+                    continue;
+                };
+                work(&wd.tally, &wd.job, k, &[item]);
+                let bytes = wd.job.result_bytes[item] as u64;
+                count_message(&wd.tally, bytes);
+                master.put_detached(MasterMsg::Result { worker: k, item }, bytes);
+            }
+        });
+    }
+    let wd = world;
+    ffi::spawn("master", wd.master_host, false, move || {
+        let inbox = Mailbox::<MasterMsg>::by_name("master");
+        inbox.set_receiver();
+        let mut l = Ledger {
+            queue: (0..n).collect(),
+            handed: vec![false; n],
+            done: vec![false; n],
+            done_count: 0,
+            held: vec![Vec::new(); w],
+            alive: vec![true; w],
+            known_lost: 0,
+            buffer,
+            requeue,
+        };
+        let hand_out = |l: &mut Ledger, k: usize| {
+            let (batch, reissued) = l.top_up(k);
+            if batch.is_empty() {
+                return;
+            }
+            let t0 = clock();
+            execute(wd.job.master_h_s * batch.len() as f64 * REFERENCE_FLOPS);
+            let bytes = item_bytes(&wd.job, &batch);
+            {
+                let mut t = wd.tally.borrow_mut();
+                t.out.dispatch_s += clock() - t0;
+                t.out.issued += batch.len() as u64;
+                t.out.reissued += reissued;
+            }
+            count_message(&wd.tally, bytes);
+            Mailbox::<Vec<usize>>::by_name(&format!("w{k}")).put_detached(batch, bytes);
+        };
+        for k in 0..w {
+            hand_out(&mut l, k);
+        }
+        while l.done_count < n {
+            match inbox.get() {
+                MasterMsg::Result { worker, item } => {
+                    wd.tally.borrow_mut().last_result = clock();
+                    l.held[worker].retain(|&i| i != item);
+                    if !std::mem::replace(&mut l.done[item], true) {
+                        l.done_count += 1;
+                    }
+                    if l.alive[worker] {
+                        hand_out(&mut l, worker);
+                    }
+                }
+                MasterMsg::Lost => {
+                    let lost: Vec<bool> = wd.tally.borrow().lost.clone();
+                    for k in 0..w {
+                        if lost[k] && l.alive[k] {
+                            l.alive[k] = false;
+                            for i in std::mem::take(&mut l.held[k]) {
+                                if !l.done[i] {
+                                    match l.requeue {
+                                        Requeue::Never => l.known_lost += 1,
+                                        _ => l.handed[i] = false,
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if l.known_lost > 0 || !l.alive.iter().any(|a| *a) {
+                        let mut t = wd.tally.borrow_mut();
+                        t.out.error = Some(format!(
+                            "{} items lost with their worker; re-queue policy '{}' cannot redo them",
+                            n - l.done_count,
+                            l.requeue
+                        ));
+                        t.out.wall_s = clock();
+                        return;
+                    }
+                    // Workers left idle by the loss get the re-queued items now.
+                    for k in 0..w {
+                        if l.alive[k] && l.held[k].is_empty() {
+                            hand_out(&mut l, k);
+                        }
+                    }
+                }
+            }
+        }
+        wd.tally.borrow_mut().out.wall_s = clock();
+    });
+}

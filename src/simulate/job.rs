@@ -1,0 +1,128 @@
+//! What one simulated run needs (a [`SimJob`]) and what it reports (a [`SimOutcome`]). Both
+//! travel as TOML between `raysched simulate` and the child process that runs SimGrid (the
+//! engine cannot be re-created in one process, and a malformed platform aborts the process).
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// Flop/s of the machine the costs were measured on: a host of speed `1Gf` in a platform file
+/// runs an item in exactly its measured time; `2Gf` in half of it.
+pub const REFERENCE_FLOPS: f64 = 1e9;
+
+/// A worker whose host is turned off at `at_s` seconds of simulated time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LostWorker {
+    /// The worker's index (0-based; its host is turned off, so every worker on it is lost).
+    pub worker: usize,
+    /// Simulated seconds after the start.
+    pub at_s: f64,
+}
+
+/// One simulated run, every input measured (see [`crate::simulate::inputs`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimJob {
+    /// The SimGrid platform XML file.
+    pub platform: PathBuf,
+    /// Scheduler id ([`crate::sched::SchedulerKind`]).
+    pub scheduler: String,
+    /// The scheduler's parameters in their text form (the spec's `get`/`set`).
+    pub params: BTreeMap<String, String>,
+    /// Simulated workers.
+    pub workers: usize,
+    /// Seconds each item takes on a reference core, by item id.
+    pub cost_s: Vec<f64>,
+    /// Bytes of each item's ITEM message entry (`sched::wire::item_bytes`).
+    pub item_bytes: Vec<u32>,
+    /// Bytes of each item's RESULT message entry (`sched::wire::result_bytes` + busy time).
+    pub result_bytes: Vec<u32>,
+    /// The master's cost per hand-out, seconds (zero-work dispatch at this buffer).
+    pub master_h_s: f64,
+    /// The shared counter's cost per grab, seconds (zero-work self-scheduling, grab 1); also
+    /// the cost of one steal.
+    pub counter_s: f64,
+    /// Workers lost during the run.
+    pub lost: Vec<LostWorker>,
+    /// Seed of the work-stealing victim choice.
+    pub seed: u64,
+}
+
+/// What a simulated run measured, in the terms of [`crate::metrics::RunStats`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SimOutcome {
+    /// Simulated wall time, seconds.
+    pub wall_s: f64,
+    /// Simulated busy seconds per worker.
+    pub busy_s: Vec<f64>,
+    /// Items each worker rendered.
+    pub worker_items: Vec<u64>,
+    /// Simulated seconds the master spent handing out (0 without a master).
+    pub dispatch_s: f64,
+    /// Hand-outs, re-issues included (grabs count their items).
+    pub issued: u64,
+    /// Hand-outs of an item already handed out.
+    pub reissued: u64,
+    /// Results for an item already done.
+    pub duplicates: u64,
+    /// Simulated bytes of every message.
+    pub bytes: u64,
+    /// Messages sent.
+    pub messages: u64,
+    /// Items with a result.
+    pub done: u64,
+    /// Workers lost.
+    pub lost_workers: u64,
+    /// Why the run did not finish (items lost that the scheduler cannot redo), if it did not.
+    pub error: Option<String>,
+    /// Seconds of real time the simulation took.
+    pub host_s: f64,
+}
+
+/// A platform's hosts as SimGrid read them.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PlatformInfo {
+    /// (name, flop/s of one core, cores), in placement order ([`placement_order`]).
+    pub hosts: Vec<(String, f64, usize)>,
+}
+
+impl PlatformInfo {
+    /// Workers the platform can hold, one per core: every core of a one-host platform (the
+    /// master shares the node), else every core of the hosts after the first (the master's).
+    pub fn worker_slots(&self) -> usize {
+        match self.hosts.len() {
+            0 => 0,
+            1 => self.hosts[0].2,
+            _ => self.hosts[1..].iter().map(|h| h.2).sum(),
+        }
+    }
+    /// Host index of each of `workers` workers (hosts filled core by core, in order), and the
+    /// master's host index.
+    pub fn placement(&self, workers: usize) -> (usize, Vec<usize>) {
+        let first = usize::from(self.hosts.len() > 1);
+        let mut out = Vec::with_capacity(workers);
+        for (i, h) in self.hosts.iter().enumerate().skip(first) {
+            for _ in 0..h.2 {
+                if out.len() == workers {
+                    return (0, out);
+                }
+                out.push(i);
+            }
+        }
+        (0, out)
+    }
+}
+
+/// Hosts sorted by name with their trailing number compared as a number (`node-2` before
+/// `node-10`): the order workers are placed in.
+pub fn placement_order(a: &str, b: &str) -> std::cmp::Ordering {
+    let split = |s: &str| {
+        let digits = s.len() - s.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+        let (head, tail) = s.split_at(s.len() - digits);
+        (
+            head.to_string(),
+            tail.parse::<u64>().unwrap_or(0),
+            s.to_string(),
+        )
+    };
+    split(a).cmp(&split(b))
+}

@@ -1,0 +1,13 @@
+//! Simulating schedulers beyond this machine: the measured inputs ([`inputs`]), the
+//! experiment file ([`config`]), the sweep ([`sweep`]), the validation against measured runs
+//! ([`validate`]) and the plots ([`plot`]). The simulations themselves run SimGrid
+//! ([`crate::simgrid`], feature `simgrid`) in a child process each ([`child`]); this module
+//! builds without the feature.
+
+pub mod child;
+pub mod config;
+pub mod inputs;
+pub mod job;
+pub mod plot;
+pub mod sweep;
+pub mod validate;

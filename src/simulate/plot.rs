@@ -1,0 +1,352 @@
+//! Plots of a simulation: speedup against simulated workers, efficiency against chunk size per
+//! worker count, the master's saturation against its analytic limit 1/h, and the validation.
+
+use super::sweep::{Inputs, SimRow};
+use super::validate::Validation;
+use crate::sched::{Chunk, Policy};
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+type Series = Vec<(String, Vec<(f64, f64)>)>;
+
+fn e<T: std::fmt::Display>(err: T) -> String {
+    err.to_string()
+}
+
+const COLOURS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+/// A line chart; `hlines` are dashed horizontal references (the analytic limits).
+fn chart(
+    path: &Path,
+    title: &str,
+    x: &str,
+    y: &str,
+    data: &Series,
+    log2_x: bool,
+    hlines: &[(f64, String)],
+    log_y: bool,
+) -> Result<(), String> {
+    crate::plot::register_font();
+    let pts = data.iter().flat_map(|(_, p)| p.iter()).chain([]);
+    let (mut x0, mut x1, mut y1, mut y0) = (f64::MAX, f64::MIN, f64::MIN, f64::MAX);
+    for &(a, b) in pts {
+        x0 = x0.min(a);
+        x1 = x1.max(a);
+        y0 = y0.min(b);
+        y1 = y1.max(b);
+    }
+    for (h, _) in hlines {
+        y1 = y1.max(*h);
+        y0 = y0.min(*h);
+    }
+    if x0 > x1 {
+        return Ok(());
+    }
+    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let pad = ((x1 - x0) * 0.05).max(0.5);
+    let fmt_x = |v: &f64| {
+        if log2_x && (v - v.round()).abs() < 1e-6 {
+            format!("{}", 2f64.powf(v.round()) as u64)
+        } else if log2_x {
+            String::new()
+        } else {
+            format!("{v:.3}")
+        }
+    };
+    macro_rules! draw {
+        ($chart:expr) => {{
+            let mut c = $chart;
+            c.configure_mesh()
+                .x_desc(x)
+                .y_desc(y)
+                .x_label_formatter(&fmt_x)
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 16))
+                .draw()
+                .map_err(e)?;
+            for (i, (name, p)) in data.iter().enumerate() {
+                let col = COLOURS[i % COLOURS.len()];
+                c.draw_series(LineSeries::new(p.clone(), col.stroke_width(2)))
+                    .map_err(e)?
+                    .label(name.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                    });
+                c.draw_series(p.iter().map(|&q| Circle::new(q, 3, col.filled())))
+                    .map_err(e)?;
+            }
+            for (h, name) in hlines {
+                c.draw_series(DashedLineSeries::new(
+                    vec![(x0 - pad, *h), (x1 + pad, *h)],
+                    6,
+                    4,
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(e)?
+                .label(name.clone())
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+            }
+            c.configure_series_labels()
+                .label_font(("sans-serif", 12))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()
+                .map_err(e)?;
+        }};
+    }
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(75);
+    if log_y {
+        let c = builder
+            .build_cartesian_2d(
+                (x0 - pad)..(x1 + pad),
+                (y0.max(1e-12) / 1.5..y1 * 1.5).log_scale(),
+            )
+            .map_err(e)?;
+        draw!(c);
+    } else {
+        let c = builder
+            .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.15).max(1e-9))
+            .map_err(e)?;
+        draw!(c);
+    }
+    root.present().map_err(e)?;
+    Ok(())
+}
+
+fn slug(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+/// The label of `row`'s configuration without its chunk (the lines of the efficiency plot).
+fn without_chunk(row: &SimRow) -> String {
+    let mut s = row.spec.clone();
+    s.chunk = Chunk::Frame;
+    s.label().replace(" chunk=frame", "")
+}
+
+/// Every simulation plot into `dir`; returns their file names.
+pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>, String> {
+    let mut files = Vec::new();
+    let ok: Vec<&SimRow> = rows.iter().filter(|r| r.out.error.is_none()).collect();
+    let platforms: Vec<String> = {
+        let mut p: Vec<String> = rows.iter().map(|r| r.platform.clone()).collect();
+        p.dedup();
+        p
+    };
+    for p in &platforms {
+        let on: Vec<&&SimRow> = ok.iter().filter(|r| &r.platform == p).collect();
+        // Speedup vs workers.
+        let mut by_label: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        for r in &on {
+            by_label
+                .entry(r.spec.label())
+                .or_default()
+                .push(((r.spec.workers as f64).log2(), r.speedup()));
+        }
+        let f = format!("speedup_vs_workers_{}.png", slug(p));
+        chart(
+            &dir.join(&f),
+            &format!("{p}: simulated speedup"),
+            "simulated workers (log₂)",
+            "speedup over serial",
+            &by_label.into_iter().collect(),
+            true,
+            &[],
+            true,
+        )?;
+        files.push(f);
+        // Efficiency vs chunk, one plot per configuration without chunk, a line per worker count.
+        let mut groups: BTreeMap<String, BTreeMap<usize, Vec<(f64, f64)>>> = BTreeMap::new();
+        for r in &on {
+            groups
+                .entry(without_chunk(r))
+                .or_default()
+                .entry(r.spec.workers)
+                .or_default()
+                .push(((r.chunk_px as f64).log2(), r.efficiency()));
+        }
+        for (g, lines) in groups {
+            if lines.values().all(|v| v.len() < 2) {
+                continue;
+            }
+            let data: Series = lines
+                .into_iter()
+                .map(|(w, mut v)| {
+                    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    (format!("{w} workers"), v)
+                })
+                .collect();
+            let f = format!("efficiency_vs_chunk_{}_{}.png", slug(p), slug(&g));
+            chart(
+                &dir.join(&f),
+                &format!("{p}: {g}"),
+                "pixels per item (log₂)",
+                "efficiency (speedup / workers)",
+                &data,
+                true,
+                &[],
+                false,
+            )?;
+            files.push(f);
+        }
+        // Master saturation: items per second against the analytic 1/h.
+        let mut sat: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+        let mut limits = Vec::new();
+        for r in &on {
+            if let Policy::Master(m) = r.spec.policy {
+                sat.entry(r.spec.label()).or_default().push((
+                    (r.spec.workers as f64).log2(),
+                    r.items as f64 / r.out.wall_s,
+                ));
+                if let Some(h) = inputs.master_h_s.get(&m.buffer) {
+                    let line = (
+                        1.0 / h,
+                        format!("1/h at B={} ({:.0} ns)", m.buffer, h * 1e9),
+                    );
+                    if !limits.iter().any(|l: &(f64, String)| l.1 == line.1) {
+                        limits.push(line);
+                    }
+                }
+            }
+        }
+        if !sat.is_empty() {
+            let f = format!("master_saturation_{}.png", slug(p));
+            chart(
+                &dir.join(&f),
+                &format!("{p}: master throughput vs its limit 1/h"),
+                "simulated workers (log₂)",
+                "items per second",
+                &sat.into_iter().collect(),
+                true,
+                &limits,
+                true,
+            )?;
+            files.push(f);
+        }
+    }
+    Ok(files)
+}
+
+/// Simulated against measured wall time, one point per configuration, with y = x.
+pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
+    let mut by_workers: BTreeMap<usize, Vec<(f64, f64)>> = BTreeMap::new();
+    for c in &v.rows {
+        by_workers
+            .entry(c.spec.workers)
+            .or_default()
+            .push((c.measured.0, c.simulated));
+    }
+    crate::plot::register_font();
+    let f = "validation.png".to_string();
+    let path = dir.join(&f);
+    let hi = v
+        .rows
+        .iter()
+        .map(|c| c.measured.2.max(c.simulated))
+        .fold(0.0, f64::max)
+        * 1.1;
+    let root = BitMapBackend::new(&path, (700, 640)).into_drawing_area();
+    root.fill(&WHITE).map_err(e)?;
+    let mut c = ChartBuilder::on(&root)
+        .caption(
+            format!("simulated ({}) vs measured wall time", v.platform),
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..hi, 0.0..hi)
+        .map_err(e)?;
+    c.configure_mesh()
+        .x_desc("measured wall, s (median; bar: min–max)")
+        .y_desc("simulated wall, s")
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    for (k, band) in [
+        (1.0, BLACK),
+        (1.05, RGBColor(160, 160, 160)),
+        (0.95, RGBColor(160, 160, 160)),
+    ] {
+        c.draw_series(LineSeries::new(
+            vec![(0.0, 0.0), (hi, hi * k)],
+            band.stroke_width(1),
+        ))
+        .map_err(e)?;
+    }
+    for (i, (w, pts)) in by_workers.iter().enumerate() {
+        let col = COLOURS[i % COLOURS.len()];
+        c.draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
+            .map_err(e)?
+            .label(format!("{w} worker(s)"))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
+    }
+    for (i, (w, _)) in by_workers.iter().enumerate() {
+        let col = COLOURS[i % COLOURS.len()];
+        for r in v.rows.iter().filter(|r| r.spec.workers == *w) {
+            c.draw_series(LineSeries::new(
+                vec![(r.measured.1, r.simulated), (r.measured.2, r.simulated)],
+                col.stroke_width(1),
+            ))
+            .map_err(e)?;
+        }
+    }
+    c.configure_series_labels()
+        .label_font(("sans-serif", 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(e)?;
+    root.present().map_err(e)?;
+    Ok(vec![f])
+}
+
+/// The simulated rows as a markdown table, with the measured inputs.
+pub fn summary_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
+    let mut s = format!(
+        "## Simulated runs\n\nInputs (measured): probe {}×{} px, serial {:.4} s; shared counter {:.1} ns per grab; master h {}.\n\n| platform | configuration | workers | wall s | speedup | efficiency | dispatch s | imbalance | messages | bytes | note |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        inputs.pixels.width,
+        inputs.pixels.height,
+        inputs.pixels.serial_s(),
+        inputs.counter_s * 1e9,
+        inputs.master_h_s.iter().map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9)).collect::<Vec<_>>().join(", ")
+    );
+    for r in rows {
+        s += &format!(
+            "| {} | {} | {} | {:.5} | {:.2} | {:.3} | {:.5} | {:.3} | {} | {} | {} |\n",
+            r.platform,
+            r.spec.label(),
+            r.spec.workers,
+            r.out.wall_s,
+            r.speedup(),
+            r.efficiency(),
+            r.out.dispatch_s,
+            r.imbalance(),
+            r.out.messages,
+            r.out.bytes,
+            r.out.error.as_deref().unwrap_or("")
+        );
+    }
+    s
+}

@@ -1,0 +1,368 @@
+//! `raysched simulate`: measure the inputs once, simulate every platform × scheduler × worker
+//! count in a child process each, write `sim_runs.csv`, `inputs.toml`, plots and `report.md`.
+
+use super::config::{Platform, SimPlan};
+use super::inputs::{self, ItemInputs, PixelCosts};
+use super::job::{SimJob, SimOutcome};
+use super::{child, plot, validate};
+use crate::sched::{param_columns, Chunk, Order, Policy, SchedulerSpec};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The measured inputs every simulated run of one experiment shares.
+pub struct Inputs {
+    /// Per-pixel costs of the probe render.
+    pub pixels: PixelCosts,
+    /// The master's h per buffer size, seconds.
+    pub master_h_s: BTreeMap<usize, f64>,
+    /// The shared counter's cost per grab, seconds.
+    pub counter_s: f64,
+    /// Item inputs per (chunk, order), computed once.
+    items: BTreeMap<(String, String), Arc<ItemInputs>>,
+}
+
+impl Inputs {
+    /// Measure everything `specs` need: the probe render of the plan's scene, h for each
+    /// buffer size, the counter's cost.
+    pub fn measure(
+        plan: &SimPlan,
+        overrides: &crate::scene::SceneOverrides,
+        specs: &[SchedulerSpec],
+        quiet: bool,
+    ) -> anyhow::Result<Self> {
+        let scene = Arc::new(
+            crate::scene::load_scene(&plan.scene, overrides)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
+        );
+        let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
+        let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions)
+            .map_err(anyhow::Error::msg)?;
+        let (n, workers, reps) = plan.dispatch;
+        let mut master_h_s = BTreeMap::new();
+        for s in specs {
+            if let Policy::Master(p) = s.policy {
+                if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
+                    e.insert(
+                        inputs::master_h_s(p.buffer, n, workers, reps)
+                            .map_err(anyhow::Error::msg)?,
+                    );
+                }
+            }
+        }
+        let counter_s = inputs::counter_s(n, workers, reps).map_err(anyhow::Error::msg)?;
+        if !quiet {
+            println!(
+                "probe: {}×{} px, serial {:.4} s (Σ pixels {:.4} s); counter {:.1} ns/grab; master h {}",
+                pixels.width,
+                pixels.height,
+                pixels.wall_s,
+                pixels.serial_s(),
+                counter_s * 1e9,
+                master_h_s.iter().map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9)).collect::<Vec<_>>().join(", ")
+            );
+        }
+        Ok(Self {
+            pixels,
+            master_h_s,
+            counter_s,
+            items: BTreeMap::new(),
+        })
+    }
+
+    fn items(&mut self, chunk: Chunk, order: Order) -> Arc<ItemInputs> {
+        let px = &self.pixels;
+        self.items
+            .entry((chunk.to_string(), order.id().to_string()))
+            .or_insert_with(|| Arc::new(ItemInputs::new(px, chunk, order)))
+            .clone()
+    }
+
+    /// The job simulating `spec` on `platform`.
+    pub fn job(&mut self, spec: &SchedulerSpec, platform: &Path, plan: &SimPlan) -> SimJob {
+        let items = self.items(spec.chunk, spec.order);
+        let params = spec
+            .policy
+            .info()
+            .iter()
+            .filter_map(|p| Some((p.name.to_string(), spec.get(p.name)?)))
+            .collect();
+        let master_h_s = match spec.policy {
+            Policy::Master(p) => self.master_h_s.get(&p.buffer).copied().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        SimJob {
+            platform: platform.to_path_buf(),
+            scheduler: spec.kind().id().to_string(),
+            params,
+            workers: spec.workers,
+            cost_s: items.cost_s.clone(),
+            item_bytes: items.item_bytes.clone(),
+            result_bytes: items.result_bytes.clone(),
+            master_h_s,
+            counter_s: self.counter_s,
+            lost: plan.lost.clone(),
+            seed: plan.seed,
+        }
+    }
+}
+
+/// One simulated run as a row of `sim_runs.csv`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimRow {
+    /// The platform file's stem.
+    pub platform: String,
+    /// The configuration simulated.
+    pub spec: SchedulerSpec,
+    /// Pixels per item.
+    pub chunk_px: u64,
+    /// Σ pixel costs of the probe: what speedup is relative to.
+    pub serial_s: f64,
+    /// Items in the decomposition.
+    pub items: usize,
+    /// What the simulation reported.
+    pub out: SimOutcome,
+}
+
+impl SimRow {
+    /// serial / wall.
+    pub fn speedup(&self) -> f64 {
+        self.serial_s / self.out.wall_s.max(1e-300)
+    }
+    /// speedup / workers.
+    pub fn efficiency(&self) -> f64 {
+        self.speedup() / self.spec.workers as f64
+    }
+    /// Σ (wall − busy) over workers.
+    pub fn idle_s(&self) -> f64 {
+        self.out
+            .busy_s
+            .iter()
+            .map(|b| (self.out.wall_s - b).max(0.0))
+            .sum()
+    }
+    /// max busy / mean busy.
+    pub fn imbalance(&self) -> f64 {
+        let b = &self.out.busy_s;
+        let mean = b.iter().sum::<f64>() / b.len().max(1) as f64;
+        let max = b.iter().cloned().fold(0.0, f64::max);
+        if mean > 0.0 {
+            max / mean
+        } else {
+            1.0
+        }
+    }
+
+    /// Column names of `sim_runs.csv`.
+    pub fn header() -> Vec<String> {
+        let mut h: Vec<String> = [
+            "simulated",
+            "platform",
+            "scheduler",
+            "label",
+            "chunk",
+            "chunk_px",
+            "order",
+        ]
+        .map(String::from)
+        .to_vec();
+        h.extend(param_columns().iter().map(|p| p.name.to_string()));
+        h.extend(
+            [
+                "workers",
+                "wall_s",
+                "serial_s",
+                "speedup",
+                "efficiency",
+                "dispatch_s",
+                "idle_s",
+                "imbalance",
+                "items",
+                "issued",
+                "reissued",
+                "duplicates",
+                "bytes",
+                "messages",
+                "lost_workers",
+                "completed",
+                "error",
+                "host_s",
+            ]
+            .map(String::from),
+        );
+        h
+    }
+
+    /// The row's cells in [`Self::header`] order.
+    pub fn record(&self) -> Vec<String> {
+        let s = &self.spec;
+        let o = &self.out;
+        let mut r = vec![
+            "true".into(),
+            self.platform.clone(),
+            s.kind().id().into(),
+            s.label(),
+            s.chunk.to_string(),
+            self.chunk_px.to_string(),
+            s.order.id().into(),
+        ];
+        r.extend(
+            param_columns()
+                .iter()
+                .map(|p| s.get(p.name).unwrap_or_default()),
+        );
+        r.extend([
+            s.workers.to_string(),
+            format!("{:.9}", o.wall_s),
+            format!("{:.9}", self.serial_s),
+            format!("{:.4}", self.speedup()),
+            format!("{:.4}", self.efficiency()),
+            format!("{:.9}", o.dispatch_s),
+            format!("{:.9}", self.idle_s()),
+            format!("{:.4}", self.imbalance()),
+            self.items.to_string(),
+            o.issued.to_string(),
+            o.reissued.to_string(),
+            o.duplicates.to_string(),
+            o.bytes.to_string(),
+            o.messages.to_string(),
+            o.lost_workers.to_string(),
+            o.error.is_none().to_string(),
+            o.error.clone().unwrap_or_default(),
+            format!("{:.3}", o.host_s),
+        ]);
+        r
+    }
+}
+
+/// Simulate `spec` (its worker count set) on `platform`.
+pub fn simulate_one(
+    inputs: &mut Inputs,
+    plan: &SimPlan,
+    exe: &Path,
+    platform: &Platform,
+    spec: &SchedulerSpec,
+) -> anyhow::Result<SimRow> {
+    let job = inputs.job(spec, &platform.path, plan);
+    let out = child::simulate(exe, &job).map_err(|m| {
+        anyhow::anyhow!(
+            "simulating {} on {} workers of {}: {m}",
+            spec.label(),
+            spec.workers,
+            platform.name
+        )
+    })?;
+    Ok(SimRow {
+        platform: platform.name.clone(),
+        spec: spec.clone(),
+        chunk_px: spec.chunk.pixels(inputs.pixels.width, inputs.pixels.height),
+        serial_s: inputs.pixels.serial_s(),
+        items: job.cost_s.len(),
+        out,
+    })
+}
+
+/// Write `rows` as CSV (atomically: a failed run leaves no partial file).
+pub fn write_rows(path: &Path, rows: &[SimRow]) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(SimRow::header())?;
+    for r in rows {
+        w.write_record(r.record())?;
+    }
+    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::experiment::run::write_atomic(path, &bytes)?;
+    Ok(())
+}
+
+/// Run the whole experiment; returns its results folder.
+pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Result<PathBuf> {
+    // The validation's measured runs are read first: a bad file fails before any measurement.
+    let measured = match &plan.validation {
+        Some((csv, _)) => Some(validate::measured_configs(csv)?),
+        None => None,
+    };
+    let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, quiet)?;
+    let mut rows = Vec::new();
+    for p in &plan.platforms {
+        for spec in &plan.specs {
+            for &w in &plan.workers {
+                let spec = SchedulerSpec {
+                    workers: w,
+                    ..spec.clone()
+                };
+                let row = simulate_one(&mut inputs, plan, exe, p, &spec)?;
+                if !quiet {
+                    println!(
+                        "{} {} workers={}: wall {:.4} s, speedup {:.2} ({:.1} s to simulate){}",
+                        p.name,
+                        spec.label(),
+                        w,
+                        row.out.wall_s,
+                        row.speedup(),
+                        row.out.host_s,
+                        row.out
+                            .error
+                            .as_deref()
+                            .map(|e| format!(" — {e}"))
+                            .unwrap_or_default()
+                    );
+                }
+                rows.push(row);
+            }
+        }
+    }
+    let validation = match (&plan.validation, &measured) {
+        (Some((_, platform)), Some((configs, overrides))) => {
+            let specs: Vec<SchedulerSpec> = configs.iter().map(|m| m.spec.clone()).collect();
+            let mut v_inputs = Inputs::measure(plan, overrides, &specs, quiet)?;
+            Some(validate::compare(
+                configs,
+                &mut v_inputs,
+                plan,
+                exe,
+                platform,
+                quiet,
+            )?)
+        }
+        _ => None,
+    };
+    let dir = out.join(&plan.name);
+    std::fs::create_dir_all(dir.join("plots"))?;
+    write_rows(&dir.join("sim_runs.csv"), &rows)?;
+    let inputs_toml = format!(
+        "# Measured inputs of every simulated run ({}).\nmachine = {:?}\nload_average = {:?}\nprobe_scene = {:?}\nprobe_pixels = {}\nprobe_wall_s = {}\nserial_s = {}\ncounter_s = {}\n[master_h_s]\n{}",
+        plan.file.display(),
+        crate::host::cpu_model(),
+        load_average(),
+        plan.scene.display().to_string(),
+        inputs.pixels.cost_s.len(),
+        inputs.pixels.wall_s,
+        inputs.pixels.serial_s(),
+        inputs.counter_s,
+        inputs.master_h_s.iter().map(|(b, h)| format!("B{b} = {h}\n")).collect::<String>()
+    );
+    crate::experiment::run::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
+    let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(anyhow::Error::msg)?;
+    let mut report = format!(
+        "# {} (simulated with SimGrid)\n\n{}\n\n",
+        plan.name, plan.description
+    );
+    if let Some(v) = &validation {
+        validate::write(&dir, v)?;
+        figures.extend(plot::validation(&dir.join("plots"), v).map_err(anyhow::Error::msg)?);
+        report += &validate::markdown(v);
+    }
+    report += &plot::summary_markdown(&rows, &inputs);
+    for f in &figures {
+        report += &format!("\n![{f}](plots/{f})\n");
+    }
+    crate::experiment::run::write_atomic(&dir.join("report.md"), report.as_bytes())?;
+    Ok(dir)
+}
+
+/// `/proc/loadavg`'s first three fields (the machine is shared: measured inputs are noisy).
+pub fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_default()
+}

@@ -1,0 +1,257 @@
+//! Simulated against measured: every configuration of a measured `runs.csv` (local threads)
+//! simulated on the validation platform with the same scheduler, chunk and worker count.
+
+use super::config::{Platform, SimPlan};
+use super::sweep::{simulate_one, Inputs};
+use crate::experiment::results::{read_runs, RunRow};
+use crate::scene::SceneOverrides;
+use crate::sched::{param_columns, Chunk, Order, SchedulerKind, SchedulerSpec};
+use std::path::Path;
+
+/// One measured configuration: its spec and its repetitions' wall times.
+#[derive(Clone, Debug)]
+pub struct Measured {
+    /// The configuration (workers set).
+    pub spec: SchedulerSpec,
+    /// Wall time of each repetition, seconds.
+    pub walls: Vec<f64>,
+    /// Median of the serial baseline it was compared with.
+    pub serial_s: f64,
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+fn spec_of(r: &RunRow) -> Result<SchedulerSpec, String> {
+    let kind = SchedulerKind::from_id(&r.scheduler).map_err(|e| e.msg)?;
+    let chunk = Chunk::parse(r.chunk.as_deref().unwrap_or("")).map_err(|e| e.msg)?;
+    let mut spec = SchedulerSpec::new(kind, chunk, r.workers);
+    if let Some(o) = &r.order {
+        spec.order = Order::from_id(o).map_err(|e| e.msg)?;
+    }
+    for p in param_columns() {
+        if let Some(v) = r.param(p.name) {
+            spec.set(p.name, v).map_err(|e| e.msg)?;
+        }
+    }
+    Ok(spec)
+}
+
+/// The local-thread configurations of `csv`, and the scene settings they were measured with
+/// (one size for all: the validation's probe renders the scene at it).
+pub fn measured_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)> {
+    let (rows, _) = read_runs(csv)?;
+    let mut out: Vec<Measured> = Vec::new();
+    let mut size: Option<(u32, u32, u32, i32)> = None;
+    for r in rows
+        .iter()
+        .filter(|r| r.sources == "local" && r.scheduler != "serial")
+    {
+        let this = (r.width, r.height, r.spp, r.max_depth);
+        if *size.get_or_insert(this) != this {
+            anyhow::bail!(
+                "{}: row {} renders {}×{} at {} spp, max_depth {}; a validation takes one scene setting",
+                csv.display(), r.label, r.width, r.height, r.spp, r.max_depth
+            );
+        }
+        let spec =
+            spec_of(r).map_err(|m| anyhow::anyhow!("{}: {}: {m}", csv.display(), r.label))?;
+        match out.iter_mut().find(|m| m.spec == spec) {
+            Some(m) => m.walls.push(r.wall_s),
+            None => out.push(Measured {
+                spec,
+                walls: vec![r.wall_s],
+                serial_s: r.serial_s,
+            }),
+        }
+    }
+    let Some((width, height, spp, max_depth)) = size else {
+        anyhow::bail!(
+            "{}: no local-thread scheduler rows to validate against",
+            csv.display()
+        );
+    };
+    let overrides = SceneOverrides {
+        width: Some(width),
+        height: Some(height),
+        spp: Some(spp),
+        max_depth: Some(max_depth),
+        ..Default::default()
+    };
+    Ok((out, overrides))
+}
+
+/// One configuration, measured and simulated.
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    /// The configuration.
+    pub spec: SchedulerSpec,
+    /// Measured wall: median, min, max over repetitions.
+    pub measured: (f64, f64, f64),
+    /// Repetitions measured.
+    pub repetitions: usize,
+    /// Simulated wall.
+    pub simulated: f64,
+    /// Measured speedup (serial median / median wall).
+    pub measured_speedup: f64,
+    /// Simulated speedup (Σ probe pixel costs / simulated wall).
+    pub simulated_speedup: f64,
+}
+
+impl Comparison {
+    /// (simulated − measured) / measured wall.
+    pub fn wall_error(&self) -> f64 {
+        (self.simulated - self.measured.0) / self.measured.0
+    }
+    /// (simulated − measured) / measured speedup.
+    pub fn speedup_error(&self) -> f64 {
+        (self.simulated_speedup - self.measured_speedup) / self.measured_speedup
+    }
+}
+
+/// The whole validation.
+#[derive(Clone, Debug)]
+pub struct Validation {
+    /// The platform simulated on.
+    pub platform: String,
+    /// Every configuration.
+    pub rows: Vec<Comparison>,
+    /// Pairs (same worker count) whose measured ranges do not overlap, and how many of them
+    /// the simulation orders the same way.
+    pub ranking: (usize, usize),
+    /// The machine's load average while the inputs were measured.
+    pub load: String,
+}
+
+/// Simulate every measured configuration on `platform`.
+pub fn compare(
+    measured: &[Measured],
+    inputs: &mut Inputs,
+    plan: &SimPlan,
+    exe: &Path,
+    platform: &Platform,
+    quiet: bool,
+) -> anyhow::Result<Validation> {
+    let mut rows = Vec::new();
+    for m in measured {
+        let sim = simulate_one(inputs, plan, exe, platform, &m.spec)?;
+        let med = median(&m.walls);
+        let lo = m.walls.iter().cloned().fold(f64::INFINITY, f64::min);
+        let hi = m.walls.iter().cloned().fold(0.0, f64::max);
+        let c = Comparison {
+            spec: m.spec.clone(),
+            measured: (med, lo, hi),
+            repetitions: m.walls.len(),
+            simulated: sim.out.wall_s,
+            measured_speedup: m.serial_s / med,
+            simulated_speedup: sim.speedup(),
+        };
+        if !quiet {
+            println!(
+                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %)",
+                c.spec.label(),
+                c.spec.workers,
+                med,
+                c.simulated,
+                100.0 * c.wall_error()
+            );
+        }
+        rows.push(c);
+    }
+    let mut ranking = (0, 0);
+    for (i, a) in rows.iter().enumerate() {
+        for b in &rows[i + 1..] {
+            if a.spec.workers != b.spec.workers {
+                continue;
+            }
+            let separated = a.measured.2 < b.measured.1 || b.measured.2 < a.measured.1;
+            if separated {
+                ranking.0 += 1;
+                if (a.measured.0 < b.measured.0) == (a.simulated < b.simulated) {
+                    ranking.1 += 1;
+                }
+            }
+        }
+    }
+    Ok(Validation {
+        platform: platform.name.clone(),
+        rows,
+        ranking,
+        load: super::sweep::load_average(),
+    })
+}
+
+/// `validation.csv` in `dir`.
+pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "platform",
+        "label",
+        "workers",
+        "repetitions",
+        "measured_wall_s",
+        "measured_min_s",
+        "measured_max_s",
+        "simulated_wall_s",
+        "wall_error",
+        "measured_speedup",
+        "simulated_speedup",
+        "speedup_error",
+    ])?;
+    for c in &v.rows {
+        w.write_record([
+            v.platform.clone(),
+            c.spec.label(),
+            c.spec.workers.to_string(),
+            c.repetitions.to_string(),
+            format!("{:.6}", c.measured.0),
+            format!("{:.6}", c.measured.1),
+            format!("{:.6}", c.measured.2),
+            format!("{:.6}", c.simulated),
+            format!("{:.4}", c.wall_error()),
+            format!("{:.4}", c.measured_speedup),
+            format!("{:.4}", c.simulated_speedup),
+            format!("{:.4}", c.speedup_error()),
+        ])?;
+    }
+    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::experiment::run::write_atomic(&dir.join("validation.csv"), &bytes)?;
+    Ok(())
+}
+
+/// The validation table for `report.md`.
+pub fn markdown(v: &Validation) -> String {
+    let within = |f: &dyn Fn(&Comparison) -> bool| v.rows.iter().filter(|c| f(c)).count();
+    let mut s = format!(
+        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {}; speedup error ≤ 10 %: {}; ranking of pairs whose measured ranges do not overlap: {} of {} the same. Load average after the measurements: {}.\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | speedup measured / simulated |\n|---|---|---|---|---|---|\n",
+        v.platform,
+        v.rows.len(),
+        within(&|c| c.wall_error().abs() <= 0.05),
+        within(&|c| c.speedup_error().abs() <= 0.10),
+        v.ranking.1,
+        v.ranking.0,
+        v.load,
+    );
+    for c in &v.rows {
+        s += &format!(
+            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.2} / {:.2} |\n",
+            c.spec.label(),
+            c.spec.workers,
+            c.measured.0,
+            c.measured.1,
+            c.measured.2,
+            c.simulated,
+            100.0 * c.wall_error(),
+            c.measured_speedup,
+            c.simulated_speedup
+        );
+    }
+    s + "\n"
+}

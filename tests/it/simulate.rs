@@ -1,0 +1,245 @@
+//! `raysched simulate`: without feature `simgrid` a one-line error; with it, protocols checked
+//! against what they must give exactly (static on identical hosts, the master's 1/h limit,
+//! re-queue after a lost host) and bad platforms / worker counts refused before any output.
+
+use std::path::Path;
+use std::process::Command;
+
+fn raysched() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_raysched"))
+}
+
+fn experiment(dir: &Path, platform: &str, workers: &str) -> std::path::PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = format!(
+        "kind = \"simulation\"\nname = \"t\"\nworkers = {workers}\nplatforms = [{platform:?}]\n\
+         [probe]\nscene = {:?}\nwidth = 8\nheight = 8\nspp = 1\ndispatch_items = 256\n\
+         dispatch_repetitions = 1\n[[schedulers]]\nkind = \"static\"\nchunk = \"1\"\n",
+        root.join("scenes/simple.toml")
+    );
+    let path = dir.join("sim.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[cfg(not(feature = "simgrid"))]
+#[test]
+fn without_the_feature_simulate_is_a_one_line_error_naming_feature_and_package() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = experiment(dir.path(), "p.xml", "[2]");
+    let out = raysched().arg("simulate").arg(&exp).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("`simgrid`") && err.contains("libsimgrid-dev"),
+        "{err}"
+    );
+}
+
+#[cfg(feature = "simgrid")]
+mod with_simgrid {
+    use super::*;
+    use raysched::simulate::child;
+    use raysched::simulate::job::{LostWorker, SimJob, SimOutcome};
+    use std::collections::BTreeMap;
+
+    fn cluster(dir: &Path, workers: usize, lat: &str) -> std::path::PathBuf {
+        let path = dir.join(format!("cluster{workers}.xml"));
+        std::fs::write(
+            &path,
+            format!(
+                "<?xml version='1.0'?>\n<!DOCTYPE platform SYSTEM \"https://simgrid.org/simgrid.dtd\">\n\
+                 <platform version=\"4.1\"><cluster id=\"c\" prefix=\"node-\" suffix=\"\" radical=\"0-{workers}\" \
+                 speed=\"1Gf\" bw=\"10Gbps\" lat=\"{lat}\" bb_bw=\"100Gbps\" bb_lat=\"0us\"/></platform>\n"
+            ),
+        )
+        .unwrap();
+        path
+    }
+
+    fn job(
+        platform: &Path,
+        scheduler: &str,
+        params: &[(&str, &str)],
+        workers: usize,
+        cost_s: Vec<f64>,
+    ) -> SimJob {
+        let n = cost_s.len();
+        SimJob {
+            platform: platform.to_path_buf(),
+            scheduler: scheduler.into(),
+            params: params
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect::<BTreeMap<_, _>>(),
+            workers,
+            cost_s,
+            item_bytes: vec![25; n],
+            result_bytes: vec![44; n],
+            master_h_s: 0.0,
+            counter_s: 0.0,
+            lost: Vec::new(),
+            seed: 1,
+        }
+    }
+
+    fn sim(j: &SimJob) -> SimOutcome {
+        child::simulate(Path::new(env!("CARGO_BIN_EXE_raysched")), j).unwrap()
+    }
+
+    #[test]
+    fn static_on_identical_hosts_takes_the_largest_band_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = cluster(dir.path(), 4, "5us");
+        // Uneven costs: bands of 3 items each (12 items, 4 workers).
+        let cost: Vec<f64> = (0..12).map(|i| 1e-3 * (1 + i % 5) as f64).collect();
+        let out = sim(&job(&p, "static", &[], 4, cost.clone()));
+        let bands: Vec<f64> = cost.chunks(3).map(|c| c.iter().sum()).collect();
+        let max = bands.iter().cloned().fold(0.0, f64::max);
+        assert!((out.wall_s - max).abs() < 1e-9, "{} vs {max}", out.wall_s);
+        for (b, want) in out.busy_s.iter().zip(&bands) {
+            assert!((b - want).abs() < 1e-9);
+        }
+        assert_eq!(out.done, 12);
+        assert_eq!(out.messages, 0, "static sends nothing");
+    }
+
+    #[test]
+    fn a_master_handing_out_tiny_items_saturates_at_one_over_h() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = cluster(dir.path(), 8, "1us");
+        let h = 2e-6;
+        let mut j = job(&p, "master", &[("buffer", "16")], 8, vec![1e-9; 4000]);
+        j.master_h_s = h;
+        let out = sim(&j);
+        let rate = 4000.0 / out.wall_s;
+        assert!(
+            (rate * h - 1.0).abs() < 0.02,
+            "{rate} items/s vs 1/h = {}",
+            1.0 / h
+        );
+        assert!((out.dispatch_s - 4000.0 * h).abs() < 1e-9);
+        // With work per item far above 8·h the master is not the limit: wall ≈ n·c / 8.
+        let mut j = job(&p, "master", &[("buffer", "4")], 8, vec![1e-4; 800]);
+        j.master_h_s = h;
+        let out = sim(&j);
+        assert!(
+            out.wall_s > 0.01 && out.wall_s < 0.01 * 1.05,
+            "{}",
+            out.wall_s
+        );
+    }
+
+    #[test]
+    fn a_lost_host_is_survived_by_requeue_and_fails_without_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = cluster(dir.path(), 4, "5us");
+        let mut j = job(
+            &p,
+            "master",
+            &[("buffer", "2"), ("requeue", "seed")],
+            4,
+            vec![1e-3; 100],
+        );
+        j.master_h_s = 1e-6;
+        j.lost = vec![LostWorker {
+            worker: 1,
+            at_s: 0.005,
+        }];
+        let out = sim(&j);
+        assert_eq!(out.error, None);
+        assert_eq!((out.done, out.lost_workers), (100, 1));
+        assert!(out.reissued >= 1, "the lost worker's items went out again");
+        // 4 workers for 5 ms, then 3 for the remaining 80 ms of work (plus the redone items).
+        let bound = 0.005 + (0.1 - 4.0 * 0.005) / 3.0;
+        assert!(
+            out.wall_s >= bound - 1e-6 && out.wall_s < bound + 0.004,
+            "{} vs {bound}",
+            out.wall_s
+        );
+        j.params.insert("requeue".into(), "never".into());
+        let out = sim(&j);
+        assert!(out.error.unwrap().contains("cannot redo"));
+        let mut s = job(&p, "self_scheduling", &[("grab", "1")], 4, vec![1e-3; 100]);
+        s.lost = j.lost.clone();
+        assert!(
+            sim(&s).error.is_some(),
+            "self-scheduling cannot redo a lost grab"
+        );
+    }
+
+    #[test]
+    fn self_scheduling_and_guided_balance_equal_items() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = cluster(dir.path(), 2, "0us");
+        for (kind, params) in [
+            ("self_scheduling", vec![("grab", "1")]),
+            ("guided", vec![("grab", "1"), ("guided_k", "2")]),
+        ] {
+            let out = sim(&job(&p, kind, &params, 2, vec![1e-3; 64]));
+            assert_eq!(out.done, 64);
+            assert!((out.wall_s - 0.032).abs() < 1e-4, "{kind}: {}", out.wall_s);
+            assert_eq!(out.worker_items.iter().sum::<u64>(), 64);
+        }
+        let out = sim(&job(
+            &p,
+            "work_stealing",
+            &[("grab", "1")],
+            2,
+            (0..64).map(|i| if i < 32 { 1e-3 } else { 1e-4 }).collect(),
+        ));
+        assert_eq!(out.done, 64);
+        // Without stealing worker 0 would need 32 ms; stealing brings it near the mean 17.6 ms.
+        assert!(out.wall_s < 0.020, "{}", out.wall_s);
+    }
+
+    fn refused(dir: &Path, exp: &Path) -> String {
+        let out = raysched()
+            .arg("simulate")
+            .arg(exp)
+            .arg("--out")
+            .arg(dir.join("out"))
+            .output()
+            .unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!dir.join("out").exists(), "nothing written");
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        err
+    }
+
+    #[test]
+    fn bad_platforms_and_impossible_worker_counts_are_refused_before_any_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let bad = dir.path().join("bad.xml");
+        std::fs::write(&bad, "<platform version=\"4.1\"><zone").unwrap();
+        let err = refused(
+            dir.path(),
+            &experiment(dir.path(), &bad.to_string_lossy(), "[2]"),
+        );
+        assert!(
+            err.contains("platforms[0]") && err.contains("bad.xml"),
+            "{err}"
+        );
+        let p = cluster(dir.path(), 4, "5us");
+        let err = refused(
+            dir.path(),
+            &experiment(dir.path(), &p.to_string_lossy(), "[2, 8]"),
+        );
+        assert!(
+            err.contains("holds 4 workers") && err.contains("not 8"),
+            "{err}"
+        );
+        let err = refused(
+            dir.path(),
+            &experiment(dir.path(), &p.to_string_lossy(), "[0]"),
+        );
+        assert!(err.contains("workers"), "{err}");
+    }
+}
