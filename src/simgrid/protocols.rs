@@ -11,6 +11,9 @@
 //! and no borrow is held across a call that can switch actors (execute, sleep, put, get).
 
 use super::ffi::{self, clock, execute, sleep_for, Host, Mailbox};
+use crate::sched::dls::{self, ItemTimes, Report};
+use crate::sched::param::Slow;
+use crate::sched::renderers::mitsuba_grain;
 use crate::sched::{Policy, Requeue};
 use crate::simulate::job::{SimJob, SimOutcome, REFERENCE_FLOPS};
 use std::cell::RefCell;
@@ -134,20 +137,52 @@ pub(crate) fn spawn_protocol(world: Rc<World>, policy: Policy) {
         Policy::Master(p) => master(world, p.buffer, p.requeue),
         Policy::WorkStealing(p) => stealing(world, p.grab),
         Policy::WorkStealingDeque => stealing(world, 1),
-        Policy::SelfScheduling(_) | Policy::Guided(_) => counter(world, grab_rule(&policy)),
+        Policy::SelfScheduling(_)
+        | Policy::Guided(_)
+        | Policy::Pbrt
+        | Policy::Mitsuba
+        | Policy::Factoring(_)
+        | Policy::WeightedFactoring(_)
+        | Policy::Trapezoid(_)
+        | Policy::FixedSize(_)
+        | Policy::AdaptiveFactoring(_)
+        | Policy::Awf(_) => {
+            let (n, w) = (world.job.cost_s.len(), world.job.workers);
+            let rule = grab_rule(&policy, n, w);
+            counter(world, rule)
+        }
     }
 }
 
-/// How many items a grab from the shared counter takes, given the next free item, the item
-/// count and the worker count: the chunk-size sequence of a self-scheduling family member.
-pub(crate) fn grab_rule(policy: &Policy) -> Box<dyn Fn(usize, usize, usize) -> usize> {
+/// How many items a grab from the shared counter takes: `(worker, next free item, item count,
+/// worker count, the worker's report on its previous grab)` → chunk. Fixed-sequence members are
+/// a function of the position; the dynamic-loop-scheduling rules ([`dls::rule`]) are the very
+/// objects the threaded schedulers use, fed the simulated times of each worker's chunks. The
+/// simulation has no known slowdown (host speeds come from the platform), so
+/// `weighted_factoring` with `weights = known` sees equal weights.
+pub(crate) type GrabRule = Box<dyn FnMut(usize, usize, usize, usize, Option<&Report>) -> usize>;
+
+/// The [`GrabRule`] of a counter-based scheduler over `n` items and `w` workers.
+pub(crate) fn grab_rule(policy: &Policy, n: usize, w: usize) -> GrabRule {
+    if let Some(mut rule) = dls::rule(policy, n, w, Slow::NONE) {
+        return Box::new(move |worker, next, n, _, report| {
+            if let Some(r) = report {
+                rule.report(worker, r);
+            }
+            rule.next(worker, n - next)
+        });
+    }
     match *policy {
-        Policy::SelfScheduling(p) => Box::new(move |next, n, _| p.grab.min(n - next)),
-        Policy::Guided(p) => Box::new(move |next, n, w| {
+        Policy::SelfScheduling(p) => Box::new(move |_, next, n, _, _| p.grab.min(n - next)),
+        Policy::Guided(p) => Box::new(move |_, next, n, w, _| {
             let rest = n - next;
             p.grab.max(rest.div_ceil(p.guided_k * w)).min(rest)
         }),
-        _ => Box::new(|next, n, _| 1.min(n - next)),
+        Policy::Mitsuba => {
+            let grain = mitsuba_grain(n, w);
+            Box::new(move |_, next, n, _, _| grain.min(n - next))
+        }
+        _ => Box::new(|_, next, n, _, _| 1.min(n - next)),
     }
 }
 
@@ -195,11 +230,13 @@ fn static_split(world: Rc<World>, share: fn(usize, usize, usize) -> Vec<usize>) 
 /// the RESULT message is the request).
 struct Request {
     worker: usize,
+    /// Its previous chunk's items and simulated times, for the adaptive rules.
+    report: Option<Report>,
 }
 
 /// Self-scheduling family: a counter actor on the master's host answers each request with the
 /// next `rule(next, n, workers)` items; an empty answer ends the worker.
-fn counter(world: Rc<World>, rule: Box<dyn Fn(usize, usize, usize) -> usize>) {
+fn counter(world: Rc<World>, mut rule: GrabRule) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     let wd = Rc::clone(&world);
     ffi::spawn("counter", world.master_host, true, move || {
@@ -209,7 +246,11 @@ fn counter(world: Rc<World>, rule: Box<dyn Fn(usize, usize, usize) -> usize>) {
         loop {
             let req = inbox.get();
             sleep_for(wd.job.counter_s);
-            let c = if next < n { rule(next, n, w).max(1) } else { 0 };
+            let c = if next < n {
+                rule(req.worker, next, n, w, req.report.as_ref()).clamp(1, n - next)
+            } else {
+                0
+            };
             let items: Vec<usize> = (next..next + c).collect();
             next += c;
             let bytes = item_bytes(&wd.job, &items);
@@ -225,20 +266,41 @@ fn counter(world: Rc<World>, rule: Box<dyn Fn(usize, usize, usize) -> usize>) {
             inbox.set_receiver();
             let counter = Mailbox::<Request>::by_name("counter");
             let mut last: Vec<usize> = Vec::new();
+            let mut report = None;
             loop {
                 let bytes = result_bytes(&wd.job, &last);
                 count_message(&wd.tally, bytes);
-                counter.put_detached(Request { worker: k }, bytes);
+                let asked = clock();
+                counter.put_detached(Request { worker: k, report }, bytes);
                 let items = inbox.get();
                 if items.is_empty() {
                     let mut t = wd.tally.borrow_mut();
                     t.end[k] = clock();
                     return;
                 }
+                let started = clock();
                 work(&wd.tally, &wd.job, k, &items);
+                report = Some(chunk_report(&wd.job, &items, started - asked, clock() - started));
                 last = items;
             }
         });
+    }
+}
+
+/// A worker's report on one chunk: its simulated duration, split over the items in
+/// proportion to their measured costs (one execution runs the whole chunk).
+fn chunk_report(job: &SimJob, items: &[usize], grab_secs: f64, secs: f64) -> Report {
+    let cost: f64 = items.iter().map(|&i| job.cost_s[i]).sum();
+    let scale = if cost > 0.0 { secs / cost } else { 0.0 };
+    let mut times = ItemTimes::default();
+    for &i in items {
+        times.add(job.cost_s[i] * scale);
+    }
+    Report {
+        items: items.len(),
+        secs,
+        grab_secs,
+        times,
     }
 }
 

@@ -80,7 +80,9 @@ impl Inputs {
 
     /// The job simulating `spec` on `platform`.
     pub fn job(&mut self, spec: &SchedulerSpec, platform: &Path, plan: &SimPlan) -> SimJob {
-        let items = self.items(spec.chunk, spec.order);
+        // pbrt and mitsuba choose their own tiles, as in a measured run.
+        let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
+        let items = self.items(chunk, order);
         let params = spec
             .policy
             .info()
@@ -255,7 +257,10 @@ pub fn simulate_one(
     Ok(SimRow {
         platform: platform.name.clone(),
         spec: spec.clone(),
-        chunk_px: spec.chunk.pixels(inputs.pixels.width, inputs.pixels.height),
+        chunk_px: {
+            let (w, h) = (inputs.pixels.width, inputs.pixels.height);
+            spec.layout(w, h).0.pixels(w, h)
+        },
         serial_s: inputs.pixels.serial_s(),
         items: job.cost_s.len(),
         out,

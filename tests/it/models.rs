@@ -102,7 +102,7 @@ fn bounds(s: &Scene) -> (DVec3, DVec3) {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = -lo;
     for t in &s.geometry.triangles {
-        for p in [t.v0, t.v0 + t.e1, t.v0 + t.e2] {
+        for p in t.vertices() {
             let w = p.as_dvec3() + s.origin;
             lo = lo.min(w);
             hi = hi.max(w);
@@ -315,7 +315,7 @@ fn bvh_matches_brute_force_over_every_corpus_model() {
             // Half the rays aim at a random triangle's centroid, so most of them hit.
             let d = if i % 2 == 0 {
                 let t = &tris[(s.next() * tris.len() as f32) as usize % tris.len()];
-                let c = t.v0 + (t.e1 + t.e2) / 3.0;
+                let c = t.v0 + (t.e1() + t.e2()) / 3.0;
                 (c - o).try_normalize().unwrap_or(Vec3::Z)
             } else {
                 crate::tracers::random_dir(&mut s)
