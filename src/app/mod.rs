@@ -178,7 +178,6 @@ pub(crate) fn threads_arg(min: u64) -> clap::builder::RangedU64ValueParser<usize
 /// A samples-per-pixel flag: `1..=`[`MAX_SPP`].
 pub(crate) fn spp_arg() -> clap::builder::RangedU64ValueParser<u32> {
     clap::builder::RangedU64ValueParser::<u32>::new().range(1..=MAX_SPP as u64)
-
 }
 
 /// Refuse to replace `csv` (a result with more rows than the `new_rows` about to be written)

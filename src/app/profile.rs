@@ -74,7 +74,13 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     );
     out!(
         "{:>10} {:>8} {:>10} {:>10} {:>6} {:>10} {:>9}",
-        "chunk", "items", "mean µs", "σ µs", "CV", "max µs", "max/mean"
+        "chunk",
+        "items",
+        "mean µs",
+        "σ µs",
+        "CV",
+        "max µs",
+        "max/mean"
     );
     out!("{}", line("pixel", &p.pixels()));
     for c in &args.chunks {

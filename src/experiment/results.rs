@@ -150,12 +150,6 @@ fn params_at(cols: &[String]) -> usize {
         .map_or(cols.len(), |i| i + 1)
 }
 
-/// The columns added with MPI, before [`SAMPLE_COLUMNS`].
-const MPI_COLUMNS: usize = 3;
-/// The columns added with adaptive repetitions, at the end of the row: `inner`, `timestamp`,
-/// `user_s`, `sys_s`, `load_before`, `load_after`.
-const SAMPLE_COLUMNS: usize = 6;
-
 impl RunRow {
     /// The column names, in order: the struct's fields (from serde, so they never drift from
     /// it) with the scheduler parameters' columns after `order`.
@@ -353,22 +347,25 @@ impl RunRow {
     /// A row from its cells under `names` (a prefix of [`Self::header`]): the parameter
     /// columns are taken out, the rest deserialised by name.
     fn from_record(rec: &csv::StringRecord, names: &csv::StringRecord) -> Option<Self> {
-        let at = params_at(&names.iter().map(str::to_string).collect::<Vec<_>>());
-        let k = param_columns().len();
-        fn cut(r: &csv::StringRecord, at: usize, k: usize) -> (csv::StringRecord, Vec<&str>) {
-            let v: Vec<&str> = r.iter().collect();
-            let rest: Vec<&str> = v[..at].iter().chain(&v[at + k..]).copied().collect();
-            (csv::StringRecord::from(rest), v[at..at + k].to_vec())
-        }
-        if names.len() < at + k || rec.len() != names.len() {
+        if rec.len() != names.len() {
             return None;
         }
-        let (rest_names, _) = cut(names, at, k);
-        let (rest, params) = cut(rec, at, k);
+        let params = param_columns();
+        let is_param = |n: &str| params.iter().any(|p| p.name == n);
+        let rest_names: csv::StringRecord = names.iter().filter(|n| !is_param(n)).collect();
+        let rest: csv::StringRecord = names
+            .iter()
+            .zip(rec.iter())
+            .filter(|(n, _)| !is_param(n))
+            .map(|(_, v)| v)
+            .collect();
         let mut row: Self = rest.deserialize(Some(&rest_names)).ok()?;
         row.params = params
             .iter()
-            .map(|p| (!p.is_empty()).then(|| p.to_string()))
+            .map(|p| {
+                let v = names.iter().position(|n| n == p.name).map(|i| &rec[i])?;
+                (!v.is_empty()).then(|| v.to_string())
+            })
             .collect();
         Some(row)
     }
@@ -439,17 +436,14 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
     let Some(h_end) = bytes.iter().position(|&b| b == b'\n') else {
         return Ok((vec![], 0));
     };
-    let ncols = if bytes[..h_end] == *header.as_bytes() {
-        columns.len()
-    } else if let Some(n) = legacy_columns(&bytes[..h_end]) {
-        n
-    } else {
+    let Some(names) = known_header(&bytes[..h_end]) else {
         return Err(format!(
             "the header is not this version's columns (expected '{header}'); rerun with --fresh"
         ));
     };
-    // Fields are matched by name, so the MPI columns a legacy row lacks take their defaults.
-    let names = csv::StringRecord::from(columns[..ncols].to_vec());
+    // Fields are matched by name, so the columns an earlier version's row lacks (parameters of
+    // schedulers added since, the MPI and sample columns) take their defaults.
+    let ncols = names.len();
     let mut rows = Vec::new();
     let mut valid = h_end as u64 + 1;
     let mut start = h_end + 1;
@@ -489,18 +483,22 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
     Ok((rows, valid))
 }
 
-/// The column count of an earlier version's header (before the sample columns, or before
-/// the MPI columns too), `None` for anything else.
-fn legacy_columns(line: &[u8]) -> Option<usize> {
+/// The names of a header this version reads: this version's columns, or an earlier version's
+/// (a subset of them: every name known, none twice). `None` for anything else.
+fn known_header(line: &[u8]) -> Option<csv::StringRecord> {
     let columns = RunRow::header();
-    [SAMPLE_COLUMNS, SAMPLE_COLUMNS + MPI_COLUMNS]
-        .into_iter()
-        .map(|k| columns.len() - k)
-        .find(|&n| line == columns[..n].join(",").as_bytes())
+    let text = std::str::from_utf8(line).ok()?;
+    let names: Vec<&str> = text.split(',').collect();
+    let mut seen = HashSet::new();
+    let known = names
+        .iter()
+        .all(|n| columns.iter().any(|c| c == n) && seen.insert(*n));
+    (known && names.contains(&"config")).then(|| csv::StringRecord::from(names))
 }
 
+/// A readable header other than this version's: the file is rewritten before appending.
 fn is_legacy_header(line: &[u8]) -> bool {
-    legacy_columns(line).is_some()
+    line != RunRow::header().join(",").as_bytes() && known_header(line).is_some()
 }
 
 /// runs.csv opened for appending, with the (config, repetition) pairs already in it.
@@ -642,6 +640,11 @@ mod tests {
         b.extend(row("c", 0).to_line());
         assert!(parse_runs(&b).unwrap_err().contains("line 4"));
     }
+
+    /// The columns added with MPI, before [`SAMPLE_COLUMNS`] and `slow`.
+    const MPI_COLUMNS: usize = 3;
+    /// The columns added with adaptive repetitions, at the end of the row.
+    const SAMPLE_COLUMNS: usize = 6;
 
     #[test]
     fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {

@@ -399,6 +399,8 @@ pub const SHAPE_TYPES: &[&str] = &[
     "rectangle",
     "cube",
     "mesh",
+    "gltf",
+    "ply",
     "displaced_sphere",
     "random_triangles",
     "sphere_grid",

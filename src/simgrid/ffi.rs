@@ -30,39 +30,118 @@ struct OpaqueComm {
 type ActorMain = extern "C-unwind" fn(c_int, *mut *mut c_char);
 type Cleanup = extern "C" fn(*mut c_void);
 
-#[link(name = "simgrid")]
-extern "C-unwind" {
-    fn simgrid_init(argc: *mut c_int, argv: *mut *mut c_char);
-    fn simgrid_load_platform(file: *const c_char);
-    fn simgrid_run();
-    fn simgrid_get_clock() -> f64;
-    fn sg_host_count() -> usize;
-    fn sg_host_list() -> *mut *mut OpaqueHost;
-    fn sg_host_get_name(host: *const OpaqueHost) -> *const c_char;
-    fn sg_host_get_speed(host: *const OpaqueHost) -> f64;
-    fn sg_host_core_count(host: *const OpaqueHost) -> c_int;
-    fn sg_host_turn_off(host: *mut OpaqueHost);
-    fn sg_actor_create_(
-        name: *const c_char,
-        host: *mut OpaqueHost,
-        code: ActorMain,
-        argc: c_int,
-        argv: *mut *mut c_char,
-    ) -> *mut OpaqueActor;
-    fn sg_actor_daemonize(actor: *mut OpaqueActor);
-    fn sg_actor_execute(flops: f64);
-    fn sg_actor_sleep_for(duration: f64);
-    fn sg_mailbox_by_name(alias: *const c_char) -> *mut OpaqueMailbox;
-    fn sg_mailbox_set_receiver(alias: *const c_char);
-    fn sg_mailbox_listen(alias: *const c_char) -> c_int;
-    fn sg_mailbox_put_init(
-        mailbox: *mut OpaqueMailbox,
-        payload: *mut c_void,
-        size: c_long,
-    ) -> *mut OpaqueComm;
-    fn sg_comm_detach(comm: *mut OpaqueComm, clean: Option<Cleanup>);
-    fn sg_mailbox_get(mailbox: *mut OpaqueMailbox) -> *mut c_void;
+// glibc's dynamic loader (in libc.so.6 since glibc 2.34).
+const RTLD_NOW: c_int = 2;
+const RTLD_LOCAL: c_int = 0;
+const RTLD_DEEPBIND: c_int = 8;
+extern "C" {
+    fn dlopen(filename: *const c_char, flags: c_int) -> *mut c_void;
+    fn dlsym(handle: *mut c_void, symbol: *const c_char) -> *mut c_void;
+    fn dlerror() -> *mut c_char;
     fn free(p: *mut c_void);
+}
+
+/// The last `dlerror()` message.
+fn dl_error() -> String {
+    // SAFETY: `dlerror` returns NULL or a NUL-terminated string valid until the next dl call on
+    // this thread; it is copied at once.
+    let msg = unsafe { dlerror() };
+    if msg.is_null() {
+        "unknown dlopen error".into()
+    } else {
+        // SAFETY: see above.
+        unsafe { CStr::from_ptr(msg) }
+            .to_string_lossy()
+            .into_owned()
+    }
+}
+
+macro_rules! api {
+    ($($name:ident: fn($($arg:ty),*) $(-> $ret:ty)?;)*) => {
+        /// SimGrid's functions, resolved in the library opened with `RTLD_LOCAL`.
+        struct Api {
+            $($name: unsafe extern "C-unwind" fn($($arg),*) $(-> $ret)?,)*
+        }
+
+        impl Api {
+            /// # Safety
+            /// `handle` is a `dlopen` handle of SimGrid 3.x, whose functions have the
+            /// signatures above (those of `simgrid/*.h`).
+            unsafe fn resolve(handle: *mut c_void) -> Result<Self, String> {
+                Ok(Self {
+                    $($name: {
+                        let sym = concat!(stringify!($name), "\0");
+                        // SAFETY: `handle` is valid and `sym` NUL-terminated.
+                        let p = unsafe { dlsym(handle, sym.as_ptr().cast()) };
+                        if p.is_null() {
+                            return Err(format!("SimGrid has no symbol {}", stringify!($name)));
+                        }
+                        // SAFETY: the symbol is the C function of that name (see `# Safety`).
+                        unsafe {
+                            std::mem::transmute::<*mut c_void, unsafe extern "C-unwind" fn($($arg),*) $(-> $ret)?>(p)
+                        }
+                    },)*
+                })
+            }
+        }
+    };
+}
+
+api! {
+    simgrid_init: fn(*mut c_int, *mut *mut c_char);
+    simgrid_load_platform: fn(*const c_char);
+    simgrid_run: fn();
+    simgrid_get_clock: fn() -> f64;
+    sg_host_count: fn() -> usize;
+    sg_host_list: fn() -> *mut *mut OpaqueHost;
+    sg_host_get_name: fn(*const OpaqueHost) -> *const c_char;
+    sg_host_get_speed: fn(*const OpaqueHost) -> f64;
+    sg_host_core_count: fn(*const OpaqueHost) -> c_int;
+    sg_host_turn_off: fn(*mut OpaqueHost);
+    sg_actor_create_: fn(*const c_char, *mut OpaqueHost, ActorMain, c_int, *mut *mut c_char) -> *mut OpaqueActor;
+    sg_actor_daemonize: fn(*mut OpaqueActor);
+    sg_actor_execute: fn(f64);
+    sg_actor_sleep_for: fn(f64);
+    sg_mailbox_by_name: fn(*const c_char) -> *mut OpaqueMailbox;
+    sg_mailbox_set_receiver: fn(*const c_char);
+    sg_mailbox_listen: fn(*const c_char) -> c_int;
+    sg_mailbox_put_init: fn(*mut OpaqueMailbox, *mut c_void, c_long) -> *mut OpaqueComm;
+    sg_comm_detach: fn(*mut OpaqueComm, Option<Cleanup>);
+    sg_mailbox_get: fn(*mut OpaqueMailbox) -> *mut c_void;
+}
+
+/// SimGrid's functions, the library opened on first use. SimGrid is opened, not linked: it
+/// exports its own `MPI_*` functions (SMPI), which would take the place of OpenMPI's in a
+/// binary built with `mpi` too. `RTLD_LOCAL | RTLD_DEEPBIND` keeps each library's names to
+/// itself. Without the library this ends the process (a simulation child) with one line.
+fn api() -> &'static Api {
+    static API: std::sync::OnceLock<Result<Api, String>> = std::sync::OnceLock::new();
+    let api = API.get_or_init(|| {
+        let mut errors = Vec::new();
+        for name in ["libsimgrid.so", "libsimgrid.so.3.32"] {
+            let c_name = CString::new(name).unwrap_or_default();
+            // SAFETY: `c_name` is a NUL-terminated name; the handle is never closed, so the
+            // functions resolved from it stay valid for the whole process.
+            let handle = unsafe { dlopen(c_name.as_ptr(), RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND) };
+            if handle.is_null() {
+                errors.push(dl_error());
+                continue;
+            }
+            // SAFETY: `handle` is SimGrid's library, opened by its name.
+            return unsafe { Api::resolve(handle) };
+        }
+        Err(format!(
+            "cannot open SimGrid (install libsimgrid-dev): {}",
+            errors.join("; ")
+        ))
+    });
+    match api {
+        Ok(api) => api,
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(2)
+        }
+    }
 }
 
 /// Start the engine with SimGrid command-line options (`--cfg=…`, `--log=…`). Once per process:
@@ -80,7 +159,7 @@ pub fn init(options: &[String]) {
     let mut argc = owned.len() as c_int;
     // SAFETY: argc/argv describe NUL-terminated strings that outlive the call (SimGrid copies
     // what it keeps); the array ends with a null pointer as a C main's argv does.
-    unsafe { simgrid_init(&mut argc, argv.as_mut_ptr()) };
+    unsafe { (api().simgrid_init)(&mut argc, argv.as_mut_ptr()) };
     std::mem::forget(owned); // SimGrid may keep argv[0]; a few bytes, once per process.
 }
 
@@ -89,19 +168,19 @@ pub fn init(options: &[String]) {
 pub fn load_platform(path: &str) {
     let c = CString::new(path).unwrap_or_default();
     // SAFETY: a valid NUL-terminated path, read during the call only.
-    unsafe { simgrid_load_platform(c.as_ptr()) }
+    unsafe { (api().simgrid_load_platform)(c.as_ptr()) }
 }
 
 /// Run the simulation until no non-daemon actor is left.
 pub fn run() {
     // SAFETY: no arguments; the engine was initialised and the platform loaded by the caller.
-    unsafe { simgrid_run() }
+    unsafe { (api().simgrid_run)() }
 }
 
 /// Simulated time, seconds.
 pub fn clock() -> f64 {
     // SAFETY: reads the engine's clock; no pointers.
-    unsafe { simgrid_get_clock() }
+    unsafe { (api().simgrid_get_clock)() }
 }
 
 /// A host of the loaded platform.
@@ -114,8 +193,8 @@ impl Host {
         // SAFETY: sg_host_count/sg_host_list read the loaded platform; the list holds
         // sg_host_count() pointers, is owned by the caller and freed with free() after copying.
         unsafe {
-            let n = sg_host_count();
-            let list = sg_host_list();
+            let n = (api().sg_host_count)();
+            let list = (api().sg_host_list)();
             if list.is_null() {
                 return Vec::new();
             }
@@ -131,30 +210,33 @@ impl Host {
     pub fn name(self) -> String {
         // SAFETY: self is a live host of the platform; the returned string is owned by SimGrid
         // and copied before anything can free it.
-        unsafe { CStr::from_ptr(sg_host_get_name(self.0)) }
+        unsafe { CStr::from_ptr((api().sg_host_get_name)(self.0)) }
             .to_string_lossy()
             .into_owned()
     }
     /// Peak speed of one core, flop/s.
     pub fn speed(self) -> f64 {
         // SAFETY: self is a live host of the platform.
-        unsafe { sg_host_get_speed(self.0) }
+        unsafe { (api().sg_host_get_speed)(self.0) }
     }
     /// Number of cores.
     pub fn cores(self) -> usize {
         // SAFETY: self is a live host of the platform.
-        unsafe { sg_host_core_count(self.0) }.max(0) as usize
+        unsafe { (api().sg_host_core_count)(self.0) }.max(0) as usize
     }
     /// Turn the host off: its actors are killed (their stacks unwound), its comms fail.
     pub fn turn_off(self) {
         // SAFETY: self is a live host; called from an actor during the run.
-        unsafe { sg_host_turn_off(self.0) }
+        unsafe { (api().sg_host_turn_off)(self.0) }
     }
 }
 
+/// An actor's body, run once when SimGrid starts the actor.
+type Body = Box<dyn FnOnce()>;
+
 thread_local! {
     /// Bodies of actors created but not started yet; an actor's argv[1] is its index here.
-    static BODIES: RefCell<Vec<Option<Box<dyn FnOnce()>>>> = const { RefCell::new(Vec::new()) };
+    static BODIES: RefCell<Vec<Option<Body>>> = const { RefCell::new(Vec::new()) };
 }
 
 extern "C-unwind" fn trampoline(argc: c_int, argv: *mut *mut c_char) {
@@ -189,9 +271,10 @@ pub fn spawn(name: &str, host: Host, daemon: bool, body: impl FnOnce() + 'static
     // (SimGrid copies them into the actor's own argument vector); trampoline has the C
     // signature SimGrid expects.
     unsafe {
-        let actor = sg_actor_create_(name.as_ptr(), host.0, trampoline, 2, argv.as_mut_ptr());
+        let actor =
+            (api().sg_actor_create_)(name.as_ptr(), host.0, trampoline, 2, argv.as_mut_ptr());
         if daemon && !actor.is_null() {
-            sg_actor_daemonize(actor);
+            (api().sg_actor_daemonize)(actor);
         }
     }
 }
@@ -200,7 +283,7 @@ pub fn spawn(name: &str, host: Host, daemon: bool, body: impl FnOnce() + 'static
 pub fn execute(flops: f64) {
     if flops > 0.0 {
         // SAFETY: called from an actor; no pointers.
-        unsafe { sg_actor_execute(flops) }
+        unsafe { (api().sg_actor_execute)(flops) }
     }
 }
 
@@ -208,7 +291,7 @@ pub fn execute(flops: f64) {
 pub fn sleep_for(seconds: f64) {
     if seconds > 0.0 {
         // SAFETY: called from an actor; no pointers.
-        unsafe { sg_actor_sleep_for(seconds) }
+        unsafe { (api().sg_actor_sleep_for)(seconds) }
     }
 }
 
@@ -231,7 +314,7 @@ impl<T: 'static> Mailbox<T> {
     pub fn by_name(name: &str) -> Self {
         let name = CString::new(name).unwrap_or_default();
         // SAFETY: a valid NUL-terminated name; SimGrid owns the mailbox for the whole run.
-        let raw = unsafe { sg_mailbox_by_name(name.as_ptr()) };
+        let raw = unsafe { (api().sg_mailbox_by_name)(name.as_ptr()) };
         Self {
             raw,
             name,
@@ -242,12 +325,12 @@ impl<T: 'static> Mailbox<T> {
     /// they are sent (eager), not when `get` is called.
     pub fn set_receiver(&self) {
         // SAFETY: a valid NUL-terminated name; called from an actor.
-        unsafe { sg_mailbox_set_receiver(self.name.as_ptr()) }
+        unsafe { (api().sg_mailbox_set_receiver)(self.name.as_ptr()) }
     }
     /// Is a message waiting (sent or already transferred)?
     pub fn has_message(&self) -> bool {
         // SAFETY: a valid NUL-terminated name; called from an actor.
-        unsafe { sg_mailbox_listen(self.name.as_ptr()) != 0 }
+        unsafe { (api().sg_mailbox_listen)(self.name.as_ptr()) != 0 }
     }
     /// Send `value`, simulated as `bytes` bytes, without waiting for its delivery. An
     /// undeliverable value (its receiver's host turned off) is dropped by SimGrid's cleanup.
@@ -257,14 +340,14 @@ impl<T: 'static> Mailbox<T> {
         // comm, which either delivers it to `get` (which boxes it back) or frees it with
         // drop_box::<T>, the matching destructor.
         unsafe {
-            let comm = sg_mailbox_put_init(self.raw, payload, bytes.max(1) as c_long);
-            sg_comm_detach(comm, Some(drop_box::<T>));
+            let comm = (api().sg_mailbox_put_init)(self.raw, payload, bytes.max(1) as c_long);
+            (api().sg_comm_detach)(comm, Some(drop_box::<T>));
         }
     }
     /// Wait for the next value.
     pub fn get(&self) -> T {
         // SAFETY: every payload on a Mailbox<T> was put by put_detached as a Box<T> (the type
         // parameter makes another type impossible), and each is delivered exactly once.
-        unsafe { *Box::from_raw(sg_mailbox_get(self.raw) as *mut T) }
+        unsafe { *Box::from_raw((api().sg_mailbox_get)(self.raw) as *mut T) }
     }
 }

@@ -280,7 +280,12 @@ fn counter(world: Rc<World>, mut rule: GrabRule) {
                 }
                 let started = clock();
                 work(&wd.tally, &wd.job, k, &items);
-                report = Some(chunk_report(&wd.job, &items, started - asked, clock() - started));
+                report = Some(chunk_report(
+                    &wd.job,
+                    &items,
+                    started - asked,
+                    clock() - started,
+                ));
                 last = items;
             }
         });
@@ -530,8 +535,8 @@ fn master(world: Rc<World>, buffer: usize, requeue: Requeue) {
                 }
                 MasterMsg::Lost => {
                     let lost: Vec<bool> = wd.tally.borrow().lost.clone();
-                    for k in 0..w {
-                        if lost[k] && l.alive[k] {
+                    for (k, &gone) in lost.iter().enumerate().take(w) {
+                        if gone && l.alive[k] {
                             l.alive[k] = false;
                             for i in std::mem::take(&mut l.held[k]) {
                                 if !l.done[i] {

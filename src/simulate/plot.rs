@@ -26,6 +26,10 @@ const COLOURS: [RGBColor; 8] = [
 ];
 
 /// A line chart; `hlines` are dashed horizontal references (the analytic limits).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one call per figure, each naming its axes"
+)]
 fn chart(
     path: &Path,
     title: &str,

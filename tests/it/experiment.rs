@@ -98,7 +98,7 @@ fn bad_configs_exit_2_naming_file_and_field() {
         ),
         ("width = 16", "width = 0", "scenes[0]"),
         // A TOML error: `file:line:column: key: message`.
-        ("width = 16", "widht = 16", "bad.toml:7:1: scenes[0].widht"),
+        ("width = 16", "widht = 16", "bad.toml:9:1: scenes[0].widht"),
         (
             "kind = \"static\"\nchunk = \"rows:1\"",
             "kind = \"static\"\nchunk = \"rows:1\"\nslow = \"0:3\"",
