@@ -66,7 +66,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
                     spp: 0,
                     path: Some(p.clone()),
                 },
-                leaks: 0,
+                ambiguous: 0,
+                noise_mse: 0.0,
             }
         }
         None => cv::reference::reference(
@@ -75,9 +76,16 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
             Path::new("results/runs/refs"),
             args.ref_spp,
             args.threads,
+            &mut reference_progress(),
         )
         .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
     };
+    if reference.noise_mse > 0.0 {
+        out!(
+            "reference noise: RMSE {:.3e} (subtracted from every row's error)",
+            reference.noise_mse.sqrt()
+        );
+    }
     let mut rows = Vec::new();
     for &kind in &kinds {
         let tracer = AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?;
@@ -92,9 +100,16 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     let csv = args.output.join("convergence.csv");
     let png = args.output.join("convergence.png");
     super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
-    std::fs::create_dir_all(&args.output).map_err(CliError::runtime)?;
-    cv::write_csv(&csv, &rows).map_err(CliError::runtime)?;
-    cv::plot(&png, &cv::read_csv(&csv).map_err(CliError::runtime)?).map_err(CliError::runtime)?;
+    // Both files or neither: a failed write leaves the previous pair.
+    let staging = raysched::staging::Staging::new(&args.output)
+        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
+    let staged_csv = staging.path("convergence.csv");
+    cv::write_csv(&staged_csv, &rows).map_err(CliError::runtime)?;
+    let staged_rows = cv::read_csv(&staged_csv).map_err(CliError::runtime)?;
+    cv::plot(&staging.path("convergence.png"), &staged_rows).map_err(CliError::runtime)?;
+    staging
+        .commit()
+        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
     out!("reference: {}", reference.kind.label());
     for s in cv::summarise(&rows) {
         out!(
@@ -111,4 +126,14 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     }
     out!("wrote {} and {}", csv.display(), png.display());
     Ok(())
+}
+
+/// One stderr line per round of a rendered reference: done/total samples, elapsed, ETA.
+fn reference_progress() -> impl FnMut(u32, u32) {
+    let start = std::time::Instant::now();
+    move |done, total| {
+        let el = start.elapsed().as_secs_f64();
+        let eta = el / done.max(1) as f64 * (total - done) as f64;
+        eprintln!("reference: {done}/{total} spp, {el:.1} s elapsed, ETA {eta:.1} s");
+    }
 }

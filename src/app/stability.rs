@@ -47,9 +47,14 @@ pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
     let table = st::markdown(&rows);
     let csv = args.output.join("stability.csv");
     super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
-    std::fs::create_dir_all(&args.output).map_err(CliError::runtime)?;
-    st::write_csv(&csv, &rows).map_err(CliError::runtime)?;
-    std::fs::write(args.output.join("stability.md"), &table).map_err(CliError::runtime)?;
+    // Both files or neither: a failed write leaves the previous pair.
+    let staging = raysched::staging::Staging::new(&args.output)
+        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
+    st::write_csv(&staging.path("stability.csv"), &rows).map_err(CliError::runtime)?;
+    std::fs::write(staging.path("stability.md"), &table).map_err(CliError::runtime)?;
+    staging
+        .commit()
+        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
     out!("{table}");
     let failed = rows.iter().filter(|r| r.required && !r.pass).count();
     out!(

@@ -6,6 +6,7 @@
 //! slope of RMSE against wall time should be −½; a configuration is better than another when
 //! it reaches a lower error for the same time budget ([`error_at_budget`]).
 
+pub mod exact;
 mod plot;
 pub mod reference;
 
@@ -43,8 +44,16 @@ pub struct ConvergenceRow {
     pub spp: u32,
     /// Cumulative render time of all steps so far (reference and setup excluded).
     pub wall_s: f64,
-    /// Root-mean-square error against the reference, over pixels and channels.
+    /// Root-mean-square error against the truth, over pixels and channels: the RMSE against
+    /// the reference with the reference's own noise taken out, `√max(0, MSE − noise_mse)`
+    /// (the reference is rendered with another seed, so the two errors add).
     pub rmse: f64,
+    /// Root-mean-square error against the reference as it is (noise included).
+    #[serde(default)]
+    pub rmse_raw: f64,
+    /// The reference's own noise as an RMSE (0 for analytic references).
+    #[serde(default)]
+    pub ref_noise_rmse: f64,
     /// Mean of (x − r)²/(r² + 0.01) over pixels and channels.
     pub rel_mse: f64,
     /// Mean absolute error over pixels and channels.
@@ -228,7 +237,8 @@ fn progressive<E>(
         acc.nonfinite += m.nonfinite;
         let inv = 1.0 / hi as f64;
         let est: Vec<[f64; 3]> = acc.sums.iter().map(|s| s.map(|v| v * inv)).collect();
-        let (rmse, rel_mse, mae, max_err) = errors(&est, &reference.image.data);
+        let (rmse_raw, rel_mse, mae, max_err) = errors(&est, &reference.image.data);
+        let rmse = (rmse_raw * rmse_raw - reference.noise_mse).max(0.0).sqrt();
         rows.push(ConvergenceRow {
             scene: scene.name.clone(),
             tracer: label.tracer.clone(),
@@ -239,6 +249,8 @@ fn progressive<E>(
             spp: hi,
             wall_s: wall,
             rmse,
+            rmse_raw,
+            ref_noise_rmse: reference.noise_mse.sqrt(),
             rel_mse,
             mae,
             max_err,

@@ -9,13 +9,15 @@
 //! - *environment over convex diffuse*: only an environment light, every surface diffuse with a
 //!   constant albedo, and every surface sees the whole environment above it (a convex object,
 //!   a plane, stacked planes): a pixel is the coverage-weighted mean of `E` (miss), `a·E`
-//!   (front hit, max_depth ≥ 2) and `0` (back hit). Pixels whose sub-pixel grid disagrees
-//!   are *mixed*; their value is a grid estimate.
+//!   (front hit, max_depth ≥ 2) and `0` (back hit). Coverage and normals come from an f64
+//!   query over every primitive ([`super::exact`]), never from the tracer under test. Pixels
+//!   whose sub-pixel grid disagrees are *mixed*; their value is a grid estimate.
 //! - *plane under point lights*: one diffuse rectangle seen straight on, point lights (and
 //!   tiny downward area lights treated as Lambertian points): exact per-pixel integrals
 //!   (solid angle of a rectangle for points, the point-to-rectangle form factor for
 //!   Lambertian points).
 
+use super::exact::ExactHit;
 use crate::geometry::Ray;
 use crate::render::{render_moments, Image, WorkItem};
 use crate::scene::{Light, Material, Scene, Texture};
@@ -33,9 +35,14 @@ pub struct Reference {
     pub exact: Vec<bool>,
     /// Where the image came from.
     pub kind: ReferenceKind,
-    /// Environment references: sub-pixel rays that hit a surface hidden from the sky (through a
-    /// crack, e.g. the shared edge of a rectangle's two triangles). Their pixels are not exact.
-    pub leaks: u64,
+    /// Environment references: sub-pixel rays whose closed form is undefined (an outline edge
+    /// or a tangent, where an f32 tracer may decide either way) or that reach a surface hidden
+    /// from the sky. Their pixels are not exact.
+    pub ambiguous: u64,
+    /// Mean over pixels and channels of the variance of the reference's own pixel means (0 for
+    /// analytic references): the part of a measured mean squared error that is the
+    /// reference's noise, not the estimate's error.
+    pub noise_mse: f64,
 }
 
 /// How a reference image was obtained (the analytic kinds are described in the module docs).
@@ -73,10 +80,10 @@ impl ReferenceKind {
 const GRID: u32 = 16;
 
 /// The analytic reference of `scene`, if it has one.
-pub fn analytic<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<Reference> {
+pub fn analytic(scene: &Scene) -> Option<Reference> {
     interior(scene)
         .or_else(|| plane_point_lights(scene))
-        .or_else(|| environment_convex(scene, tracer))
+        .or_else(|| environment_convex(scene))
 }
 
 fn constant_albedo(scene: &Scene, material: u32) -> Option<Vec3> {
@@ -131,11 +138,12 @@ fn interior(scene: &Scene) -> Option<Reference> {
         },
         exact: vec![true; scene.pixel_count()],
         kind: ReferenceKind::Interior,
-        leaks: 0,
+        ambiguous: 0,
+        noise_mse: 0.0,
     })
 }
 
-fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<Reference> {
+fn environment_convex(scene: &Scene) -> Option<Reference> {
     let e = match scene.lights.as_slice() {
         [Light::Environment { radiance }] => *radiance,
         _ => return None,
@@ -171,7 +179,7 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
     let (w, h) = (scene.width(), scene.height());
     let mut image = Image::new(w, h);
     let mut exact = vec![true; scene.pixel_count()];
-    let mut leaks = 0u64;
+    let mut ambiguous = 0u64;
     for py in 0..h {
         for px in 0..w {
             let mut sum = Vec3::ZERO;
@@ -183,16 +191,20 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
                     ((k / GRID) as f32 + 0.5) / GRID as f32,
                 );
                 let ray = scene.camera.pixel_ray(px, py, jx, jy);
-                let v = match tracer.intersect(&ray, f32::INFINITY) {
-                    None => e,
-                    Some(hit) => {
-                        if hit.prim >= ns && !open_sky[(hit.prim - ns) as usize] {
-                            leaks += 1;
+                let v = match super::exact::closest(scene, &ray) {
+                    ExactHit::Miss => e,
+                    ExactHit::Ambiguous => {
+                        ambiguous += 1;
+                        mixed = true;
+                        e
+                    }
+                    ExactHit::Hit { prim, n, .. } => {
+                        if prim >= ns && !open_sky[(prim - ns) as usize] {
+                            ambiguous += 1;
                             mixed = true;
                         }
-                        let it = crate::render::integrator::interaction(scene, &ray, &hit);
-                        if ray.d.dot(it.n) < 0.0 && lit {
-                            albedo[hit.prim as usize] * e
+                        if ray.d.as_dvec3().dot(n) < 0.0 && lit {
+                            albedo[prim as usize] * e
                         } else {
                             Vec3::ZERO
                         }
@@ -214,7 +226,8 @@ fn environment_convex<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> Option<R
         image,
         exact,
         kind: ReferenceKind::EnvironmentConvex,
-        leaks,
+        ambiguous,
+        noise_mse: 0.0,
     })
 }
 
@@ -368,7 +381,8 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
         image,
         exact,
         kind: ReferenceKind::PlanePointLights,
-        leaks: 0,
+        ambiguous: 0,
+        noise_mse: 0.0,
     })
 }
 
@@ -422,12 +436,17 @@ pub fn image_moments_in<T: Tracer + ?Sized>(
 }
 
 /// Path of the cached reference of `scene` rendered with `spp` samples (seed + 1 so its noise
-/// is independent of the runs it judges).
+/// is independent of the runs it judges). Its noise ([`Reference::noise_mse`]) is kept beside
+/// it in a `.noise` file; a cache without one is rendered again.
 pub fn cache_path(dir: &Path, scene: &Scene, spp: u32) -> PathBuf {
     dir.join(format!("{}_{:016x}_{spp}spp.exr", scene.name, scene.hash))
 }
 
+/// Rounds a rendered reference is split into, so a long one reports progress.
+const REFERENCE_ROUNDS: u32 = 16;
+
 /// The analytic reference, or a high-spp render cached in `dir` (read back when present).
+/// `progress(done_spp, total_spp)` is called after each round of a render.
 ///
 /// # Errors
 /// A message when the cache cannot be written or read.
@@ -437,26 +456,70 @@ pub fn reference<T: Tracer + ?Sized>(
     dir: &Path,
     spp: u32,
     threads: usize,
+    progress: &mut dyn FnMut(u32, u32),
 ) -> Result<Reference, String> {
-    if let Some(r) = analytic(scene, tracer) {
+    if let Some(r) = analytic(scene) {
         return Ok(r);
     }
     let path = cache_path(dir, scene, spp);
-    let image = if path.exists() {
-        Image::load_exr(&path).map_err(|e| e.to_string())?
-    } else {
-        let mut s = scene.clone();
-        s.settings.seed = s.settings.seed.wrapping_add(1);
-        let m = image_moments(&s, tracer, 0..spp, false, threads);
-        let inv = 1.0 / spp as f64;
-        let image = Image {
-            width: scene.width(),
-            height: scene.height(),
-            data: m.sums.iter().map(|v| v.map(|c| (c * inv) as f32)).collect(),
-        };
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        image.save_with_preview(&path).map_err(|e| e.to_string())?;
-        image
+    let noise_path = path.with_extension("noise");
+    let cached = || -> Option<(Image, f64)> {
+        let noise = std::fs::read_to_string(&noise_path)
+            .ok()?
+            .trim()
+            .parse()
+            .ok()?;
+        Some((Image::load_exr(&path).ok()?, noise))
+    };
+    let (image, noise_mse) = match cached() {
+        Some(c) => c,
+        None => {
+            let mut s = scene.clone();
+            s.settings.seed = s.settings.seed.wrapping_add(1);
+            let n = scene.pixel_count();
+            let mut sums = vec![[0.0f64; 3]; n];
+            let mut sq = vec![[0.0f64; 3]; n];
+            let step = spp.div_ceil(REFERENCE_ROUNDS).max(1);
+            let mut lo = 0;
+            while lo < spp {
+                let hi = (lo + step).min(spp);
+                let m = image_moments(&s, tracer, lo..hi, false, threads);
+                for i in 0..n {
+                    for c in 0..3 {
+                        sums[i][c] += m.sums[i][c];
+                        sq[i][c] += m.sq_sums[i][c];
+                    }
+                }
+                lo = hi;
+                progress(lo, spp);
+            }
+            let k = spp as f64;
+            let image = Image {
+                width: scene.width(),
+                height: scene.height(),
+                data: sums.iter().map(|v| v.map(|c| (c / k) as f32)).collect(),
+            };
+            // Variance of each pixel's mean: sample variance / spp, averaged over channels.
+            let var_sum: f64 = sums
+                .iter()
+                .zip(&sq)
+                .flat_map(|(s, q)| (0..3).map(move |c| (s[c], q[c])))
+                .map(|(s, q)| ((q / k - (s / k).powi(2)).max(0.0)) / (k - 1.0).max(1.0))
+                .sum();
+            let noise = var_sum / (3 * n.max(1)) as f64;
+            let staging =
+                crate::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let name = |p: &Path| p.file_name().map(PathBuf::from).unwrap_or_default();
+            image
+                .save_with_preview(&staging.path(name(&path)))
+                .map_err(|e| e.to_string())?;
+            std::fs::write(staging.path(name(&noise_path)), format!("{noise:e}\n"))
+                .map_err(|e| format!("{}: {e}", noise_path.display()))?;
+            staging
+                .commit()
+                .map_err(|e| format!("{}: {e}", dir.display()))?;
+            (image, noise)
+        }
     };
     if image.width != scene.width() || image.height != scene.height() {
         return Err(format!("{}: size does not match the scene", path.display()));
@@ -468,6 +531,7 @@ pub fn reference<T: Tracer + ?Sized>(
             spp,
             path: Some(path),
         },
-        leaks: 0,
+        ambiguous: 0,
+        noise_mse,
     })
 }

@@ -44,6 +44,7 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
             &out.join("refs"),
             settings.ref_spp,
             plan.max_workers,
+            &mut |_, _| {},
         )
         .map_err(|e| anyhow::anyhow!("reference for {}: {e}", scene.name))?;
         let line = format!("{}: {}", scene.name, r.kind.label());

@@ -184,23 +184,59 @@ fn line_chart<DB: DrawingBackend>(
     x_desc: &str,
     y_desc: &str,
     data: &Series,
-    // (x on a log₂ scale, draw the ideal diagonal)
-    (log2_x, ideal): (bool, bool),
+    // (x on a log₂ scale, draw the ideal diagonal, y on a log₁₀ scale)
+    (log2_x, ideal, log10_y): (bool, bool, bool),
     refs: &[(f64, &str)],
 ) -> R {
+    // A log y axis is drawn as log₁₀ of the values on a linear axis (labels 10^k): rates that
+    // span decades (items/s from per-ray to whole-frame items) stay readable.
+    let logged: Series;
+    let data = if log10_y {
+        let l = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+        logged = data
+            .iter()
+            .map(|(n, pts)| {
+                let pts = pts
+                    .iter()
+                    .filter(|p| p.1 > 0.0)
+                    .map(|p| (p.0, l(p.1), l(p.2.max(p.1 * 1e-3)), l(p.3)))
+                    .collect();
+                (n.clone(), pts)
+            })
+            .collect();
+        &logged
+    } else {
+        data
+    };
     let (x0, x1) = range(data, |p| p.0);
     let (_, y1) = range(data, |p| p.3);
     let y1 = if ideal { y1.max(x1) } else { y1 };
     let y1 = refs.iter().map(|r| r.0).fold(y1, f64::max);
     let pad = ((x1 - x0) * 0.05).max(0.5);
+    let y_range = if log10_y {
+        let (y0, _) = range(data, |p| p.2);
+        // Head room above the data for the legend: a decade and a half.
+        y0.floor()..(y1 + 1.5).ceil()
+    } else {
+        // Head room above the data for the legend.
+        0.0..(y1 * 1.5).max(1e-9)
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(70)
-        // Head room above the data for the legend.
-        .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.5).max(1e-9))
+        .build_cartesian_2d((x0 - pad)..(x1 + pad), y_range)
         .map_err(e)?;
+    let fmt_y = |v: &f64| {
+        if !log10_y {
+            tidy(*v)
+        } else if (v - v.round()).abs() < 1e-6 {
+            tidy(10f64.powf(v.round()))
+        } else {
+            String::new()
+        }
+    };
     let fmt_x = |v: &f64| {
         if log2_x {
             if (v - v.round()).abs() < 1e-6 {
@@ -219,7 +255,7 @@ fn line_chart<DB: DrawingBackend>(
         .x_desc(x_desc)
         .y_desc(y_desc)
         .x_label_formatter(&fmt_x)
-        .y_label_formatter(&|v: &f64| tidy(*v))
+        .y_label_formatter(&fmt_y)
         .x_labels(((x1 - x0) as usize + 3).min(16))
         .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 16))
@@ -310,16 +346,25 @@ fn two_charts<DB: DrawingBackend>(
     top: (&str, &Series),
     bottom: (&str, &Series),
     bottom_refs: &[(f64, &str)],
+    bottom_log_y: bool,
 ) -> R {
     let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
-    line_chart(&upper, titles.0, x_desc, top.0, top.1, (true, false), &[])?;
+    line_chart(
+        &upper,
+        titles.0,
+        x_desc,
+        top.0,
+        top.1,
+        (true, false, false),
+        &[],
+    )?;
     line_chart(
         &lower,
         titles.1,
         x_desc,
         bottom.0,
         bottom.1,
-        (true, false),
+        (true, false, bottom_log_y),
         bottom_refs,
     )
 }
@@ -664,7 +709,7 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
             "worker threads",
             "speedup (t_serial / t)",
             &data,
-            (false, true),
+            (false, true, false),
             &[(1.0, "speedup 1 (serial)")]
         )
     );
@@ -695,7 +740,8 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
             "pixels per work item (log₂ scale)",
             ("median wall time (s)", &wall),
             ("speedup (t_serial / t)", &speed),
-            &[(1.0, "speedup 1 (serial)"), (max_w as f64, &ideal_label)]
+            &[(1.0, "speedup 1 (serial)"), (max_w as f64, &ideal_label)],
+            false
         )
     );
     out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve. Bars: 95 % intervals of the median (top) and of the paired speedup (bottom).");
@@ -739,7 +785,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
             "items outstanding per worker, B (log₂ scale)",
             "speedup (t_serial / t)",
             &data,
-            (true, false),
+            (true, false, false),
             &[(1.0, "speedup 1 (serial)")]
         )
     );
@@ -910,8 +956,9 @@ fn mpi_throughput(
             ),
             "pixels per work item (log₂ scale)",
             ("Mrays/s (median run)", &rays),
-            ("items/s (median run)", &items),
-            &[]
+            ("items/s (median run, log scale)", &items),
+            &[],
+            true
         )
     );
     let stem = final_plots.join(stem.strip_prefix(plots).unwrap_or(&stem));

@@ -5,6 +5,7 @@
 //! per-pixel sample variance ([`crate::render::Moments`]), and counts NaN/Inf samples.
 
 pub mod cases;
+pub mod paired;
 pub mod transform;
 pub mod watertight;
 
