@@ -42,6 +42,8 @@
 pub mod converge;
 pub mod cpu_time;
 pub mod csv_out;
+#[cfg(any(feature = "embree4", feature = "simgrid"))]
+pub mod dl;
 #[cfg(feature = "embree")]
 pub mod embree;
 #[cfg(feature = "embree4")]

@@ -47,31 +47,6 @@ pub type ErrorFunction =
 /// The Embree 4 library the build script found (`build/embree4.rs`).
 pub const LIBRARY: &str = env!("RAYSCHED_EMBREE4_LIB");
 
-// glibc's dynamic loader (in libc.so.6 since glibc 2.34).
-const RTLD_NOW: c_int = 2;
-const RTLD_LOCAL: c_int = 0;
-const RTLD_DEEPBIND: c_int = 8;
-extern "C" {
-    fn dlopen(filename: *const c_char, flags: c_int) -> *mut c_void;
-    fn dlsym(handle: *mut c_void, symbol: *const c_char) -> *mut c_void;
-    fn dlerror() -> *mut c_char;
-}
-
-/// The last `dlerror()` message.
-fn dl_error() -> String {
-    // SAFETY: `dlerror` returns NULL or a NUL-terminated string valid until the next dl call on
-    // this thread; it is copied at once.
-    let msg = unsafe { dlerror() };
-    if msg.is_null() {
-        "unknown dlopen error".into()
-    } else {
-        // SAFETY: see above.
-        unsafe { CStr::from_ptr(msg) }
-            .to_string_lossy()
-            .into_owned()
-    }
-}
-
 macro_rules! api {
     ($($name:ident: fn($($arg:ty),*) $(-> $ret:ty)?;)*) => {
         /// Embree 4's functions, resolved in the deep-bound library.
@@ -81,14 +56,12 @@ macro_rules! api {
 
         impl Api {
             /// # Safety
-            /// `handle` is a `dlopen` handle of an Embree 4 library, whose functions have the
+            /// `lib` is an Embree 4 library, whose functions have the
             /// signatures above (those of `rtcore*.h`, unchanged within 4.x).
-            unsafe fn resolve(handle: *mut c_void) -> Result<Self, String> {
+            unsafe fn resolve(lib: &crate::dl::Library) -> Result<Self, String> {
                 Ok(Self {
                     $($name: {
-                        let sym = concat!(stringify!($name), "\0");
-                        // SAFETY: `handle` is valid and `sym` NUL-terminated.
-                        let p = unsafe { dlsym(handle, sym.as_ptr().cast()) };
+                        let p = lib.symbol(concat!(stringify!($name), "\0"));
                         if p.is_null() {
                             return Err(format!("{LIBRARY}: no symbol {}", stringify!($name)));
                         }
@@ -139,22 +112,11 @@ pub fn api() -> Result<&'static Api, String> {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let mut errors = Vec::new();
-        for name in [LIBRARY.to_string(), file_name] {
-            let Ok(c_name) = CString::new(name) else {
-                continue;
-            };
-            // SAFETY: `c_name` is a NUL-terminated path; the handle is never closed, so the
-            // functions resolved from it stay valid for the whole process.
-            let handle = unsafe { dlopen(c_name.as_ptr(), RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND) };
-            if handle.is_null() {
-                errors.push(dl_error());
-                continue;
-            }
-            // SAFETY: `handle` is an Embree 4 library (the build script found it by name).
-            return unsafe { Api::resolve(handle) };
-        }
-        Err(format!("cannot open Embree 4: {}", errors.join("; ")))
+        let lib = crate::dl::Library::open_first(&[LIBRARY.to_string(), file_name])
+            .map_err(|e| format!("cannot open Embree 4: {e}"))?;
+        // SAFETY: `lib` is an Embree 4 library (the build script found it by name); it is
+        // never closed, so the table stays valid.
+        unsafe { Api::resolve(&lib) }
     })
     .as_ref()
     .map_err(Clone::clone)

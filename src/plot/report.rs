@@ -155,9 +155,14 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
         .map(|h| h.stats.ci_target)
         .unwrap_or(0.0);
     if target > 0.0 {
-        let wide: Vec<String> = sums
+        let mut wide: Vec<&Summary> = sums.iter().filter(|s| s.ci_half_rel > target).collect();
+        // The widest first, five named: a list of fifty fits neither a terminal line nor a
+        // reader's attention; summary.csv has every half-width.
+        wide.sort_by(|a, b| b.ci_half_rel.total_cmp(&a.ci_half_rel));
+        const NAMED: usize = 5;
+        let named: Vec<String> = wide
             .iter()
-            .filter(|s| s.ci_half_rel > target)
+            .take(NAMED)
             .map(|s| {
                 format!(
                     "`{}` ×{} ({}, ±{:.1} % after {} runs)",
@@ -169,12 +174,22 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
                 )
             })
             .collect();
-        if !wide.is_empty() {
+        if let (Some(first), Some(last)) = (wide.first(), wide.last()) {
+            let rest = if wide.len() > NAMED {
+                format!(
+                    "; and {} more (see summary.csv, `ci_half_rel`)",
+                    wide.len() - NAMED
+                )
+            } else {
+                String::new()
+            };
             out.push(format!(
-                "{} configuration(s) stopped with a median CI wider than the ±{:.1} % target (their runs or seconds ran out): {}",
+                "{} configuration(s) stopped with a median CI wider than the ±{:.1} % target (their runs or seconds ran out; half-widths ±{:.1}–{:.1} %), widest: {}{rest}",
                 wide.len(),
                 target * 100.0,
-                wide.join(", ")
+                last.ci_half_rel * 100.0,
+                first.ci_half_rel * 100.0,
+                named.join(", ")
             ));
         }
     }

@@ -30,30 +30,8 @@ struct OpaqueComm {
 type ActorMain = extern "C-unwind" fn(c_int, *mut *mut c_char);
 type Cleanup = extern "C" fn(*mut c_void);
 
-// glibc's dynamic loader (in libc.so.6 since glibc 2.34).
-const RTLD_NOW: c_int = 2;
-const RTLD_LOCAL: c_int = 0;
-const RTLD_DEEPBIND: c_int = 8;
 extern "C" {
-    fn dlopen(filename: *const c_char, flags: c_int) -> *mut c_void;
-    fn dlsym(handle: *mut c_void, symbol: *const c_char) -> *mut c_void;
-    fn dlerror() -> *mut c_char;
     fn free(p: *mut c_void);
-}
-
-/// The last `dlerror()` message.
-fn dl_error() -> String {
-    // SAFETY: `dlerror` returns NULL or a NUL-terminated string valid until the next dl call on
-    // this thread; it is copied at once.
-    let msg = unsafe { dlerror() };
-    if msg.is_null() {
-        "unknown dlopen error".into()
-    } else {
-        // SAFETY: see above.
-        unsafe { CStr::from_ptr(msg) }
-            .to_string_lossy()
-            .into_owned()
-    }
 }
 
 macro_rules! api {
@@ -65,14 +43,12 @@ macro_rules! api {
 
         impl Api {
             /// # Safety
-            /// `handle` is a `dlopen` handle of SimGrid 3.x, whose functions have the
+            /// `lib` is SimGrid 3.x, whose functions have the
             /// signatures above (those of `simgrid/*.h`).
-            unsafe fn resolve(handle: *mut c_void) -> Result<Self, String> {
+            unsafe fn resolve(lib: &crate::dl::Library) -> Result<Self, String> {
                 Ok(Self {
                     $($name: {
-                        let sym = concat!(stringify!($name), "\0");
-                        // SAFETY: `handle` is valid and `sym` NUL-terminated.
-                        let p = unsafe { dlsym(handle, sym.as_ptr().cast()) };
+                        let p = lib.symbol(concat!(stringify!($name), "\0"));
                         if p.is_null() {
                             return Err(format!("SimGrid has no symbol {}", stringify!($name)));
                         }
@@ -117,23 +93,10 @@ api! {
 fn api() -> &'static Api {
     static API: std::sync::OnceLock<Result<Api, String>> = std::sync::OnceLock::new();
     let api = API.get_or_init(|| {
-        let mut errors = Vec::new();
-        for name in ["libsimgrid.so", "libsimgrid.so.3.32"] {
-            let c_name = CString::new(name).unwrap_or_default();
-            // SAFETY: `c_name` is a NUL-terminated name; the handle is never closed, so the
-            // functions resolved from it stay valid for the whole process.
-            let handle = unsafe { dlopen(c_name.as_ptr(), RTLD_NOW | RTLD_LOCAL | RTLD_DEEPBIND) };
-            if handle.is_null() {
-                errors.push(dl_error());
-                continue;
-            }
-            // SAFETY: `handle` is SimGrid's library, opened by its name.
-            return unsafe { Api::resolve(handle) };
-        }
-        Err(format!(
-            "cannot open SimGrid (install libsimgrid-dev): {}",
-            errors.join("; ")
-        ))
+        let lib = crate::dl::Library::open_first(&["libsimgrid.so", "libsimgrid.so.3.32"])
+            .map_err(|e| format!("cannot open SimGrid (install libsimgrid-dev): {e}"))?;
+        // SAFETY: `lib` is SimGrid's library, opened by its name and never closed.
+        unsafe { Api::resolve(&lib) }
     });
     match api {
         Ok(api) => api,

@@ -4,36 +4,12 @@
 use std::path::Path;
 use std::process::Command;
 
-const GOOD: &str = r#"
-[camera]
-origin = [0, 0, 4]
-target = [0, 0, 0]
-up = [0, 1, 0]
-fov_deg = 40
-width = 8
-height = 8
-
-[render]
-spp = 1
-
-[materials.white]
-type = "diffuse"
-reflectance = [0.8, 0.8, 0.8]
-
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[shapes]]
-type = "sphere"
-material = "white"
-radius = 1
-
+const GOOD: &str = concat!(crate::support::sphere_scene_8x8!(), r#"
 [[shapes]]
 type = "mesh"
 material = "glass"
 path = "tri.obj"
-"#;
+"#);
 
 const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 

@@ -11,31 +11,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-const SCENE: &str = r#"
-[camera]
-origin = [0, 0, 4]
-target = [0, 0, 0]
-up = [0, 1, 0]
-fov_deg = 40
-width = 8
-height = 8
-
-[render]
-spp = 1
-
-[materials.white]
-type = "diffuse"
-reflectance = [0.8, 0.8, 0.8]
-
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[shapes]]
-type = "sphere"
-material = "white"
-radius = 1
-"#;
+const SCENE: &str = crate::support::sphere_scene_8x8!();
 
 fn load(text: &str, base: &Path) -> Result<raysched::scene::Scene, SceneError> {
     load_scene_str(

@@ -6,6 +6,39 @@ use raysched::scene::{load_scene, load_scene_str, Scene, SceneOverrides};
 use raysched::tracer::Tracer;
 use std::path::{Path, PathBuf};
 
+/// An 8×8, 1-spp scene text: a white diffuse sphere of radius 1 seen from (0, 0, 4), and a
+/// `glass` material for the tests that add shapes (a literal, so `concat!` can extend it).
+macro_rules! sphere_scene_8x8 {
+    () => {
+        r#"
+[camera]
+origin = [0, 0, 4]
+target = [0, 0, 0]
+up = [0, 1, 0]
+fov_deg = 40
+width = 8
+height = 8
+
+[render]
+spp = 1
+
+[materials.white]
+type = "diffuse"
+reflectance = [0.8, 0.8, 0.8]
+
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+
+[[shapes]]
+type = "sphere"
+material = "white"
+radius = 1
+"#
+    };
+}
+pub(crate) use sphere_scene_8x8;
+
 /// A 4×4 camera at (0, 0, 10) looking at the origin, for scenes that are only ray-cast.
 pub(crate) const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
 
