@@ -5,11 +5,10 @@
 //! (a slower host takes longer; on a shared node the master's executions share its cores);
 //! the master executes its per-hand-out cost h for each item it hands out. Where an actor's
 //! host has a core for every actor that computes on it (a cluster node with one worker, the
-//! master's node of a cluster), the execution is a timer of flops ÷ speed instead: SimGrid
-//! gives each of ≤ cores executions a whole core, so the time is the same (within the engine's
-//! numerical precision), and a timer costs the engine no max-min sharing problem (see [`Cpu`]). The shared counter
-//! and a steal take `counter_s` of simulated time without using a core (an atomic operation
-//! serialises, it does not compute). Messages carry their wire-format sizes.
+//! master's node of a cluster), the execution is a timer of flops ÷ speed instead (see
+//! [`Cpu`]). The shared counter and a steal take `counter_s` of simulated time without using a
+//! core (an atomic operation serialises, it does not compute). Messages carry their
+//! wire-format sizes.
 //!
 //! State shared by the actors is a `Rc<RefCell<…>>`: SimGrid runs every actor on one thread,
 //! and no borrow is held across a call that can switch actors (execute, sleep, put, get).
@@ -41,9 +40,10 @@ pub(crate) struct Tally {
 type Shared<T> = Rc<RefCell<T>>;
 
 /// How an actor spends computation: as an execution shared with the host's other executions,
-/// or, on a core of its own, as a timer of the same length. Measured on the 2-core dev box:
-/// a master with B = 2 over 100 k items took 22 s to simulate at 4096 workers with executions
-/// (each start and end of one re-solves the sharing of every running execution).
+/// or, on a core of its own, as a timer of the same length. SimGrid gives each of ≤ cores
+/// executions a whole core, so both take the same simulated time; the timer spares the engine
+/// a CPU-sharing variable per execution. (What made large runs slow was the shared mailbox,
+/// see [`FanIn`].)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Cpu {
     /// Shared: `sg_actor_execute`.

@@ -31,8 +31,8 @@ pub struct PixelCosts {
 
 impl PixelCosts {
     /// Render `scene` `reps` times pixel by pixel on one worker, timing each pixel (a timeline
-    /// of a `static_cyclic` run at chunk 1), and keep each pixel's median time. The median, not the
-    /// fastest: the fastest of 3 underestimates what a pixel costs in a run (on the loaded
+    /// of a `static_cyclic` run at chunk 1), and keep each pixel's median time. The median, not
+    /// the fastest: the fastest of 3 underestimates what a pixel costs in a run (on the loaded
     /// 2-core dev box Σ of the fastest was 0.38 s where a serial render used 0.49 s of CPU),
     /// and a pixel during which the thread was descheduled (a whole time slice, tens of ms)
     /// is out-voted as long as it happens in fewer than half the renders.
