@@ -67,10 +67,10 @@ impl Inputs {
         let mut master_fixed_s = BTreeMap::new();
         for s in specs {
             if let Policy::Master(p) = s.policy {
-                if !master_h_s.contains_key(&p.buffer) {
+                if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
                     let z = inputs::master_zero_work(p.buffer, n, workers, reps)
                         .map_err(anyhow::Error::msg)?;
-                    master_h_s.insert(p.buffer, z.per_item_s);
+                    e.insert(z.per_item_s);
                     master_fixed_s.insert(p.buffer, z.fixed_s);
                 }
             }
