@@ -26,6 +26,10 @@ struct OpaqueMailbox {
 struct OpaqueComm {
     _private: [u8; 0],
 }
+#[repr(C)]
+struct OpaqueSem {
+    _private: [u8; 0],
+}
 
 type ActorMain = extern "C-unwind" fn(c_int, *mut *mut c_char);
 type Cleanup = extern "C" fn(*mut c_void);
@@ -84,6 +88,9 @@ api! {
     sg_mailbox_put_init: fn(*mut OpaqueMailbox, *mut c_void, c_long) -> *mut OpaqueComm;
     sg_comm_detach: fn(*mut OpaqueComm, Option<Cleanup>);
     sg_mailbox_get: fn(*mut OpaqueMailbox) -> *mut c_void;
+    sg_sem_init: fn(c_int) -> *mut OpaqueSem;
+    sg_sem_acquire: fn(*mut OpaqueSem);
+    sg_sem_release: fn(*mut OpaqueSem);
 }
 
 /// SimGrid's functions, the library opened on first use. SimGrid is opened, not linked: it
@@ -312,5 +319,27 @@ impl<T: 'static> Mailbox<T> {
         // SAFETY: every payload on a Mailbox<T> was put by put_detached as a Box<T> (the type
         // parameter makes another type impossible), and each is delivered exactly once.
         unsafe { *Box::from_raw((api().sg_mailbox_get)(self.raw) as *mut T) }
+    }
+}
+
+/// A counting semaphore of the simulation: a synchronisation without any network or CPU use.
+#[derive(Clone, Copy, Debug)]
+pub struct Semaphore(*mut OpaqueSem);
+
+impl Semaphore {
+    /// A semaphore holding `count` tokens (lives until the process ends: one run per process).
+    pub fn new(count: u32) -> Self {
+        // SAFETY: creates a semaphore object; no pointers passed.
+        Self(unsafe { (api().sg_sem_init)(count.min(i32::MAX as u32) as c_int) })
+    }
+    /// Take a token, waiting (in simulated time) until one is released.
+    pub fn acquire(self) {
+        // SAFETY: self.0 is a live semaphore (never destroyed); called from an actor.
+        unsafe { (api().sg_sem_acquire)(self.0) }
+    }
+    /// Give a token back, waking one waiting actor.
+    pub fn release(self) {
+        // SAFETY: as in `acquire`.
+        unsafe { (api().sg_sem_release)(self.0) }
     }
 }

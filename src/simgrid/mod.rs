@@ -15,14 +15,22 @@ use std::rc::Rc;
 /// SimGrid options: quiet; boost contexts (the fastest context factory measured: raw 1.5×,
 /// ucontext 2.3×, threads 34× slower); no cross-traffic (the TCP acks of each message, which
 /// nearly doubled the time of a 4096-worker run and matter only for bulk transfers).
-fn options() -> Vec<String> {
-    [
+///
+/// Each actor's stack is a memory mapping plus one for its guard page; where that would pass
+/// the process's limit (`vm.max_map_count`: 16 384 workers need about 33 000 actors under work
+/// stealing) the guard pages are left out, so a stack overflow would no longer be caught.
+fn options(actors: usize) -> Vec<String> {
+    let mut o: Vec<String> = [
         "--log=root.thres:critical",
         "--cfg=contexts/factory:boost",
         "--cfg=network/crosstraffic:0",
     ]
     .map(String::from)
-    .to_vec()
+    .to_vec();
+    if 2 * actors > crate::simulate::job::mapping_budget() {
+        o.push("--cfg=contexts/guard-size:0".into());
+    }
+    o
 }
 
 fn hosts_in_order() -> Vec<ffi::Host> {
@@ -33,7 +41,7 @@ fn hosts_in_order() -> Vec<ffi::Host> {
 
 /// Load `platform` and list its hosts. Once per process.
 pub fn inspect_platform(platform: &str) -> PlatformInfo {
-    ffi::init(&options());
+    ffi::init(&options(0));
     ffi::load_platform(platform);
     PlatformInfo {
         hosts: hosts_in_order()
@@ -51,7 +59,15 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
         spec.set(k, v).map_err(|e| e.to_string())?;
     }
     let started = std::time::Instant::now();
-    ffi::init(&options());
+    let actors = crate::simulate::job::actors_needed(kind, job.workers, job.lost.len());
+    if actors > crate::simulate::job::mapping_budget() {
+        return Err(format!(
+            "{} workers need about {actors} SimGrid actors, more than this system's {} memory mappings per process (vm.max_map_count) allow",
+            job.workers,
+            crate::simulate::job::mapping_budget()
+        ));
+    }
+    ffi::init(&options(actors));
     ffi::load_platform(&job.platform.to_string_lossy());
     let hosts = hosts_in_order();
     let info = PlatformInfo {
@@ -83,6 +99,7 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
     protocols::spawn_protocol(Rc::clone(&world), spec.policy);
     ffi::run();
     let mut out = world.finish();
+    out.wall_s += world.job.start_s;
     out.host_s = started.elapsed().as_secs_f64();
     Ok(out)
 }

@@ -15,7 +15,7 @@
 //! tracer = "bvh"
 //! dispatch_items = 65536                          # zero-work runs for h
 //! dispatch_workers = 2
-//! probe_repetitions = 3                           # fastest time per pixel kept
+//! probe_repetitions = 3                           # median time per pixel kept
 //!
 //! [[schedulers]]                                  # as in a timing experiment
 //! kind = "master"
@@ -282,6 +282,22 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
                 ),
             ));
         }
+    }
+    let most = *workers.last().unwrap_or(&1);
+    let budget = super::job::mapping_budget();
+    if let Some(s) = specs
+        .iter()
+        .find(|s| super::job::actors_needed(s.kind(), most, file.lost.len()) > budget)
+    {
+        return Err(field(
+            path,
+            "workers",
+            format!(
+                "{most} simulated workers of {} need about {} SimGrid actors, more than this system's {budget} memory mappings per process (vm.max_map_count) allow",
+                s.kind().id(),
+                super::job::actors_needed(s.kind(), most, file.lost.len())
+            ),
+        ));
     }
     let probe = &file.probe;
     let tracer = crate::tracer::TracerKind::from_id(&probe.tracer)

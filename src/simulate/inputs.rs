@@ -31,27 +31,59 @@ pub struct PixelCosts {
 
 impl PixelCosts {
     /// Render `scene` `reps` times pixel by pixel on one worker, timing each pixel (a timeline
-    /// of a `static` run at chunk 1), and keep each pixel's fastest time: on a shared machine a
-    /// pixel during which the thread was descheduled shows the whole time slice (tens of ms,
-    /// seen under a load average of 20), which would make one pixel the run's critical path.
-    pub fn probe(scene: &Arc<Scene>, tracer: &Arc<AnyTracer>, reps: u32) -> Result<Self, String> {
-        let mut best = Self::probe_once(scene, tracer)?;
-        for _ in 1..reps {
-            let next = Self::probe_once(scene, tracer)?;
-            for (b, n) in best.cost_s.iter_mut().zip(&next.cost_s) {
-                *b = b.min(*n);
+    /// of a `static_cyclic` run at chunk 1), and keep each pixel's median time. The median, not
+    /// the fastest: the fastest of 3 underestimates what a pixel costs in a run (on the loaded
+    /// 2-core dev box Σ of the fastest was 0.38 s where a serial render used 0.49 s of CPU),
+    /// and a pixel during which the thread was descheduled (a whole time slice, tens of ms)
+    /// is out-voted as long as it happens in fewer than half the renders.
+    ///
+    /// With `threads` > 1 the pixels are dealt out cyclically to that many threads rendering
+    /// at once: the cost of a pixel while every core renders (cores share caches, memory and,
+    /// on a virtual machine, possibly one physical core), for simulating a run of that many
+    /// workers on this machine.
+    pub fn probe(
+        scene: &Arc<Scene>,
+        tracer: &Arc<AnyTracer>,
+        reps: u32,
+        threads: usize,
+    ) -> Result<Self, String> {
+        let runs: Vec<Self> = (0..reps.max(1))
+            .map(|_| Self::probe_once(scene, tracer, threads))
+            .collect::<Result<_, _>>()?;
+        let mid = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            if n % 2 == 1 {
+                v[n / 2]
+            } else {
+                0.5 * (v[n / 2 - 1] + v[n / 2])
             }
-            best.wall_s = best.wall_s.min(next.wall_s);
-        }
-        Ok(best)
+        };
+        let cost_s = (0..runs[0].cost_s.len())
+            .map(|p| mid(runs.iter().map(|r| r.cost_s[p]).collect()))
+            .collect();
+        Ok(Self {
+            width: runs[0].width,
+            height: runs[0].height,
+            cost_s,
+            wall_s: mid(runs.iter().map(|r| r.wall_s).collect()),
+        })
     }
 
-    fn probe_once(scene: &Arc<Scene>, tracer: &Arc<AnyTracer>) -> Result<Self, String> {
+    fn probe_once(
+        scene: &Arc<Scene>,
+        tracer: &Arc<AnyTracer>,
+        threads: usize,
+    ) -> Result<Self, String> {
         if scene.frames() > 1 {
             return Err("animations are not simulated (the probe times one frame)".into());
         }
         let (w, h) = (scene.width(), scene.height());
-        let mut spec = SchedulerSpec::new(SchedulerKind::Static, Chunk::Tile { w: 1, h: 1 }, 1);
+        let mut spec = SchedulerSpec::new(
+            SchedulerKind::StaticCyclic,
+            Chunk::Tile { w: 1, h: 1 },
+            threads.max(1),
+        );
         spec.timeline = true;
         let items = decompose(w, h, spec.chunk, Order::Scanline);
         let (_, stats) = run_items(
@@ -132,10 +164,24 @@ fn nothing() -> Job {
     })
 }
 
-/// Seconds per item of `policy` on `workers` threads over one-pixel zero-work items: the
-/// slope between runs of `items` and 2·`items` items (so the run's fixed cost, thread start-up
-/// and join, ~100–260 µs here, is left out), median of `reps` pairs.
-pub fn zero_work_s(policy: Policy, items: u32, workers: usize, reps: u32) -> Result<f64, String> {
+/// What zero-work runs of a scheduler measured: its cost per item and its fixed cost per run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZeroWork {
+    /// Seconds per item: the slope between runs of n and 2n one-pixel zero-work items.
+    pub per_item_s: f64,
+    /// Seconds per run that do not grow with the items (threads started and joined, the
+    /// results gathered): the intercept of the same two runs, ≥ 0.
+    pub fixed_s: f64,
+}
+
+/// [`ZeroWork`] of `policy` on `workers` threads over one-pixel zero-work items: runs of
+/// `items` and 2·`items` items, median of `reps` pairs (slope and intercept each).
+pub fn zero_work(
+    policy: Policy,
+    items: u32,
+    workers: usize,
+    reps: u32,
+) -> Result<ZeroWork, String> {
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
     let wall = |n: u32| -> Result<(f64, usize), String> {
@@ -145,29 +191,42 @@ pub fn zero_work_s(policy: Policy, items: u32, workers: usize, reps: u32) -> Res
             .map_err(|e| e.to_string())?;
         Ok((s.wall_s, list.len()))
     };
-    let mut per_item: Vec<f64> = (0..reps.max(1))
+    let pairs: Vec<(f64, f64)> = (0..reps.max(1))
         .map(|_| {
             let (a, na) = wall(items)?;
             let (b, nb) = wall(2 * items)?;
-            Ok(((b - a) / (nb - na) as f64).max(b / nb as f64 * 0.05))
+            let slope = ((b - a) / (nb - na) as f64).max(b / nb as f64 * 0.05);
+            Ok((slope, (a - slope * na as f64).max(0.0)))
         })
         .collect::<Result<_, String>>()?;
-    per_item.sort_by(f64::total_cmp);
-    Ok(per_item[per_item.len() / 2])
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok(ZeroWork {
+        per_item_s: median(pairs.iter().map(|p| p.0).collect()),
+        fixed_s: median(pairs.iter().map(|p| p.1).collect()),
+    })
 }
 
-/// The master's cost per hand-out at `buffer`: zero-work dispatch per item.
-pub fn master_h_s(buffer: usize, items: u32, workers: usize, reps: u32) -> Result<f64, String> {
+/// The master's cost per hand-out at `buffer` (zero-work dispatch per item) and its fixed cost.
+pub fn master_zero_work(
+    buffer: usize,
+    items: u32,
+    workers: usize,
+    reps: u32,
+) -> Result<ZeroWork, String> {
     let p = MasterParams {
         buffer,
         ..MasterParams::DEFAULT
     };
-    zero_work_s(Policy::Master(p), items, workers, reps)
+    zero_work(Policy::Master(p), items, workers, reps)
 }
 
-/// The shared counter's cost per grab: zero-work self-scheduling at grab 1, per item.
-pub fn counter_s(items: u32, workers: usize, reps: u32) -> Result<f64, String> {
-    zero_work_s(
+/// The shared counter's cost per grab (zero-work self-scheduling at grab 1, per item) and the
+/// threaded schedulers' fixed cost per run.
+pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWork, String> {
+    zero_work(
         Policy::defaults(SchedulerKind::SelfScheduling),
         items,
         workers,

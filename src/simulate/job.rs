@@ -10,6 +10,33 @@ use std::path::PathBuf;
 /// runs an item in exactly its measured time; `2Gf` in half of it.
 pub const REFERENCE_FLOPS: f64 = 1e9;
 
+/// Senders per relay actor of a fan-in (`simgrid::protocols::FanIn`): a relay's mailbox
+/// holds at most one message per sender of its group, so taking one scans ≤ 64 entries.
+pub const FAN_IN_GROUP: usize = 64;
+
+/// SimGrid actors a simulated run of `workers` workers of `kind` creates (an upper bound): a
+/// worker each, a steal server each for work stealing, the fan-in relays, the master or
+/// counter or sink, and `lost` killers. Each actor's stack is one memory mapping, two with
+/// its guard page.
+pub fn actors_needed(kind: crate::sched::SchedulerKind, workers: usize, lost: usize) -> usize {
+    use crate::sched::SchedulerKind as K;
+    let per_worker = match kind {
+        K::WorkStealing | K::WorkStealingDeque => 2,
+        _ => 1,
+    };
+    per_worker * workers + workers.div_ceil(FAN_IN_GROUP) + 2 + lost
+}
+
+/// Memory mappings one process may hold (`vm.max_map_count`, Linux's default 65 530), with
+/// room kept for the libraries and heap of the process itself.
+pub fn mapping_budget() -> usize {
+    let limit = std::fs::read_to_string("/proc/sys/vm/max_map_count")
+        .ok()
+        .and_then(|s| s.trim().parse::<usize>().ok())
+        .unwrap_or(65_530);
+    limit.saturating_sub(2_000)
+}
+
 /// A worker whose host is turned off at `at_s` seconds of simulated time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LostWorker {
@@ -41,6 +68,11 @@ pub struct SimJob {
     /// The shared counter's cost per grab, seconds (zero-work self-scheduling, grab 1); also
     /// the cost of one steal.
     pub counter_s: f64,
+    /// Seconds every run spends outside its items, added to the simulated wall: threads
+    /// started and joined, measured for local threads (the intercept of the zero-work runs);
+    /// 0 where that launch is not measured (a cluster's).
+    #[serde(default)]
+    pub start_s: f64,
     /// Workers lost during the run.
     pub lost: Vec<LostWorker>,
     /// Seed of the work-stealing victim choice.

@@ -147,6 +147,35 @@ fn without_chunk(row: &SimRow) -> String {
     s.label().replace(" chunk=frame", "")
 }
 
+/// The per-ray master's analytic limits for the speedup plot: one master hands out at most
+/// 1/h items per second, so speedup ≤ c̄ / h (c̄ the mean item cost), reached at c̄ / h workers
+/// (where the workers' demand, W / c̄ items per second, meets 1/h).
+fn master_limits(rows: &[&&SimRow], inputs: &Inputs) -> Vec<(f64, String)> {
+    let mut out: Vec<(f64, String)> = Vec::new();
+    for r in rows {
+        if let Policy::Master(m) = r.spec.policy {
+            let Some(h) = inputs.master_h_s.get(&m.buffer) else {
+                continue;
+            };
+            let limit = analytic_master_speedup(r.serial_s, r.items, *h);
+            let name = format!(
+                "1/h limit of {}: speedup {limit:.0}, reached at {limit:.0} workers",
+                r.spec.label()
+            );
+            if !out.iter().any(|l| l.1 == name) {
+                out.push((limit, name));
+            }
+        }
+    }
+    out
+}
+
+/// c̄ / h: the speedup a single master with cost `h` per hand-out cannot exceed over `items`
+/// items costing `serial_s` in all (= the worker count at which it saturates).
+pub fn analytic_master_speedup(serial_s: f64, items: usize, h: f64) -> f64 {
+    serial_s / items.max(1) as f64 / h.max(1e-300)
+}
+
 /// Every simulation plot into `dir`; returns their file names.
 pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>, String> {
     let mut files = Vec::new();
@@ -174,7 +203,7 @@ pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>,
             "speedup over serial",
             &by_label.into_iter().collect(),
             true,
-            &[],
+            &master_limits(&on, inputs),
             true,
         )?;
         files.push(f);

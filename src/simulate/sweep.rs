@@ -12,23 +12,34 @@ use std::sync::Arc;
 
 /// The measured inputs every simulated run of one experiment shares.
 pub struct Inputs {
-    /// Per-pixel costs of the probe render.
+    /// Per-pixel costs of the probe render on one thread.
     pub pixels: PixelCosts,
+    /// Per-pixel costs with that many threads rendering at once, used for runs of that many
+    /// workers (the validation's; see [`PixelCosts::probe`]).
+    pub concurrent: BTreeMap<usize, PixelCosts>,
     /// The master's h per buffer size, seconds.
     pub master_h_s: BTreeMap<usize, f64>,
     /// The shared counter's cost per grab, seconds.
     pub counter_s: f64,
-    /// Item inputs per (chunk, order), computed once.
-    items: BTreeMap<(String, String), Arc<ItemInputs>>,
+    /// The fixed cost of a local-thread run, seconds: the master's per buffer size, and the
+    /// threaded schedulers' (zero-work self-scheduling).
+    pub fixed_s: (BTreeMap<usize, f64>, f64),
+    /// Add the local-thread launch cost to each simulated wall (the validation against
+    /// local-thread runs does; a simulated cluster has no measured launch).
+    pub local_launch: bool,
+    /// Item inputs per (chunk, order, probe threads), computed once.
+    items: BTreeMap<(String, String, usize), Arc<ItemInputs>>,
 }
 
 impl Inputs {
-    /// Measure everything `specs` need: the probe render of the plan's scene, h for each
-    /// buffer size, the counter's cost.
+    /// Measure everything `specs` need: the probe render of the plan's scene (on one thread,
+    /// and at each of `concurrency` threads at once), h for each buffer size, the counter's
+    /// cost.
     pub fn measure(
         plan: &SimPlan,
         overrides: &crate::scene::SceneOverrides,
         specs: &[SchedulerSpec],
+        concurrency: &[usize],
         quiet: bool,
     ) -> anyhow::Result<Self> {
         let scene = Arc::new(
@@ -36,21 +47,36 @@ impl Inputs {
                 .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
         );
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
-        let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions)
+        let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, 1)
             .map_err(anyhow::Error::msg)?;
+        let mut concurrent = BTreeMap::new();
+        for &t in concurrency.iter().filter(|&&t| t > 1) {
+            let px = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, t)
+                .map_err(anyhow::Error::msg)?;
+            if !quiet {
+                println!(
+                    "probe on {t} threads at once: Σ pixels {:.4} s ({:+.1} % against one thread)",
+                    px.serial_s(),
+                    100.0 * (px.serial_s() / pixels.serial_s() - 1.0)
+                );
+            }
+            concurrent.insert(t, px);
+        }
         let (n, workers, reps) = plan.dispatch;
         let mut master_h_s = BTreeMap::new();
+        let mut master_fixed_s = BTreeMap::new();
         for s in specs {
             if let Policy::Master(p) = s.policy {
                 if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
-                    e.insert(
-                        inputs::master_h_s(p.buffer, n, workers, reps)
-                            .map_err(anyhow::Error::msg)?,
-                    );
+                    let z = inputs::master_zero_work(p.buffer, n, workers, reps)
+                        .map_err(anyhow::Error::msg)?;
+                    e.insert(z.per_item_s);
+                    master_fixed_s.insert(p.buffer, z.fixed_s);
                 }
             }
         }
-        let counter_s = inputs::counter_s(n, workers, reps).map_err(anyhow::Error::msg)?;
+        let counter = inputs::counter_zero_work(n, workers, reps).map_err(anyhow::Error::msg)?;
+        let counter_s = counter.per_item_s;
         if !quiet {
             println!(
                 "probe: {}×{} px, serial {:.4} s (Σ pixels {:.4} s); counter {:.1} ns/grab; master h {}",
@@ -64,16 +90,22 @@ impl Inputs {
         }
         Ok(Self {
             pixels,
+            concurrent,
             master_h_s,
             counter_s,
+            fixed_s: (master_fixed_s, counter.fixed_s),
+            local_launch: false,
             items: BTreeMap::new(),
         })
     }
 
-    fn items(&mut self, chunk: Chunk, order: Order) -> Arc<ItemInputs> {
-        let px = &self.pixels;
+    fn items(&mut self, chunk: Chunk, order: Order, workers: usize) -> Arc<ItemInputs> {
+        let (threads, px) = match self.concurrent.get(&workers) {
+            Some(px) => (workers, px),
+            None => (1, &self.pixels),
+        };
         self.items
-            .entry((chunk.to_string(), order.id().to_string()))
+            .entry((chunk.to_string(), order.id().to_string(), threads))
             .or_insert_with(|| Arc::new(ItemInputs::new(px, chunk, order)))
             .clone()
     }
@@ -82,16 +114,19 @@ impl Inputs {
     pub fn job(&mut self, spec: &SchedulerSpec, platform: &Path, plan: &SimPlan) -> SimJob {
         // pbrt and mitsuba choose their own tiles, as in a measured run.
         let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
-        let items = self.items(chunk, order);
+        let items = self.items(chunk, order, spec.workers);
         let params = spec
             .policy
             .info()
             .iter()
             .filter_map(|p| Some((p.name.to_string(), spec.get(p.name)?)))
             .collect();
-        let master_h_s = match spec.policy {
-            Policy::Master(p) => self.master_h_s.get(&p.buffer).copied().unwrap_or(0.0),
-            _ => 0.0,
+        let (master_h_s, fixed_s) = match spec.policy {
+            Policy::Master(p) => (
+                self.master_h_s.get(&p.buffer).copied().unwrap_or(0.0),
+                self.fixed_s.0.get(&p.buffer).copied().unwrap_or(0.0),
+            ),
+            _ => (0.0, self.fixed_s.1),
         };
         SimJob {
             platform: platform.to_path_buf(),
@@ -103,6 +138,7 @@ impl Inputs {
             result_bytes: items.result_bytes.clone(),
             master_h_s,
             counter_s: self.counter_s,
+            start_s: if self.local_launch { fixed_s } else { 0.0 },
             lost: plan.lost.clone(),
             seed: plan.seed,
         }
@@ -286,7 +322,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         Some((csv, _)) => Some(validate::measured_configs(csv)?),
         None => None,
     };
-    let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, quiet)?;
+    let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, &[], quiet)?;
     let mut rows = Vec::new();
     for p in &plan.platforms {
         for spec in &plan.specs {
@@ -319,7 +355,13 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     let validation = match (&plan.validation, &measured) {
         (Some((_, platform)), Some((configs, overrides))) => {
             let specs: Vec<SchedulerSpec> = configs.iter().map(|m| m.spec.clone()).collect();
-            let mut v_inputs = Inputs::measure(plan, overrides, &specs, quiet)?;
+            // This machine's runs: each worker count's items costed with that many threads
+            // rendering at once.
+            let mut counts: Vec<usize> = specs.iter().map(|s| s.workers).collect();
+            counts.sort_unstable();
+            counts.dedup();
+            let mut v_inputs = Inputs::measure(plan, overrides, &specs, &counts, quiet)?;
+            v_inputs.local_launch = true;
             Some(validate::compare(
                 configs,
                 &mut v_inputs,

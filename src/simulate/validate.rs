@@ -15,6 +15,10 @@ pub struct Measured {
     pub spec: SchedulerSpec,
     /// Wall time of each repetition, seconds.
     pub walls: Vec<f64>,
+    /// Σ busy seconds over workers of each repetition (`work_s`).
+    pub busy: Vec<f64>,
+    /// The master's dispatch seconds of each repetition.
+    pub dispatch: Vec<f64>,
     /// Median of the serial baseline it was compared with.
     pub serial_s: f64,
 }
@@ -64,10 +68,16 @@ pub fn measured_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverr
         let spec =
             spec_of(r).map_err(|m| anyhow::anyhow!("{}: {}: {m}", csv.display(), r.label))?;
         match out.iter_mut().find(|m| m.spec == spec) {
-            Some(m) => m.walls.push(r.wall_s),
+            Some(m) => {
+                m.walls.push(r.wall_s);
+                m.busy.push(r.work_s);
+                m.dispatch.push(r.dispatch_s);
+            }
             None => out.push(Measured {
                 spec,
                 walls: vec![r.wall_s],
+                busy: vec![r.work_s],
+                dispatch: vec![r.dispatch_s],
                 serial_s: r.serial_s,
             }),
         }
@@ -95,6 +105,8 @@ pub struct Comparison {
     pub spec: SchedulerSpec,
     /// Measured wall: median, min, max over repetitions.
     pub measured: (f64, f64, f64),
+    /// The measured median's 95 % confidence interval (bootstrap, `experiment::stats`).
+    pub ci: (f64, f64),
     /// Repetitions measured.
     pub repetitions: usize,
     /// Simulated wall.
@@ -103,6 +115,12 @@ pub struct Comparison {
     pub measured_speedup: f64,
     /// Simulated speedup (Σ probe pixel costs / simulated wall).
     pub simulated_speedup: f64,
+    /// Σ busy over workers: measured median, simulated.
+    pub busy: (f64, f64),
+    /// The master's dispatch seconds: measured median, simulated.
+    pub dispatch: (f64, f64),
+    /// Σ idle (wall − busy) over workers: measured median, simulated.
+    pub idle: (f64, f64),
 }
 
 impl Comparison {
@@ -123,11 +141,16 @@ pub struct Validation {
     pub platform: String,
     /// Every configuration.
     pub rows: Vec<Comparison>,
-    /// Pairs (same worker count) whose measured ranges do not overlap, and how many of them
-    /// the simulation orders the same way.
+    /// Pairs (same worker count) whose measured medians' 95 % confidence intervals do not
+    /// overlap, and how many of them the simulation orders the same way.
     pub ranking: (usize, usize),
     /// The machine's load average while the inputs were measured.
     pub load: String,
+    /// The inputs checked against the measured serial baseline: (measured serial median,
+    /// Σ probe pixel costs, the probe's wall).
+    pub serial: (f64, f64, f64),
+    /// Σ pixel costs of the probe with that many threads rendering at once.
+    pub concurrent: Vec<(usize, f64)>,
 }
 
 /// Simulate every measured configuration on `platform`.
@@ -145,22 +168,39 @@ pub fn compare(
         let med = median(&m.walls);
         let lo = m.walls.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = m.walls.iter().cloned().fold(0.0, f64::max);
+        let sim_busy: f64 = sim.out.busy_s.iter().sum();
+        let measured_idle: Vec<f64> = m
+            .walls
+            .iter()
+            .zip(&m.busy)
+            .map(|(w, b)| w * m.spec.workers as f64 - b)
+            .collect();
         let c = Comparison {
             spec: m.spec.clone(),
             measured: (med, lo, hi),
+            ci: crate::experiment::stats::median_ci(&m.walls, 1),
             repetitions: m.walls.len(),
             simulated: sim.out.wall_s,
             measured_speedup: m.serial_s / med,
             simulated_speedup: sim.speedup(),
+            busy: (median(&m.busy), sim_busy),
+            dispatch: (median(&m.dispatch), sim.out.dispatch_s),
+            idle: (median(&measured_idle), sim.idle_s()),
         };
         if !quiet {
             println!(
-                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %)",
+                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %); busy {:.4}/{:.4}, dispatch {:.4}/{:.4}, idle {:.4}/{:.4}",
                 c.spec.label(),
                 c.spec.workers,
                 med,
                 c.simulated,
-                100.0 * c.wall_error()
+                100.0 * c.wall_error(),
+                c.busy.0,
+                c.busy.1,
+                c.dispatch.0,
+                c.dispatch.1,
+                c.idle.0,
+                c.idle.1,
             );
         }
         rows.push(c);
@@ -171,7 +211,7 @@ pub fn compare(
             if a.spec.workers != b.spec.workers {
                 continue;
             }
-            let separated = a.measured.2 < b.measured.1 || b.measured.2 < a.measured.1;
+            let separated = a.ci.1 < b.ci.0 || b.ci.1 < a.ci.0;
             if separated {
                 ranking.0 += 1;
                 if (a.measured.0 < b.measured.0) == (a.simulated < b.simulated) {
@@ -185,6 +225,16 @@ pub fn compare(
         rows,
         ranking,
         load: super::sweep::load_average(),
+        serial: (
+            measured.first().map_or(f64::NAN, |m| m.serial_s),
+            inputs.pixels.serial_s(),
+            inputs.pixels.wall_s,
+        ),
+        concurrent: inputs
+            .concurrent
+            .iter()
+            .map(|(t, px)| (*t, px.serial_s()))
+            .collect(),
     })
 }
 
@@ -204,6 +254,12 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
         "measured_speedup",
         "simulated_speedup",
         "speedup_error",
+        "measured_busy_s",
+        "simulated_busy_s",
+        "measured_dispatch_s",
+        "simulated_dispatch_s",
+        "measured_idle_s",
+        "simulated_idle_s",
     ])?;
     for c in &v.rows {
         w.write_record([
@@ -219,6 +275,12 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
             format!("{:.4}", c.measured_speedup),
             format!("{:.4}", c.simulated_speedup),
             format!("{:.4}", c.speedup_error()),
+            format!("{:.6}", c.busy.0),
+            format!("{:.6}", c.busy.1),
+            format!("{:.6}", c.dispatch.0),
+            format!("{:.6}", c.dispatch.1),
+            format!("{:.6}", c.idle.0),
+            format!("{:.6}", c.idle.1),
         ])?;
     }
     let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -226,22 +288,35 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// How many rows satisfy `ok`.
+fn count(v: &Validation, ok: impl Fn(&Comparison) -> bool) -> usize {
+    v.rows.iter().filter(|c| ok(c)).count()
+}
+
 /// The validation table for `report.md`.
 pub fn markdown(v: &Validation) -> String {
-    let within = |f: &dyn Fn(&Comparison) -> bool| v.rows.iter().filter(|c| f(c)).count();
+    let (serial, probe_sum, probe_wall) = v.serial;
     let mut s = format!(
-        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {}; speedup error ≤ 10 %: {}; ranking of pairs whose measured ranges do not overlap: {} of {} the same. Load average after the measurements: {}.\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | speedup measured / simulated |\n|---|---|---|---|---|---|\n",
+        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {}; speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's per-pixel medians {probe_sum:.4} s ({:+.1} %), the probe's own wall {probe_wall:.4} s.{}\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|\n",
         v.platform,
         v.rows.len(),
-        within(&|c| c.wall_error().abs() <= 0.05),
-        within(&|c| c.speedup_error().abs() <= 0.10),
+        count(v, |c| c.wall_error().abs() <= 0.05),
+        count(v, |c| c.speedup_error().abs() <= 0.10),
         v.ranking.1,
         v.ranking.0,
         v.load,
+        100.0 * (probe_sum - serial) / serial,
+        v.concurrent
+            .iter()
+            .map(|(t, sum)| format!(
+                " With {t} threads rendering at once (the costs of the {t}-worker runs): Σ {sum:.4} s ({:+.1} %).",
+                100.0 * (sum / probe_sum - 1.0)
+            ))
+            .collect::<String>(),
     );
     for c in &v.rows {
         s += &format!(
-            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.2} / {:.2} |\n",
+            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
             c.spec.label(),
             c.spec.workers,
             c.measured.0,
@@ -250,7 +325,13 @@ pub fn markdown(v: &Validation) -> String {
             c.simulated,
             100.0 * c.wall_error(),
             c.measured_speedup,
-            c.simulated_speedup
+            c.simulated_speedup,
+            c.busy.0,
+            c.busy.1,
+            c.dispatch.0,
+            c.dispatch.1,
+            c.idle.0,
+            c.idle.1,
         );
     }
     s + "\n"

@@ -79,6 +79,7 @@ mod with_simgrid {
             result_bytes: vec![44; n],
             master_h_s: 0.0,
             counter_s: 0.0,
+            start_s: 0.0,
             lost: Vec::new(),
             seed: 1,
         }
@@ -192,6 +193,70 @@ mod with_simgrid {
         assert_eq!(out.done, 64);
         // Without stealing worker 0 would need 32 ms; stealing brings it near the mean 17.6 ms.
         assert!(out.wall_s < 0.020, "{}", out.wall_s);
+    }
+
+    fn node(dir: &Path, cores: usize) -> std::path::PathBuf {
+        let path = dir.join(format!("node{cores}.xml"));
+        std::fs::write(
+            &path,
+            format!(
+                "<?xml version='1.0'?>\n<!DOCTYPE platform SYSTEM \"https://simgrid.org/simgrid.dtd\">\n\
+                 <platform version=\"4.1\"><zone id=\"z\" routing=\"Full\">\
+                 <host id=\"n\" speed=\"1Gf\" core=\"{cores}\"/></zone></platform>\n"
+            ),
+        )
+        .unwrap();
+        path
+    }
+
+    #[test]
+    fn the_same_job_simulates_to_the_same_outcome() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = cluster(dir.path(), 8, "5us");
+        let cost: Vec<f64> = (0..300).map(|i| 1e-4 * (1 + (i * 7) % 11) as f64).collect();
+        for (kind, params) in [
+            ("work_stealing", vec![("grab", "2")]),
+            ("master", vec![("buffer", "3")]),
+            ("factoring", vec![]),
+        ] {
+            let mut j = job(&p, kind, &params, 8, cost.clone());
+            j.master_h_s = 3e-6;
+            j.counter_s = 1e-7;
+            let (mut a, mut b) = (sim(&j), sim(&j));
+            (a.host_s, b.host_s) = (0.0, 0.0);
+            assert_eq!(a, b, "{kind}");
+            assert_eq!(a.done, 300, "{kind}");
+        }
+    }
+
+    #[test]
+    fn a_master_sharing_the_workers_cores_slows_them_and_one_with_a_core_does_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let (n, c, h) = (200, 1e-3, 2e-4);
+        let run = |cores: usize| {
+            let mut j = job(
+                &node(dir.path(), cores),
+                "master",
+                &[("buffer", "2")],
+                2,
+                vec![c; n],
+            );
+            j.master_h_s = h;
+            sim(&j)
+        };
+        // 2 cores: the master's n·h of hand-outs shares them with the 2 workers' n·c.
+        let shared = run(2);
+        let least = (n as f64 * (c + h)) / 2.0;
+        assert!(shared.wall_s >= least - 1e-9, "{} < {least}", shared.wall_s);
+        // 4 cores: every actor has one; the hand-outs overlap the work (h < c / 2).
+        let own = run(4);
+        let work = n as f64 * c / 2.0;
+        assert!(
+            own.wall_s >= work && own.wall_s < work + 10.0 * h,
+            "{} vs {work}",
+            own.wall_s
+        );
+        assert_eq!((shared.done, own.done), (n as u64, n as u64));
     }
 
     fn refused(dir: &Path, exp: &Path) -> String {
