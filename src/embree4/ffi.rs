@@ -26,7 +26,7 @@
     reason = "raw bindings: each item mirrors its namesake in Embree 4's rtcore*.h"
 )]
 
-use std::ffi::{c_char, c_int, c_uint, c_void, CStr, CString};
+use std::ffi::{c_char, c_int, c_uint, c_void};
 use std::sync::OnceLock;
 
 pub use embree4_sys::{

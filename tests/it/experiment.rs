@@ -261,7 +261,7 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
 
 #[test]
 fn plot_regenerates_everything_from_the_csv() {
-    let (dir, exp) = run_tiny(2);
+    let (dir, _) = run_tiny(2);
     let res = dir.path().join("res/tiny");
     for f in ["meta.toml", "summary.csv", "report.md"] {
         assert!(res.join(f).exists(), "{f}");
@@ -324,7 +324,7 @@ fn plot_regenerates_everything_from_the_csv() {
 /// report still shows them), or skips the charts, and says so on stderr instead of failing.
 #[test]
 fn plot_without_timelines_keeps_or_skips_gantt_charts_with_a_note() {
-    let (dir, exp) = run_tiny(1);
+    let (dir, _) = run_tiny(1);
     let res = dir.path().join("res/tiny");
     let gantts = |res: &Path| -> Vec<String> {
         let mut v: Vec<String> = std::fs::read_dir(res.join("plots"))
@@ -776,7 +776,7 @@ fn adaptive_runs_stop_at_the_ci_target_or_the_cap() {
 #[test]
 fn compare_flags_a_known_slowdown_and_nothing_else() {
     use raysched::experiment::results::RunsFile;
-    let (dir, exp) = run_tiny(8);
+    let (dir, _) = run_tiny(8);
     // Known wall times: A = 1 ms × (1 + k/1000), B = A × 1.2, same other columns.
     let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
     for (name, factor) in [("a", 1.0), ("b", 1.2)] {
@@ -878,7 +878,7 @@ fn published_snapshots_still_read() {
 #[test]
 fn report_warns_of_impossible_efficiency_and_lists_ties() {
     use raysched::experiment::results::RunsFile;
-    let (dir, exp) = run_tiny(6);
+    let (dir, _) = run_tiny(6);
     let res = dir.path().join("res/tiny");
     let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
     let (mut f, _) = RunsFile::open(&res.join("runs.csv"), true).unwrap();
