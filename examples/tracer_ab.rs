@@ -9,6 +9,10 @@
 //!   (facing the camera), leaving from the offset origin the renderer uses (incoherent: the
 //!   rays of one screen tile scatter over the whole scene).
 //!
+//! Measured (quiet 2-core AMD EPYC, `taskset -c 0`, 5 rounds, 1 M triangles, 4 runs): bvh/embree
+//! best rate primary 0.47–0.55 at 256², 0.53–0.60 at 1024²; diffuse 0.39–0.42 at both; build
+//! 0.88–1.13 s vs Embree's 0.45–0.86 s (1.1–2.2×).
+//!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`
 //! `… --example tracer_ab -- --rays diffuse complex 1000000 1024 5 bvh embree`
 
