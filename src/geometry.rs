@@ -297,8 +297,8 @@ impl Triangle4 {
     /// Put `tri` into lane `lane` (0…3).
     pub fn set(&mut self, lane: usize, tri: &Triangle) {
         for (i, p) in tri.vertices().iter().enumerate() {
-            for axis in 0..3 {
-                self.v[i][axis][lane] = p[axis];
+            for (axis, c) in p.to_array().into_iter().enumerate() {
+                self.v[i][axis][lane] = c;
             }
         }
     }
@@ -339,12 +339,13 @@ impl Triangle4 {
             let f =
                 |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
             let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-            for l in 0..4 {
-                if exact & (1 << l) != 0 {
-                    ua[l] = f(cx[l], by[l], cy[l], bx[l]);
-                    va[l] = f(ax[l], cy[l], ay[l], cx[l]);
-                    wa[l] = f(bx[l], ay[l], by[l], ax[l]);
-                }
+            let mut lanes = exact;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                ua[l] = f(cx[l], by[l], cy[l], bx[l]);
+                va[l] = f(ax[l], cy[l], ay[l], cx[l]);
+                wa[l] = f(bx[l], ay[l], by[l], ax[l]);
             }
             (u, v, w) = (ua.into(), va.into(), wa.into());
         }

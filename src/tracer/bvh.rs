@@ -111,12 +111,12 @@ impl BvhTracer {
             spheres = bvh
                 .order
                 .iter()
-                .map(|&p| match geometry.spheres.get(p as usize) {
-                    Some(s) => *s,
-                    None => Sphere {
+                .map(|&p| {
+                    // Triangle and padding slots: a placeholder no lane flag points to.
+                    geometry.spheres.get(p as usize).copied().unwrap_or(Sphere {
                         center: glam::Vec3::ZERO,
                         radius: 0.0,
-                    },
+                    })
                 })
                 .collect();
         }
