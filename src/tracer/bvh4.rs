@@ -143,7 +143,7 @@ impl Bvh4 {
         let first = self.order.len() / PACKET;
         let prims = &bvh2.primitive_indices[n.first_index as usize..][..n.prim_count as usize];
         self.order.extend_from_slice(prims);
-        while self.order.len() % PACKET != 0 {
+        while !self.order.len().is_multiple_of(PACKET) {
             self.order.push(PAD);
         }
         let packets = self.order.len() / PACKET - first;
