@@ -6,7 +6,7 @@
 //! just outside that error box ([`offset_ray_origin`]). No fixed epsilon is involved, so the same
 //! code works for scenes of size 1e-6 and 1e6.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec4};
 
 /// A ray `o + t·d`. `d` need not be normalised (shadow rays use the segment to the light).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -259,6 +259,142 @@ impl Triangle {
         let p = self.v0 + (s1 + s2);
         let err = (self.v0.abs() + s1.abs() + s2.abs()) * gamma(3);
         (p, err + (e1.abs() + e2.abs()) * gamma(3))
+    }
+}
+
+/// Four triangles side by side, one per lane (structure of arrays: `v[i][axis]` holds
+/// coordinate `axis` of vertex `i` of every lane), for testing a leaf's triangles at once.
+/// An unused lane holds NaN vertices and never hits.
+#[derive(Clone, Copy, Debug)]
+pub struct Triangle4 {
+    /// Vertex `i`, coordinate `axis`, one lane per triangle.
+    pub v: [[Vec4; 3]; 3],
+}
+
+/// What [`Triangle4::intersect_sheared`] found: per lane `t` and the barycentrics, and the
+/// lanes that hit (bit `lane`).
+#[derive(Clone, Copy, Debug)]
+pub struct Hit4 {
+    /// Ray parameter per lane (meaningful where `mask` is set).
+    pub t: Vec4,
+    /// Barycentric coordinate of vertex 1 per lane.
+    pub b1: Vec4,
+    /// Barycentric coordinate of vertex 2 per lane.
+    pub b2: Vec4,
+    /// Bit `lane` set where that lane's triangle is hit with `0 < t < t_max`.
+    pub mask: u32,
+}
+
+impl Default for Triangle4 {
+    fn default() -> Self {
+        Self {
+            v: [[Vec4::NAN; 3]; 3],
+        }
+    }
+}
+
+impl Triangle4 {
+    /// Put `tri` into lane `lane` (0…3).
+    pub fn set(&mut self, lane: usize, tri: &Triangle) {
+        for (i, p) in tri.vertices().iter().enumerate() {
+            for (axis, c) in p.to_array().into_iter().enumerate() {
+                self.v[i][axis][lane] = c;
+            }
+        }
+    }
+
+    /// [`Triangle::intersect_sheared`] on four triangles at once. Every lane runs the same
+    /// sequence of IEEE operations as the one-triangle test (no fused multiply-add; the rare
+    /// zero edge function is redone in f64 lane by lane, as there), so a lane's `t`, `b1`, `b2`
+    /// and verdict are bit-identical to it: `bvh` and `brute` agree exactly.
+    ///
+    /// On the Cornell box (128², 1 spp, one thread, callgrind) this took the native tracer's
+    /// closest-hit queries from 83.4 M to 67.0 M instructions, its occlusion queries from 26.8 M
+    /// to 23.7 M (the render 169.6 M → 148.4 M). Against Embree 3 on the 1 M-triangle displaced
+    /// sphere (`examples/tracer_ab`, one thread, best of 5 rounds, old and new binaries
+    /// alternated on a quiet 2-core EPYC): bvh/embree primary 0.43–0.44 → 0.47–0.55 at 256²,
+    /// 0.42–0.46 → 0.53–0.60 at 1024²; diffuse bounces 0.35 → 0.39–0.42 and 0.29–0.32 →
+    /// 0.39–0.42.
+    #[inline(always)]
+    pub fn intersect_sheared(&self, r: &ShearedRay, t_max: f32) -> Hit4 {
+        let [kx, ky, kz] = r.k;
+        let o = [r.o.x, r.o.y, r.o.z].map(Vec4::splat);
+        let (sx, sy, sz) = (Vec4::splat(r.s.x), Vec4::splat(r.s.y), Vec4::splat(r.s.z));
+        let rel = |i: usize| {
+            let v = &self.v[i];
+            (v[kx] - o[kx], v[ky] - o[ky], v[kz] - o[kz])
+        };
+        let (a_x, a_y, a_z) = rel(0);
+        let (b_x, b_y, b_z) = rel(1);
+        let (c_x, c_y, c_z) = rel(2);
+        let (ax, ay) = (a_x - sx * a_z, a_y - sy * a_z);
+        let (bx, by) = (b_x - sx * b_z, b_y - sy * b_z);
+        let (cx, cy) = (c_x - sx * c_z, c_y - sy * c_z);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        let exact = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask();
+        if exact != 0 {
+            let f =
+                |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+            let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
+            let mut lanes = exact;
+            while lanes != 0 {
+                let l = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                ua[l] = f(cx[l], by[l], cy[l], bx[l]);
+                va[l] = f(ax[l], cy[l], ay[l], cx[l]);
+                wa[l] = f(bx[l], ay[l], by[l], ax[l]);
+            }
+            (u, v, w) = (ua.into(), va.into(), wa.into());
+        }
+        let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        let det = u + v + w;
+        let mut ok = !(neg & pos) & det.cmpne(zero) & det.abs().cmplt(Vec4::INFINITY);
+        if ok.bitmask() == 0 {
+            return Hit4 {
+                t: zero,
+                b1: zero,
+                b2: zero,
+                mask: 0,
+            };
+        }
+        let (az, bz, cz) = (a_z * sz, b_z * sz, c_z * sz);
+        let t_scaled = u * az + v * bz + w * cz;
+        let inv_det = Vec4::ONE / det;
+        let t = t_scaled * inv_det;
+        ok &= t.cmpgt(zero) & t.cmplt(Vec4::splat(t_max));
+        if ok.bitmask() == 0 {
+            return Hit4 {
+                t,
+                b1: zero,
+                b2: zero,
+                mask: 0,
+            };
+        }
+        // The error bound of the one-triangle test, term by term in the same order.
+        let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_y = ay.abs().max(by.abs()).max(cy.abs());
+        let max_z_len = a_z.abs().max(b_z.abs()).max(c_z.abs());
+        let delta_z = Vec4::splat(gamma(3)) * max_z;
+        let delta_x = Vec4::splat(gamma(5)) * (max_x + max_z_len);
+        let delta_y = Vec4::splat(gamma(5)) * (max_y + max_z_len);
+        let delta_e = Vec4::splat(2.0)
+            * (Vec4::splat(gamma(2)) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let max_e = u.abs().max(v.abs()).max(w.abs());
+        let delta_t = Vec4::splat(3.0)
+            * (Vec4::splat(gamma(3)) * max_e * max_z + delta_e * max_z + delta_z * max_e)
+            * inv_det.abs();
+        ok &= t.cmpgt(delta_t);
+        Hit4 {
+            t,
+            b1: v * inv_det,
+            b2: w * inv_det,
+            mask: ok.bitmask(),
+        }
     }
 }
 

@@ -3,7 +3,7 @@
 
 use crate::support::{CAMERA_4X4, GREY_M};
 use glam::Vec3;
-use raysched::geometry::Ray;
+use raysched::geometry::{Ray, ShearedRay, Triangle, Triangle4};
 use raysched::rng::Sampler;
 use raysched::scene::Scene;
 use raysched::tracer::{BruteTracer, BvhTracer, Tracer};
@@ -156,4 +156,59 @@ fn empty_scene_never_hits() {
     let ray = Ray::new(Vec3::ZERO, Vec3::Z);
     assert!(bvh.intersect(&ray, f32::INFINITY).is_none());
     assert!(!bvh.occluded(&ray, f32::INFINITY));
+}
+
+#[test]
+fn four_wide_test_is_bit_identical_to_the_one_triangle_test() {
+    // A small counter-based generator: random triangles and rays; in half the cases every
+    // coordinate is on a coarse grid, so lanes share vertices and edges, and a third of the
+    // rays aim at a grid point (a vertex or edge: zero edge functions, the f64 path).
+    let mut state = 1u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    };
+    let mut hits = 0;
+    for case in 0..4000 {
+        let grid = case % 2 == 0;
+        let mut p = || {
+            let v = Vec3::new(next(), next(), next());
+            if grid {
+                (v * 4.0).round() / 4.0
+            } else {
+                v
+            }
+        };
+        let tris: Vec<Triangle> = (0..4).map(|_| Triangle::new(p(), p(), p())).collect();
+        let mut t4 = Triangle4::default();
+        for (l, t) in tris.iter().enumerate().take(3 + case % 2) {
+            t4.set(l, t);
+        }
+        let o = p() * 3.0;
+        let d = if case % 3 == 0 { p() - o } else { p() };
+        let ray = Ray::new(o, d);
+        let sr = ShearedRay::new(&ray);
+        let t_max = [f32::INFINITY, 1.0, 0.5][case % 3];
+        let h = t4.intersect_sheared(&sr, t_max);
+        for (l, tri) in tris.iter().enumerate() {
+            let one = if l < 3 + case % 2 {
+                tri.intersect_sheared(&sr, t_max)
+            } else {
+                None
+            };
+            let four = if h.mask & (1 << l) != 0 {
+                Some((h.t[l], h.b1[l], h.b2[l]))
+            } else {
+                None
+            };
+            let bits = |x: Option<(f32, f32, f32)>| {
+                x.map(|(a, b, c)| (a.to_bits(), b.to_bits(), c.to_bits()))
+            };
+            assert_eq!(bits(one), bits(four), "case {case} lane {l}");
+            hits += one.is_some() as u32;
+        }
+    }
+    assert!(hits > 400, "only {hits} hits: the sample tests little");
 }

@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""raysched against Mitsuba 3 on the reference Cornell box, one core each, interleaved.
+
+Mitsuba renders its built-in ``mi.cornell_box()`` with the reference settings of
+docs/conventions.md (box reconstruction filter instead of the stock 2-px Gaussian, max_depth 8,
+128x128); raysched renders ``scenes/cornell_box.toml``, the same scene. Both are pinned to one
+core with ``taskset``; Dr.Jit's own thread pool is set to one thread. Each Mitsuba variant runs
+in one long-lived child process that renders once untimed first (the LLVM backend compiles its
+kernels then) and afterwards renders on request, so that Mitsuba renders and raysched renders
+alternate: A B A B ...; a drift of the machine's speed then hits both alike.
+
+Printed: ms per sample per pixel (ms/spp: render wall time / spp) of every render, the median,
+minimum and maximum of each program, and the ratio raysched / Mitsuba pair by pair (median and
+range). raysched's time is the render's wall time as it prints it (scene load and BVH build
+excluded, as Mitsuba's scene load is); its process wall time is printed beside it.
+
+Measured (quiet 2-core AMD EPYC, 64 spp, 5 renders each, two runs): raysched / llvm_ad_rgb
+median 1.30 (1.10-1.32) and 1.25 (1.11-1.37), raysched 23.9-25.1 ms/spp against 20.2-20.8;
+raysched / scalar_rgb 0.69 (0.68-0.71) and 0.67 (0.65-0.69). The raysched binary before the
+4-wide leaf test, same window: 1.45 (1.35-1.57) against llvm_ad_rgb.
+
+Setup (once; not part of CI): see benches/peers/README.md, or ``bash benches/peers/setup.sh``.
+
+    cargo build --release
+    python3 benches/peers/mitsuba.py --variants llvm_ad_rgb,scalar_rgb --renders 5 --spp 64
+"""
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+# Candidates for the LLVM shared library Dr.Jit's llvm variants load (Debian's libllvm19).
+LLVM_CANDIDATES = [
+    "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1",
+    "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
+    "/usr/lib/llvm-19/lib/libLLVM-19.so",
+    "/usr/lib/llvm-19/lib/libLLVM.so.1",
+]
+
+
+def child(variant, spp, size, max_depth):
+    """Mitsuba side: load the scene, render once untimed, then one timed render per stdin line."""
+    # This file is itself named mitsuba.py: import the package, not this script.
+    here = os.path.dirname(os.path.abspath(__file__))
+    sys.path[:] = [p for p in sys.path if os.path.abspath(p or ".") != here]
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    if hasattr(dr, "set_thread_count"):
+        dr.set_thread_count(1)
+    d = mi.cornell_box()
+    d["sensor"]["film"]["width"] = size
+    d["sensor"]["film"]["height"] = size
+    d["sensor"]["film"]["rfilter"] = {"type": "box"}
+    d["sensor"]["sampler"]["sample_count"] = spp
+    d["integrator"]["max_depth"] = max_depth
+    scene = mi.load_dict(d)
+    img = mi.render(scene, spp=spp, seed=0)
+    dr.eval(img)
+    print(json.dumps({"ready": True}), flush=True)
+    k = 0
+    while True:
+        line = sys.stdin.readline()
+        if not line:
+            break
+        k += 1
+        t0 = time.perf_counter()
+        img = mi.render(scene, spp=spp, seed=k)
+        dr.eval(img)
+        dr.sync_thread()
+        s = time.perf_counter() - t0
+        print(json.dumps({"s": s}), flush=True)
+
+
+def start_mitsuba(variant, args):
+    env = dict(os.environ)
+    if "llvm" in variant and "DRJIT_LIBLLVM_PATH" not in env:
+        for c in LLVM_CANDIDATES:
+            if os.path.exists(c):
+                env["DRJIT_LIBLLVM_PATH"] = c
+                break
+    cmd = ["taskset", "-c", str(args.core), sys.executable, os.path.abspath(__file__),
+           "--child", variant, "--spp", str(args.spp), "--size", str(args.size),
+           "--max-depth", str(args.max_depth)]
+    p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+    line = p.stdout.readline()
+    if not line:
+        sys.exit(f"mitsuba {variant}: the child exited before its first render "
+                 f"(is mitsuba installed; for llvm variants, is libllvm19 there? see setup.sh)")
+    return p
+
+
+def mitsuba_render(p):
+    p.stdin.write("go\n")
+    p.stdin.flush()
+    return json.loads(p.stdout.readline())["s"]
+
+
+def raysched_render(args):
+    cmd = ["taskset", "-c", str(args.core), args.raysched, "render",
+           os.path.join(ROOT, "scenes", "cornell_box.toml"), "--threads", "1",
+           "--spp", str(args.spp), "--tracer", args.tracer,
+           "-o", os.path.join(args.tmp, "raysched_peer.exr")]
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if out.returncode != 0:
+        sys.exit(f"raysched failed ({out.returncode}): {out.stderr.strip()}")
+    m = re.search(r"wall ([0-9.]+) s", out.stdout)
+    if not m:
+        sys.exit(f"raysched printed no 'wall … s' line:\n{out.stdout}")
+    return float(m.group(1)), wall
+
+
+def spread(v):
+    return f"median {statistics.median(v):.2f}, min {min(v):.2f}, max {max(v):.2f}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--variants", default="llvm_ad_rgb,scalar_rgb")
+    ap.add_argument("--renders", type=int, default=5, help="timed renders of each program")
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--max-depth", type=int, default=8)
+    ap.add_argument("--core", type=int, default=0, help="the one CPU both programs run on")
+    ap.add_argument("--raysched", default=os.path.join(ROOT, "target", "release", "raysched"))
+    ap.add_argument("--tracer", default="bvh")
+    ap.add_argument("--tmp", default="/tmp")
+    args = ap.parse_args()
+    if args.child:
+        child(args.child, args.spp, args.size, args.max_depth)
+        return
+    if args.size != 128 or args.max_depth != 8:
+        print("note: raysched renders scenes/cornell_box.toml at 128², max_depth 8 whatever "
+              "--size/--max-depth say", file=sys.stderr)
+    if not os.access(args.raysched, os.X_OK):
+        sys.exit(f"--raysched {args.raysched}: not an executable (cargo build --release)")
+    for variant in args.variants.split(","):
+        p = start_mitsuba(variant, args)
+        raysched_render(args)  # untimed, as Mitsuba's first render
+        mts, rs, rs_proc = [], [], []
+        for _ in range(args.renders):
+            mts.append(mitsuba_render(p) * 1e3 / args.spp)
+            r, w = raysched_render(args)
+            rs.append(r * 1e3 / args.spp)
+            rs_proc.append(w * 1e3 / args.spp)
+        p.stdin.close()
+        p.wait()
+        ratios = [a / b for a, b in zip(rs, mts)]
+        print(f"Cornell box {args.size}², {args.spp} spp, max_depth {args.max_depth}, "
+              f"one core (taskset -c {args.core}), {args.renders} interleaved renders each")
+        print(f"  mitsuba {variant}: ms/spp " + " ".join(f"{x:.2f}" for x in mts)
+              + f"  ({spread(mts)})")
+        print(f"  raysched {args.tracer}: ms/spp " + " ".join(f"{x:.2f}" for x in rs)
+              + f"  ({spread(rs)}); process wall {spread(rs_proc)}")
+        print(f"  ratio raysched / mitsuba {variant}: {spread(ratios)}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
