@@ -134,6 +134,19 @@ pub struct RunRow {
     /// 1-minute load average just after it.
     #[serde(default)]
     pub load_after: Option<f64>,
+    /// The cost model's predicted wall time of one render (`predict = true`; empty otherwise
+    /// and in files before it).
+    #[serde(default)]
+    pub predicted_wall_s: Option<f64>,
+    /// Its hand-out part: fixed cost + h × items / P.
+    #[serde(default)]
+    pub predicted_handout_s: Option<f64>,
+    /// Its refill-waiting part (the master's sources waiting for the next item).
+    #[serde(default)]
+    pub predicted_refill_s: Option<f64>,
+    /// Its imbalance part (the last worker's lead over the mean, noise included).
+    #[serde(default)]
+    pub predicted_imbalance_s: Option<f64>,
 }
 
 fn local() -> String {
@@ -233,6 +246,10 @@ impl RunRow {
             sys_s: None,
             load_before: None,
             load_after: None,
+            predicted_wall_s: None,
+            predicted_handout_s: None,
+            predicted_refill_s: None,
+            predicted_imbalance_s: None,
         }
     }
 

@@ -55,6 +55,7 @@
 //! when there is work between grabs, see `benches/dispatch.rs`, so h from zero-work items is
 //! a lower bound); the master thread's CPU time is in r, not in the workers' capacity.
 
+pub mod advise;
 pub mod probe;
 
 use crate::sched::dls::{self, ChunkRule, ItemTimes, Report};
