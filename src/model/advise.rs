@@ -38,7 +38,7 @@ impl Probed {
         let mut overheads: Vec<(Policy, Overheads)> = Vec::new();
         for p in policies {
             if !overheads.iter().any(|(q, _)| q == p) {
-                overheads.push((*p, probe::overheads(*p, workers, 5)?));
+                overheads.push((*p, probe::overheads(*p, workers, 3)?));
             }
         }
         Ok(Self {
@@ -58,14 +58,22 @@ impl Probed {
             .unwrap_or_default()
     }
 
-    /// The predicted wall time of `spec` at `spp` samples per pixel.
+    /// The predicted wall time of `spec` at `spp` samples per pixel. For the master, the
+    /// refill period is measured again with spinning items of this configuration's mean item
+    /// cost ([`probe::loaded_refill`]); a failed run of that probe keeps the zero-work period.
     pub fn predict(&self, spec: &SchedulerSpec, spp: u32) -> Prediction {
         let items = probe::item_costs(&self.pixels.profile, spec, self.probe_spp, spp);
         let work = Workload {
             item_s: &items,
             noise_cv: self.pixels.noise_cv,
         };
-        predict(spec, &work, &self.overheads_of(&spec.policy))
+        let mut o = self.overheads_of(&spec.policy);
+        if matches!(spec.policy, crate::sched::Policy::Master(_)) && !items.is_empty() {
+            let mean = items.iter().sum::<f64>() / items.len() as f64;
+            let r = probe::loaded_refill(spec.policy, spec.workers, mean, &o, 3);
+            o.refill_s = r.unwrap_or(o.refill_s);
+        }
+        predict(spec, &work, &o)
     }
 }
 

@@ -17,9 +17,11 @@
 //! h, F and r are measured per scheduler with items that do no work (as the dispatch bench
 //! does): wall(n) = F + h·n/P there, so h = P × the slope between two item counts and F the
 //! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
-//! period when the master is the bottleneck), and h is the worker-side cost of taking and
-//! returning an item, which the model takes to be self-scheduling's h (one synchronised hand-
-//! off per item).
+//! period when the master is the bottleneck), raised to a source's measured time per item
+//! over spinning items of the configuration's mean cost where that is larger (the sleeping
+//! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
+//! and returning an item, which the model takes to be self-scheduling's h (one synchronised
+//! hand-off per item).
 //!
 //! The imbalance I is the list schedule of the items' costs under the scheduler's own hand-
 //! out protocol, played out in time (the *deterministic* part: the last-chunk tail, the

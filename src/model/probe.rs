@@ -109,8 +109,9 @@ fn nothing() -> Job {
 }
 
 /// Zero-work items: (fixed cost, per-item slope) of `policy` on `workers` workers, from runs
-/// of `items` and 2·`items` one-pixel items, the median slope of `reps` pairs and the median
-/// intercept.
+/// of n and 2n one-pixel items, the median slope of `reps` pairs and the median intercept.
+/// n is at most `items`, fewer where a pilot run shows dear items (a blocking master on a
+/// loaded machine: milliseconds per item), so that one run stays near [`RUN_S`].
 fn zero_work(
     policy: Policy,
     items: u32,
@@ -119,6 +120,12 @@ fn zero_work(
 ) -> Result<(f64, f64), SchedError> {
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
+    let pilot = decompose(PILOT_ITEMS, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let per = run_items(&spec, &pilot, nothing(), &RunOptions::default())?
+        .1
+        .wall_s
+        / PILOT_ITEMS as f64;
+    let items = ((RUN_S / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
     let lists: Vec<Vec<WorkItem>> = [items, 2 * items]
         .iter()
         .map(|&n| decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
@@ -142,6 +149,67 @@ fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
+
+/// A job whose items each spin for `secs` (a stand-in of known cost).
+fn spinning(secs: f64) -> Job {
+    let d = std::time::Duration::from_secs_f64(secs);
+    Arc::new(move |it: &WorkItem| {
+        let t0 = std::time::Instant::now();
+        while t0.elapsed() < d {
+            std::hint::spin_loop();
+        }
+        TileResult {
+            item: it.id,
+            pixels: Vec::new(),
+            rays: 0,
+            nonfinite: 0,
+        }
+    })
+}
+
+/// Item costs above this never wait for a refill that a zero-work probe would miss (a
+/// sleeping master wakes within tens of µs), so the loaded probe is skipped for them.
+const LOADED_MAX_S: f64 = 100e-6;
+
+/// The master's refill period per source with items that each cost `item_s`: a source's time
+/// per item, P × (wall − F) / items over spinning items, so the master's wake-up latency
+/// between items (which zero-work items never show: the master never sleeps there) is in it.
+/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` runs of about
+/// 20 ms each.
+pub fn loaded_refill(
+    policy: Policy,
+    workers: usize,
+    item_s: f64,
+    zero: &Overheads,
+    reps: u32,
+) -> Result<f64, SchedError> {
+    if !matches!(policy, Policy::Master(_))
+        || item_s.is_nan()
+        || item_s <= 0.0
+        || item_s > LOADED_MAX_S
+    {
+        return Ok(zero.refill_s);
+    }
+    // A source takes max(item cost, zero-work period) per item: one run near RUN_S.
+    let per = item_s.max(zero.refill_s);
+    let n = ((RUN_S * workers as f64 / per) as u32).clamp(64, 4096);
+    let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
+    spec.policy = policy;
+    let list = decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let job = spinning(item_s);
+    let mut per: Vec<f64> = Vec::new();
+    for _ in 0..reps.max(1) {
+        let (_, s) = run_items(&spec, &list, job.clone(), &RunOptions::default())?;
+        per.push(workers as f64 * (s.wall_s - zero.fixed_s).max(0.0) / n as f64);
+    }
+    Ok(median(&mut per).max(zero.refill_s))
+}
+
+/// Items of the pilot run that sizes the zero-work runs.
+const PILOT_ITEMS: u32 = 128;
+
+/// The wall time one probe run aims at.
+pub const RUN_S: f64 = 20e-3;
 
 /// Items per zero-work run: enough that the slope is well above the clock's resolution,
 /// few enough that the probe takes well under a second per scheduler.
