@@ -39,6 +39,11 @@
 //! that freeing is O(1)): one worker went from 12.8 to 18.6 ns per item (perf: the copy of
 //! each returned result stalls), two workers no faster.
 //!
+//! Every kind of `SchedulerKind::ALL` is in the table, the dynamic-loop-scheduling family and
+//! the production renderers' policies included; `benches/dispatch_ratio.rs` gives the same
+//! costs as ratios to the bare shared counter timed in the same run, interleaved (the form
+//! that carries between machines).
+//!
 //! `cargo bench --bench dispatch` (~2 min)
 //! `cargo bench --bench dispatch -- self_scheduling` for one scheduler
 

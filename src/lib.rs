@@ -54,6 +54,7 @@ pub mod hash;
 pub mod host;
 pub mod limits;
 pub mod metrics;
+pub mod model;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;

@@ -11,6 +11,7 @@ macro_rules! out {
     };
 }
 
+mod advise;
 mod compare;
 mod converge;
 mod error;
@@ -61,6 +62,9 @@ enum Command {
     /// Per-pixel and per-item cost distribution (μ, σ, CV, max/mean) and a heat map PNG of
     /// cost per pixel, from a per-pixel render on one worker.
     Profile(profile::ProfileArgs),
+    /// Predict the wall time of every scheduler × chunk from a probe of a few seconds (the cost
+    /// model: work/P + hand-out cost + refill waiting + imbalance) and name the best.
+    Advise(advise::AdviseArgs),
     /// Simulate every scheduler with SimGrid on platform XML files (feature `simgrid`): rows
     /// like a measured run's, plots, and a validation against measured runs.
     Simulate(simulate::SimulateArgs),
@@ -152,6 +156,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Converge(args) => converge::converge(args),
         Command::Stability(args) => stability::stability(args),
         Command::Profile(args) => profile::profile(args),
+        Command::Advise(args) => advise::advise_cmd(args),
         Command::Simulate(args) => simulate::simulate(args),
         Command::SimgridChild(args) => simulate::child(args),
     }

@@ -13,6 +13,7 @@
 //! workers = [1, 2]                # or "1..max", or [1, 2, "max"]
 //! tracers = ["bvh"]
 //! timeline = true                 # record a Gantt timeline on repetition 0
+//! predict = false                 # record the cost model's prediction beside each configuration
 //!
 //! [[scenes]]
 //! path = "../scenes/simple.toml"  # relative to this file
@@ -63,6 +64,11 @@ pub struct ExperimentFile {
     /// Record a Gantt timeline on repetition 0 of each scheduler configuration (default true).
     #[serde(default = "yes")]
     pub timeline: bool,
+    /// Record the cost model's predicted wall time and its parts beside each thread-scheduler
+    /// configuration (`raysched::model`; a probe of a few seconds per scene, tracer and worker
+    /// count before the first round; default false).
+    #[serde(default)]
+    pub predict: bool,
     /// The `[[scenes]]` entries, at least one.
     pub scenes: Vec<SceneEntry>,
     /// The `[[schedulers]]` grids; required for a timing experiment.

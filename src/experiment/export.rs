@@ -60,6 +60,7 @@ pub fn summary_json(s: &Summary) -> Value {
         "efficiency_median": num(s.efficiency_median),
         "load_max": s.load_max,
         "identical": s.identical,
+        "predicted_wall_s": r.predicted_wall_s,
     })
 }
 

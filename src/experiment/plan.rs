@@ -154,6 +154,8 @@ pub struct ExperimentPlan {
     pub warmup: u32,
     /// Record a Gantt timeline on repetition 0 of each scheduler configuration.
     pub timeline: bool,
+    /// Record the cost model's prediction beside each thread-scheduler configuration.
+    pub predict: bool,
     /// The loaded scenes, in file order.
     pub scenes: Vec<PlannedScene>,
     /// One per (scene, tracer), scene-major.
@@ -224,6 +226,7 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         stats: settings.stats,
         warmup: file.warmup,
         timeline: file.timeline,
+        predict: file.predict,
         scenes,
         baselines,
         configs,

@@ -134,6 +134,19 @@ pub struct RunRow {
     /// 1-minute load average just after it.
     #[serde(default)]
     pub load_after: Option<f64>,
+    /// The cost model's predicted wall time of one render (`predict = true`; empty otherwise
+    /// and in files before it).
+    #[serde(default)]
+    pub predicted_wall_s: Option<f64>,
+    /// Its hand-out part: fixed cost + h × items / P.
+    #[serde(default)]
+    pub predicted_handout_s: Option<f64>,
+    /// Its refill-waiting part (the master's sources waiting for the next item).
+    #[serde(default)]
+    pub predicted_refill_s: Option<f64>,
+    /// Its imbalance part (the last worker's lead over the mean, noise included).
+    #[serde(default)]
+    pub predicted_imbalance_s: Option<f64>,
 }
 
 fn local() -> String {
@@ -233,6 +246,10 @@ impl RunRow {
             sys_s: None,
             load_before: None,
             load_after: None,
+            predicted_wall_s: None,
+            predicted_handout_s: None,
+            predicted_refill_s: None,
+            predicted_imbalance_s: None,
         }
     }
 
@@ -643,17 +660,20 @@ mod tests {
 
     /// The columns added with MPI, before [`SAMPLE_COLUMNS`] and `slow`.
     const MPI_COLUMNS: usize = 3;
-    /// The columns added with adaptive repetitions, at the end of the row.
+    /// The columns added with adaptive repetitions, before [`PREDICTION_COLUMNS`].
     const SAMPLE_COLUMNS: usize = 6;
+    /// The cost model's columns, at the end of the row.
+    const PREDICTION_COLUMNS: usize = 4;
 
     #[test]
     fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {
         let cols = RunRow::header();
-        let old_header = cols[..cols.len() - MPI_COLUMNS - SAMPLE_COLUMNS].join(",");
+        let old = MPI_COLUMNS + SAMPLE_COLUMNS + PREDICTION_COLUMNS;
+        let old_header = cols[..cols.len() - old].join(",");
         let strip = |r: &RunRow| {
             let line = String::from_utf8(r.to_line()).unwrap();
             let fields: Vec<&str> = line.trim_end().split(',').collect();
-            fields[..fields.len() - MPI_COLUMNS - SAMPLE_COLUMNS].join(",") + "\n"
+            fields[..fields.len() - old].join(",") + "\n"
         };
         let text = format!(
             "{old_header}\n{}{}",
@@ -677,6 +697,29 @@ mod tests {
         let back = std::fs::read_to_string(&p).unwrap();
         assert!(back.starts_with(&(cols.join(",") + "\n")), "{back}");
         assert_eq!(read_runs(&p).unwrap().0, vec![row("a", 0), row("a", 1), r]);
+    }
+
+    #[test]
+    fn a_runs_file_from_before_the_prediction_columns_reads_them_empty() {
+        let cols = RunRow::header();
+        assert_eq!(cols[cols.len() - PREDICTION_COLUMNS], "predicted_wall_s");
+        let old_header = cols[..cols.len() - PREDICTION_COLUMNS].join(",");
+        let line = String::from_utf8(row("a", 0).to_line()).unwrap();
+        let fields: Vec<&str> = line.trim_end().split(',').collect();
+        let text = format!(
+            "{old_header}\n{}\n",
+            fields[..fields.len() - PREDICTION_COLUMNS].join(",")
+        );
+        let (rows, _) = parse_runs(text.as_bytes()).unwrap();
+        assert_eq!(rows, vec![row("a", 0)]);
+        assert_eq!(rows[0].predicted_wall_s, None);
+        // And a row with a prediction round-trips.
+        let mut p = row("b", 0);
+        p.predicted_wall_s = Some(0.125);
+        p.predicted_handout_s = Some(0.001);
+        let mut bytes = (cols.join(",") + "\n").into_bytes();
+        bytes.extend(p.to_line());
+        assert_eq!(parse_runs(&bytes).unwrap().0, vec![p]);
     }
 
     #[test]

@@ -9,6 +9,8 @@ use super::results::{ResultsError, RunRow, RunsFile};
 use super::stats::{median, relative_half_width, shuffle};
 use crate::hash::hex;
 use crate::metrics::{RunStats, WorkerStats};
+use crate::model::advise::Probed;
+use crate::model::Prediction;
 use crate::render::{render_serial, Image};
 use crate::sched::{run_scheduler, SchedError, SchedulerSpec};
 use crate::tracer::Tracer;
@@ -209,6 +211,12 @@ pub fn run_experiment_with(
     let (runs, old_rows) = RunsFile::open(&runs_path, opts.fresh)?;
     let serial = check_old_rows(plan, &runs, &old_rows)?;
     let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
+    todo.update_done(plan);
+    let predictions = if plan.predict {
+        predictions(plan, &todo)?
+    } else {
+        HashMap::new()
+    };
     let mut session = Session {
         plan,
         dir,
@@ -219,6 +227,7 @@ pub fn run_experiment_with(
         mismatches: old_rows.iter().filter(|r| !r.identical).count(),
         measured: 0,
         untimed: 0,
+        predictions,
     };
     let skipped = old_rows.len();
     let mut round = 0u64;
@@ -445,6 +454,58 @@ struct Session<'p, 'r> {
     mismatches: usize,
     measured: usize,
     untimed: usize,
+    /// The cost model's prediction per configuration id (`predict = true`).
+    predictions: HashMap<String, Prediction>,
+}
+
+/// The probe's samples per pixel: a few, scaled to the configuration's (see `model::probe`).
+const PROBE_SPP: u32 = 4;
+
+/// The cost model's prediction for every local thread-scheduler configuration of `plan` not
+/// yet done: one probe per (scene, tracer, workers), every configuration predicted from it.
+/// Animations are not probed (the probe times one frame).
+fn predictions(
+    plan: &ExperimentPlan,
+    todo: &Todo<'_>,
+) -> Result<HashMap<String, Prediction>, RunError> {
+    let mut out = HashMap::new();
+    let mut groups: Vec<((usize, usize), Vec<&SchedulerSpec>, Vec<&str>)> = Vec::new();
+    for st in todo.states.iter().filter(|s| !s.done) {
+        let c = st.config;
+        let (Some(spec), Sources::Local) = (&c.spec, &c.sources) else {
+            continue;
+        };
+        if plan.scene_of(c).scene.frames() > 1 {
+            continue;
+        }
+        let key = (c.baseline, spec.workers);
+        match groups.iter_mut().find(|g| g.0 == key) {
+            Some(g) => {
+                g.1.push(spec);
+                g.2.push(&c.id);
+            }
+            None => groups.push((key, vec![spec], vec![&c.id])),
+        }
+    }
+    for ((baseline, workers), specs, ids) in groups {
+        let b = &plan.baselines[baseline];
+        let full = &plan.scenes[b.scene].scene;
+        let spp = full.settings.spp;
+        let mut low = (**full).clone();
+        low.settings.spp = spp.min(PROBE_SPP);
+        let low = std::sync::Arc::new(low);
+        let policies: Vec<_> = specs.iter().map(|s| s.policy).collect();
+        let probed = Probed::measure(&low, &b.tracer, workers, &policies).map_err(|source| {
+            RunError::Sched {
+                config: format!("cost-model probe of {} ×{workers}", full.name),
+                source,
+            }
+        })?;
+        for (spec, id) in specs.iter().zip(ids) {
+            out.insert(id.to_string(), probed.predict(spec, spp));
+        }
+    }
+    Ok(out)
 }
 
 /// A configuration's label for the progress line.
@@ -554,6 +615,12 @@ impl Session<'_, '_> {
         row.sys_s = sample.cpu.map(|c| c.1);
         row.load_before = sample.load.0;
         row.load_after = sample.load.1;
+        if let Some(p) = self.predictions.get(&c.id) {
+            row.predicted_wall_s = Some(p.wall_s);
+            row.predicted_handout_s = Some(p.handout_s);
+            row.predicted_refill_s = Some(p.refill_s);
+            row.predicted_imbalance_s = Some(p.imbalance_s);
+        }
         let info = self.serial.entry(c.baseline).or_default();
         match &c.spec {
             None => {

@@ -599,6 +599,7 @@ pub(crate) fn draw_all(
         };
         speedup_vs_workers(&mut out, &group)?;
         granularity(&mut out, &group)?;
+        predicted_vs_measured(&mut out, &group)?;
         buffer_sizes(&mut out, &group)?;
         let best = best_per_scheduler(&group.at_max);
         overhead(&mut out, &group, &best)?;
@@ -745,6 +746,81 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
         )
     );
     out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve. Bars: 95 % intervals of the median (top) and of the paired speedup (bottom).");
+    Ok(())
+}
+
+/// One panel per scheduler with predictions: measured median wall (with its interval) and the
+/// cost model's prediction against chunk size.
+fn prediction_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    g: &str,
+    panels: &[(String, Series)],
+) -> R {
+    let cols = panels.len().clamp(1, 3);
+    let rows = panels.len().div_ceil(cols);
+    let areas = root.split_evenly((rows, cols));
+    for ((name, data), area) in panels.iter().zip(areas.iter()) {
+        line_chart(
+            area,
+            &format!("{name} — {g}"),
+            "pixels per item (log₂)",
+            "wall time (s)",
+            data,
+            (true, false),
+            &[],
+        )?;
+    }
+    Ok(())
+}
+
+fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
+    let with: Vec<&Summary> = gr
+        .at_max
+        .iter()
+        .copied()
+        .filter(|s| s.row.predicted_wall_s.is_some())
+        .collect();
+    let mut kinds: Vec<String> = Vec::new();
+    for s in &with {
+        if !kinds.contains(&s.row.scheduler) {
+            kinds.push(s.row.scheduler.clone());
+        }
+    }
+    if kinds.is_empty() {
+        return Ok(());
+    }
+    let panels: Vec<(String, Series)> = kinds
+        .iter()
+        .map(|k| {
+            let of: Vec<&Summary> = with
+                .iter()
+                .copied()
+                .filter(|s| &s.row.scheduler == k)
+                .collect();
+            let mut data = series(&of, |_| Some("measured".into()), log2_chunk, wall_ci, lower);
+            data.extend(series(
+                &of,
+                |_| Some("predicted".into()),
+                log2_chunk,
+                |s| point(s.row.predicted_wall_s.unwrap_or(f64::NAN)),
+                lower,
+            ));
+            (k.clone(), data)
+        })
+        .collect();
+    let cols = panels.len().clamp(1, 3) as u32;
+    let rows = panels.len().div_ceil(3) as u32;
+    let stem = out.plots.join(format!("predicted_{}", gr.slug));
+    let title = format!(
+        "Predicted vs measured wall time, {} workers — {}",
+        gr.max_w, gr.name
+    );
+    both!(
+        stem,
+        (520 * cols, 420 * rows),
+        prediction_panels(gr.name, &panels)
+    );
+    out.push(&stem, title, "One panel per scheduler: the measured median wall time (with its 95 % interval) and the cost model's prediction made before the first round, against pixels per item; where a scheduler has several configurations at one chunk, the fastest of each.");
     Ok(())
 }
 

@@ -7,6 +7,9 @@ use crate::experiment::stats::{paired_ratio, unpaired_ratio, Ratio};
 use crate::experiment::summary::{pair_by_rep, seed_of, Summary};
 use std::fmt::Write;
 
+/// How the model's inputs were measured, for the report.
+const PROBE_NOTE: &str = "probe of per-pixel costs at ≤ 4 spp on the run's workers and zero-work hand-outs per scheduler";
+
 fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
     v.min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
 }
@@ -99,11 +102,12 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
         )
     };
     Some(format!(
-        "On {group} with {max_w} workers, the fastest configuration (`{}`, speedup {}) was {verdict} the per-ray master (`{}`, speedup {}); {ties}.",
+        "On {group} with {max_w} workers, the fastest configuration (`{}`, speedup {}) was {verdict} the per-ray master (`{}`, speedup {}); {ties}.{}",
         best.row.label,
         speedup_text(best),
         per_ray.row.label,
-        speedup_text(per_ray)
+        speedup_text(per_ray),
+        super::prediction::gap_clause(per_ray, best).unwrap_or_default()
     ))
 }
 
@@ -344,6 +348,28 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         );
     }
     md += &mpi_section(&groups, sums);
+    let mut model = String::new();
+    for g in &groups {
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.sources == "local" && s.row.scheduler != "serial")
+            .collect();
+        let Some(max_w) = in_g.iter().map(|s| s.row.workers).max() else {
+            continue;
+        };
+        let at: Vec<&Summary> = in_g
+            .into_iter()
+            .filter(|s| s.row.workers == max_w)
+            .collect();
+        if let Some(sec) = super::prediction::section(g, &at) {
+            model += &sec;
+        }
+    }
+    if !model.is_empty() {
+        let _ = writeln!(md, "## Cost model: predicted against measured\n");
+        let _ = writeln!(md, "Each configuration's wall time as the cost model predicted it before the first round (`raysched::model`: work / P + hand-out cost + refill waiting + imbalance, from a {PROBE_NOTE}) beside its measured median; error = predicted / measured − 1.\n");
+        md += &model;
+    }
     let _ = writeln!(md, "## Best configuration per scheduler\n");
     for g in &groups {
         // Thread schedulers only: MPI rows have their own section.

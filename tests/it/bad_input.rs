@@ -186,3 +186,50 @@ fn bad_flags_exit_2_without_output() {
     assert_eq!(missing.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/scene.toml"));
 }
+
+/// `raysched advise` with `flags` on the good scene: (exit code, stdout, stderr).
+fn advise(dir: &Path, scene_text: &str, flags: &[&str]) -> (i32, String, String) {
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, scene_text).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .arg("advise")
+        .arg(&scene)
+        .args(flags)
+        .output()
+        .unwrap();
+    (
+        output.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&output.stdout).to_string(),
+        String::from_utf8_lossy(&output.stderr).to_string(),
+    )
+}
+
+#[test]
+fn advise_bad_flags_are_one_line_errors_with_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
+    for (flags, needle) in [
+        (vec!["--workers", "0"], "--workers"),
+        (vec!["--spp", "0"], "--spp"),
+        (vec!["--probe-spp", "0"], "--probe-spp"),
+        (vec!["--scheduler", "fastest"], "unknown scheduler"),
+        (vec!["--chunks", "0"], "chunk"),
+        (vec!["--buffer", "0"], "--buffer"),
+        (vec!["--sources", "mpi"], "--sources mpi"),
+        (vec!["--slow", "3:2", "--workers", "2"], "--slow"),
+        (vec!["--slow", "1:0.5"], "slow"),
+        (vec!["--tolerance-pct", "-1"], "--tolerance-pct"),
+        (vec!["--tracer", "optix"], "unknown tracer"),
+    ] {
+        let (code, _, stderr) = advise(dir.path(), GOOD, &flags);
+        assert_eq!(code, 2, "{flags:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{flags:?}: {stderr}");
+        assert!(stderr.contains(needle), "{flags:?}: {stderr}");
+    }
+    let missing = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .args(["advise", "/nonexistent/scene.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/scene.toml"));
+}

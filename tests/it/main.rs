@@ -5,6 +5,7 @@
 
 mod support;
 
+mod advise;
 mod analytic;
 mod animation;
 mod bad_input;

@@ -1,0 +1,233 @@
+//! `raysched advise SCENE`: probe the scene and the schedulers for a few seconds, then predict
+//! the wall time of every scheduler × chunk with the cost model (`raysched::model`) and name
+//! the fastest, or the set within a few per cent of it when the curve is flat.
+
+use super::error::CliError;
+use raysched::model::advise::{advise, Probed};
+use raysched::scene::{load_scene, SceneOverrides};
+use raysched::sched::{Chunk, MasterParams, Policy, SchedulerKind, SchedulerSpec, Slow};
+use raysched::tracer::{AnyTracer, TracerKind};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Who renders: only local threads are modelled.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum AdviseSources {
+    /// Worker threads of this process.
+    Local,
+    /// MPI ranks (not modelled: refused).
+    Mpi,
+}
+
+const DEFAULT_SCHEDULERS: &str = "static,self_scheduling,guided,factoring,trapezoid,fixed_size,\
+adaptive_factoring,awf,work_stealing,master,pbrt,mitsuba";
+
+#[derive(clap::Args, Debug)]
+pub(crate) struct AdviseArgs {
+    /// Scene file (TOML), see scenes/.
+    scene: PathBuf,
+    /// Worker threads the prediction is for.
+    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
+    workers: usize,
+    /// Schedulers to consider, comma-separated.
+    #[arg(long = "scheduler", default_value = DEFAULT_SCHEDULERS, value_delimiter = ',',
+          value_parser = |s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))]
+    schedulers: Vec<SchedulerKind>,
+    /// Chunks to consider, comma-separated (N = N×N tiles, WxH, rows:N, frame).
+    #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,rows:4,frame", value_delimiter = ',',
+          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+    chunks: Vec<Chunk>,
+    /// The master's buffer B (items outstanding per source).
+    #[arg(long, default_value_t = MasterParams::DEFAULT.buffer,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=65536))]
+    buffer: usize,
+    /// Compute sources (only local threads are modelled).
+    #[arg(long, value_enum, default_value_t = AdviseSources::Local)]
+    sources: AdviseSources,
+    /// Workers slowed by a known factor, K:F (K workers F× slower), or none.
+    #[arg(long, default_value = "none", value_parser = |s: &str| Slow::parse(s).map_err(|e| e.msg))]
+    slow: Slow,
+    /// Samples per pixel the prediction is for (default: the scene's render.spp).
+    #[arg(long, value_parser = super::spp_arg())]
+    spp: Option<u32>,
+    /// Samples per pixel of the probe render (default: min(spp, 4)); costs scale linearly.
+    #[arg(long, value_parser = super::spp_arg())]
+    probe_spp: Option<u32>,
+    /// Tracer id (bvh, brute, embree, …).
+    #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
+    tracer: TracerKind,
+    /// Configurations within this many per cent of the fastest count as tied with it.
+    #[arg(long, default_value_t = 3.0)]
+    tolerance_pct: f64,
+}
+
+fn specs(args: &AdviseArgs) -> Vec<SchedulerSpec> {
+    let mut out = Vec::new();
+    for &kind in &args.schedulers {
+        for &chunk in &args.chunks {
+            let mut s = SchedulerSpec::new(kind, chunk, args.workers);
+            s.slow = args.slow;
+            if let Policy::Master(m) = &mut s.policy {
+                m.buffer = args.buffer;
+            }
+            out.push(s);
+        }
+    }
+    out
+}
+
+/// The chunk a run uses: its own, or `auto:<tile>` for a policy that picks its layout.
+fn chunk_text(spec: &SchedulerSpec, scene: &raysched::scene::Scene) -> String {
+    if spec.kind().picks_own_layout() {
+        format!("auto:{}", spec.layout(scene.width(), scene.height()).0)
+    } else {
+        spec.chunk.to_string()
+    }
+}
+
+fn ms(s: f64) -> String {
+    format!("{:.3}", s * 1e3)
+}
+
+pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
+    if args.sources == AdviseSources::Mpi {
+        return Err(CliError::message(
+            "--sources mpi: the cost model covers local threads only",
+        ));
+    }
+    if !(args.tolerance_pct.is_finite() && (0.0..=100.0).contains(&args.tolerance_pct)) {
+        return Err(CliError::message(format!(
+            "--tolerance-pct: must be within 0 … 100 (got {})",
+            args.tolerance_pct
+        )));
+    }
+    if args.slow.workers as usize > args.workers {
+        return Err(CliError::message(format!(
+            "--slow: {} slowed workers of only {}",
+            args.slow.workers, args.workers
+        )));
+    }
+    let kind = args.tracer.available().map_err(CliError::input)?;
+    let full = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
+    if full.frames() > 1 {
+        return Err(CliError::message(format!(
+            "{}: an animation ({} frames); the cost model probes one frame",
+            args.scene.display(),
+            full.frames()
+        )));
+    }
+    let spp = args.spp.unwrap_or(full.settings.spp);
+    let probe_spp = args.probe_spp.unwrap_or(spp.min(4));
+    let over = SceneOverrides {
+        spp: Some(probe_spp),
+        ..Default::default()
+    };
+    let scene = Arc::new(load_scene(&args.scene, &over).map_err(CliError::input)?);
+    let tracer = Arc::new(AnyTracer::build(kind, &scene, args.workers).map_err(CliError::input)?);
+    let specs = specs(&args);
+    let policies: Vec<Policy> = specs.iter().map(|s| s.policy).collect();
+    let probed =
+        Probed::measure(&scene, &tracer, args.workers, &policies).map_err(CliError::runtime)?;
+    let advice = advise(&probed, &specs, spp, args.tolerance_pct / 100.0);
+    let px = probed.pixels.profile.pixels();
+    let scale = spp as f64 / probe_spp as f64;
+    out!(
+        "scene {} ({}×{}, {spp} spp, max_depth {}), tracer {}, {} workers{}",
+        scene.name,
+        scene.width(),
+        scene.height(),
+        scene.settings.max_depth,
+        args.tracer,
+        args.workers,
+        if args.slow.is_none() {
+            String::new()
+        } else {
+            format!(", slow {}", args.slow)
+        }
+    );
+    out!(
+        "probe {:.2} s: pixels at {probe_spp} spp on {} workers (cheapest of 3 passes), scaled ×{scale:.2}: \
+         mean {:.2} µs, CV {:.2}, max/mean {:.1}, run-to-run noise {:.1} %; work W = {} ms",
+        probed.probe_s,
+        args.workers,
+        px.mean * scale * 1e6,
+        px.cv(),
+        px.max_over_mean(),
+        probed.pixels.noise_cv * 100.0,
+        ms(px.total * scale)
+    );
+    for (p, o) in &probed.overheads {
+        let refill = if o.refill_s > 0.0 {
+            format!(", refill period r {:.0} ns", o.refill_s * 1e9)
+        } else {
+            String::new()
+        };
+        out!(
+            "  {:<20} h {:>7.1} ns per item, fixed F {:>7.1} µs{refill}",
+            p.kind().id(),
+            o.per_item_s * 1e9,
+            o.fixed_s * 1e6
+        );
+    }
+    out!(
+        "{:<20} {:>8} {:>8} {:>11} {:>9} {:>9} {:>9} {:>11}",
+        "scheduler",
+        "chunk",
+        "items",
+        "predicted",
+        "work",
+        "hand-out",
+        "refill",
+        "imbalance"
+    );
+    for c in &advice.candidates {
+        let p = &c.prediction;
+        let chunk = chunk_text(&c.spec, &scene);
+        out!(
+            "{:<20} {:>8} {:>8} {:>8} ms {:>9} {:>9} {:>9} {:>11}",
+            c.spec.kind().id(),
+            chunk,
+            p.items,
+            ms(p.wall_s),
+            ms(p.work_s),
+            ms(p.handout_s),
+            ms(p.refill_s),
+            ms(p.imbalance_s)
+        );
+    }
+    let Some(&best) = advice.near_best.first() else {
+        return Err(CliError::message("no candidate to advise on"));
+    };
+    let b = &advice.candidates[best];
+    out!(
+        "best: {} chunk={} at {} ms predicted",
+        b.spec.kind().id(),
+        chunk_text(&b.spec, &scene),
+        ms(b.prediction.wall_s)
+    );
+    if advice.near_best.len() > 1 {
+        let tied: Vec<String> = advice.near_best[1..]
+            .iter()
+            .map(|&i| {
+                let c = &advice.candidates[i];
+                format!(
+                    "{} chunk={}",
+                    c.spec.kind().id(),
+                    chunk_text(&c.spec, &scene)
+                )
+            })
+            .collect();
+        out!(
+            "flat: {} configurations within {} % of the best: {}",
+            advice.near_best.len(),
+            args.tolerance_pct,
+            tied.join(", ")
+        );
+    } else {
+        out!(
+            "a clear optimum: no other configuration within {} % of the best",
+            args.tolerance_pct
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,534 @@
+//! The cost model: the wall time of one run, predicted before timing it, from the cost of
+//! every work item and the measured cost of handing one out.
+//!
+//! For a scheduler with its chunk on P workers (worker w slowed fᵥ×, capacity C = Σ 1/fᵥ),
+//! items i = 1…n of cost tᵢ in hand-out order (the per-pixel costs of a probe render summed
+//! per item, [`probe`]), the model is
+//!
+//! ```text
+//! wall = W/C                      work: W = Σ tᵢ, spread evenly
+//!      + F + h·n/P                hand-out: the run's fixed cost F (threads started and joined)
+//!                                 and h per item on the worker that takes it
+//!      + Σ max(0, r − fᵥtᵢ − h)/P refill waiting (master only): a source cannot finish items
+//!                                 faster than the master refills it, one item per r seconds
+//!      + I                        imbalance: how much later than the mean the last worker ends
+//! ```
+//!
+//! h, F and r are measured per scheduler with items that do no work (as the dispatch bench
+//! does): wall(n) = F + h·n/P there, so h = P × the slope between two item counts and F the
+//! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
+//! period when the master is the bottleneck), raised to a source's measured time per item
+//! over spinning items of the configuration's mean cost where that is larger (the sleeping
+//! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
+//! and returning an item, which the model takes to be self-scheduling's h (one synchronised
+//! hand-off per item).
+//!
+//! The imbalance I is the list schedule of the items' costs under the scheduler's own hand-
+//! out protocol, played out in time (the *deterministic* part: the last-chunk tail, the
+//! hot spot landing in one band), plus the expected excess of the latest of P noisy finishes
+//! (the *variance of sums*):
+//!
+//! - `static`: contiguous bands, one per worker; `static_cyclic`: item i to worker i mod P.
+//!   Every worker's sum is fixed in advance, so the whole band's noise is exposed.
+//! - self-scheduling, guided, `pbrt`, `mitsuba`, work stealing: the next grab goes to the
+//!   first worker free (greedy list scheduling; self-scheduling after Kruskal & Weiss 1985,
+//!   guided after Polychronopoulos & Kuck 1987). Work stealing is modelled as self-
+//!   scheduling at one item per grab: once the owners' bands run out, steals keep every
+//!   worker busy until the last item, whose tail it shares.
+//! - the factoring family (FAC2 and WF: Hummel, Schonberg & Flynn 1992, Hummel et al. 1996;
+//!   TSS: Tzen & Ni 1993; FSC: Kruskal & Weiss 1985; AF: Banicescu & Liu 2000; AWF-C:
+//!   Banicescu et al. 2003): the scheduler's own [`ChunkRule`] decides each grab, fed the
+//!   model's item times in place of measured ones, so the adaptive rules adapt to the same
+//!   costs the model predicts.
+//! - the master (buffer B): each source holds up to B items, refilled one item per completion
+//!   in queue order, so a source commits to its next B − 1 items before it starts them.
+//!
+//! The noise term follows Kruskal & Weiss: item costs vary run to run with coefficient of
+//! variation v (measured by the probe from two passes), a worker's exposed sum S has standard
+//! deviation v·√(Σ tᵢ²) over its exposed items (the whole band for static schedules, the last
+//! grab for dynamic ones, whose earlier noise the next grabs absorb), and the latest of P
+//! independent normal finishes exceeds their mean by e_P·σ, with e_P the expected maximum of
+//! P standard normals (0.564 for P = 2; √(2 ln P) beyond the table).
+//!
+//! Assumptions, each a source of error the report states: an item's cost is the same on any
+//! worker and any run, up to the noise v and the slow factor; costs scale linearly with
+//! samples per pixel (a per-pixel fixed cost is scaled with them); h does not depend on the
+//! work between hand-outs (on this machine the counter's line moves between cores more slowly
+//! when there is work between grabs, see `benches/dispatch.rs`, so h from zero-work items is
+//! a lower bound); the master thread's CPU time is in r, not in the workers' capacity.
+
+pub mod advise;
+pub mod probe;
+
+use crate::sched::dls::{self, ChunkRule, ItemTimes, Report};
+use crate::sched::renderers::mitsuba_grain;
+use crate::sched::{Policy, SchedulerSpec};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, VecDeque};
+
+/// The measured cost of handing items out under one scheduler (seconds).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Overheads {
+    /// h: cost per item on the worker that takes it.
+    pub per_item_s: f64,
+    /// F: the run's fixed cost (threads started and joined, results indexed).
+    pub fixed_s: f64,
+    /// r: the master's refill period per source at its buffer (0 for other schedulers).
+    pub refill_s: f64,
+}
+
+/// A predicted wall time and its parts; `wall_s` is their sum.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Prediction {
+    /// The predicted wall time.
+    pub wall_s: f64,
+    /// W/C: the work spread evenly over the workers' capacity.
+    pub work_s: f64,
+    /// F + h·n/P: handing items out.
+    pub handout_s: f64,
+    /// Σ refill waits / P: sources waiting for the master (0 but for the master).
+    pub refill_s: f64,
+    /// Everything else: the latest worker's lead over the mean, deterministic and noise.
+    pub imbalance_s: f64,
+    /// Items of the run (n).
+    pub items: usize,
+}
+
+/// The inputs of [`predict`] besides the scheduler.
+#[derive(Clone, Copy, Debug)]
+pub struct Workload<'a> {
+    /// tᵢ: each item's cost in hand-out order (seconds on an unslowed worker).
+    pub item_s: &'a [f64],
+    /// v: coefficient of variation of an item's cost from run to run.
+    pub noise_cv: f64,
+}
+
+/// The expected maximum of `p` independent standard normal variables.
+pub fn expected_max_normal(p: usize) -> f64 {
+    const TABLE: [f64; 11] = [
+        0.0, 0.0, 0.5642, 0.8463, 1.0294, 1.1630, 1.2672, 1.3522, 1.4236, 1.4850, 1.5388,
+    ];
+    TABLE
+        .get(p)
+        .copied()
+        .unwrap_or_else(|| (2.0 * (p as f64).ln()).sqrt())
+}
+
+/// One grab size rule that needs no measurements: a fixed grab or guided self-scheduling.
+struct Grab {
+    grab: usize,
+    /// Guided: grab max(grab, ⌈R/(k·P)⌉), k·P given here; 0 for a fixed grab.
+    guided_kp: usize,
+}
+
+impl ChunkRule for Grab {
+    fn next(&mut self, _worker: usize, remaining: usize) -> usize {
+        if self.guided_kp == 0 {
+            self.grab
+        } else {
+            self.grab.max(remaining.div_ceil(self.guided_kp))
+        }
+    }
+}
+
+/// What a played-out schedule leaves.
+#[derive(Default)]
+struct Played {
+    /// When each worker finished its last item.
+    finish: Vec<f64>,
+    /// Σ refill waits over all items.
+    refill: f64,
+    /// Each worker's exposed noise variance / v² (Σ tᵢ² over its exposed items).
+    exposed: Vec<f64>,
+}
+
+/// Item i's time on worker w, without and with the refill wait.
+fn item_time(t: f64, f: f64, o: &Overheads) -> (f64, f64) {
+    let busy = t * f + o.per_item_s;
+    (busy, busy.max(o.refill_s))
+}
+
+/// Fixed assignment: worker `owner(i)` runs item i; all of its items are exposed to noise.
+fn play_fixed(
+    item_s: &[f64],
+    speeds: &[f64],
+    o: &Overheads,
+    owner: impl Fn(usize) -> usize,
+) -> Played {
+    let p = speeds.len();
+    let mut out = Played {
+        finish: vec![0.0; p],
+        exposed: vec![0.0; p],
+        ..Default::default()
+    };
+    for (i, &t) in item_s.iter().enumerate() {
+        let w = owner(i);
+        out.finish[w] += item_time(t, speeds[w], o).1;
+        out.exposed[w] += (t * speeds[w]).powi(2);
+    }
+    out
+}
+
+/// Greedy list scheduling: the first worker free takes the next grab the rule gives it,
+/// reporting its previous grab first (as the shared dispenser does).
+fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn ChunkRule) -> Played {
+    let p = speeds.len();
+    let mut out = Played {
+        finish: vec![0.0; p],
+        exposed: vec![0.0; p],
+        ..Default::default()
+    };
+    let mut free: BinaryHeap<Reverse<(u64, usize)>> = (0..p).map(|w| Reverse((0, w))).collect();
+    let mut last: Vec<Option<Report>> = vec![None; p];
+    let mut times = vec![ItemTimes::default(); p];
+    let mut next = 0;
+    let n = item_s.len();
+    while next < n {
+        let Some(Reverse((_, w))) = free.pop() else {
+            break;
+        };
+        if let Some(r) = last[w].take() {
+            rule.report(w, &r);
+        }
+        let c = rule.next(w, n - next).clamp(1, n - next);
+        let (mut secs, mut var) = (0.0, 0.0);
+        for &t in &item_s[next..next + c] {
+            let (busy, took) = item_time(t, speeds[w], o);
+            secs += took;
+            out.refill += took - busy;
+            var += (t * speeds[w]).powi(2);
+            times[w].add(took);
+        }
+        next += c;
+        out.finish[w] += secs;
+        out.exposed[w] = var;
+        last[w] = Some(Report {
+            items: c,
+            secs,
+            grab_secs: o.per_item_s,
+            times: times[w],
+        });
+        free.push(Reverse((ns(out.finish[w]), w)));
+    }
+    out
+}
+
+/// Seconds as integer nanoseconds for the heap's order (ties go to the lower worker id).
+fn ns(s: f64) -> u64 {
+    (s * 1e9).round() as u64
+}
+
+/// The master: every source first gets `buffer` items in turn, then one more each time it
+/// completes one; a source runs its items in the order it got them.
+fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> Played {
+    let p = speeds.len();
+    let n = item_s.len();
+    let mut out = Played {
+        finish: vec![0.0; p],
+        exposed: vec![0.0; p],
+        ..Default::default()
+    };
+    let mut queues: Vec<VecDeque<usize>> = vec![VecDeque::new(); p];
+    let mut next = 0;
+    for _ in 0..buffer.max(1) {
+        for q in queues.iter_mut() {
+            if next < n {
+                q.push_back(next);
+                next += 1;
+            }
+        }
+    }
+    let mut events: BinaryHeap<Reverse<(u64, usize)>> = BinaryHeap::new();
+    let start = |w: usize, at: f64, out: &mut Played, q: &mut VecDeque<usize>| -> Option<f64> {
+        let i = q.pop_front()?;
+        let (busy, took) = item_time(item_s[i], speeds[w], o);
+        out.refill += took - busy;
+        out.exposed[w] = (item_s[i] * speeds[w]).powi(2);
+        Some(at + took)
+    };
+    for (w, q) in queues.iter_mut().enumerate() {
+        if let Some(end) = start(w, 0.0, &mut out, q) {
+            out.finish[w] = end;
+            events.push(Reverse((ns(end), w)));
+        }
+    }
+    while let Some(Reverse((_, w))) = events.pop() {
+        if next < n {
+            queues[w].push_back(next);
+            next += 1;
+        }
+        let at = out.finish[w];
+        if let Some(end) = start(w, at, &mut out, &mut queues[w]) {
+            out.finish[w] = end;
+            events.push(Reverse((ns(end), w)));
+        }
+    }
+    out
+}
+
+/// The predicted wall time of `spec` over `work` with hand-out costs `o`. The items must be
+/// those of `spec.layout` in its order; worker speeds come from `spec.slow`.
+pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Prediction {
+    let p = spec.workers.max(1);
+    let speeds: Vec<f64> = (0..p).map(|w| spec.slow.factor_of(w)).collect();
+    let item_s = work.item_s;
+    let n = item_s.len();
+    let o_run = match spec.policy {
+        Policy::Master(_) => *o,
+        _ => Overheads {
+            refill_s: 0.0,
+            ..*o
+        },
+    };
+    let fixed_grab = |grab: usize| Grab { grab, guided_kp: 0 };
+    let played = match spec.policy {
+        Policy::Static => play_fixed(item_s, &speeds, &o_run, |i| {
+            // Band w holds items w·n/P … (w+1)·n/P − 1, as `run_shared` cuts them.
+            (0..p).rev().find(|w| w * n / p <= i).unwrap_or(0)
+        }),
+        Policy::StaticCyclic => play_fixed(item_s, &speeds, &o_run, |i| i % p),
+        Policy::Master(m) => play_master(item_s, &speeds, &o_run, m.buffer),
+        Policy::SelfScheduling(s) => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(s.grab)),
+        Policy::WorkStealing(_) | Policy::WorkStealingDeque | Policy::Pbrt => {
+            play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1))
+        }
+        Policy::Mitsuba => play_dynamic(
+            item_s,
+            &speeds,
+            &o_run,
+            &mut fixed_grab(mitsuba_grain(n, p)),
+        ),
+        Policy::Guided(g) => play_dynamic(
+            item_s,
+            &speeds,
+            &o_run,
+            &mut Grab {
+                grab: g.grab,
+                guided_kp: g.guided_k * p,
+            },
+        ),
+        _ => match dls::rule(&spec.policy, n, p, spec.slow) {
+            Some(mut rule) => play_dynamic(item_s, &speeds, &o_run, rule.as_mut()),
+            None => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1)),
+        },
+    };
+    decompose_played(&played, item_s, &speeds, &o_run, work.noise_cv)
+}
+
+fn decompose_played(
+    played: &Played,
+    item_s: &[f64],
+    speeds: &[f64],
+    o: &Overheads,
+    noise_cv: f64,
+) -> Prediction {
+    let p = speeds.len() as f64;
+    let capacity: f64 = speeds.iter().map(|f| 1.0 / f).sum();
+    let n = item_s.len();
+    let work_s = item_s.iter().sum::<f64>() / capacity;
+    let handout_s = o.fixed_s + o.per_item_s * n as f64 / p;
+    let refill_s = played.refill / p;
+    let makespan = played.finish.iter().copied().fold(0.0, f64::max);
+    let sd = played.exposed.iter().map(|v| v.sqrt()).sum::<f64>() / p;
+    let noise = noise_cv * sd * expected_max_normal(speeds.len());
+    let wall_s = o.fixed_s + makespan + noise;
+    Prediction {
+        wall_s,
+        work_s,
+        handout_s,
+        refill_s,
+        imbalance_s: wall_s - work_s - handout_s - refill_s,
+        items: n,
+    }
+}
+
+/// The configurations within `tolerance` (e.g. 0.03) of the fastest predicted one: a flat
+/// curve shows as many. Indices into `walls`, fastest first.
+pub fn near_best(walls: &[f64], tolerance: f64) -> Vec<usize> {
+    let best = walls.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut idx: Vec<usize> = (0..walls.len())
+        .filter(|&i| walls[i] <= best * (1.0 + tolerance))
+        .collect();
+    idx.sort_by(|&a, &b| walls[a].total_cmp(&walls[b]));
+    idx
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sched::{Chunk, MasterParams, SchedulerKind, Slow};
+
+    fn spec(kind: SchedulerKind, p: usize) -> SchedulerSpec {
+        SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, p)
+    }
+
+    fn run(kind: SchedulerKind, p: usize, items: &[f64], o: Overheads) -> Prediction {
+        let w = Workload {
+            item_s: items,
+            noise_cv: 0.0,
+        };
+        predict(&spec(kind, p), &w, &o)
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-12 * (1.0 + a.abs().max(b.abs()))
+    }
+
+    const NONE: Overheads = Overheads {
+        per_item_s: 0.0,
+        fixed_s: 0.0,
+        refill_s: 0.0,
+    };
+
+    #[test]
+    fn equal_items_divisible_by_p_have_no_imbalance_unless_the_grabs_leave_a_tail() {
+        let items = vec![1e-3; 64];
+        for kind in SchedulerKind::ALL {
+            let r = run(kind, 4, &items, NONE);
+            assert_eq!((r.handout_s, r.refill_s), (0.0, 0.0), "{kind:?}");
+            assert!(close(r.work_s, 16e-3), "{kind:?}: {r:?}");
+            // TSS's shrinking chunks (8, 7, 7, 6, … on 64 items) end one item apart, and so
+            // does FSC, whose one-item warm phase runs a few items past 32 (a worker reports
+            // its item when it asks for the next), leaving a remainder that P does not divide.
+            let tail = match kind {
+                SchedulerKind::Trapezoid | SchedulerKind::FixedSize => 1e-3,
+                _ => 0.0,
+            };
+            assert!(close(r.imbalance_s, tail), "{kind:?}: {r:?}");
+            assert!(close(r.wall_s, 16e-3 + tail), "{kind:?}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn one_huge_item_is_the_wall_and_its_excess_over_w_over_p_is_imbalance() {
+        let mut items = vec![0.0; 7];
+        items[3] = 2.0;
+        for kind in SchedulerKind::ALL {
+            let r = run(kind, 2, &items, NONE);
+            assert!(close(r.wall_s, 2.0), "{kind:?}: {r:?}");
+            assert!(
+                close(r.work_s, 1.0) && close(r.imbalance_s, 1.0),
+                "{kind:?}: {r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn hand_out_cost_adds_h_n_over_p_and_vanishes_as_h_goes_to_zero() {
+        let items = vec![1e-6; 1000];
+        for h in [1e-7, 1e-9, 0.0] {
+            let o = Overheads {
+                per_item_s: h,
+                fixed_s: 5e-5,
+                refill_s: 0.0,
+            };
+            let r = run(SchedulerKind::SelfScheduling, 2, &items, o);
+            assert!(close(r.handout_s, 5e-5 + h * 500.0), "{r:?}");
+            assert!(close(r.wall_s, 5e-4 + 5e-5 + h * 500.0), "{r:?}");
+            assert!(r.imbalance_s.abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn static_bands_take_a_hot_band_whole_while_dynamic_grabs_share_it() {
+        // The first half costs 3, the second 1: band 0 holds 3·4 = 12 of 16.
+        let items: Vec<f64> = (0..8).map(|i| if i < 4 { 3.0 } else { 1.0 }).collect();
+        let st = run(SchedulerKind::Static, 2, &items, NONE);
+        assert_eq!((st.wall_s, st.work_s, st.imbalance_s), (12.0, 8.0, 4.0));
+        let cyc = run(SchedulerKind::StaticCyclic, 2, &items, NONE);
+        assert_eq!(cyc.wall_s, 8.0);
+        let ss = run(SchedulerKind::SelfScheduling, 2, &items, NONE);
+        assert_eq!(ss.wall_s, 8.0);
+    }
+
+    #[test]
+    fn master_sources_wait_for_refills_when_items_are_cheaper_than_the_period() {
+        // 100 items of 1 µs, h = 0.1 µs, a refill every 3 µs: each item waits 1.9 µs.
+        let items = vec![1e-6; 100];
+        let o = Overheads {
+            per_item_s: 1e-7,
+            fixed_s: 0.0,
+            refill_s: 3e-6,
+        };
+        let r = run(SchedulerKind::Master, 2, &items, o);
+        assert!(close(r.refill_s, 100.0 * 1.9e-6 / 2.0), "{r:?}");
+        assert!(close(r.wall_s, 50.0 * 3e-6), "{r:?}");
+        assert!(r.imbalance_s.abs() < 1e-12, "{r:?}");
+        // Items dearer than the period never wait; other schedulers ignore r.
+        let dear = run(SchedulerKind::Master, 2, &vec![1e-5; 100], o);
+        assert_eq!(dear.refill_s, 0.0);
+        assert_eq!(
+            run(SchedulerKind::SelfScheduling, 2, &items, o).refill_s,
+            0.0
+        );
+    }
+
+    #[test]
+    fn the_master_commits_to_its_buffer_so_a_late_hot_item_can_strand() {
+        // One dear item first, seven cheap ones. At B = 1 the other source takes the cheap
+        // ones as it frees up (wall 6, ideal 5.5); at B = 4 every item is committed at the
+        // start in turn, so the dear item's source also holds three cheap ones (4 + 3 = 7).
+        let items = [4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        let at = |buffer: usize| {
+            let s = SchedulerSpec {
+                policy: Policy::Master(MasterParams {
+                    buffer,
+                    ..MasterParams::DEFAULT
+                }),
+                ..spec(SchedulerKind::Master, 2)
+            };
+            let w = Workload {
+                item_s: &items,
+                noise_cv: 0.0,
+            };
+            predict(&s, &w, &NONE).wall_s
+        };
+        assert_eq!(at(1), 6.0);
+        assert_eq!(at(4), 7.0);
+        assert_eq!(at(64), 7.0);
+    }
+
+    #[test]
+    fn a_slowed_worker_lowers_capacity_and_weighted_schemes_follow_it() {
+        // Worker 0 is 3× slower: capacity 1/3 + 1 = 4/3, so 120 unit items take 90 ideally.
+        let items = vec![1.0; 120];
+        let mut s = spec(SchedulerKind::SelfScheduling, 2);
+        s.slow = Slow {
+            workers: 1,
+            factor: 3.0,
+        };
+        let w = Workload {
+            item_s: &items,
+            noise_cv: 0.0,
+        };
+        let ss = predict(&s, &w, &NONE);
+        assert!(close(ss.work_s, 90.0), "{ss:?}");
+        assert!((ss.wall_s - 90.0).abs() <= 3.0, "{ss:?}");
+        let mut st = s.clone();
+        st.policy = Policy::Static;
+        assert_eq!(predict(&st, &w, &NONE).wall_s, 180.0);
+    }
+
+    #[test]
+    fn noise_adds_the_expected_maximum_of_p_normal_finishes() {
+        // Static, P = 2, 100 items of 1 each per band, v = 0.1: σ = 0.1·√100 = 1 per band.
+        let items = vec![1.0; 200];
+        let w = Workload {
+            item_s: &items,
+            noise_cv: 0.1,
+        };
+        let r = predict(&spec(SchedulerKind::Static, 2), &w, &NONE);
+        assert!((r.imbalance_s - 0.5642).abs() < 1e-9, "{r:?}");
+        // Self-scheduling exposes only its last grab of one item: σ = 0.1.
+        let d = predict(&spec(SchedulerKind::SelfScheduling, 2), &w, &NONE);
+        assert!((d.imbalance_s - 0.05642).abs() < 1e-9, "{d:?}");
+        assert_eq!(expected_max_normal(1), 0.0);
+        assert!((expected_max_normal(100) - (2.0 * 100f64.ln()).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn near_best_lists_every_configuration_within_the_tolerance_fastest_first() {
+        assert_eq!(near_best(&[1.05, 1.0, 1.02, 1.5], 0.03), [1, 2]);
+        assert_eq!(near_best(&[2.0], 0.03), [0]);
+    }
+}

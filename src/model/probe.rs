@@ -1,0 +1,292 @@
+//! The model's measured inputs, from a short probe: every pixel's cost (a low-spp render on
+//! the run's P workers, so the pixels are timed while the other cores are busy too, as in the
+//! run), the run-to-run noise of those costs, and each scheduler's hand-out costs from
+//! items that do no work (as `benches/dispatch.rs` measures them).
+
+use super::Overheads;
+use crate::profile::Profile;
+use crate::render::{TileResult, WorkItem};
+use crate::scene::Scene;
+use crate::sched::{
+    decompose, render_job, run_items, Chunk, Order, Policy, RunOptions, SchedError, SchedulerKind,
+    SchedulerSpec,
+};
+use crate::source::Job;
+use crate::tracer::Tracer;
+use std::sync::Arc;
+
+/// Every pixel's cost at the probe's samples per pixel, and their noise.
+#[derive(Clone, Debug)]
+pub struct PixelProbe {
+    /// Each pixel's cheapest time over the passes (a pixel whose thread was preempted in one
+    /// pass is not dear in all).
+    pub profile: Profile,
+    /// v: the coefficient of variation of a pixel's time between two passes (the rendering
+    /// is deterministic, so this is timing noise alone).
+    pub noise_cv: f64,
+}
+
+/// One pass: frame 0 pixel by pixel, item i to worker i mod P, each pixel's span kept.
+fn pass<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    workers: usize,
+) -> Result<Vec<f64>, SchedError> {
+    let (w, h) = (scene.width(), scene.height());
+    let mut spec = SchedulerSpec::new(
+        SchedulerKind::StaticCyclic,
+        Chunk::Tile { w: 1, h: 1 },
+        workers,
+    );
+    spec.timeline = true;
+    let items = decompose(w, h, spec.chunk, Order::Scanline);
+    let (_, stats) = run_items(
+        &spec,
+        &items,
+        render_job(scene, tracer),
+        &RunOptions::default(),
+    )?;
+    let mut px = vec![0.0; items.len()];
+    for s in stats.timeline.unwrap_or_default() {
+        if let Some(p) = px.get_mut(s.item as usize) {
+            *p = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
+        }
+    }
+    Ok(px)
+}
+
+/// Time every pixel of frame 0 of `scene` on `workers` workers, `passes` (≥ 2) times.
+pub fn pixels<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    workers: usize,
+    passes: u32,
+) -> Result<PixelProbe, SchedError> {
+    let first = pass(scene, tracer, workers)?;
+    let second = pass(scene, tracer, workers)?;
+    let noise_cv = relative_spread(&first, &second);
+    let mut best: Vec<f64> = first.iter().zip(&second).map(|(a, b)| a.min(*b)).collect();
+    for _ in 2..passes {
+        for (b, c) in best.iter_mut().zip(pass(scene, tracer, workers)?) {
+            *b = b.min(c);
+        }
+    }
+    Ok(PixelProbe {
+        profile: Profile {
+            width: scene.width(),
+            height: scene.height(),
+            pixel_s: best,
+        },
+        noise_cv,
+    })
+}
+
+/// The coefficient of variation of one measurement from two passes: the standard deviation
+/// of (a − b)/mean(a, b) over the pixels, over √2 (a difference of two has twice the
+/// variance). Pixels slower than 10× their other pass (a preemption) are left out.
+pub fn relative_spread(a: &[f64], b: &[f64]) -> f64 {
+    let d: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| **x > 0.0 && **y > 0.0 && x.max(**y) < 10.0 * x.min(**y))
+        .map(|(x, y)| (x - y) / ((x + y) / 2.0))
+        .collect();
+    if d.len() < 2 {
+        return 0.0;
+    }
+    let m = d.iter().sum::<f64>() / d.len() as f64;
+    let var = d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64;
+    (var / 2.0).sqrt()
+}
+
+fn nothing() -> Job {
+    Arc::new(|it: &WorkItem| TileResult {
+        item: it.id,
+        pixels: Vec::new(),
+        rays: 0,
+        nonfinite: 0,
+    })
+}
+
+/// Zero-work items: (fixed cost, per-item slope) of `policy` on `workers` workers, from runs
+/// of n and 2n one-pixel items, the median slope of `reps` pairs and the median intercept.
+/// n is at most `items`, fewer where a pilot run shows dear items (a blocking master on a
+/// loaded machine: milliseconds per item), so that one run stays near [`RUN_S`].
+fn zero_work(
+    policy: Policy,
+    items: u32,
+    workers: usize,
+    reps: u32,
+) -> Result<(f64, f64), SchedError> {
+    let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
+    spec.policy = policy;
+    let pilot = decompose(PILOT_ITEMS, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let per = run_items(&spec, &pilot, nothing(), &RunOptions::default())?
+        .1
+        .wall_s
+        / PILOT_ITEMS as f64;
+    let items = ((RUN_S / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
+    let lists: Vec<Vec<WorkItem>> = [items, 2 * items]
+        .iter()
+        .map(|&n| decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
+        .collect();
+    let opts = RunOptions::default();
+    let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
+        Ok(run_items(&spec, l, nothing(), &opts)?.1.wall_s)
+    };
+    let (mut slopes, mut fixed) = (Vec::new(), Vec::new());
+    for _ in 0..reps.max(1) {
+        let a = wall(&lists[0])?;
+        let b = wall(&lists[1])?;
+        let slope = ((b - a) / items as f64).max(0.0);
+        slopes.push(slope);
+        fixed.push((a - slope * items as f64).max(0.0));
+    }
+    Ok((median(&mut fixed), median(&mut slopes)))
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// A job whose items each spin for `secs` (a stand-in of known cost).
+fn spinning(secs: f64) -> Job {
+    let d = std::time::Duration::from_secs_f64(secs);
+    Arc::new(move |it: &WorkItem| {
+        let t0 = std::time::Instant::now();
+        while t0.elapsed() < d {
+            std::hint::spin_loop();
+        }
+        TileResult {
+            item: it.id,
+            pixels: Vec::new(),
+            rays: 0,
+            nonfinite: 0,
+        }
+    })
+}
+
+/// Item costs above this never wait for a refill that a zero-work probe would miss (a
+/// sleeping master wakes within tens of µs), so the loaded probe is skipped for them.
+const LOADED_MAX_S: f64 = 100e-6;
+
+/// The master's refill period per source with items that each cost `item_s`: a source's time
+/// per item, P × (wall − F) / items over spinning items, so the master's wake-up latency
+/// between items (which zero-work items never show: the master never sleeps there) is in it.
+/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` runs of about
+/// 20 ms each.
+pub fn loaded_refill(
+    policy: Policy,
+    workers: usize,
+    item_s: f64,
+    zero: &Overheads,
+    reps: u32,
+) -> Result<f64, SchedError> {
+    if !matches!(policy, Policy::Master(_))
+        || item_s.is_nan()
+        || item_s <= 0.0
+        || item_s > LOADED_MAX_S
+    {
+        return Ok(zero.refill_s);
+    }
+    // A source takes max(item cost, zero-work period) per item: one run near RUN_S.
+    let per = item_s.max(zero.refill_s);
+    let n = ((RUN_S * workers as f64 / per) as u32).clamp(64, 4096);
+    let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
+    spec.policy = policy;
+    let list = decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let job = spinning(item_s);
+    let mut per: Vec<f64> = Vec::new();
+    for _ in 0..reps.max(1) {
+        let (_, s) = run_items(&spec, &list, job.clone(), &RunOptions::default())?;
+        per.push(workers as f64 * (s.wall_s - zero.fixed_s).max(0.0) / n as f64);
+    }
+    Ok(median(&mut per).max(zero.refill_s))
+}
+
+/// Items of the pilot run that sizes the zero-work runs.
+const PILOT_ITEMS: u32 = 128;
+
+/// The wall time one probe run aims at.
+pub const RUN_S: f64 = 20e-3;
+
+/// Items per zero-work run: enough that the slope is well above the clock's resolution,
+/// few enough that the probe takes well under a second per scheduler.
+pub const PROBE_ITEMS: u32 = 8192;
+
+/// The hand-out costs of `policy` on `workers` workers (see the module docs of
+/// [`crate::model`]): h = P × the zero-work slope, F the intercept; for the master r = P × its
+/// slope at its buffer and h self-scheduling's.
+pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads, SchedError> {
+    let p = workers as f64;
+    let (fixed_s, slope) = zero_work(policy, PROBE_ITEMS, workers, reps)?;
+    Ok(match policy {
+        Policy::Master(_) => {
+            let ss = Policy::defaults(SchedulerKind::SelfScheduling);
+            let (_, worker_slope) = zero_work(ss, PROBE_ITEMS, workers, reps)?;
+            Overheads {
+                per_item_s: p * worker_slope,
+                fixed_s,
+                refill_s: p * slope,
+            }
+        }
+        _ => Overheads {
+            per_item_s: p * slope,
+            fixed_s,
+            refill_s: 0.0,
+        },
+    })
+}
+
+/// Each item's cost in hand-out order under `spec` (its own layout), from per-pixel costs at
+/// `probe_spp` scaled to `spp`.
+pub fn item_costs(profile: &Profile, spec: &SchedulerSpec, probe_spp: u32, spp: u32) -> Vec<f64> {
+    let (chunk, order) = spec.layout(profile.width, profile.height);
+    let scale = spp as f64 / probe_spp.max(1) as f64;
+    decompose(profile.width, profile.height, chunk, order)
+        .iter()
+        .map(|it| {
+            it.pixels(profile.width)
+                .map(|p| profile.pixel_s[p as usize])
+                .sum::<f64>()
+                * scale
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_spread_of_a_known_ratio() {
+        // Every pair differs by ±10 % of its mean, alternating: d = ±0.1, sd 0.1 (n−1: ≈),
+        // v = sd/√2.
+        let a: Vec<f64> = (0..1000)
+            .map(|i| if i % 2 == 0 { 1.05 } else { 0.95 })
+            .collect();
+        let b: Vec<f64> = (0..1000)
+            .map(|i| if i % 2 == 0 { 0.95 } else { 1.05 })
+            .collect();
+        let v = relative_spread(&a, &b);
+        assert!((v - 0.1 / 2f64.sqrt()).abs() < 1e-3, "{v}");
+        assert_eq!(relative_spread(&a, &a), 0.0);
+        // A preempted pixel (50×) is left out.
+        let mut c = a.clone();
+        c[0] = 50.0;
+        assert_eq!(relative_spread(&a, &c), 0.0);
+    }
+
+    #[test]
+    fn item_costs_sum_pixels_in_hand_out_order_and_scale_with_spp() {
+        let p = Profile {
+            width: 4,
+            height: 2,
+            pixel_s: vec![1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0],
+        };
+        let s = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 2, h: 2 }, 2);
+        assert_eq!(item_costs(&p, &s, 1, 1), [4.0, 12.0]);
+        assert_eq!(item_costs(&p, &s, 2, 8), [16.0, 48.0]);
+    }
+}
