@@ -39,6 +39,12 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     if let Some(w) = scene.depth_warning() {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
+    // Mesa's Vulkan drivers probe for a Wayland display and print a line when this variable
+    // is unset (a headless machine, CI); pointing it at the temp folder keeps stderr to our
+    // own one line. Set before any thread of the run is spawned.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let ctx = GpuContext::open(args.gpu_adapter.as_deref()).map_err(CliError::input)?;
     let t0 = Instant::now();
     let gpu = Arc::new(

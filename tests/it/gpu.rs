@@ -234,16 +234,49 @@ fn gpu_matches_cpu_on_glass_checker_cornell_and_simple() {
 
 #[test]
 fn gpu_to_cpu_difference_shrinks_as_spp_grows() {
-    let lo = compare("cornell 4 spp", &load("cornell_box.toml", small(16, 4)));
-    let Some(lo) = lo else { return };
-    let hi = compare("cornell 64 spp", &load("cornell_box.toml", small(16, 64))).unwrap();
-    // Divergent paths are independent samples: the rms difference falls like 1/√spp (¼ here).
-    assert!(lo.rms > 0.0, "no difference at all at 4 spp: the comparison sees nothing");
+    let at = |spp, seed| {
+        load(
+            "cornell_box.toml",
+            SceneOverrides {
+                seed: Some(seed),
+                ..small(16, spp)
+            },
+        )
+    };
+    // Paired (one seed): both paths follow the same samples, so what differs is rounding and,
+    // where a path diverges (a Fresnel or roulette draw on the other side of a rounded
+    // threshold), one independent sample. Reported; on lavapipe it stays at the f32 floor.
+    let Some(_) = compare("cornell 4 spp, paired", &at(4, 1)) else {
+        return;
+    };
+    compare("cornell 64 spp, paired", &at(64, 1));
+    // Unpaired (GPU seed 1, CPU seed 2): two independent estimates of one image. Their mean
+    // absolute difference falls like 1/√spp (to ¼ from 4 to 64 spp) unless one path is biased,
+    // which leaves a floor.
+    let unpaired = |spp| {
+        let g = at(spp, 1);
+        let r = renderer(&g).unwrap();
+        let (gi, ci) = (gpu_image(&r, &g), cpu_image(&at(spp, 2)));
+        let (a, b) = (values(&gi), values(&ci));
+        let mad = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).sum::<f64>() / a.len() as f64;
+        let d = diff(&gi, &ci);
+        eprintln!(
+            "cornell {spp} spp, GPU seed 1 vs CPU seed 2: mean |d| {mad:.4e}, mean d {:+.3e} (se {:.2e})",
+            d.mean, d.se
+        );
+        assert!(
+            d.mean.abs() <= 3.0 * d.se,
+            "{spp} spp: independent estimates differ by {:+.3e} (3σ = {:.3e})",
+            d.mean,
+            3.0 * d.se
+        );
+        mad
+    };
+    let (lo, hi) = (unpaired(4), unpaired(64));
+    assert!(lo > 0.0, "no difference at all between independent estimates");
     assert!(
-        hi.rms < 0.6 * lo.rms,
-        "rms GPU−CPU difference {:.3e} at 64 spp vs {:.3e} at 4 spp",
-        hi.rms,
-        lo.rms
+        hi < 0.45 * lo,
+        "mean |GPU − CPU| {hi:.3e} at 64 spp vs {lo:.3e} at 4 spp: expected about a quarter"
     );
 }
 
@@ -297,4 +330,58 @@ fn gpu_errors_are_one_line() {
         .err()
         .expect("outside the image");
     assert!(e.to_string().contains("outside the scene"), "{e}");
+}
+
+/// `raysched render` with `args` (the scene first); (exit code, stdout, stderr).
+fn cli(args: &[&str]) -> (i32, String, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .arg("render")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stdout).into(),
+        String::from_utf8_lossy(&o.stderr).into(),
+    )
+}
+
+#[test]
+fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
+    let Some(_) = context() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let out = out.to_str().unwrap();
+    let scene = crate::support::scene_path("furnace.toml");
+    let scene = scene.to_str().unwrap();
+    let (code, stdout, stderr) = cli(&[
+        scene, "--sources", "threads,gpu", "--threads", "1", "--scheduler", "master", "--chunk",
+        "8", "--gpu-buffer", "4", "--balance", "--spp", "1", "-o", out,
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("(gpu): busy"), "{stdout}");
+    assert!(stdout.contains("(threads): busy"), "{stdout}");
+    assert!(std::path::Path::new(out).exists());
+    for (args, want) in [
+        (
+            vec!["--sources", "gpu", "--scheduler", "master", "--gpu-adapter", "no-such-adapter"],
+            "--gpu-adapter no-such-adapter: no Vulkan adapter matches",
+        ),
+        (
+            vec!["--sources", "gpu", "--scheduler", "static"],
+            "a GPU source runs under the master only",
+        ),
+        (
+            vec!["--gpu-buffer", "4"],
+            "need gpu among --sources",
+        ),
+        (vec!["--sources", "gpu,gpu"], "'gpu' given twice"),
+    ] {
+        let mut a = vec![scene, "-o", out, "--spp", "1"];
+        a.extend(args.iter().copied());
+        let (code, _, stderr) = cli(&a);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: {stderr}");
+        assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
 }
