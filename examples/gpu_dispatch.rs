@@ -103,9 +103,8 @@ fn main() {
         std::process::exit(2)
     });
     let info = r.info().clone();
-    let mut rows: Vec<String> = vec![
-        "measure,param,value,unit,adapter,driver,backend,scene,width,spp,max_depth".into(),
-    ];
+    let mut rows: Vec<String> =
+        vec!["measure,param,value,unit,adapter,driver,backend,scene,width,spp,max_depth".into()];
     let tail = format!(
         "\"{}\",\"{}\",{},{},{},{},{}",
         info.name,

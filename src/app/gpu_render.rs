@@ -74,8 +74,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         _ => CliError::runtime(e),
     })?;
     let image = raysched::render::Image::stack(frames);
-    let wrote =
-        super::render::save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
+    let wrote = super::render::save_render(&args.output, &image, scene.frames())
+        .map_err(CliError::runtime)?;
     let tracer_line = format!(
         "{} for {threads} threads; gpu {} ({}, {}, {}), scene uploaded in {:.3} s",
         args.tracer,

@@ -319,7 +319,13 @@ impl GpuRenderer {
         ] {
             params.extend_from_slice(&w.to_le_bytes());
         }
-        for x in self.env.iter().chain(&[0.0]).chain(&self.origin).chain(&[0.0]) {
+        for x in self
+            .env
+            .iter()
+            .chain(&[0.0])
+            .chain(&self.origin)
+            .chain(&[0.0])
+        {
             params.extend_from_slice(&x.to_le_bytes());
         }
         let mut task_bytes = Vec::with_capacity(n * 8);
@@ -427,8 +433,7 @@ impl GpuRenderer {
                 Err(mpsc::TryRecvError::Empty) => {
                     // The callback runs inside a poll; one more blocking poll delivers it.
                     let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
-                    if let Ok(r) = d.mapped.recv_timeout(std::time::Duration::from_millis(100))
-                    {
+                    if let Ok(r) = d.mapped.recv_timeout(std::time::Duration::from_millis(100)) {
                         break r;
                     }
                 }

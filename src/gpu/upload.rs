@@ -149,9 +149,11 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
             Material::Mirror { reflectance } => {
                 (MAT_MIRROR, (reflectance, 0.0), ([0.0; 3].into(), 0.0))
             }
-            Material::Dielectric { ior } => {
-                (MAT_DIELECTRIC, ([0.0; 3].into(), 0.0), ([0.0; 3].into(), ior))
-            }
+            Material::Dielectric { ior } => (
+                MAT_DIELECTRIC,
+                ([0.0; 3].into(), 0.0),
+                ([0.0; 3].into(), ior),
+            ),
         };
         v4(&mut out.materials, a.0.to_array(), a.1);
         v4(&mut out.materials, b.0.to_array(), b.1);
@@ -251,7 +253,9 @@ mod tests {
     use std::path::Path;
 
     fn load(name: &str) -> Scene {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+        let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
         load_scene(&p, &Default::default()).unwrap()
     }
 
@@ -265,7 +269,8 @@ mod tests {
         let mut seen = vec![0u32; scene.geometry.len()];
         for k in 0..b.n_nodes as usize {
             let at = k * 32;
-            let word = |o: usize| u32::from_le_bytes(b.nodes[at + o..at + o + 4].try_into().unwrap());
+            let word =
+                |o: usize| u32::from_le_bytes(b.nodes[at + o..at + o + 4].try_into().unwrap());
             let (a, count) = (word(12), word(28));
             for s in a..a + count {
                 seen[s as usize] += 1;

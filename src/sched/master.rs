@@ -587,10 +587,16 @@ mod balancer_tests {
         assert_eq!(s.balanced(&[100, 100], &[1e3, 1.015e3]), None);
         // 3 % apart: resized (the slowest keeps the base).
         let s2 = Sizing { base: 100, ..s };
-        assert_eq!(s2.balanced(&[100, 100], &[1e3, 1.03e3]), Some(vec![100, 103]));
+        assert_eq!(
+            s2.balanced(&[100, 100], &[1e3, 1.03e3]),
+            Some(vec![100, 103])
+        );
         // A source with no result in the period keeps its buffer; the cap holds.
         let s3 = Sizing { cap: 50, ..s };
-        assert_eq!(s3.balanced(&[2, 2, 7], &[1e3, 1e5, 0.0]), Some(vec![2, 50, 7]));
+        assert_eq!(
+            s3.balanced(&[2, 2, 7], &[1e3, 1e5, 0.0]),
+            Some(vec![2, 50, 7])
+        );
         // One source alone is never rebalanced.
         assert_eq!(s.balanced(&[2, 2], &[1e3, 0.0]), None);
     }

@@ -17,12 +17,12 @@ pub mod spec;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
+pub use master::Hetero;
 pub use param::{
     Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Slow, SpecError, Wait, Weights,
 };
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
-pub use master::Hetero;
 pub use sources::{SourceKind, SourceSet};
 pub use spec::{
     param_columns, AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams,

@@ -130,7 +130,9 @@ fn serve(
         };
         while let Some(batch) = next.take() {
             if let Some(f) = &failure {
-                batch.into_iter().for_each(|(_, c)| c.complete(Err(f.clone())));
+                batch
+                    .into_iter()
+                    .for_each(|(_, c)| c.complete(Err(f.clone())));
             } else if sh.cancel.load(Ordering::Relaxed) {
                 for (item, c) in batch {
                     c.complete(Err(SourceFailure::Cancelled { item: item.id }));
@@ -150,7 +152,9 @@ fn serve(
                         }
                         Err(e) => {
                             let f = lose(sh, id, e.to_string());
-                            group.into_iter().for_each(|(_, c)| c.complete(Err(f.clone())));
+                            group
+                                .into_iter()
+                                .for_each(|(_, c)| c.complete(Err(f.clone())));
                             failure = Some(f);
                         }
                     }
@@ -172,7 +176,9 @@ fn serve(
                 let now = quanta::Instant::now();
                 let items: Vec<WorkItem> = job.items.iter().map(|(i, _)| i.clone()).collect();
                 let results = r.results(&items, &px);
-                let start = clock.last_end.map_or(job.submitted, |e| e.max(job.submitted));
+                let start = clock
+                    .last_end
+                    .map_or(job.submitted, |e| e.max(job.submitted));
                 for ((item, done), res) in job.items.into_iter().zip(results) {
                     if probe.timeline {
                         report.spans.push(Span {
@@ -192,9 +198,13 @@ fn serve(
             }
             Err(e) => {
                 let f = lose(sh, id, e.to_string());
-                job.items.into_iter().for_each(|(_, c)| c.complete(Err(f.clone())));
+                job.items
+                    .into_iter()
+                    .for_each(|(_, c)| c.complete(Err(f.clone())));
                 for j in inflight.drain(..) {
-                    j.items.into_iter().for_each(|(_, c)| c.complete(Err(f.clone())));
+                    j.items
+                        .into_iter()
+                        .for_each(|(_, c)| c.complete(Err(f.clone())));
                 }
                 failure = Some(f);
                 clock.idle(quanta::Instant::now());

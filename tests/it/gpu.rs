@@ -157,7 +157,10 @@ fn gpu_rng_streams_are_bit_identical_to_the_cpu_sampler() {
                     2 => k.wrapping_mul(2_654_435_761),
                     _ => 1 << (k % 32),
                 };
-                [pixel, k.wrapping_mul(40_503) % 65_536 + (k % 3) * (u32::MAX / 3)]
+                [
+                    pixel,
+                    k.wrapping_mul(40_503) % 65_536 + (k % 3) * (u32::MAX / 3),
+                ]
             })
             .collect();
         let got = r.rng_probe(&keys).unwrap();
@@ -273,7 +276,10 @@ fn gpu_to_cpu_difference_shrinks_as_spp_grows() {
         mad
     };
     let (lo, hi) = (unpaired(4), unpaired(64));
-    assert!(lo > 0.0, "no difference at all between independent estimates");
+    assert!(
+        lo > 0.0,
+        "no difference at all between independent estimates"
+    );
     assert!(
         hi < 0.45 * lo,
         "mean |GPU − CPU| {hi:.3e} at 64 spp vs {lo:.3e} at 4 spp: expected about a quarter"
@@ -305,9 +311,16 @@ fn the_master_over_threads_and_a_gpu_source_returns_every_item() {
     assert_eq!(stats.items, items.len() as u64);
     let per: u64 = stats.workers.iter().map(|w| w.items).sum();
     assert_eq!(per, items.len() as u64);
-    assert!(stats.workers[1].items > 0, "the GPU source rendered nothing");
+    assert!(
+        stats.workers[1].items > 0,
+        "the GPU source rendered nothing"
+    );
     let d = diff(&img, &cpu_image(&scene));
-    assert!(d.mean.abs() <= 3.0 * d.se + 1e-6, "mixed image off: {}", d.mean);
+    assert!(
+        d.mean.abs() <= 3.0 * d.se + 1e-6,
+        "mixed image off: {}",
+        d.mean
+    );
 }
 
 #[test]
@@ -355,8 +368,22 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
     let scene = crate::support::scene_path("furnace.toml");
     let scene = scene.to_str().unwrap();
     let (code, stdout, stderr) = cli(&[
-        scene, "--sources", "threads,gpu", "--threads", "1", "--scheduler", "master", "--chunk",
-        "8", "--gpu-buffer", "4", "--balance", "--spp", "1", "-o", out,
+        scene,
+        "--sources",
+        "threads,gpu",
+        "--threads",
+        "1",
+        "--scheduler",
+        "master",
+        "--chunk",
+        "8",
+        "--gpu-buffer",
+        "4",
+        "--balance",
+        "--spp",
+        "1",
+        "-o",
+        out,
     ]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("(gpu): busy"), "{stdout}");
@@ -364,17 +391,21 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
     assert!(std::path::Path::new(out).exists());
     for (args, want) in [
         (
-            vec!["--sources", "gpu", "--scheduler", "master", "--gpu-adapter", "no-such-adapter"],
+            vec![
+                "--sources",
+                "gpu",
+                "--scheduler",
+                "master",
+                "--gpu-adapter",
+                "no-such-adapter",
+            ],
             "--gpu-adapter no-such-adapter: no Vulkan adapter matches",
         ),
         (
             vec!["--sources", "gpu", "--scheduler", "static"],
             "a GPU source runs under the master only",
         ),
-        (
-            vec!["--gpu-buffer", "4"],
-            "need gpu among --sources",
-        ),
+        (vec!["--gpu-buffer", "4"], "need gpu among --sources"),
         (vec!["--sources", "gpu,gpu"], "'gpu' given twice"),
     ] {
         let mut a = vec![scene, "-o", out, "--spp", "1"];
@@ -383,5 +414,49 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
         assert_eq!(code, 2, "{args:?}: {stderr}");
         assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: {stderr}");
         assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn source_sets_parse_once_for_cli_and_files() {
+    use raysched::sched::{SourceKind, SourceSet};
+    assert_eq!(SourceSet::parse("local").unwrap(), SourceSet::threads());
+    let both = SourceSet::parse("gpu+threads").unwrap();
+    assert_eq!(both.id(), "threads+gpu");
+    assert!(both.has(SourceKind::Gpu) && both.has(SourceKind::Threads));
+    for (text, want) in [
+        ("threads,threads", "given twice"),
+        ("cuda", "unknown compute source 'cuda'"),
+        ("", "unknown compute source ''"),
+    ] {
+        let e = SourceSet::parse(text).unwrap_err();
+        assert!(e.msg.contains(want), "{text}: {}", e.msg);
+        assert_eq!(e.field, "sources");
+    }
+}
+
+#[test]
+fn the_upload_gives_every_primitive_one_leaf_slot_within_the_kernel_stack() {
+    use raysched::gpu::upload::{scene_buffers, STACK_DEPTH};
+    for name in [
+        "cornell_box.toml",
+        "glass_checker.toml",
+        "interior_sphere.toml",
+    ] {
+        let scene = load(name, SceneOverrides::default());
+        let b = scene_buffers(&scene).unwrap();
+        assert_eq!(b.prims.len(), scene.geometry.len() * 48, "{name}");
+        assert!(b.depth <= STACK_DEPTH, "{name}: depth {}", b.depth);
+        let mut seen = vec![0u32; scene.geometry.len()];
+        for k in 0..b.n_nodes as usize {
+            let word = |o: usize| {
+                u32::from_le_bytes(b.nodes[k * 32 + o..k * 32 + o + 4].try_into().unwrap())
+            };
+            let (first, count) = (word(12), word(28));
+            for s in first..first + count {
+                seen[s as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1), "{name}: {seen:?}");
     }
 }
