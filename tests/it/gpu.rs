@@ -340,8 +340,7 @@ fn gpu_errors_are_one_line() {
     let r = renderer(&scene).unwrap();
     let e = r
         .render_items(&[WorkItem::rect(0, 0, 5, 4, 1)])
-        .err()
-        .expect("outside the image");
+        .expect_err("outside the image");
     assert!(e.to_string().contains("outside the scene"), "{e}");
 }
 
