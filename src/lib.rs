@@ -6,6 +6,7 @@
 //! - [`scene`]: TOML scenes, validated into an immutable, `Sync` [`scene::Scene`].
 //! - [`tracer`]: the [`tracer::Tracer`] seam (closest hit + occlusion): `bvh` (obvhs CWBVH),
 //!   `brute` (reference), `embree` (feature `embree`, Embree 3), `embree4` (feature `embree4`).
+//! - `gpu` (feature `gpu`): the path tracer ported to WGSL, run through wgpu on Vulkan.
 //! - [`render`]: the path tracer and [`render::render_item`], a pure function of
 //!   (scene, tracer, item, seed), so every scheduler produces bit-identical images.
 //!
@@ -50,6 +51,8 @@ pub mod embree;
 pub mod embree4;
 pub mod experiment;
 pub mod geometry;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod hash;
 pub mod host;
 pub mod limits;

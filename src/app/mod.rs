@@ -16,6 +16,7 @@ mod compare;
 mod converge;
 mod error;
 mod experiment;
+mod gpu_render;
 #[cfg(feature = "mpi")]
 mod mpi_render;
 #[cfg(feature = "mpi")]
@@ -143,7 +144,7 @@ pub(crate) fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         #[cfg(feature = "mpi")]
-        Command::Render(args) if args.sources == render::SourcesArg::Mpi => {
+        Command::Render(args) if args.sources.has(raysched::sched::SourceKind::Mpi) => {
             mpi_render::render(args)
         }
         Command::Render(args) => render::render(args),

@@ -5,19 +5,17 @@ use super::error::CliError;
 use super::sched_flags::SchedulerFlags;
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
-use raysched::sched::{run_scheduler_with, RunOptions, SchedError, SchedulerSpec};
+use raysched::sched::{
+    run_scheduler_with, RunOptions, SchedError, SchedulerSpec, SourceKind, SourceSet,
+};
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// Who renders: threads of this process, or the ranks of an `mpirun` launch.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum SourcesArg {
-    /// Worker threads of this process.
-    Local,
-    /// Ranks 1…K−1 under `mpirun -n K` (feature `mpi`).
-    Mpi,
+/// `--sources`: the library's parser and its one-line error.
+fn parse_sources(s: &str) -> Result<SourceSet, String> {
+    SourceSet::parse(s).map_err(|e| e.msg)
 }
 
 #[derive(clap::Args, Debug)]
@@ -48,9 +46,22 @@ pub(crate) struct RenderArgs {
     /// Master: give up after this many milliseconds.
     #[arg(long)]
     pub(crate) deadline_ms: Option<u64>,
-    /// Compute sources.
-    #[arg(long, value_enum, default_value_t = SourcesArg::Local)]
-    pub(crate) sources: SourcesArg,
+    /// Compute sources: threads (alias local), gpu (feature `gpu`), threads,gpu (a
+    /// heterogeneous run under the master), or mpi (feature `mpi`, under mpirun).
+    #[arg(long, default_value = "threads", value_parser = parse_sources)]
+    pub(crate) sources: SourceSet,
+    /// With gpu among --sources: the adapter whose name contains NAME (default: the
+    /// high-performance one, discrete before integrated before a CPU implementation).
+    #[arg(long, value_name = "NAME")]
+    pub(crate) gpu_adapter: Option<String>,
+    /// With gpu among --sources: items outstanding on the GPU (its buffer; each hand-out is
+    /// one dispatch). Default: the master's --buffer.
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=raysched::limits::MAX_COUNT as u64))]
+    pub(crate) gpu_buffer: Option<usize>,
+    /// With threads,gpu: resize each source's buffer to its measured throughput (at most once
+    /// a second, when the sources' outstanding times differ by more than 2 %).
+    #[arg(long)]
+    pub(crate) balance: bool,
     /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
     #[arg(long, default_value_t = 0, value_parser = super::threads_arg(0))]
     pub(crate) local_threads: usize,
@@ -102,9 +113,17 @@ fn parse_tracer(s: &str) -> Result<TracerKind, String> {
 
 pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     // With feature `mpi`, `--sources mpi` is dispatched to the MPI front-end before this.
-    if args.sources == SourcesArg::Mpi {
+    if args.sources.has(SourceKind::Mpi) {
         return Err(CliError::message(
             "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)",
+        ));
+    }
+    if args.sources.has(SourceKind::Gpu) {
+        return super::gpu_render::render(args);
+    }
+    if args.gpu_adapter.is_some() || args.gpu_buffer.is_some() || args.balance {
+        return Err(CliError::message(
+            "--gpu-adapter, --gpu-buffer and --balance need gpu among --sources",
         ));
     }
     if args.threads == 0 {

@@ -711,6 +711,7 @@ fn measure(
                     items: rows,
                     pixels: scene.pixel_count() as u64 * scene.frames() as u64,
                     rays: counters.rays,
+                    source: "threads".into(),
                 }],
                 items: rows,
                 issued: rows,

@@ -15,6 +15,9 @@ pub struct WorkerStats {
     pub pixels: u64,
     /// Rays those items traced.
     pub rays: u64,
+    /// What kind of compute source it is (`threads`, `gpu`, `mpi`; empty when not recorded).
+    #[serde(default)]
+    pub source: String,
 }
 
 impl WorkerStats {
@@ -35,6 +38,9 @@ pub struct MasterStats {
     pub wait_s: f64,
     /// Passes of the master's loop (collect, hand out, wait).
     pub iterations: u64,
+    /// Times the heterogeneous balancer resized the sources' buffers.
+    #[serde(default)]
+    pub rebalances: u64,
 }
 
 /// One span of a timeline: `worker` rendered `item` from `start_ns` to `end_ns` after the run
@@ -134,17 +140,22 @@ impl RunStats {
             self.imbalance()
         );
         for (i, w) in self.workers.iter().enumerate() {
+            let kind = if w.source.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", w.source)
+            };
             let _ = writeln!(
                 s,
-                "  worker {i}: busy {:.4} s · idle {:.4} s · items {} · pixels {} · rays {}",
+                "  worker {i}{kind}: busy {:.4} s · idle {:.4} s · items {} · pixels {} · rays {}",
                 w.busy_s, w.idle_s, w.items, w.pixels, w.rays
             );
         }
         if let Some(m) = &self.master {
             let _ = writeln!(
                 s,
-                "  master: dispatch {:.4} s · wait {:.4} s · iterations {}",
-                m.dispatch_s, m.wait_s, m.iterations
+                "  master: dispatch {:.4} s · wait {:.4} s · iterations {} · rebalances {}",
+                m.dispatch_s, m.wait_s, m.iterations, m.rebalances
             );
         }
         if let Some(t) = &self.timeline {

@@ -56,6 +56,12 @@ impl Camera {
         self.eye
     }
 
+    /// The film frame as [`Camera::ray`] uses it: (right, up, forward, film half-extents at
+    /// distance 1), for renderers that build primary rays themselves (the GPU kernel).
+    pub fn film_frame(&self) -> (Vec3, Vec3, Vec3, (f32, f32)) {
+        (self.right, self.up, self.forward, self.half)
+    }
+
     /// Primary ray through film position (u, v) ∈ [0,1]², u to the right, v downward.
     #[inline]
     pub fn ray(&self, u: f32, v: f32) -> Ray {

@@ -40,6 +40,10 @@ struct Lane {
     slots: Vec<Slot>,
     /// False once it failed a result or said it is lost.
     alive: bool,
+    /// Items outstanding at most for this source (its B; the balancer may change it).
+    buffer: usize,
+    /// Pixels of its results accepted since the balancer last looked.
+    pixels_since: u64,
 }
 
 impl Lane {
@@ -70,8 +74,6 @@ impl Lane {
 struct Ledger<'a> {
     items: &'a [WorkItem],
     requeue: Requeue,
-    /// Items outstanding per source at most (B).
-    buffer: usize,
     queue: VecDeque<u32>,
     /// Last hand-out time (timeout policy) or None = may be handed out again at once.
     issued_at: Vec<Option<Instant>>,
@@ -95,7 +97,6 @@ impl<'a> Ledger<'a> {
         Self {
             items,
             requeue: params.requeue,
-            buffer: params.buffer,
             queue: (0..n as u32).collect(),
             issued_at: vec![None; n],
             handed: vec![false; n],
@@ -131,6 +132,7 @@ impl<'a> Ledger<'a> {
             match slot.result.try_take() {
                 Ok(Ok(r)) => {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
+                    lane.pixels_since += self.items[slot.item as usize].pixel_count() as u64;
                     self.collector.accept(r)
                 }
                 Ok(Err(_)) => {
@@ -160,7 +162,7 @@ impl<'a> Ledger<'a> {
         let mut scanned = 0;
         let len = self.queue.len();
         let mut fresh = lane.slots.iter().filter(|sl| now - sl.at < stale).count();
-        while fresh < self.buffer && scanned < len {
+        while fresh < lane.buffer && scanned < len {
             let Some(i) = self.queue.pop_front() else {
                 break;
             };
@@ -218,6 +220,106 @@ struct Master<'a> {
     stats: MasterStats,
     /// The master's own timeline lane.
     spans: Vec<Span>,
+    /// Resizes each source's buffer to its measured throughput (heterogeneous runs).
+    balancer: Option<Balancer>,
+}
+
+/// How the master hands out to sources of different speeds: each source's own buffer, and
+/// whether a time-equalising balancer resizes them as throughputs are measured.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Hetero {
+    /// Per source (by position), its buffer; missing entries take the master's B.
+    pub buffers: Vec<usize>,
+    /// Resize every source's buffer so that each holds the same time's worth of work, at most
+    /// once per [`REBALANCE_EVERY`] and only when that time differs by more than
+    /// [`REBALANCE_IMBALANCE`] between sources (the rule of Blender Cycles' multi-device
+    /// balancer).
+    pub balance: bool,
+}
+
+/// The balancer looks at most this often.
+pub const REBALANCE_EVERY: Duration = Duration::from_secs(1);
+/// ... and resizes only when the sources' outstanding times differ by more than this share.
+pub const REBALANCE_IMBALANCE: f64 = 0.02;
+
+/// Time-equalising buffer sizes: a source that renders k× as many pixels per second gets k×
+/// the buffer of the slowest, so every source holds about the same time's worth of work.
+struct Balancer {
+    last: Instant,
+    /// Buffer of the slowest source (the master's B).
+    base: usize,
+    /// Mean pixels per item (the decomposition's).
+    pixels_per_item: f64,
+    /// Most items one source may hold: a fast source must not swallow the tail of the queue.
+    cap: usize,
+    /// Rebalances made.
+    pub(crate) moves: u64,
+}
+
+impl Balancer {
+    /// New buffers from each lane's throughput over the last period, if the sources'
+    /// outstanding times are off by more than [`REBALANCE_IMBALANCE`].
+    fn rebalance(&mut self, lanes: &mut [Lane], now: Instant) {
+        let dt = (now - self.last).as_secs_f64();
+        if dt < REBALANCE_EVERY.as_secs_f64() {
+            return;
+        }
+        self.last = now;
+        let thr: Vec<f64> = lanes
+            .iter_mut()
+            .map(|l| {
+                let pixels = std::mem::take(&mut l.pixels_since) as f64;
+                if l.alive {
+                    pixels / dt
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let buffers: Vec<usize> = lanes.iter().map(|l| l.buffer).collect();
+        let sizing = Sizing {
+            base: self.base,
+            pixels_per_item: self.pixels_per_item,
+            cap: self.cap,
+        };
+        if let Some(new) = sizing.balanced(&buffers, &thr) {
+            for (l, b) in lanes.iter_mut().zip(new) {
+                l.buffer = b;
+            }
+            self.moves += 1;
+        }
+    }
+}
+
+/// The time-equalising rule, apart from the master's state so it can be tested alone.
+struct Sizing {
+    base: usize,
+    pixels_per_item: f64,
+    cap: usize,
+}
+
+impl Sizing {
+    /// Given each source's buffer and measured throughput (pixels/s; 0 = no result in the
+    /// period, left as it is), the buffers that give every source the same seconds of work
+    /// (the slowest keeps `base`), or `None` when the current ones already agree within
+    /// [`REBALANCE_IMBALANCE`].
+    fn balanced(&self, buffers: &[usize], thr: &[f64]) -> Option<Vec<usize>> {
+        let live: Vec<usize> = (0..buffers.len()).filter(|&i| thr[i] > 0.0).collect();
+        let slowest = live.iter().map(|&i| thr[i]).min_by(f64::total_cmp)?;
+        let hold = |i: usize| buffers[i] as f64 * self.pixels_per_item / thr[i];
+        let (lo, hi) = live.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &i| {
+            (lo.min(hold(i)), hi.max(hold(i)))
+        });
+        if live.len() < 2 || hi <= 0.0 || (hi - lo) / hi <= REBALANCE_IMBALANCE {
+            return None;
+        }
+        let mut out = buffers.to_vec();
+        for &i in &live {
+            let want = (self.base as f64 * thr[i] / slowest).round() as usize;
+            out[i] = want.clamp(1, self.cap.max(1));
+        }
+        (out != buffers).then_some(out)
+    }
 }
 
 /// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait).
@@ -228,7 +330,32 @@ pub fn run_master(
     opts: &RunOptions,
     probe: Probe,
 ) -> Result<(Results, RunStats), SchedError> {
+    run_master_hetero(params, &Hetero::default(), items, sources, opts, probe)
+}
+
+/// [`run_master`] with per-source buffers and, optionally, the time-equalising balancer.
+pub fn run_master_hetero(
+    params: &MasterParams,
+    hetero: &Hetero,
+    items: &[WorkItem],
+    sources: Vec<Box<dyn ComputeSource>>,
+    opts: &RunOptions,
+    probe: Probe,
+) -> Result<(Results, RunStats), SchedError> {
     let mut master = Master::new(params, items, sources, opts.deadline, probe);
+    for (lane, &b) in master.lanes.iter_mut().zip(&hetero.buffers) {
+        lane.buffer = b.max(1);
+    }
+    if hetero.balance && master.lanes.len() > 1 {
+        let pixels: usize = items.iter().map(|i| i.pixel_count()).sum();
+        master.balancer = Some(Balancer {
+            last: master.t0,
+            base: params.buffer,
+            pixels_per_item: pixels as f64 / items.len().max(1) as f64,
+            cap: (items.len() / master.lanes.len()).max(params.buffer),
+            moves: 0,
+        });
+    }
     let outcome = loop {
         master.stats.iterations += 1;
         let now = Instant::now();
@@ -236,6 +363,9 @@ pub fn run_master(
         master.collect(now);
         if let Some(outcome) = master.verdict() {
             break outcome;
+        }
+        if let Some(b) = &mut master.balancer {
+            b.rebalance(&mut master.lanes, now);
         }
         // 2. Top every live source up to B outstanding items.
         let first = master.hand_out(now);
@@ -264,6 +394,8 @@ impl<'a> Master<'a> {
                 src,
                 slots: Vec::with_capacity(params.buffer),
                 alive: true,
+                buffer: params.buffer,
+                pixels_since: 0,
             })
             .collect();
         Self {
@@ -276,6 +408,7 @@ impl<'a> Master<'a> {
             ledger: Ledger::new(items, params),
             stats: MasterStats::default(),
             spans: Vec::new(),
+            balancer: None,
         }
     }
 
@@ -378,6 +511,8 @@ impl<'a> Master<'a> {
             ..Default::default()
         };
         let mut spans = self.spans;
+        let mut master_stats = self.stats;
+        master_stats.rebalances = self.balancer.as_ref().map_or(0, |b| b.moves);
         finish_sources(
             sources,
             self.t0.elapsed().as_secs_f64(),
@@ -393,7 +528,7 @@ impl<'a> Master<'a> {
             &self.probe,
             wall_s,
             &ledger.collector,
-            self.stats,
+            master_stats,
         );
         Ok((ledger.collector.results, stats))
     }
@@ -432,4 +567,37 @@ pub(crate) fn seal_stats(
     stats.wall_s = wall_s;
     collector.tally.record(stats);
     stats.master = Some(master);
+}
+
+#[cfg(test)]
+mod balancer_tests {
+    use super::*;
+
+    #[test]
+    fn sizing_equalises_time_and_ignores_small_imbalance() {
+        let s = Sizing {
+            base: 2,
+            pixels_per_item: 16.0,
+            cap: 1000,
+        };
+        // A source 100× as fast as the other gets 100× the buffer.
+        assert_eq!(s.balanced(&[2, 2], &[1e3, 1e5]), Some(vec![2, 200]));
+        // Already equal in time: nothing to do; within 2 % neither.
+        assert_eq!(s.balanced(&[2, 200], &[1e3, 1e5]), None);
+        assert_eq!(s.balanced(&[100, 100], &[1e3, 1.015e3]), None);
+        // 3 % apart: resized (the slowest keeps the base).
+        let s2 = Sizing { base: 100, ..s };
+        assert_eq!(
+            s2.balanced(&[100, 100], &[1e3, 1.03e3]),
+            Some(vec![100, 103])
+        );
+        // A source with no result in the period keeps its buffer; the cap holds.
+        let s3 = Sizing { cap: 50, ..s };
+        assert_eq!(
+            s3.balanced(&[2, 2, 7], &[1e3, 1e5, 0.0]),
+            Some(vec![2, 50, 7])
+        );
+        // One source alone is never rebalanced.
+        assert_eq!(s.balanced(&[2, 2], &[1e3, 0.0]), None);
+    }
 }

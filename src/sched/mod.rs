@@ -12,15 +12,18 @@ pub mod param;
 pub mod renderers;
 mod results;
 mod shared;
+pub mod sources;
 pub mod spec;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
+pub use master::Hetero;
 pub use param::{
     Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Slow, SpecError, Wait, Weights,
 };
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
+pub use sources::{SourceKind, SourceSet};
 pub use spec::{
     param_columns, AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams,
     GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
@@ -149,6 +152,53 @@ pub fn run_scheduler_frames<T: Tracer + 'static>(
     let (chunk, order) = spec.layout(w, h);
     let items = decompose_frames(w, h, scene.frames(), chunk, order);
     let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
+    let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
+    (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
+    Ok((frames, stats))
+}
+
+/// Render every frame of `scene` under the master with `threads` local threads (slowed as
+/// `spec.slow` says) and, when given, the GPU renderer `gpu` as one more source, each source
+/// with its own buffer (`hetero`). Only the master can hand out to a GPU: every other
+/// scheduler runs its own threads.
+#[cfg(feature = "gpu")]
+pub fn run_with_gpu<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    threads: usize,
+    hetero: &Hetero,
+    opts: &RunOptions,
+) -> Result<(Vec<Image>, RunStats), SchedError> {
+    let Policy::Master(m) = spec.policy else {
+        return Err(SpecError {
+            field: "scheduler".into(),
+            msg: format!(
+                "'{}' cannot hand out to a GPU source (use master)",
+                spec.kind().id()
+            ),
+        }
+        .into());
+    };
+    let (w, h) = (scene.width(), scene.height());
+    let (chunk, order) = spec.layout(w, h);
+    let items = decompose_frames(w, h, scene.frames(), chunk, order);
+    let probe = Probe::new(opts.stats, spec.timeline);
+    let jobs = worker_jobs(&render_job(scene, tracer), threads, spec.slow);
+    let mut sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
+    if let Some(g) = gpu {
+        let id = sources.len() as u32;
+        sources.push(Box::new(crate::source::GpuSource::spawn(id, g, probe)));
+    }
+    if sources.is_empty() {
+        return Err(SchedError::AllSourcesLost {
+            sources: 0,
+            remaining: items.len() as u64,
+            total: items.len() as u64,
+        });
+    }
+    let (results, mut stats) = master::run_master_hetero(&m, hetero, &items, sources, opts, probe)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))

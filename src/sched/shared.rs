@@ -34,7 +34,10 @@ impl Local {
         Self {
             id,
             clock: BusyClock::start(probe),
-            stats: WorkerStats::default(),
+            stats: WorkerStats {
+                source: "threads".into(),
+                ..Default::default()
+            },
             item_bytes: 0,
             spans: Vec::new(),
             results: Vec::with_capacity(expect),

@@ -73,6 +73,7 @@ impl LocalThreadSource {
 /// job panics (then this item and everything still queued fail as lost).
 fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
+    report.stats.source = "threads".into();
     let mut clock = BusyClock::start(&probe);
     let ring = || {
         if let Some(n) = sh.notifier.get() {

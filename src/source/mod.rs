@@ -3,7 +3,9 @@
 //!
 //! The trait is object safe so the master works over `Vec<Box<dyn ComputeSource>>`: local
 //! threads ([`LocalThreadSource`]), fault-injecting wrappers ([`faulty`]) and MPI ranks
-//! (`mpi::MpiRankSource`, feature `mpi`, which builds on this module from above).
+//! (`mpi::MpiRankSource`, feature `mpi`, which builds on this module from above) and a GPU
+//! (`GpuSource`, feature `gpu`: one dispatch per hand-out; its results estimate the same
+//! samples as `render_item` but are not bit-identical, see `source::gpu`).
 //!
 //! - [`delayed`]: the result cell, [`DelayedResult`] and its producing [`Completer`].
 //! - [`doorbell`]: how a source wakes a waiting master ([`Doorbell`], [`Notifier`], [`Wait`]).
@@ -11,12 +13,16 @@
 pub mod delayed;
 pub mod doorbell;
 pub mod faulty;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod local;
 pub mod slow;
 
 pub use delayed::{Completer, DelayedResult};
 pub use doorbell::{Doorbell, Notifier, Wait};
 pub use faulty::{FaultPlan, FaultySource};
+#[cfg(feature = "gpu")]
+pub use gpu::GpuSource;
 pub use local::LocalThreadSource;
 pub use slow::slowed_job;
 

@@ -14,6 +14,7 @@ mod embree;
 mod embree4;
 mod experiment;
 mod fuzz;
+mod gpu;
 mod hostile;
 mod models;
 mod mpi;

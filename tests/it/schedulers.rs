@@ -616,3 +616,47 @@ fn every_scheduler_matches_serial_with(tracer: TracerKind) {
         }
     }
 }
+
+#[test]
+fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_nothing() {
+    use raysched::metrics::Probe;
+    use raysched::sched::{master::run_master_hetero, Hetero};
+    use raysched::source::{slowed_job, ComputeSource, LocalThreadSource};
+    // Source 1 takes 8× as long per item as source 0: at equal buffers it holds 8× the time's
+    // worth of work, far past the 2 % the balancer tolerates. 8000 items of ≥ 200 µs on a
+    // source that does at least 8/9 of them last ≥ 1.4 s, so the balancer looks at least once.
+    let job: Job = Arc::new(|it: &WorkItem| {
+        std::thread::sleep(Duration::from_micros(200));
+        TileResult {
+            item: it.id,
+            pixels: vec![[0.0; 3]; it.pixel_count()],
+            rays: 1,
+            nonfinite: 0,
+        }
+    });
+    let probe = Probe::new(true, false);
+    let sources: Vec<Box<dyn ComputeSource>> = vec![
+        Box::new(LocalThreadSource::spawn(0, job.clone(), probe)),
+        Box::new(LocalThreadSource::spawn(1, slowed_job(job, 8.0), probe)),
+    ];
+    let items: Vec<WorkItem> = (0..8000).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+    let hetero = Hetero {
+        buffers: vec![2, 2],
+        balance: true,
+    };
+    let (results, stats) = run_master_hetero(
+        &MasterParams::default(),
+        &hetero,
+        &items,
+        sources,
+        &RunOptions::default(),
+        probe,
+    )
+    .unwrap();
+    assert_eq!(results.len(), items.len());
+    assert!((0..8000).all(|i| results.get(i).is_some()));
+    let rebalances = stats.master.as_ref().unwrap().rebalances;
+    assert!(rebalances >= 1, "{:.2} s and no rebalance", stats.wall_s);
+    assert!(stats.workers[0].items > stats.workers[1].items);
+    assert_eq!(stats.workers[0].source, "threads");
+}

@@ -1,0 +1,300 @@
+//! `GpuSource` (feature `gpu`): a compute source whose hand-outs run on a GPU. Each
+//! `submit_batch` becomes one dispatch (every pixel of every item of the hand-out, one kernel
+//! invocation per pixel); its [`DelayedResult`]s complete when the dispatch's readback buffer
+//! is mapped. A thread of its own submits and waits, so the master never blocks on the
+//! device: while the oldest dispatch runs, later hand-outs are already encoded and queued.
+//!
+//! Unlike the CPU sources, a result is not bit-identical to `render_item`'s: the kernel draws
+//! the same random numbers but rounds differently (`gpu` module docs), so a run with a GPU
+//! source is compared with the serial image statistically, not bit for bit.
+
+use super::{Completer, ComputeSource, DelayedResult, Notifier, SourceFailure, SourceReport};
+use crate::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer};
+use crate::metrics::{Probe, Span};
+use crate::render::WorkItem;
+use crossbeam::channel::{unbounded, Receiver, Sender, TryRecvError};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+struct Shared {
+    lost: AtomicBool,
+    cancel: AtomicBool,
+    notifier: OnceLock<Notifier>,
+}
+
+/// A GPU as one compute source: one dispatch per hand-out.
+pub struct GpuSource {
+    id: u32,
+    inbox: Option<Sender<Vec<(WorkItem, Completer)>>>,
+    shared: Arc<Shared>,
+    handle: Option<JoinHandle<SourceReport>>,
+    info: GpuInfo,
+}
+
+impl GpuSource {
+    /// Start the thread of source `id` over `renderer` (the scene already on the device).
+    pub fn spawn(id: u32, renderer: Arc<GpuRenderer>, probe: Probe) -> Self {
+        let (tx, rx) = unbounded();
+        let shared = Arc::new(Shared {
+            lost: AtomicBool::new(false),
+            cancel: AtomicBool::new(false),
+            notifier: OnceLock::new(),
+        });
+        let sh = shared.clone();
+        let info = renderer.info().clone();
+        let handle = std::thread::Builder::new()
+            .name(format!("gpu-source-{id}"))
+            .spawn(move || serve(id, &renderer, probe, &sh, &rx))
+            .expect("spawning the GPU source thread");
+        Self {
+            id,
+            inbox: Some(tx),
+            shared,
+            handle: Some(handle),
+            info,
+        }
+    }
+
+    /// The adapter this source renders on.
+    pub fn info(&self) -> &GpuInfo {
+        &self.info
+    }
+}
+
+/// One dispatch in flight: its items (with their completers) and when it was submitted.
+struct InFlight {
+    dispatch: Dispatch,
+    items: Vec<(WorkItem, Completer)>,
+    submitted: quanta::Instant,
+}
+
+/// The GPU's busy time: the union of the intervals during which a dispatch was in flight.
+struct GpuClock {
+    busy: Duration,
+    since: Option<quanta::Instant>,
+    /// End of the latest completed dispatch: a later dispatch's span starts no earlier.
+    last_end: Option<quanta::Instant>,
+}
+
+impl GpuClock {
+    fn started(&mut self, now: quanta::Instant) {
+        self.since.get_or_insert(now);
+    }
+    fn idle(&mut self, now: quanta::Instant) {
+        if let Some(s) = self.since.take() {
+            self.busy += now - s;
+        }
+    }
+}
+
+fn serve(
+    id: u32,
+    r: &GpuRenderer,
+    probe: Probe,
+    sh: &Shared,
+    rx: &Receiver<Vec<(WorkItem, Completer)>>,
+) -> SourceReport {
+    let mut report = SourceReport::default();
+    report.stats.source = "gpu".into();
+    let mut inflight: VecDeque<InFlight> = VecDeque::new();
+    let mut clock = GpuClock {
+        busy: Duration::ZERO,
+        since: None,
+        last_end: None,
+    };
+    let ring = || {
+        if let Some(n) = sh.notifier.get() {
+            n.ring();
+        }
+    };
+    let mut open = true;
+    let mut failure: Option<SourceFailure> = None;
+    loop {
+        // Take every hand-out waiting; block only when nothing is in flight.
+        let mut next = if !open {
+            None
+        } else if inflight.is_empty() {
+            rx.recv().map_err(|_| open = false).ok()
+        } else {
+            match rx.try_recv() {
+                Ok(b) => Some(b),
+                Err(TryRecvError::Empty) => None,
+                Err(TryRecvError::Disconnected) => {
+                    open = false;
+                    None
+                }
+            }
+        };
+        while let Some(batch) = next.take() {
+            if let Some(f) = &failure {
+                batch
+                    .into_iter()
+                    .for_each(|(_, c)| c.complete(Err(f.clone())));
+            } else if sh.cancel.load(Ordering::Relaxed) {
+                for (item, c) in batch {
+                    c.complete(Err(SourceFailure::Cancelled { item: item.id }));
+                }
+            } else {
+                for group in dispatch_groups(batch, r.max_tasks as usize) {
+                    let items: Vec<WorkItem> = group.iter().map(|(i, _)| i.clone()).collect();
+                    match r.submit(&r.tasks_of(&items), Entry::Render) {
+                        Ok(dispatch) => {
+                            let now = quanta::Instant::now();
+                            clock.started(now);
+                            inflight.push_back(InFlight {
+                                dispatch,
+                                items: group,
+                                submitted: now,
+                            });
+                        }
+                        Err(e) => {
+                            let f = lose(sh, id, e.to_string());
+                            group
+                                .into_iter()
+                                .for_each(|(_, c)| c.complete(Err(f.clone())));
+                            failure = Some(f);
+                        }
+                    }
+                }
+            }
+            ring();
+            if open {
+                next = rx.try_recv().ok();
+            }
+        }
+        let Some(job) = inflight.pop_front() else {
+            if open {
+                continue;
+            }
+            break;
+        };
+        match r.wait(job.dispatch) {
+            Ok(px) => {
+                let now = quanta::Instant::now();
+                let items: Vec<WorkItem> = job.items.iter().map(|(i, _)| i.clone()).collect();
+                let results = r.results(&items, &px);
+                let start = clock
+                    .last_end
+                    .map_or(job.submitted, |e| e.max(job.submitted));
+                for ((item, done), res) in job.items.into_iter().zip(results) {
+                    if probe.timeline {
+                        report.spans.push(Span {
+                            worker: id,
+                            item: item.id,
+                            start_ns: (start - probe.tsc_epoch).as_nanos() as u64,
+                            end_ns: (now - probe.tsc_epoch).as_nanos() as u64,
+                        });
+                    }
+                    report.stats.count(&item, res.rays);
+                    done.complete(Ok(res));
+                }
+                clock.last_end = Some(now);
+                if inflight.is_empty() {
+                    clock.idle(now);
+                }
+            }
+            Err(e) => {
+                let f = lose(sh, id, e.to_string());
+                job.items
+                    .into_iter()
+                    .for_each(|(_, c)| c.complete(Err(f.clone())));
+                for j in inflight.drain(..) {
+                    j.items
+                        .into_iter()
+                        .for_each(|(_, c)| c.complete(Err(f.clone())));
+                }
+                failure = Some(f);
+                clock.idle(quanta::Instant::now());
+            }
+        }
+        ring();
+    }
+    clock.idle(quanta::Instant::now());
+    if probe.stats {
+        report.stats.busy_s = clock.busy.as_secs_f64();
+    }
+    report
+}
+
+fn lose(sh: &Shared, id: u32, reason: String) -> SourceFailure {
+    sh.lost.store(true, Ordering::SeqCst);
+    SourceFailure::Lost {
+        source_id: id,
+        reason,
+    }
+}
+
+/// Split a hand-out into dispatches of at most `max_tasks` pixels at item boundaries (one
+/// dispatch unless the hand-out exceeds the device's output-buffer limit; an item larger than
+/// the limit goes alone and fails there with the limit in its message).
+fn dispatch_groups(
+    batch: Vec<(WorkItem, Completer)>,
+    max_tasks: usize,
+) -> Vec<Vec<(WorkItem, Completer)>> {
+    let mut groups = vec![Vec::new()];
+    let mut pixels = 0;
+    for (item, c) in batch {
+        let n = item.pixel_count();
+        if pixels + n > max_tasks && pixels > 0 {
+            groups.push(Vec::new());
+            pixels = 0;
+        }
+        pixels += n;
+        groups.last_mut().expect("one group").push((item, c));
+    }
+    groups.retain(|g| !g.is_empty());
+    groups
+}
+
+impl ComputeSource for GpuSource {
+    fn id(&self) -> u32 {
+        self.id
+    }
+    fn label(&self) -> String {
+        format!("gpu-{}", self.id)
+    }
+    fn submit(&mut self, item: WorkItem) -> DelayedResult {
+        super::submit_one(self, item)
+    }
+    fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        let batch: Vec<_> = items
+            .drain(..)
+            .map(|item| {
+                let (d, c) = DelayedResult::pending(item.id, self.id);
+                out.push(d);
+                (item, c)
+            })
+            .collect();
+        if let Some(tx) = &self.inbox {
+            // A failed send drops the completers, which fails the results: the thread is gone.
+            let _ = tx.send(batch);
+        }
+    }
+    fn is_lost(&self) -> bool {
+        self.shared.lost.load(Ordering::SeqCst)
+    }
+    fn set_notifier(&mut self, notifier: Notifier) {
+        let _ = self.shared.notifier.set(notifier);
+    }
+    fn finish(mut self: Box<Self>) -> SourceReport {
+        self.shared.cancel.store(true, Ordering::SeqCst);
+        self.inbox = None;
+        self.handle
+            .take()
+            .and_then(|h| h.join().ok())
+            .unwrap_or_default()
+    }
+}
+
+impl Drop for GpuSource {
+    fn drop(&mut self) {
+        self.shared.cancel.store(true, Ordering::SeqCst);
+        self.inbox = None;
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
