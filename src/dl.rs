@@ -88,7 +88,10 @@ mod tests {
         let lib = Library::open_first(&["no-such-library.so", "libc.so.6"]).unwrap();
         assert!(!lib.symbol("malloc\0").is_null());
         assert!(lib.symbol("no_such_symbol_here\0").is_null());
-        assert!(lib.symbol("malloc").is_null(), "a name without NUL is refused");
+        assert!(
+            lib.symbol("malloc").is_null(),
+            "a name without NUL is refused"
+        );
         let err = Library::open_first(&["no-such-library.so"]).unwrap_err();
         assert!(err.contains("no-such-library.so"), "{err}");
     }

@@ -461,6 +461,9 @@ struct Session<'p, 'r> {
 /// The probe's samples per pixel: a few, scaled to the configuration's (see `model::probe`).
 const PROBE_SPP: u32 = 4;
 
+/// Configurations sharing one probe: (baseline, workers), their specs and their ids.
+type ProbeGroup<'a> = ((usize, usize), Vec<&'a SchedulerSpec>, Vec<&'a str>);
+
 /// The cost model's prediction for every local thread-scheduler configuration of `plan` not
 /// yet done: one probe per (scene, tracer, workers), every configuration predicted from it.
 /// Animations are not probed (the probe times one frame).
@@ -469,7 +472,7 @@ fn predictions(
     todo: &Todo<'_>,
 ) -> Result<HashMap<String, Prediction>, RunError> {
     let mut out = HashMap::new();
-    let mut groups: Vec<((usize, usize), Vec<&SchedulerSpec>, Vec<&str>)> = Vec::new();
+    let mut groups: Vec<ProbeGroup<'_>> = Vec::new();
     for st in todo.states.iter().filter(|s| !s.done) {
         let c = st.config;
         let (Some(spec), Sources::Local) = (&c.spec, &c.sources) else {

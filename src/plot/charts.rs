@@ -766,7 +766,7 @@ fn prediction_panels<DB: DrawingBackend>(
             "pixels per item (log₂)",
             "wall time (s)",
             data,
-            (true, false),
+            (true, false, false),
             &[],
         )?;
     }

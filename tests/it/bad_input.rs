@@ -4,12 +4,15 @@
 use std::path::Path;
 use std::process::Command;
 
-const GOOD: &str = concat!(crate::support::sphere_scene_8x8!(), r#"
+const GOOD: &str = concat!(
+    crate::support::sphere_scene_8x8!(),
+    r#"
 [[shapes]]
 type = "mesh"
 material = "glass"
 path = "tri.obj"
-"#);
+"#
+);
 
 const OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 

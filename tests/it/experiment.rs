@@ -867,7 +867,9 @@ fn published_snapshots_still_read() {
         let (rows, _) = read_runs(&root.join(name).join("runs.csv")).unwrap();
         assert!(!rows.is_empty(), "{name}");
         let old = rows.iter().all(|r| r.inner == 1 && r.timestamp.is_empty());
-        let new = rows.iter().all(|r| !r.timestamp.is_empty() && r.user_s.is_some());
+        let new = rows
+            .iter()
+            .all(|r| !r.timestamp.is_empty() && r.user_s.is_some());
         assert!(if name == "quick" { new } else { old }, "{name}");
     }
 }
