@@ -5,22 +5,50 @@
 //! conservative bound on its floating-point error, and secondary rays start from a point pushed
 //! just outside that error box ([`offset_ray_origin`]). No fixed epsilon is involved, so the same
 //! code works for scenes of size 1e-6 and 1e6.
+//!
+//! Spheres go further: a ray leaving a sphere carries its origin as an f32 pair `o + o_lo`
+//! (the f64 surface point to ~1e-15), and [`Sphere::intersect`] recognises an origin on its
+//! own surface from that exact point, so a second sphere 1e-7 away, below one f32 ulp of the
+//! coordinates, is still found on the right side. `o` alone is pushed to the ray's side of the
+//! surface ([`Sphere::spawn_origin`]) for tests that see only f32 (traversal, triangles,
+//! Embree's callbacks, whose ray layout has no room for `o_lo`).
 
 use glam::{DVec3, Vec3, Vec4};
 
 /// A ray `o + t·d`. `d` need not be normalised (shadow rays use the segment to the light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
-    /// Origin.
+    /// Origin (its f32 rounding when `o_lo` is not zero).
     pub o: Vec3,
     /// Direction; `t` is measured in units of its length.
     pub d: Vec3,
+    /// Low part of the origin: the exact origin is `o + o_lo`, evaluated in f64 by the sphere
+    /// test only. Zero except for rays leaving a sphere; triangle tests and traversal use `o`.
+    pub o_lo: Vec3,
 }
 
 impl Ray {
     /// The ray from `o` along `d`.
     pub const fn new(o: Vec3, d: Vec3) -> Self {
-        Self { o, d }
+        Self {
+            o,
+            d,
+            o_lo: Vec3::ZERO,
+        }
+    }
+    /// The ray from the f64 point `exact` along `d`, with `o` the f32 point traversal and
+    /// triangle tests start from (near `exact`, on the side `d` points to) and `o + o_lo` equal
+    /// to `exact` to ~1e-15 relative.
+    pub fn leaving(exact: DVec3, o: Vec3, d: Vec3) -> Self {
+        Self {
+            o,
+            d,
+            o_lo: (exact - o.as_dvec3()).as_vec3(),
+        }
+    }
+    /// The origin in f64, `o + o_lo`.
+    pub fn origin_f64(&self) -> DVec3 {
+        self.o.as_dvec3() + self.o_lo.as_dvec3()
     }
     /// The point at parameter `t`: `o + t·d`.
     pub fn at(&self, t: f32) -> Vec3 {
@@ -420,14 +448,26 @@ impl Sphere {
         4.0 * std::f32::consts::PI * self.radius * self.radius
     }
 
-    /// Smallest root with `0 < t < t_max`.
+    /// Smallest root with `0 < t < t_max`, from the ray's exact origin `o + o_lo`.
+    ///
+    /// An origin on this sphere's own surface (a ray leaving it) has one root at `t ≈ 0`, the
+    /// point it leaves; only the other, `t = −2(o·d)/|d|²`, is a hit. "On the surface" is
+    /// decided from `|o − c|² − r²` against [`Sphere::on_surface_tolerance`], 50 times the error
+    /// of a spawned origin and 2e4 times below a second surface 1e-7 away at unit radius.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<f32> {
-        let o = ray.o.as_dvec3() - self.center.as_dvec3();
+        let c = self.center.as_dvec3();
+        let o = ray.origin_f64() - c;
         let d = ray.d.as_dvec3();
         let r = self.radius as f64;
         let a = d.length_squared();
         let b = o.dot(d);
+        let c_term = o.length_squared() - r * r;
+        if c_term.abs() <= self.on_surface_tolerance() {
+            let t = -2.0 * b / a;
+            let tf = t as f32;
+            return (t > 0.0 && tf > 0.0 && tf < t_max).then_some(tf);
+        }
         // Robust discriminant (pbrt-v4): distance² of the closest approach, not b² − ac.
         let closest = o - d * (b / a);
         let disc = r * r - closest.length_squared();
@@ -439,7 +479,6 @@ impl Sphere {
         if q == 0.0 {
             return None;
         }
-        let c_term = o.length_squared() - r * r;
         let (t0, t1) = {
             let (x, y) = (q / a, c_term / q);
             (x.min(y), x.max(y))
@@ -455,33 +494,60 @@ impl Sphere {
         None
     }
 
-    /// Hit point re-projected onto the surface, with its error bound, and the outward normal.
-    pub fn point(&self, ray: &Ray, t: f32) -> (Vec3, Vec3, Vec3) {
+    /// Bound on `| |o − c|² − r² |` below which an origin counts as on this surface.
+    ///
+    /// A spawned origin is the f64 surface point (error ~1e-16 of `|c| + r`) stored as `o +
+    /// o_lo`, with `o` at most 8 f32 ulps (1e-6 relative) from it, so `o_lo` rounds with an error
+    /// ~6e-14 of `|c| + r` and `|o − c|² − r²` is off by ≲ 2e-13·r·(|c| + r). The bound is 50
+    /// times that; a second sphere 1e-7 away at unit size gives 2e-7, 2e4 times more.
+    #[inline]
+    pub fn on_surface_tolerance(&self) -> f64 {
+        let r = self.radius as f64;
+        let scale = self.center.abs().max_element() as f64 + r;
+        1e-11 * r * scale
+    }
+
+    /// Hit point on the surface, in f64 (re-projected) and as its f32 rounding with an error
+    /// bound, and the outward normal.
+    pub fn point(&self, ray: &Ray, t: f32) -> SpherePoint {
         let c = self.center.as_dvec3();
-        let p: DVec3 = ray.o.as_dvec3() + ray.d.as_dvec3() * t as f64;
+        let p: DVec3 = ray.origin_f64() + ray.d.as_dvec3() * t as f64;
         let local = p - c;
         let local = local * (self.radius as f64 / local.length());
         let n = local.normalize().as_vec3();
-        let p64 = c + local;
-        let p = p64.as_vec3();
-        // `p64` lies on the sphere to f64 precision (≈1e-16 relative), so the error of `p` is its
-        // one rounding to f32, u·|p|, plus a margin that covers the f64 work many times over.
-        // A looser bound pushes spawned rays past an interface 1e-6 inside the sphere (a nested
-        // dielectric), which then goes missing from the path.
-        let slack = (p64.abs().max_element() + self.radius as f64) * 1e-12;
+        let exact = c + local;
+        let p = exact.as_vec3();
+        // `exact` lies on the sphere to f64 precision, so the error of `p` is its one rounding
+        // to f32, u·|p|, plus a margin that covers the f64 work many times over.
+        let slack = (exact.abs().max_element() + self.radius as f64) * 1e-12;
         let err = p.abs() * gamma(1) + Vec3::splat(slack as f32);
-        (p, err, n)
+        SpherePoint { exact, p, err, n }
     }
+}
+
+/// A point on a sphere as [`Sphere::point`] gives it.
+#[derive(Clone, Copy, Debug)]
+pub struct SpherePoint {
+    /// On the surface to f64 precision: where rays leaving the sphere start ([`Ray::leaving`]).
+    pub exact: DVec3,
+    /// `exact` rounded to f32.
+    pub p: Vec3,
+    /// Per-axis bound on the error of `p`.
+    pub err: Vec3,
+    /// Outward unit normal.
+    pub n: Vec3,
 }
 
 impl Sphere {
     /// Where a ray leaving this sphere's surface point `p` along `w` starts: the f32 point
     /// nearest `p` that is certainly on the side `w` points to (outside when `w` points away
     /// from the centre), decided exactly in f64 as [`Sphere::intersect`] decides it, so that the
-    /// sphere is not hit again at `t ≈ 0` yet a surface more than an ulp away is not jumped
-    /// over. `offset_ray_origin`'s error box is several ulps: a dielectric 1e-6 inside this one,
-    /// 5 units from the camera, would be skipped. `None` if a few ulps do not settle it (the
-    /// caller then falls back to the error-box offset).
+    /// sphere is not hit again at `t ≈ 0` by a test that sees only this f32 origin (Embree's
+    /// traversal, the triangle tests) yet a surface more than an ulp away is not jumped over.
+    /// `offset_ray_origin`'s error box is several ulps: a dielectric 1e-6 inside this one, 5
+    /// units from the camera, would be skipped. `None` if a few ulps do not settle it (the
+    /// caller then falls back to the error-box offset). The sphere tests themselves start from
+    /// the exact point ([`Ray::leaving`]).
     pub fn spawn_origin(&self, p: Vec3, w: Vec3) -> Option<Vec3> {
         let c = self.center.as_dvec3();
         let r = self.radius as f64;
@@ -571,13 +637,72 @@ mod tests {
                 Vec3::new(0.0, 0.0, -1.0),
             );
             let t = s.intersect(&ray, f32::INFINITY).unwrap();
-            let (p, err, n) = s.point(&ray, t);
+            let sp = s.point(&ray, t);
             // Leave outwards: the sphere must not be hit again.
-            let o = offset_ray_origin(p, err, n, n);
+            let o = offset_ray_origin(sp.p, sp.err, sp.n, sp.n);
             assert!(
-                s.intersect(&Ray::new(o, n), f32::INFINITY).is_none(),
+                s.intersect(&Ray::new(o, sp.n), f32::INFINITY).is_none(),
                 "scale {scale}"
             );
+        }
+    }
+
+    #[test]
+    fn rays_leaving_a_sphere_from_its_exact_point_skip_only_that_point() {
+        for scale in [1e-6f32, 1.0, 1e6] {
+            // Away from the origin like a camera-relative scene: the hit points' coordinates
+            // near 3·scale have an ulp of 2.4e-7·scale, more than the 1e-7·scale gap.
+            let c = Vec3::new(0.0, 0.0, -4.0) * scale;
+            let outer = Sphere {
+                center: c,
+                radius: scale,
+            };
+            let inner = Sphere {
+                center: c,
+                radius: 0.9999999 * scale,
+            };
+            let gap = (outer.radius - inner.radius) as f64;
+            for k in 0..64 {
+                // Camera rays over the near hemisphere.
+                let (x, y) = ((k % 8) as f32 / 8.0 - 0.45, (k / 8) as f32 / 8.0 - 0.45);
+                let aim = c + Vec3::new(x, y, -0.5) * scale;
+                let cam = Ray::new(Vec3::ZERO, aim);
+                let t = outer.intersect(&cam, f32::INFINITY).unwrap();
+                let sp = outer.point(&cam, t);
+                let leave = |d: Vec3| {
+                    let o = outer.spawn_origin(sp.p, d).unwrap_or(sp.p);
+                    Ray::leaving(sp.exact, o, d)
+                };
+                // Outwards: the outer sphere is behind, the inner one further behind.
+                assert!(outer.intersect(&leave(sp.n), f32::INFINITY).is_none());
+                assert!(inner.intersect(&leave(sp.n), f32::INFINITY).is_none());
+                // Inwards along a slanted direction: the inner sphere first, about gap/cosθ on.
+                let w = (-sp.n + 0.3 * Vec3::X).normalize();
+                let cos = (-sp.n).dot(w) as f64;
+                let t_in = inner
+                    .intersect(&leave(w), f32::INFINITY)
+                    .expect("inner sphere") as f64;
+                assert!(
+                    (t_in * cos - gap).abs() < 1e-3 * gap,
+                    "scale {scale} k {k}: {t_in} vs {}",
+                    gap / cos
+                );
+                // …and the outer sphere only at its far side, the chord 2r·cosθ away.
+                let t_far = outer.intersect(&leave(w), f32::INFINITY).unwrap() as f64;
+                let chord = 2.0 * scale as f64 * cos;
+                assert!((t_far - chord).abs() < 1e-5 * chord, "scale {scale} k {k}");
+                // Leaving the inner sphere outwards finds the outer one, gap/cosθ away.
+                let ip = inner.point(&leave(w), t_in as f32);
+                let o = inner.spawn_origin(ip.p, sp.n).unwrap_or(ip.p);
+                let out = Ray::leaving(ip.exact, o, sp.n);
+                assert!(inner.intersect(&out, f32::INFINITY).is_none());
+                let t_out = outer.intersect(&out, f32::INFINITY).expect("outer") as f64;
+                let cos_out = ip.n.dot(sp.n) as f64;
+                assert!(
+                    (t_out * cos_out - gap).abs() < 1e-3 * gap,
+                    "scale {scale} k {k}"
+                );
+            }
         }
     }
 

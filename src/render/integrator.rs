@@ -8,7 +8,7 @@ use crate::geometry::{basis, gamma, offset_ray_origin, Hit, Ray, Sphere};
 use crate::rng::Sampler;
 use crate::scene::{Light, Material, Scene, NO_LIGHT};
 use crate::tracer::Tracer;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The scene features a specialised [`radiance_with`] keeps. Each flag is a constant, so a
@@ -66,16 +66,28 @@ pub struct Interaction {
     pub material: u32,
     /// Index into `Scene::lights` when the primitive hit emits, else [`NO_LIGHT`].
     pub light: u32,
-    /// The sphere hit, when the primitive is one: rays leave it from [`Sphere::spawn_origin`].
-    pub sphere: Option<Sphere>,
+    /// For a sphere hit, the sphere and `p` to f64 precision: rays leave from that point
+    /// ([`Ray::leaving`]).
+    pub sphere: Option<(Sphere, DVec3)>,
 }
 
 impl Interaction {
-    /// Origin of a ray leaving this hit along `w`: just on `w`'s side of the surface.
-    pub fn spawn(&self, w: Vec3) -> Vec3 {
-        self.sphere
-            .and_then(|s| s.spawn_origin(self.p, w))
-            .unwrap_or_else(|| offset_ray_origin(self.p, self.p_err, self.n, w))
+    /// A ray leaving this hit along `w`, its direction `d(origin)` (`w` itself, or the segment
+    /// to a target from the ray's start). Triangle hits offset the start past `p`'s error box;
+    /// sphere hits start at the exact surface point, which the sphere test recognises (and, for
+    /// f32-only tests, from [`Sphere::spawn_origin`]).
+    pub fn spawn(&self, w: Vec3, d: impl FnOnce(Vec3) -> Vec3) -> Ray {
+        let offset = || offset_ray_origin(self.p, self.p_err, self.n, w);
+        match self.sphere {
+            Some((sphere, exact)) => {
+                let o = sphere.spawn_origin(self.p, w).unwrap_or_else(offset);
+                Ray::leaving(exact, o, d(o))
+            }
+            None => {
+                let o = offset();
+                Ray::new(o, d(o))
+            }
+        }
     }
 }
 
@@ -85,9 +97,10 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
     let info = g.info[hit.prim as usize];
     let ns = g.spheres.len() as u32;
     let (p, p_err, n, sphere) = if hit.prim < ns {
-        let sphere = g.spheres[hit.prim as usize];
-        let (p, err, n) = sphere.point(ray, hit.t);
-        (p, err, if info.flip { -n } else { n }, Some(sphere))
+        let s = g.spheres[hit.prim as usize];
+        let sp = s.point(ray, hit.t);
+        let n = if info.flip { -sp.n } else { sp.n };
+        (sp.p, sp.err, n, Some((s, sp.exact)))
     } else {
         let tri = &g.triangles[(hit.prim - ns) as usize];
         let (p, err) = tri.point(hit.b1, hit.b2);
@@ -230,9 +243,9 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
             if cos <= 0.0 {
                 return Vec3::ZERO;
             }
-            let o = it.spawn(wi);
+            let shadow = it.spawn(wi, |o| *position - o);
             *rays += 1;
-            if tracer.occluded(&Ray::new(o, *position - o), 1.0 - SHADOW_EPSILON) {
+            if tracer.occluded(&shadow, 1.0 - SHADOW_EPSILON) {
                 return Vec3::ZERO;
             }
             f * *intensity * (cos / (dist2 * sel))
@@ -256,10 +269,10 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
                 return Vec3::ZERO;
             }
             let light_pdf = sel * dist * dist / (cos_l * area);
-            let o = it.spawn(wi);
             let target = offset_ray_origin(lp.p, lp.err, lp.n, -wi);
+            let shadow = it.spawn(wi, |o| target - o);
             *rays += 1;
-            if tracer.occluded(&Ray::new(o, target - o), 1.0 - SHADOW_EPSILON) {
+            if tracer.occluded(&shadow, 1.0 - SHADOW_EPSILON) {
                 return Vec3::ZERO;
             }
             let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
@@ -272,9 +285,9 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
                 return Vec3::ZERO;
             }
             let light_pdf = sel / (4.0 * PI);
-            let o = it.spawn(wi);
+            let shadow = it.spawn(wi, |_| wi);
             *rays += 1;
-            if tracer.occluded(&Ray::new(o, wi), f32::INFINITY) {
+            if tracer.occluded(&shadow, f32::INFINITY) {
                 return Vec3::ZERO;
             }
             let w = power_heuristic(light_pdf, cos * FRAC_1_PI);
@@ -413,7 +426,7 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
                 beta /= 1.0 - q;
             }
         }
-        ray = Ray::new(it.spawn(next_dir), next_dir);
+        ray = it.spawn(next_dir, |_| next_dir);
     }
     l
 }

@@ -70,10 +70,7 @@ fn probe_rays(scene: &Scene) -> Vec<Ray> {
                 (*c + *a) * 0.5,
             ]
         })
-        .map(|p| Ray {
-            o: centre,
-            d: p - centre,
-        })
+        .map(|p| Ray::new(centre, p - centre))
         .collect()
 }
 

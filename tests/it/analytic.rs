@@ -276,10 +276,11 @@ fn glass_checker_with_inner(inner: Option<f64>, env_only: bool) -> raysched::sce
     crate::support::load_str(&text)
 }
 
-/// Inner radii down to a gap of 1e-6, two f32 ulps at the sphere's far side 5 units from the
-/// camera. A gap of 1e-7 (radius 0.9999999) is below one ulp there: the two surfaces' points round
-/// to the same f32 positions, and the renderer still loses ≈15 % of such paths.
-const INNER_RADII: [f64; 2] = [0.99999, 0.999999];
+/// Inner radii down to a gap of 1e-7 (radius 0.9999999, the f32 next to it being 1 − 1.2e-7):
+/// half an f32 ulp of the sphere's far side 5 units from the camera, so the two surfaces' points
+/// round to the same f32 positions and only the exact origins of rays leaving a sphere keep them
+/// apart.
+const INNER_RADII: [f64; 3] = [0.99999, 0.999999, 0.9999999];
 
 #[test]
 fn an_index_matched_sphere_just_inside_glass_is_invisible() {
