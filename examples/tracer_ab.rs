@@ -164,7 +164,7 @@ fn diffuse_bounces(scene: &Scene, tracer: &AnyTracer, primary: &[Ray]) -> Vec<Ra
             let phi = 2.0 * std::f32::consts::PI * u2;
             let z = (1.0 - u1).max(0.0).sqrt();
             let d: Vec3 = (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize();
-            Some(Ray::new(it.spawn(d), d))
+            Some(it.spawn(d, |_| d))
         })
         .collect()
 }

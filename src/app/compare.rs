@@ -19,6 +19,9 @@ pub(crate) struct CompareArgs {
     /// JSON on stdout instead of markdown.
     #[arg(long)]
     pub(crate) json: bool,
+    /// Compare raw wall times, not walls divided by the two runs' machine-speed ratio.
+    #[arg(long)]
+    pub(crate) raw: bool,
     /// Exit with code 1 when any configuration is slower.
     #[arg(long)]
     pub(crate) fail_on_regression: bool,
@@ -40,6 +43,7 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
     let crit = Criteria {
         threshold: args.threshold_pct / 100.0,
         alpha: args.alpha,
+        raw: args.raw,
     };
     let c = compare::compare(&args.a, &args.b, crit)
         .map_err(|e| CliError::input(anyhow::anyhow!(e)))?;

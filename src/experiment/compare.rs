@@ -9,10 +9,17 @@
 //! a single slow sample moves it by one rank, not by its size. A change counts only when it is
 //! both significant (p < `alpha`) and larger than `threshold`, so a real but negligible drift
 //! of a shared machine reads as "no change".
+//!
+//! A shared machine also drifts as a whole between runs (10 % within minutes on the 2-core VM
+//! raysched is developed on). When both folders carry the machine-speed probe
+//! ([`super::speed`]), B's walls are divided by the ratio of the two runs' median probe times
+//! before anything is computed, so that common drift cancels and a change of raysched's own
+//! code (which the probe does not run) remains; `raw` turns this off. The factor's own
+//! uncertainty (the median of one probe per round, ~30 rounds) is not in the intervals.
 
 use super::meta::Meta;
 use super::results::read_runs;
-use super::stats::{mann_whitney_p, paired_ratio_change, unpaired_ratio, Ratio};
+use super::stats::{mann_whitney_p, median, paired_ratio_change, unpaired_ratio, Ratio};
 use super::summary::{pair_by_rep, seed_of, summarize, Summary};
 use serde::Serialize;
 use std::fmt::Write;
@@ -25,6 +32,8 @@ pub struct Criteria {
     pub threshold: f64,
     /// Largest p-value that counts as significant.
     pub alpha: f64,
+    /// Compare raw wall times even when both runs carry machine-speed probes.
+    pub raw: bool,
 }
 
 impl Default for Criteria {
@@ -32,6 +41,7 @@ impl Default for Criteria {
         Self {
             threshold: 0.05,
             alpha: 0.01,
+            raw: false,
         }
     }
 }
@@ -95,8 +105,10 @@ pub struct Change {
     pub n: (usize, usize),
     /// Median wall time in A and in B, seconds.
     pub wall_median_s: (f64, f64),
-    /// median wall B / median wall A.
+    /// median wall B / median wall A, B's walls divided by the machine factor when there is one.
     pub wall_ratio: Interval,
+    /// median wall B / median wall A of the raw walls.
+    pub raw_wall_ratio: f64,
     /// Two-sided Mann–Whitney U p-value of the wall times.
     pub p_value: f64,
     /// Speedup over serial in A and in B (paired within each run).
@@ -122,6 +134,10 @@ pub struct Comparison {
     pub alpha: f64,
     /// The test behind `p_value`.
     pub test: &'static str,
+    /// Median machine-speed probe of A and of B, seconds, where the rows carry one.
+    pub probe_median_s: (Option<f64>, Option<f64>),
+    /// What B's walls were divided by: median probe B / median probe A (`None`: raw walls).
+    pub machine_factor: Option<f64>,
     /// Configurations in both.
     pub changes: Vec<Change>,
     /// Configuration ids only in A, then only in B.
@@ -136,7 +152,10 @@ impl Comparison {
     }
 }
 
-fn load(dir: &Path) -> Result<(Vec<Summary>, String), String> {
+/// One folder's summaries, its provenance line and its median probe time.
+type Loaded = (Vec<Summary>, String, Option<f64>);
+
+fn load(dir: &Path) -> Result<Loaded, String> {
     let runs = dir.join("runs.csv");
     if !runs.exists() {
         return Err(format!(
@@ -155,7 +174,13 @@ fn load(dir: &Path) -> Result<(Vec<Summary>, String), String> {
             m.git_commit, m.machine.cpu_model, m.machine.cores
         )
     });
-    Ok((summarize(&rows), prov))
+    let probes: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| r.probe_s)
+        .filter(|p| p.is_finite() && *p > 0.0)
+        .collect();
+    let probe = (!probes.is_empty()).then(|| median(&probes));
+    Ok((summarize(&rows), prov, probe))
 }
 
 /// The serial baseline walls of `s`'s group in `sums`.
@@ -166,8 +191,12 @@ fn serial_of<'a>(sums: &'a [Summary], s: &Summary) -> Option<&'a Summary> {
 
 /// Compare every configuration of `a` with the same configuration (same id) of `b`.
 pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String> {
-    let (sa, pa) = load(a)?;
-    let (sb, pb) = load(b)?;
+    let (sa, pa, probe_a) = load(a)?;
+    let (sb, pb, probe_b) = load(b)?;
+    let factor = match (probe_a, probe_b) {
+        (Some(x), Some(y)) if !crit.raw => Some(y / x),
+        _ => None,
+    };
     let mut changes = Vec::new();
     let mut only_a = Vec::new();
     for x in &sa {
@@ -176,9 +205,11 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String>
             continue;
         };
         let wa: Vec<f64> = x.walls.iter().map(|w| w.1).collect();
-        let wb: Vec<f64> = y.walls.iter().map(|w| w.1).collect();
+        let wb_raw: Vec<f64> = y.walls.iter().map(|w| w.1).collect();
+        let wb: Vec<f64> = wb_raw.iter().map(|w| w / factor.unwrap_or(1.0)).collect();
         let seed = seed_of(&x.row.config);
         let ratio = unpaired_ratio(&wb, &wa, seed);
+        let raw_wall_ratio = median(&wb_raw) / median(&wa);
         let p = mann_whitney_p(&wa, &wb);
         let significant = p < crit.alpha;
         let verdict = if significant && ratio.value >= 1.0 + crit.threshold {
@@ -205,6 +236,7 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String>
             n: (x.n, y.n),
             wall_median_s: (x.wall_median, y.wall_median),
             wall_ratio: ratio.into(),
+            raw_wall_ratio,
             p_value: p,
             speedup: (x.speedup.map(|r| r.value), y.speedup.map(|r| r.value)),
             speedup_ratio,
@@ -223,6 +255,8 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String>
         threshold: crit.threshold,
         alpha: crit.alpha,
         test: "two-sided Mann–Whitney U (normal approximation, tie-corrected)",
+        probe_median_s: (probe_a, probe_b),
+        machine_factor: factor,
         changes,
         unmatched: (only_a, only_b),
     })
@@ -244,14 +278,29 @@ pub fn markdown(c: &Comparison) -> String {
         c.alpha,
         c.threshold * 100.0
     );
+    let ms = |p: Option<f64>| p.map_or("none".into(), |p| format!("{:.2} ms", p * 1e3));
+    let _ = match c.machine_factor {
+        Some(f) => writeln!(
+            md,
+            "- machine speed: median probe A {}, B {}; B's walls divided by {f:.3} before comparing (raw walls: `--raw`; the raw change is in the last column)\n",
+            ms(c.probe_median_s.0),
+            ms(c.probe_median_s.1)
+        ),
+        None => writeln!(
+            md,
+            "- machine speed: median probe A {}, B {}; raw walls compared\n",
+            ms(c.probe_median_s.0),
+            ms(c.probe_median_s.1)
+        ),
+    };
     let (f, s, n) = c.counts();
     let _ = writeln!(
         md,
         "**{} configurations: {f} faster, {s} slower, {n} no change.**\n",
         c.changes.len()
     );
-    let _ = writeln!(md, "| group | configuration | workers | runs A/B | median A (ms) | median B (ms) | change (95 % CI) | p | speedup A → B | speedup change (95 % CI) | verdict |");
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "| group | configuration | workers | runs A/B | median A (ms) | median B (ms) | change (95 % CI) | p | speedup A → B | speedup change (95 % CI) | verdict | raw change |");
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for x in &c.changes {
         let sp = match x.speedup {
             (Some(a), Some(b)) => format!("{a:.2}× → {b:.2}×"),
@@ -262,7 +311,7 @@ pub fn markdown(c: &Comparison) -> String {
         });
         let _ = writeln!(
             md,
-            "| {} | `{}` | {} | {}/{} | {:.3} | {:.3} | {} ({} – {}) | {:.2e} | {sp} | {spc} | {} |",
+            "| {} | `{}` | {} | {}/{} | {:.3} | {:.3} | {} ({} – {}) | {:.2e} | {sp} | {spc} | {} | {} |",
             x.group,
             x.label,
             x.workers,
@@ -278,7 +327,8 @@ pub fn markdown(c: &Comparison) -> String {
                 x.verdict.word().to_string()
             } else {
                 format!("**{}**", x.verdict.word())
-            }
+            },
+            pct(x.raw_wall_ratio)
         );
     }
     let (oa, ob) = &c.unmatched;

@@ -16,6 +16,7 @@ pub mod plan;
 pub mod progress;
 pub mod results;
 pub mod run;
+pub mod speed;
 pub mod stats;
 pub mod summary;
 

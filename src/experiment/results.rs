@@ -134,6 +134,10 @@ pub struct RunRow {
     /// 1-minute load average just after it.
     #[serde(default)]
     pub load_after: Option<f64>,
+    /// Seconds of the machine-speed probe ([`super::speed::probe_s`]) taken at the start of this
+    /// sample's round (empty in files before it).
+    #[serde(default)]
+    pub probe_s: Option<f64>,
     /// The cost model's predicted wall time of one render (`predict = true`; empty otherwise
     /// and in files before it).
     #[serde(default)]
@@ -246,6 +250,7 @@ impl RunRow {
             sys_s: None,
             load_before: None,
             load_after: None,
+            probe_s: None,
             predicted_wall_s: None,
             predicted_handout_s: None,
             predicted_refill_s: None,
@@ -660,8 +665,9 @@ mod tests {
 
     /// The columns added with MPI, before [`SAMPLE_COLUMNS`] and `slow`.
     const MPI_COLUMNS: usize = 3;
-    /// The columns added with adaptive repetitions, before [`PREDICTION_COLUMNS`].
-    const SAMPLE_COLUMNS: usize = 6;
+    /// The columns added with adaptive repetitions and the speed probe, before
+    /// [`PREDICTION_COLUMNS`].
+    const SAMPLE_COLUMNS: usize = 7;
     /// The cost model's columns, at the end of the row.
     const PREDICTION_COLUMNS: usize = 4;
 

@@ -228,6 +228,7 @@ pub fn run_experiment_with(
         measured: 0,
         untimed: 0,
         predictions,
+        probe_s: None,
     };
     let skipped = old_rows.len();
     let mut round = 0u64;
@@ -237,6 +238,8 @@ pub fn run_experiment_with(
         if order.is_empty() {
             break;
         }
+        // Once per round, 0.2 % of a round of `quick` (see `speed::STEPS`).
+        session.probe_s = Some(super::speed::probe_s());
         for i in order {
             session.sample(&mut todo.states[i])?;
             session
@@ -456,6 +459,8 @@ struct Session<'p, 'r> {
     untimed: usize,
     /// The cost model's prediction per configuration id (`predict = true`).
     predictions: HashMap<String, Prediction>,
+    /// This round's machine-speed probe, seconds.
+    probe_s: Option<f64>,
 }
 
 /// The probe's samples per pixel: a few, scaled to the configuration's (see `model::probe`).
@@ -618,6 +623,7 @@ impl Session<'_, '_> {
         row.sys_s = sample.cpu.map(|c| c.1);
         row.load_before = sample.load.0;
         row.load_after = sample.load.1;
+        row.probe_s = self.probe_s;
         if let Some(p) = self.predictions.get(&c.id) {
             row.predicted_wall_s = Some(p.wall_s);
             row.predicted_handout_s = Some(p.handout_s);

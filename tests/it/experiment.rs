@@ -772,14 +772,18 @@ fn adaptive_runs_stop_at_the_ci_target_or_the_cap() {
 }
 
 /// `compare`: a run against itself is "no change" everywhere; against a copy 20 % slower,
-/// "slower" everywhere with p < 0.01, and `--fail-on-regression` exits 1.
+/// "slower" everywhere with p < 0.01, and `--fail-on-regression` exits 1. A copy 20 % slower
+/// whose machine-speed probe is 20 % slower too is the machine drifting: "no change", unless
+/// `--raw`.
 #[test]
 fn compare_flags_a_known_slowdown_and_nothing_else() {
     use raysched::experiment::results::RunsFile;
     let (dir, _) = run_tiny(8);
-    // Known wall times: A = 1 ms × (1 + k/1000), B = A × 1.2, same other columns.
+    // Known wall times: A = 1 ms × (1 + k/1000), B = C = A × 1.2, same other columns; the probe
+    // takes 10 ms in A and B, 12 ms in C.
     let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
-    for (name, factor) in [("a", 1.0), ("b", 1.2)] {
+    assert!(rows.iter().all(|r| r.probe_s.is_some_and(|p| p > 0.0)));
+    for (name, factor, probe) in [("a", 1.0, 0.010), ("b", 1.2, 0.010), ("c", 1.2, 0.012)] {
         let d = dir.path().join(name).join("tiny");
         std::fs::create_dir_all(&d).unwrap();
         std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
@@ -787,6 +791,7 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
         for r in &rows {
             let mut r = r.clone();
             r.wall_s = 1e-3 * (1.0 + f64::from(r.repetition) / 1000.0) * factor;
+            r.probe_s = Some(probe);
             f.append(&r).unwrap();
         }
     }
@@ -820,6 +825,26 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
     }
     let fail = cmp("a/tiny", "b/tiny", &["--fail-on-regression"]);
     assert_eq!(fail.status.code(), Some(1));
+    let drift = cmp("a/tiny", "c/tiny", &["--fail-on-regression"]);
+    assert!(drift.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&drift.stdout).unwrap();
+    assert!(
+        (v["machine_factor"].as_f64().unwrap() - 1.2).abs() < 1e-9,
+        "{v}"
+    );
+    for c in v["changes"].as_array().unwrap() {
+        assert_eq!(c["verdict"], "no_change", "{c}");
+        assert!((c["wall_ratio"]["value"].as_f64().unwrap() - 1.0).abs() < 1e-9);
+        assert!((c["raw_wall_ratio"].as_f64().unwrap() - 1.2).abs() < 1e-9);
+    }
+    let raw = cmp("a/tiny", "c/tiny", &["--raw"]);
+    let v: serde_json::Value = serde_json::from_slice(&raw.stdout).unwrap();
+    assert!(v["machine_factor"].is_null());
+    assert!(v["changes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|c| c["verdict"] == "slower"));
     // Markdown by default, one table row per configuration.
     let md = run(&["compare", "b/tiny", "a/tiny"], dir.path());
     let text = String::from_utf8_lossy(&md.stdout);
