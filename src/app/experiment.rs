@@ -75,10 +75,23 @@ pub(crate) fn apply_stats_flags(plan: &mut ExperimentPlan, args: &RunArgs) -> Re
 pub(crate) struct PlotArgs {
     /// A results folder, e.g. results/runs/quick.
     pub(crate) dir: PathBuf,
+    /// Rasterise every PNG from its SVG at this scale (1–8; 2 or 3 for print).
+    #[arg(long, default_value_t = 1.0)]
+    pub(crate) png_scale: f32,
 }
 
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
-    let written = raysched::plot::redraw(&args.dir).map_err(CliError::message)?;
+    let range = raysched::plot::raster::PNG_SCALE_RANGE;
+    if !range.contains(&args.png_scale) {
+        return Err(CliError::input(anyhow::anyhow!(
+            "--png-scale: must be in {}–{} (got {})",
+            range.start(),
+            range.end(),
+            args.png_scale
+        )));
+    }
+    let written =
+        raysched::plot::redraw_scaled(&args.dir, args.png_scale).map_err(CliError::message)?;
     out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
 }

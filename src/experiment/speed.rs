@@ -52,6 +52,5 @@ mod tests {
     fn the_probe_measures_a_positive_finite_time() {
         let t = super::probe_s();
         assert!(t.is_finite() && t > 0.0, "{t}");
-
     }
 }

@@ -4,6 +4,7 @@
 
 mod charts;
 pub mod prediction;
+pub mod raster;
 pub mod report;
 
 pub use charts::{mpi_line, throughput, Figure};
@@ -72,6 +73,25 @@ pub fn warnings_of(dir: &Path) -> Vec<String> {
 /// on stderr). Everything is written to a staging folder and moved into place at the end, so a
 /// failure leaves the previous files.
 pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
+    redraw_scaled(dir, 1.0)
+}
+
+/// [`redraw`], with every PNG rasterised from its SVG at `png_scale` (in
+/// [`raster::PNG_SCALE_RANGE`]) when that is not 1: print-quality figures.
+pub fn redraw_scaled(dir: &Path, png_scale: f32) -> Result<Vec<PathBuf>, String> {
+    if !raster::PNG_SCALE_RANGE.contains(&png_scale) {
+        return Err(format!(
+            "PNG scale {png_scale}: must be in {}–{}",
+            raster::PNG_SCALE_RANGE.start(),
+            raster::PNG_SCALE_RANGE.end()
+        ));
+    }
+    let rescale = |staged_png: &Path| -> Result<(), String> {
+        if png_scale == 1.0 {
+            return Ok(());
+        }
+        raster::svg_to_png(&staged_png.with_extension("svg"), staged_png, png_scale)
+    };
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     let staging =
@@ -92,6 +112,9 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
             }
             crate::converge::plot(&staged, &rows)
                 .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
+        }
+        for p in convergence::PLOTS.iter().filter(|p| p.ends_with(".png")) {
+            rescale(&staging.path(p))?;
         }
         commit(staging)?;
         return Ok(convergence::PLOTS.map(|p| dir.join(p)).to_vec());
@@ -122,6 +145,10 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
     let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
     let figs = charts::draw_all(dir, &plots, &real_plots, &sums)?;
+    for f in &figs {
+        let rel = Path::new(&f.file);
+        rescale(&plots.join(rel.strip_prefix("plots").unwrap_or(rel)))?;
+    }
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());

@@ -305,6 +305,29 @@ fn plot_regenerates_everything_from_the_csv() {
         .unwrap();
     let img = image::open(res.join("plots").join(png)).unwrap();
     assert!(img.width() >= 800 && img.height() >= 500);
+    // Print quality: every PNG rasterised from its SVG at twice the size.
+    let out = run(
+        &["plot", res.to_str().unwrap(), "--png-scale", "2"],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let big = image::open(res.join("plots").join(png)).unwrap();
+    assert_eq!(
+        (big.width(), big.height()),
+        (2 * img.width(), 2 * img.height())
+    );
+    for bad in ["0.5", "9", "nan"] {
+        let out = run(
+            &["plot", res.to_str().unwrap(), "--png-scale", bad],
+            dir.path(),
+        );
+        assert_eq!(out.status.code(), Some(2), "--png-scale {bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--png-scale"));
+    }
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
     assert!(report.contains("per-ray master"), "{report}");
     assert!(
