@@ -27,8 +27,8 @@ pub const MAX_DEPTH: u32 = 1 << 10;
 /// Largest `count` of one generator shape (triangles or spheres).
 pub const MAX_GENERATOR_COUNT: u64 = 1 << 24;
 
-/// Largest number of primitives (triangles and spheres) of a whole scene, generators and
-/// meshes together.
+/// Largest number of primitives (triangles and spheres) of a whole scene: explicit shapes,
+/// generators and meshes together.
 pub const MAX_PRIMITIVES: u64 = 1 << 24;
 
 /// Largest number of animation frames (every frame keeps a camera).

@@ -127,10 +127,19 @@ impl<'a> Builder<'a> {
                 let radius = cx.positive(&field("radius"), radius.unwrap_or(1.0))?;
                 let what = "a sphere's placement must be rotation, uniform scale and translation";
                 let scale = similarity_scale(cx, at, m, what)?;
+                self.reserve(&field("type"), 1)?;
                 self.push_sphere(at, m.transform_point3(center), radius * scale)?;
             }
-            ShapeSpec::Rectangle { .. } => self.push_triangles(at, m, &rectangle_triangles())?,
-            ShapeSpec::Cube { .. } => self.push_triangles(at, m, &cube_triangles())?,
+            ShapeSpec::Rectangle { .. } => {
+                let tris = rectangle_triangles();
+                self.reserve(&field("type"), tris.len() as u64)?;
+                self.push_triangles(at, m, &tris)?
+            }
+            ShapeSpec::Cube { .. } => {
+                let tris = cube_triangles();
+                self.reserve(&field("type"), tris.len() as u64)?;
+                self.push_triangles(at, m, &tris)?
+            }
             ShapeSpec::Mesh { path, .. } => {
                 let tris = load_mesh(cx, at, path.as_deref(), self.base, hash)?;
                 self.reserve(&field("path"), tris.len() as u64)?;
