@@ -123,7 +123,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         return super::gpu_render::render(args);
     }
     if args.gpu_adapter.is_some() {
-        return Err(CliError::message("--gpu-adapter: needs gpu among --sources"));
+        return Err(CliError::message(
+            "--gpu-adapter: needs gpu among --sources",
+        ));
     }
     // The per-source flags (--gpu-chunk, --gpu-buffer, --balance) say why they do not apply.
     args.source_setup()?;

@@ -4,8 +4,8 @@
 //! default (the same default an experiment file gets); one the kind does not have is an error.
 
 use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
-use raysched::sched::spec::kinds_with;
 use raysched::sched::sources::SourceField;
+use raysched::sched::spec::kinds_with;
 use raysched::sched::{
     param_columns, source_params, Chunk, Order, Policy, SchedulerKind, SchedulerSpec, Slow,
     SourceSet, SourceSetup,

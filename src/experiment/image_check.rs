@@ -22,15 +22,13 @@ pub struct Agreement {
 
 /// Compare `image` with `serial`; images of different sizes never agree.
 pub fn compare(image: &Image, serial: &Image) -> Agreement {
-    let values = |img: &Image| -> Vec<f64> {
-        img.data
-            .iter()
-            .flatten()
-            .map(|&v| f64::from(v))
-            .collect()
-    };
+    let values =
+        |img: &Image| -> Vec<f64> { img.data.iter().flatten().map(|&v| f64::from(v)).collect() };
     let (a, b) = (values(image), values(serial));
-    if a.len() != b.len() || a.len() < 2 || (image.width, image.height) != (serial.width, serial.height) {
+    if a.len() != b.len()
+        || a.len() < 2
+        || (image.width, image.height) != (serial.width, serial.height)
+    {
         return Agreement {
             mean: f64::NAN,
             se: f64::NAN,
@@ -73,7 +71,7 @@ mod tests {
 
     /// ±1 alternating: mean 0 over every channel (a stand-in for rounding noise).
     fn noise(i: usize) -> f32 {
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             1.0
         } else {
             -1.0

@@ -457,7 +457,10 @@ fn check_sources(file: &ExperimentFile) -> Result<Vec<SourceSet>, FieldError> {
     };
     let texts = axis.values();
     if texts.is_empty() {
-        return Err(field("sources", "must list at least one set (e.g. [\"threads\"])"));
+        return Err(field(
+            "sources",
+            "must list at least one set (e.g. [\"threads\"])",
+        ));
     }
     if file.mpi.is_some() {
         return Err(field(
@@ -466,7 +469,10 @@ fn check_sources(file: &ExperimentFile) -> Result<Vec<SourceSet>, FieldError> {
         ));
     }
     if file.kind == ExperimentKind::Convergence {
-        return Err(field("sources", "a convergence experiment renders on threads; remove sources"));
+        return Err(field(
+            "sources",
+            "a convergence experiment renders on threads; remove sources",
+        ));
     }
     let mut sets: Vec<SourceSet> = Vec::new();
     for (i, t) in texts.iter().enumerate() {
@@ -482,7 +488,10 @@ fn check_sources(file: &ExperimentFile) -> Result<Vec<SourceSet>, FieldError> {
         }
     }
     if file.gpu_adapter.is_some() && !sets.iter().any(|s| s.has(SourceKind::Gpu)) {
-        return Err(field("gpu_adapter", "applies only with gpu among the sources"));
+        return Err(field(
+            "gpu_adapter",
+            "applies only with gpu among the sources",
+        ));
     }
     Ok(sets)
 }
@@ -681,12 +690,14 @@ fn expand_setups(
     sets: &[SourceSet],
 ) -> Result<Vec<SourceSetup>, FieldError> {
     let master = kind == SchedulerKind::Master;
-    let applies = |name: &str, set: &SourceSet| {
-        match source_params().iter().find(|p| p.name == name).map(|p| p.field) {
-            Some(SourceField::Chunk(k) | SourceField::Buffer(k)) => set.has(k),
-            Some(SourceField::Balance) => set.kinds().len() > 1,
-            None => false,
-        }
+    let applies = |name: &str, set: &SourceSet| match source_params()
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| p.field)
+    {
+        Some(SourceField::Chunk(k) | SourceField::Buffer(k)) => set.has(k),
+        Some(SourceField::Balance) => set.kinds().len() > 1,
+        None => false,
     };
     for a in axes {
         if !master {
@@ -999,7 +1010,10 @@ fn axis_texts(name: &str, v: &toml::Value) -> Result<Vec<String>, (String, Strin
         toml::Value::Boolean(b) => Ok(b.to_string()),
         other => Err((
             name.to_string(),
-            format!("expected a number, a string or a boolean, got {}", other.type_str()),
+            format!(
+                "expected a number, a string or a boolean, got {}",
+                other.type_str()
+            ),
         )),
     };
     match v {

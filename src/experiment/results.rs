@@ -384,7 +384,10 @@ impl RunRow {
         if self.ranks.is_none() && self.sources != "local" {
             key += &format!("|sources={}", self.sources);
         }
-        for (name, v) in sourcing_columns().zip(&self.sourcing).take(source_params().len()) {
+        for (name, v) in sourcing_columns()
+            .zip(&self.sourcing)
+            .take(source_params().len())
+        {
             if let Some(v) = v {
                 key += &format!("|{name}={v}");
             }
@@ -741,7 +744,8 @@ mod tests {
     #[test]
     fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {
         let cols = RunRow::header();
-        let old = MPI_COLUMNS + SAMPLE_COLUMNS + PREDICTION_COLUMNS + CHECK_COLUMNS + source_columns();
+        let old =
+            MPI_COLUMNS + SAMPLE_COLUMNS + PREDICTION_COLUMNS + CHECK_COLUMNS + source_columns();
         let old_header = cols[..cols.len() - old].join(",");
         let strip = |r: &RunRow| {
             let line = String::from_utf8(r.to_line()).unwrap();
@@ -801,30 +805,25 @@ mod tests {
         let cols = RunRow::header();
         let n = source_columns();
         let tail: Vec<&str> = cols[cols.len() - n..].iter().map(String::as_str).collect();
-        assert_eq!(&tail[..4], ["gpu_chunk", "gpu_buffer", "balance", "threads_items"]);
+        assert_eq!(
+            &tail[..4],
+            ["gpu_chunk", "gpu_buffer", "balance", "threads_items"]
+        );
         assert!(tail.contains(&"gpu_busy_s") && tail.contains(&"mpi_pixels"));
         // A row of a threads+gpu run round-trips with its settings and shares.
         let mut r = row("g", 0);
         r.sources = "threads+gpu".into();
         r.image_z = Some(-0.5);
         r.agrees = Some(true);
+        let worker = |source: &str, items: u64, busy_s: f64| crate::metrics::WorkerStats {
+            items,
+            pixels: 16 * items,
+            busy_s,
+            source: source.into(),
+            ..Default::default()
+        };
         let shares = crate::sched::Share::of(&crate::metrics::RunStats {
-            workers: vec![
-                crate::metrics::WorkerStats {
-                    items: 3,
-                    pixels: 48,
-                    busy_s: 0.25,
-                    source: "threads".into(),
-                    ..Default::default()
-                },
-                crate::metrics::WorkerStats {
-                    items: 5,
-                    pixels: 80,
-                    busy_s: 0.125,
-                    source: "gpu".into(),
-                    ..Default::default()
-                },
-            ],
+            workers: vec![worker("threads", 3, 0.25), worker("gpu", 5, 0.125)],
             ..Default::default()
         });
         r.sourcing = [Some("4096".to_string()), None, Some("true".into())]

@@ -712,8 +712,10 @@ fn serial_image_path(dir: &Path, plan: &ExperimentPlan, c: &RunConfig) -> PathBu
         .find(|b| b.spec.is_none() && b.baseline == c.baseline)
         .map_or(c.id.as_str(), |b| b.id.as_str());
     let name = &plan.scene_of(c).scene.name;
+    // `with_extension`, as the images were always named: a scene name with a dot loses its tail.
     dir.join("images")
-        .join(format!("serial_{}_{id}.exr", slug(name)))
+        .join(format!("serial_{}_{id}", slug(name)))
+        .with_extension("exr")
 }
 
 /// A timeline file: one `worker,item,start_ns,end_ns,source` line per span, `source` being

@@ -480,7 +480,10 @@ fn read_timeline(path: &Path) -> Result<Timeline, String> {
     let mut out = Timeline::default();
     for r in rdr.deserialize::<SpanLine>() {
         let l = r.map_err(|err| format!("{}: {err}", path.display()))?;
-        if !l.source.is_empty() && l.worker != MASTER_LANE && !out.kinds.iter().any(|k| k.0 == l.worker) {
+        if !l.source.is_empty()
+            && l.worker != MASTER_LANE
+            && !out.kinds.iter().any(|k| k.0 == l.worker)
+        {
             out.kinds.push((l.worker, l.source));
         }
         out.spans.push((l.worker, l.item, l.start_ns, l.end_ns));
@@ -1152,7 +1155,11 @@ mod gantt_tests {
         let span = |w: u32| (w, 0, 0, 1);
         let tl = Timeline {
             spans: vec![span(2), span(MASTER_LANE), span(0), span(1), span(2)],
-            kinds: vec![(2, "gpu".into()), (0, "threads".into()), (1, "threads".into())],
+            kinds: vec![
+                (2, "gpu".into()),
+                (0, "threads".into()),
+                (1, "threads".into()),
+            ],
         };
         let (lanes, starts) = gantt_lanes(&tl);
         let labels: Vec<&str> = lanes.iter().map(|l| l.1.as_str()).collect();

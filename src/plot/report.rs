@@ -227,7 +227,11 @@ pub fn shares_section(sums: &[Summary]) -> String {
     md += "| configuration | workers | wall (median) | ";
     let kinds = crate::sched::SourceKind::ALL;
     let present: Vec<usize> = (0..kinds.len())
-        .filter(|&k| mixed.iter().any(|s| s.shares.get(k).copied().flatten().is_some()))
+        .filter(|&k| {
+            mixed
+                .iter()
+                .any(|s| s.shares.get(k).copied().flatten().is_some())
+        })
         .collect();
     md += &present
         .iter()

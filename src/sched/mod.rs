@@ -245,7 +245,8 @@ pub fn run_with_sources<T: Tracer + 'static>(
         });
     }
     let hetero = hetero_of(setup, &m, threads, gpus, (w, h));
-    let (results, mut stats) = master::run_master_hetero(&m, &hetero, &items, sources, opts, probe)?;
+    let (results, mut stats) =
+        master::run_master_hetero(&m, &hetero, &items, sources, opts, probe)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))

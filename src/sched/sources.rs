@@ -447,16 +447,34 @@ mod tests {
         let mut s = SourceSetup::default();
         assert_eq!(s.label(), "");
         s.set_param("gpu_chunk", "64x32").unwrap();
-        assert_eq!(s.own(SourceKind::Gpu).chunk, Some(Chunk::Tile { w: 64, h: 32 }));
+        assert_eq!(
+            s.own(SourceKind::Gpu).chunk,
+            Some(Chunk::Tile { w: 64, h: 32 })
+        );
         let e = s.validate().unwrap_err();
         assert_eq!(e.field, "gpu_chunk");
-        assert!(e.msg.contains("only with gpu among the sources"), "{}", e.msg);
-        assert!(s.set_param("gpu_buffer", "0").unwrap_err().msg.contains("between 1"));
-        assert!(s.set_param("balance", "yes").unwrap_err().msg.contains("true or false"));
+        assert!(
+            e.msg.contains("only with gpu among the sources"),
+            "{}",
+            e.msg
+        );
+        assert!(s
+            .set_param("gpu_buffer", "0")
+            .unwrap_err()
+            .msg
+            .contains("between 1"));
+        assert!(s
+            .set_param("balance", "yes")
+            .unwrap_err()
+            .msg
+            .contains("true or false"));
         s = SourceSetup::default();
         s.set_param("balance", "true").unwrap();
         assert_eq!(s.validate().unwrap_err().field, "balance");
-        assert_eq!(s.set_param("cpu_chunk", "4").unwrap_err().field, "cpu_chunk");
+        assert_eq!(
+            s.set_param("cpu_chunk", "4").unwrap_err().field,
+            "cpu_chunk"
+        );
     }
 
     #[test]
@@ -470,7 +488,11 @@ mod tests {
             ..Default::default()
         };
         let stats = RunStats {
-            workers: vec![w("threads", 3, 0.5), w("threads", 2, 0.25), w("gpu", 10, 0.125)],
+            workers: vec![
+                w("threads", 3, 0.5),
+                w("threads", 2, 0.25),
+                w("gpu", 10, 0.125),
+            ],
             ..Default::default()
         };
         let shares = Share::of(&stats);

@@ -414,8 +414,14 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
             vec!["--sources", "threads,gpu", "--gpu-chunk", "0"],
             "--gpu-chunk: '0': sizes must be ≥ 1",
         ),
-        (vec!["--balance"], "--balance: needs several kinds of source"),
-        (vec!["--gpu-adapter", "x"], "--gpu-adapter: needs gpu among --sources"),
+        (
+            vec!["--balance"],
+            "--balance: needs several kinds of source",
+        ),
+        (
+            vec!["--gpu-adapter", "x"],
+            "--gpu-adapter: needs gpu among --sources",
+        ),
         (vec!["--sources", "gpu,gpu"], "'gpu' given twice"),
     ] {
         let mut a = vec![scene, "-o", out, "--spp", "1"];
@@ -473,8 +479,8 @@ fn the_upload_gives_every_primitive_one_leaf_slot_within_the_kernel_stack() {
 
 #[test]
 fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
-    use raysched::sched::{run_with_sources, Chunk, SchedulerKind, SchedulerSpec, SourceSet};
     use raysched::sched::SourceSetup;
+    use raysched::sched::{run_with_sources, Chunk, SchedulerKind, SchedulerSpec, SourceSet};
     let scene = Arc::new(load("cornell_box.toml", small(16, 2)));
     let Some(r) = renderer(&scene) else { return };
     let tracer = Arc::new(BvhTracer::new(&scene.geometry));
@@ -497,14 +503,24 @@ fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
     assert!(stats.workers[1].items > 0, "the GPU rendered nothing");
     // The items of one dispatch share its span: groups of 4 items (64 px), the last maybe fewer.
     let mut groups: std::collections::BTreeMap<(u64, u64), usize> = Default::default();
-    for s in stats.timeline.as_ref().unwrap().iter().filter(|s| s.worker == 1) {
+    for s in stats
+        .timeline
+        .as_ref()
+        .unwrap()
+        .iter()
+        .filter(|s| s.worker == 1)
+    {
         *groups.entry((s.start_ns, s.end_ns)).or_default() += 1;
     }
     let sizes: Vec<usize> = groups.values().copied().collect();
     assert!(sizes.iter().filter(|&&n| n != 4).count() <= 1, "{sizes:?}");
     assert!(sizes.iter().all(|&n| n <= 4), "{sizes:?}");
     let d = diff(&Image::stack(frames), &cpu_image(&scene));
-    assert!(d.mean.abs() <= 3.0 * d.se + 1e-6, "mixed image off: {}", d.mean);
+    assert!(
+        d.mean.abs() <= 3.0 * d.se + 1e-6,
+        "mixed image off: {}",
+        d.mean
+    );
 }
 
 /// `raysched run` with `args` in `dir`; (exit code, stderr).
@@ -551,7 +567,10 @@ chunk = "rows:4"
         scene.display()
     );
     std::fs::write(dir.path().join("mixed.toml"), &exp).unwrap();
-    let (code, err) = run_cmd(dir.path(), &["run", "mixed.toml", "--quiet", "--out", "res"]);
+    let (code, err) = run_cmd(
+        dir.path(),
+        &["run", "mixed.toml", "--quiet", "--out", "res"],
+    );
     assert_eq!(code, 0, "{err}");
     let res = dir.path().join("res/mixed");
     let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
@@ -570,17 +589,28 @@ chunk = "rows:4"
         assert_eq!(r.agrees, Some(true), "{}: z = {:?}", r.label, r.image_z);
         let gpu_items: u64 = r.sourcing("gpu_items").unwrap().parse().unwrap();
         let gpu_px: u64 = r.sourcing("gpu_pixels").unwrap().parse().unwrap();
-        let thr_items: u64 = r.sourcing("threads_items").map_or(0, |v| v.parse().unwrap());
+        let thr_items: u64 = r
+            .sourcing("threads_items")
+            .map_or(0, |v| v.parse().unwrap());
         assert!(gpu_items > 0 && gpu_px == 16 * gpu_items, "{}", r.label);
         assert_eq!(gpu_items + thr_items, r.items, "{}", r.label);
         assert!(r.sourcing("gpu_busy_s").is_some());
     }
     assert!(by("gpu")[0].sourcing("threads_items").is_none());
     assert_eq!(by("gpu")[0].workers, 1);
-    assert_eq!(by("threads+gpu").iter().filter(|r| r.sourcing("balance") == Some("true")).count(), 1);
+    assert_eq!(
+        by("threads+gpu")
+            .iter()
+            .filter(|r| r.sourcing("balance") == Some("true"))
+            .count(),
+        1
+    );
     for r in by("local") {
         assert!(r.identical && r.agrees.is_none(), "{}", r.label);
-        assert_eq!(r.sourcing("threads_items").unwrap().parse::<u64>().unwrap(), r.items);
+        assert_eq!(
+            r.sourcing("threads_items").unwrap().parse::<u64>().unwrap(),
+            r.items
+        );
         assert!(r.sourcing("gpu_items").is_none());
     }
     // Provenance: the adapter in meta.toml.
@@ -600,17 +630,26 @@ chunk = "rows:4"
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     assert!(
-        plots.iter().any(|p| p.starts_with("gantt_") && p.contains("threads_gpu") && p.ends_with(".png")),
+        plots
+            .iter()
+            .any(|p| p.starts_with("gantt_") && p.contains("threads_gpu") && p.ends_with(".png")),
         "{plots:?}"
     );
     let mixed = by("threads+gpu")[0];
-    let tl = std::fs::read_to_string(res.join("timelines").join(format!("{}.csv", mixed.config))).unwrap();
-    assert!(tl.starts_with("worker,item,start_ns,end_ns,source\n"), "{tl}");
+    let tl = std::fs::read_to_string(res.join("timelines").join(format!("{}.csv", mixed.config)))
+        .unwrap();
+    assert!(
+        tl.starts_with("worker,item,start_ns,end_ns,source\n"),
+        "{tl}"
+    );
     assert!(tl.contains(",gpu\n") && tl.contains(",threads\n") && tl.contains(",master\n"));
     let summary = std::fs::read_to_string(res.join("summary.csv")).unwrap();
     assert!(summary.lines().next().unwrap().contains("gpu_pixel_share"));
     // A second start resumes: nothing measured twice, the same ids.
-    let (code, err) = run_cmd(dir.path(), &["run", "mixed.toml", "--quiet", "--out", "res"]);
+    let (code, err) = run_cmd(
+        dir.path(),
+        &["run", "mixed.toml", "--quiet", "--out", "res"],
+    );
     assert_eq!(code, 0, "{err}");
     assert_eq!(read_runs(&res.join("runs.csv")).unwrap().0, rows);
     // Bad values name the file and the field in one line, exit 2.
@@ -625,15 +664,30 @@ chunk = "rows:4"
             "sources = [\"gpu\"]",
             "schedulers[0].balance: applies to none of sources = [gpu]",
         ),
-        ("sources = [\"threads\", \"threads+gpu\", \"gpu\"]", "sources = [\"threads\", \"gpu+gpu\"]", "sources[1]: 'gpu' given twice"),
-        ("gpu_buffer = 2", "gpu_buffer = 0", "schedulers[0].gpu_buffer: must be between 1"),
-        ("workers = [1]", "workers = [1]\ngpu_adapter = \"no-such-adapter\"", "gpu_adapter: --gpu-adapter no-such-adapter: no Vulkan adapter matches"),
+        (
+            "sources = [\"threads\", \"threads+gpu\", \"gpu\"]",
+            "sources = [\"threads\", \"gpu+gpu\"]",
+            "sources[1]: 'gpu' given twice",
+        ),
+        (
+            "gpu_buffer = 2",
+            "gpu_buffer = 0",
+            "schedulers[0].gpu_buffer: must be between 1",
+        ),
+        (
+            "workers = [1]",
+            "workers = [1]\ngpu_adapter = \"no-such-adapter\"",
+            "gpu_adapter: --gpu-adapter no-such-adapter: no Vulkan adapter matches",
+        ),
     ] {
         assert!(exp.contains(from), "{from}");
         std::fs::write(dir.path().join("bad.toml"), exp.replacen(from, to, 1)).unwrap();
         let (code, err) = run_cmd(dir.path(), &["run", "bad.toml", "--quiet", "--out", "res2"]);
         assert_eq!(code, 2, "{to}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{to}: {err}");
-        assert!(err.contains("bad.toml") && err.contains(want), "{to}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(want),
+            "{to}: {err}"
+        );
     }
 }

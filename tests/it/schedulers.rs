@@ -617,6 +617,19 @@ fn every_scheduler_matches_serial_with(tracer: TracerKind) {
     }
 }
 
+/// A job that sleeps `d` per item and returns black pixels: a known, render-free item time.
+fn sleeping_job(d: Duration) -> Job {
+    Arc::new(move |it: &WorkItem| {
+        std::thread::sleep(d);
+        TileResult {
+            item: it.id,
+            pixels: vec![[0.0; 3]; it.pixel_count()],
+            rays: 1,
+            nonfinite: 0,
+        }
+    })
+}
+
 #[test]
 fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_nothing() {
     use raysched::metrics::Probe;
@@ -625,15 +638,7 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     // Source 1 takes 8× as long per item as source 0: at equal buffers it holds 8× the time's
     // worth of work, far past the 2 % the balancer tolerates. 8000 items of ≥ 200 µs on a
     // source that does at least 8/9 of them last ≥ 1.4 s, so the balancer looks at least once.
-    let job: Job = Arc::new(|it: &WorkItem| {
-        std::thread::sleep(Duration::from_micros(200));
-        TileResult {
-            item: it.id,
-            pixels: vec![[0.0; 3]; it.pixel_count()],
-            rays: 1,
-            nonfinite: 0,
-        }
-    });
+    let job = sleeping_job(Duration::from_micros(200));
     let probe = Probe::new(true, false);
     let sources: Vec<Box<dyn ComputeSource>> = vec![
         Box::new(LocalThreadSource::spawn(0, job.clone(), probe)),
@@ -703,15 +708,7 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
     use raysched::metrics::Probe;
     use raysched::sched::{master::run_master_hetero, Hetero};
     use raysched::source::{ComputeSource, LocalThreadSource};
-    let job: Job = Arc::new(|it: &WorkItem| {
-        std::thread::sleep(Duration::from_micros(50));
-        TileResult {
-            item: it.id,
-            pixels: vec![[0.0; 3]; it.pixel_count()],
-            rays: 1,
-            nonfinite: 0,
-        }
-    });
+    let job = sleeping_job(Duration::from_micros(50));
     let probe = Probe::new(true, false);
     let logs: Vec<Arc<std::sync::Mutex<Vec<usize>>>> = (0..2).map(|_| Arc::default()).collect();
     let sources: Vec<Box<dyn ComputeSource>> = logs
