@@ -23,12 +23,9 @@ pub fn row_json(r: &RunRow) -> Value {
     if let Value::Object(m) = &mut v {
         m.insert("params".into(), Value::Object(params));
         // The per-source settings and shares, by column name (empty cells left out).
-        let header = RunRow::header();
-        let names = &header[header.len() - r.sourcing.len()..];
-        let sourcing: Map<String, Value> = names
-            .iter()
+        let sourcing: Map<String, Value> = super::results::sourcing_columns()
             .zip(&r.sourcing)
-            .filter_map(|(n, v)| v.as_ref().map(|v| (n.clone(), json!(v))))
+            .filter_map(|(n, v)| v.as_ref().map(|v| (n.to_string(), json!(v))))
             .collect();
         m.insert("sourcing".into(), Value::Object(sourcing));
     }

@@ -174,7 +174,7 @@ fn one() -> u32 {
 
 /// The columns after the struct's own, from the compute-source definition: the per-source
 /// settings, then the per-kind shares.
-fn sourcing_columns() -> impl Iterator<Item = &'static str> {
+pub fn sourcing_columns() -> impl Iterator<Item = &'static str> {
     source_params()
         .iter()
         .map(|p| p.name.as_str())
