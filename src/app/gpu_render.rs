@@ -4,6 +4,15 @@
 use super::error::CliError;
 use super::render::RenderArgs;
 
+/// Mesa's Vulkan drivers probe for a Wayland display and print a line when
+/// `XDG_RUNTIME_DIR` is unset (a headless machine, CI); pointing it at the temp folder keeps
+/// stderr to raysched's own one line. Call before any thread is spawned.
+pub(crate) fn quiet_vulkan_loader() {
+    if cfg!(feature = "gpu") && std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
+}
+
 #[cfg(not(feature = "gpu"))]
 pub(crate) fn render(_args: RenderArgs) -> Result<(), CliError> {
     // `SourceSet::parse` refuses `gpu` in such a build; this is the belt to its braces.
@@ -16,7 +25,7 @@ pub(crate) fn render(_args: RenderArgs) -> Result<(), CliError> {
 pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     use raysched::gpu::{GpuContext, GpuRenderer};
     use raysched::scene::load_scene;
-    use raysched::sched::{run_with_gpu, Hetero, Policy, SchedError, SourceKind};
+    use raysched::sched::{run_with_sources, Policy, SchedError, SourceKind};
     use raysched::tracer::{AnyTracer, Tracer};
     use std::sync::Arc;
     use std::time::Instant;
@@ -27,8 +36,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         0
     };
     let overrides = args.check_output()?;
+    let setup = args.source_setup()?;
     let spec = args.scheduler_spec(threads.max(1))?;
-    let Policy::Master(m) = spec.policy else {
+    let Policy::Master(_) = spec.policy else {
         return Err(CliError::message(format!(
             "--scheduler {}: a GPU source runs under the master only (--scheduler master)",
             spec.kind().id()
@@ -39,12 +49,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     if let Some(w) = scene.depth_warning() {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    // Mesa's Vulkan drivers probe for a Wayland display and print a line when this variable
-    // is unset (a headless machine, CI); pointing it at the temp folder keeps stderr to our
-    // own one line. Set before any thread of the run is spawned.
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
-    }
+    quiet_vulkan_loader();
     let ctx = GpuContext::open(args.gpu_adapter.as_deref()).map_err(CliError::input)?;
     let t0 = Instant::now();
     let gpu = Arc::new(
@@ -53,20 +58,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     );
     let upload = t0.elapsed();
     let tracer = Arc::new(AnyTracer::build(kind, &scene, threads.max(1)).map_err(CliError::input)?);
-    let mut buffers = vec![m.buffer; threads];
-    buffers.push(args.gpu_buffer.unwrap_or(m.buffer));
-    let hetero = Hetero {
-        buffers,
-        balance: args.balance,
-    };
     let info = gpu.info().clone();
-    let (frames, stats) = run_with_gpu(
+    let (frames, stats) = run_with_sources(
         &spec,
+        &setup,
         &scene,
         &tracer,
         Some(gpu),
-        threads,
-        &hetero,
         &args.run_options(),
     )
     .map_err(|e| match e {
@@ -86,20 +84,6 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         upload.as_secs_f64()
     );
     super::render::print_render_header(&scene, &tracer_line, &spec, &image);
-    out!(
-        "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
-        stats.wall_s,
-        stats.rays,
-        stats.rays as f64 / stats.wall_s / 1e6,
-        stats.nonfinite
-    );
-    super::write_stdout(format_args!("{}", stats.summary()));
-    let (used, left_out) = scene.feature_report(tracer.accelerated());
-    out!(
-        "features used: {}; left out: {}",
-        used.join(","),
-        left_out.join(",")
-    );
-    out!("wrote {wrote}");
+    super::render::print_render_footer(&scene, &stats, tracer.accelerated(), &wrote);
     Ok(())
 }

@@ -54,14 +54,8 @@ pub(crate) struct RenderArgs {
     /// high-performance one, discrete before integrated before a CPU implementation).
     #[arg(long, value_name = "NAME")]
     pub(crate) gpu_adapter: Option<String>,
-    /// With gpu among --sources: items outstanding on the GPU (its buffer; each hand-out is
-    /// one dispatch). Default: the master's --buffer.
-    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=raysched::limits::MAX_COUNT as u64))]
-    pub(crate) gpu_buffer: Option<usize>,
-    /// With threads,gpu: resize each source's buffer to its measured throughput (at most once
-    /// a second, when the sources' outstanding times differ by more than 2 %).
-    #[arg(long)]
-    pub(crate) balance: bool,
+    #[command(flatten)]
+    pub(crate) source_flags: super::sched_flags::SourceFlags,
     /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
     #[arg(long, default_value_t = 0, value_parser = super::threads_arg(0))]
     pub(crate) local_threads: usize,
@@ -96,6 +90,13 @@ impl RenderArgs {
         })
     }
 
+    /// `--sources` with the per-source flags; errors name the flag.
+    pub(crate) fn source_setup(&self) -> Result<raysched::sched::SourceSetup, CliError> {
+        self.source_flags
+            .setup(&self.sources)
+            .map_err(CliError::message)
+    }
+
     /// Run settings that are not part of the scheduler's identity.
     pub(crate) fn run_options(&self) -> RunOptions {
         RunOptions {
@@ -121,11 +122,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     if args.sources.has(SourceKind::Gpu) {
         return super::gpu_render::render(args);
     }
-    if args.gpu_adapter.is_some() || args.gpu_buffer.is_some() || args.balance {
+    if args.gpu_adapter.is_some() {
         return Err(CliError::message(
-            "--gpu-adapter, --gpu-buffer and --balance need gpu among --sources",
+            "--gpu-adapter: needs gpu among --sources",
         ));
     }
+    // The per-source flags (--gpu-chunk, --gpu-buffer, --balance) say why they do not apply.
+    args.source_setup()?;
     if args.threads == 0 {
         return Err(CliError::message("--threads: must be ≥ 1 (got 0)"));
     }
@@ -152,6 +155,19 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         args.threads
     );
     print_render_header(&scene, &tracer_line, &spec, &image);
+    print_render_footer(&scene, &stats, tracer.accelerated(), &wrote);
+    Ok(())
+}
+
+/// The rest of a local render's report after [`print_render_header`]: throughput, the
+/// statistics (per worker, with its kind of source), the scene features used and the files
+/// written.
+pub(crate) fn print_render_footer(
+    scene: &Scene,
+    stats: &raysched::metrics::RunStats,
+    accelerated: bool,
+    wrote: &str,
+) {
     out!(
         "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
         stats.wall_s,
@@ -160,14 +176,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         stats.nonfinite
     );
     super::write_stdout(format_args!("{}", stats.summary()));
-    let (used, left_out) = scene.feature_report(tracer.accelerated());
+    let (used, left_out) = scene.feature_report(accelerated);
     out!(
         "features used: {}; left out: {}",
         used.join(","),
         left_out.join(",")
     );
     out!("wrote {wrote}");
-    Ok(())
 }
 
 /// `name_fNNNN.ext` beside `output = name.ext`: the file of frame `frame` of an animation.

@@ -4,8 +4,12 @@
 //! default (the same default an experiment file gets); one the kind does not have is an error.
 
 use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
+use raysched::sched::sources::SourceField;
 use raysched::sched::spec::kinds_with;
-use raysched::sched::{param_columns, Chunk, Order, Policy, SchedulerKind, SchedulerSpec, Slow};
+use raysched::sched::{
+    param_columns, source_params, Chunk, Order, Policy, SchedulerKind, SchedulerSpec, Slow,
+    SourceSet, SourceSetup,
+};
 
 /// What the scheduler flags said, before the worker count is known.
 #[derive(Clone, Debug)]
@@ -132,6 +136,73 @@ impl FromArgMatches for SchedulerFlags {
             params: param_columns()
                 .iter()
                 .filter_map(|p| Some((p.name, get(p.name)?)))
+                .collect(),
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+/// The per-source flags, derived from the compute-source definition
+/// (`raysched::sched::source_params`): `--gpu-chunk`, `--gpu-buffer`, `--balance`.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SourceFlags {
+    /// (setting name, text given), in definition order.
+    given: Vec<(String, String)>,
+}
+
+impl SourceFlags {
+    /// The setup of `set` with the flags applied; errors name the flag.
+    pub(crate) fn setup(&self, set: &SourceSet) -> Result<SourceSetup, String> {
+        let flag = |name: &str| format!("--{}", name.replace('_', "-"));
+        let mut setup = SourceSetup::of(set.clone());
+        for (name, text) in &self.given {
+            setup
+                .set_param(name, text)
+                .map_err(|e| format!("{}: {}", flag(name), e.msg))?;
+        }
+        setup
+            .validate()
+            .map_err(|e| format!("{}: {}", flag(&e.field), e.msg))?;
+        Ok(setup)
+    }
+}
+
+impl Args for SourceFlags {
+    fn augment_args(mut cmd: Command) -> Command {
+        for p in source_params() {
+            let mut arg = Arg::new(p.name.clone()).long(p.flag()).help(p.help.clone());
+            arg = if p.field == SourceField::Balance {
+                arg.action(clap::ArgAction::SetTrue)
+            } else {
+                arg.value_name(p.name.to_uppercase())
+            };
+            cmd = cmd.arg(arg);
+        }
+        cmd
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl FromArgMatches for SourceFlags {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        Ok(Self {
+            given: source_params()
+                .iter()
+                .filter_map(|p| {
+                    let text = if p.field == SourceField::Balance {
+                        m.get_flag(&p.name).then(|| "true".to_string())?
+                    } else {
+                        m.get_one::<String>(&p.name)?.clone()
+                    };
+                    Some((p.name.clone(), text))
+                })
                 .collect(),
         })
     }

@@ -12,6 +12,8 @@
 //! warmup = 1                      # untimed runs before them
 //! workers = [1, 2]                # or "1..max", or [1, 2, "max"]
 //! tracers = ["bvh"]
+//! sources = ["threads", "threads+gpu"]  # who renders (default ["threads"]; gpu: feature `gpu`)
+//! gpu_adapter = "llvmpipe"        # the GPU whose name contains this (default: the fastest)
 //! timeline = true                 # record a Gantt timeline on repetition 0
 //! predict = false                 # record the cost model's prediction beside each configuration
 //!
@@ -23,6 +25,9 @@
 //! kind = "master"
 //! chunk = ["1", "8", "frame"]     # every grid field takes a value or a list
 //! buffer = [1, 2, 16]
+//! gpu_chunk = ["4096", "frame"]   # master with a GPU: the GPU's own hand-out and buffer
+//! gpu_buffer = 2
+//! balance = [false, true]         # master with several kinds of source
 //! ```
 
 use crate::scene::SceneOverrides;
@@ -61,6 +66,12 @@ pub struct ExperimentFile {
     /// Tracer ids, each built for every scene (default `["bvh"]`).
     #[serde(default = "default_tracers")]
     pub tracers: Vec<String>,
+    /// Who renders: a grid axis of compute-source sets (`threads`, `gpu`, `threads+gpu`;
+    /// default `["threads"]`). Sets with a GPU cross the master's entries only.
+    pub sources: Option<OneOrMany<String>>,
+    /// The GPU of the sets with `gpu`: the first adapter whose name contains this
+    /// (default: the high-performance one).
+    pub gpu_adapter: Option<String>,
     /// Record a Gantt timeline on repetition 0 of each scheduler configuration (default true).
     #[serde(default = "yes")]
     pub timeline: bool,
@@ -208,8 +219,9 @@ impl<T: Clone> OneOrMany<T> {
     }
 }
 
-/// One scheduler and its parameter grid: `kind`, `chunk` (required), `order`, and any
-/// parameter the kind has (the names of `sched::spec`'s parameter structs: `buffer`, `grab`, …).
+/// One scheduler and its parameter grid: `kind`, `chunk` (required), `order`, any
+/// parameter the kind has (the names of `sched::spec`'s parameter structs: `buffer`, `grab`, …)
+/// and, for the master, the per-source settings (`sched::source_params`: `gpu_chunk`, …).
 /// Each grid field takes a value or a list. Keys the kind does not have are errors, so the
 /// cartesian product holds no meaningless combination (`static` has no buffer).
 #[derive(Debug, Clone, Deserialize)]

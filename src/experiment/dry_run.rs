@@ -84,8 +84,12 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
         let hi = setup + f64::from(most) * per_sample;
         lo_total += lo;
         hi_total += hi;
+        let setup_label = match &c.sources {
+            super::plan::Sources::Local(setup) => setup.label(),
+            super::plan::Sources::Mpi { transport } => format!(" over MPI ({transport})"),
+        };
         let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
-            format!("{} ×{}", s.label(), s.workers)
+            format!("{}{setup_label} ×{}", s.label(), s.workers)
         });
         let _ = writeln!(
             out,

@@ -22,6 +22,12 @@ pub fn row_json(r: &RunRow) -> Value {
         .collect();
     if let Value::Object(m) = &mut v {
         m.insert("params".into(), Value::Object(params));
+        // The per-source settings and shares, by column name (empty cells left out).
+        let sourcing: Map<String, Value> = super::results::sourcing_columns()
+            .zip(&r.sourcing)
+            .filter_map(|(n, v)| v.as_ref().map(|v| (n.to_string(), json!(v))))
+            .collect();
+        m.insert("sourcing".into(), Value::Object(sourcing));
     }
     v
 }
@@ -60,6 +66,14 @@ pub fn summary_json(s: &Summary) -> Value {
         "efficiency_median": num(s.efficiency_median),
         "load_max": s.load_max,
         "identical": s.identical,
+        "agrees": s.agrees,
+        "shares": crate::sched::SourceKind::ALL
+            .iter()
+            .zip(&s.shares)
+            .filter_map(|(k, sh)| sh.map(|x| (k.id().to_string(), json!({
+                "pixel_share": num(x.pixel_share), "items": num(x.items), "busy_s": num(x.busy_s)
+            }))))
+            .collect::<Map<String, Value>>(),
         "predicted_wall_s": r.predicted_wall_s,
     })
 }

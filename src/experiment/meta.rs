@@ -38,6 +38,23 @@ pub struct Meta {
     /// Every start of `raysched run` on this folder, the first one included, oldest first.
     #[serde(default)]
     pub history: Vec<Start>,
+    /// The GPU the rows with a GPU source rendered on (absent without one, and in files
+    /// written before it was recorded).
+    #[serde(default)]
+    pub gpu: Option<GpuMeta>,
+}
+
+/// The GPU adapter of a run (as the driver reports it), its provenance beside the CPU's.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct GpuMeta {
+    /// Adapter name (`llvmpipe (LLVM 15.0.6, 256 bits)`, `NVIDIA H200`, …).
+    pub name: String,
+    /// Driver name and version.
+    pub driver: String,
+    /// wgpu backend (`vulkan`).
+    pub backend: String,
+    /// Device type (`Cpu`, `DiscreteGpu`, …).
+    pub device_type: String,
 }
 
 /// One start of `raysched run` on a results folder: when, where, with what, under what load.
@@ -156,6 +173,9 @@ pub struct SceneMeta {
     pub load_s: f64,
     /// (tracer, build seconds)
     pub tracers: Vec<(String, f64)>,
+    /// Seconds taken to upload the scene to the GPU (absent without one).
+    #[serde(default)]
+    pub gpu_upload_s: Option<f64>,
 }
 
 /// Describe this host.
@@ -218,6 +238,7 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
                 .filter(|b| b.scene == i)
                 .map(|b| (b.tracer_id.clone(), b.build_s))
                 .collect(),
+            gpu_upload_s: plan.gpu.as_ref().and_then(|g| g.upload_s.get(i).copied()),
         })
         .collect();
     Meta {
@@ -234,6 +255,7 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
         scenes,
         build: Some(build),
         history: vec![],
+        gpu: plan.gpu.as_ref().map(|g| g.info.clone()),
     }
 }
 

@@ -10,6 +10,7 @@ pub mod config;
 pub mod convergence;
 pub mod dry_run;
 pub mod export;
+pub mod image_check;
 pub mod lock;
 pub mod meta;
 pub mod plan;

@@ -10,7 +10,11 @@ use crate::limits::{
     checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
 };
 use crate::scene::{load_scene, Scene, SceneOverrides};
-use crate::sched::{Chunk, Order, SchedulerKind, SchedulerSpec, Slow};
+use crate::sched::sources::SourceField;
+use crate::sched::{
+    source_params, Chunk, Order, SchedulerKind, SchedulerSpec, Slow, SourceKind, SourceSet,
+    SourceSetup,
+};
 use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -55,8 +59,8 @@ pub struct Baseline {
 /// Who renders a configuration's items.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Sources {
-    /// Threads of this process.
-    Local,
+    /// Sources of this process: threads, a GPU or both, with each kind's hand-out settings.
+    Local(SourceSetup),
     /// MPI ranks 1…K−1 of an `mpirun -n K` launch whose transport has this name.
     Mpi {
         /// The launch's transport name.
@@ -65,13 +69,35 @@ pub enum Sources {
 }
 
 impl Sources {
-    /// The `sources` column's value: `local` or `mpi`.
-    pub fn id(&self) -> &'static str {
+    /// Threads of this process, as every configuration without `sources` has.
+    pub fn threads() -> Self {
+        Self::Local(SourceSetup::default())
+    }
+
+    /// The `sources` column's value: `local` (threads), `gpu`, `threads+gpu` or `mpi`.
+    pub fn id(&self) -> String {
         match self {
-            Self::Local => "local",
-            Self::Mpi { .. } => "mpi",
+            Self::Local(s) => s.set.column(),
+            Self::Mpi { .. } => "mpi".into(),
         }
     }
+
+    /// Does a GPU render (some of) the items?
+    pub fn has_gpu(&self) -> bool {
+        matches!(self, Self::Local(s) if s.set.has(SourceKind::Gpu))
+    }
+}
+
+/// The GPU of an experiment's source sets with `gpu`, opened once by the plan with every
+/// scene uploaded to it (never timed with a run).
+pub struct PlannedGpu {
+    /// The adapter (recorded in `meta.toml`).
+    pub info: super::meta::GpuMeta,
+    /// Seconds taken to upload each scene, in [`ExperimentPlan::scenes`] order.
+    pub upload_s: Vec<f64>,
+    /// Each scene on the device, in [`ExperimentPlan::scenes`] order.
+    #[cfg(feature = "gpu")]
+    pub renderers: Vec<Arc<crate::gpu::GpuRenderer>>,
 }
 
 /// One `mpirun -n ranks` with one transport: the unit the MPI part of an experiment is
@@ -110,7 +136,7 @@ impl RunConfig {
             (Some(r), Some(l)) => {
                 r == l.ranks
                     && match &self.sources {
-                        Sources::Local => true,
+                        Sources::Local(_) => true,
                         Sources::Mpi { transport } => *transport == l.transport,
                     }
             }
@@ -169,6 +195,8 @@ pub struct ExperimentPlan {
     pub max_workers: usize,
     /// `Some` when the experiment runs under `mpirun` (`[mpi]`).
     pub mpi: Option<MpiSettings>,
+    /// `Some` when a source set has a GPU (`sources = ["threads+gpu", …]`).
+    pub gpu: Option<PlannedGpu>,
 }
 
 /// The validated sample counts of a convergence experiment.
@@ -215,6 +243,8 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let scenes = load_scenes(&file, &base).map_err(attach)?;
     let baselines = build_baselines(&settings.tracers, &scenes, max_workers).map_err(attach)?;
+    let wants_gpu = settings.sources.iter().any(|s| s.has(SourceKind::Gpu));
+    let gpu = open_gpu(wants_gpu, file.gpu_adapter.as_deref(), &scenes).map_err(attach)?;
     // 4. The configurations, serial baselines first, each with its stable id.
     let configs = configurations(baselines.len(), &grids, settings.mpi.as_ref());
     Ok(ExperimentPlan {
@@ -233,7 +263,57 @@ pub fn plan_file(path: &Path) -> Result<ExperimentPlan, ConfigError> {
         convergence: settings.convergence,
         max_workers,
         mpi: settings.mpi,
+        gpu,
     })
+}
+
+/// Open the GPU (`gpu_adapter`, else the high-performance adapter) and upload every scene,
+/// when a source set has `gpu`; a missing adapter or an unsupported scene is a field error.
+#[cfg(feature = "gpu")]
+fn open_gpu(
+    wanted: bool,
+    adapter: Option<&str>,
+    scenes: &[PlannedScene],
+) -> Result<Option<PlannedGpu>, FieldError> {
+    use crate::gpu::{GpuContext, GpuRenderer};
+    if !wanted {
+        return Ok(None);
+    }
+    let at = if adapter.is_some() {
+        "gpu_adapter"
+    } else {
+        "sources"
+    };
+    let ctx = GpuContext::open(adapter).map_err(|e| field(at, e.to_string()))?;
+    let info = super::meta::GpuMeta {
+        name: ctx.info.name.clone(),
+        driver: ctx.info.driver.clone(),
+        backend: ctx.info.backend.clone(),
+        device_type: ctx.info.device_type.clone(),
+    };
+    let (mut renderers, mut upload_s) = (Vec::new(), Vec::new());
+    for (i, s) in scenes.iter().enumerate() {
+        let t0 = Instant::now();
+        let r = GpuRenderer::new(ctx.clone(), &s.scene)
+            .map_err(|e| field(&format!("scenes[{i}]"), format!("{}: {e}", s.file)))?;
+        upload_s.push(t0.elapsed().as_secs_f64());
+        renderers.push(Arc::new(r));
+    }
+    Ok(Some(PlannedGpu {
+        info,
+        upload_s,
+        renderers,
+    }))
+}
+
+/// Without feature `gpu` no source set can hold `gpu` ([`SourceSet::new`] refuses it).
+#[cfg(not(feature = "gpu"))]
+fn open_gpu(
+    _wanted: bool,
+    _adapter: Option<&str>,
+    _scenes: &[PlannedScene],
+) -> Result<Option<PlannedGpu>, FieldError> {
+    Ok(None)
 }
 
 /// The file's bytes and its parsed text; a TOML error is `file:line:column: key: message`.
@@ -283,6 +363,8 @@ struct Settings {
     stats: StatsSettings,
     workers: Vec<usize>,
     tracers: Vec<TracerKind>,
+    /// The source sets of the grid, in file order, no repeats.
+    sources: Vec<SourceSet>,
     mpi: Option<MpiSettings>,
     convergence: Option<ConvergenceSettings>,
 }
@@ -347,9 +429,71 @@ fn check_settings(file: &ExperimentFile) -> Result<Settings, FieldError> {
         stats: check_stats(file)?,
         workers,
         tracers,
+        sources: check_sources(file)?,
         mpi,
         convergence: check_convergence(file)?,
     })
+}
+
+/// The `sources` axis: each entry a set of kinds (`threads`, `gpu`, `threads+gpu`), parsed by
+/// the one definition ([`SourceSet::parse`]); `["threads"]` when absent.
+fn check_sources(file: &ExperimentFile) -> Result<Vec<SourceSet>, FieldError> {
+    let Some(axis) = &file.sources else {
+        if file.gpu_adapter.is_some() {
+            return Err(field(
+                "gpu_adapter",
+                "applies only with gpu among the sources (e.g. sources = [\"threads\", \"threads+gpu\"])",
+            ));
+        }
+        return Ok(vec![SourceSet::threads()]);
+    };
+    let many = matches!(axis, super::config::OneOrMany::Many(_));
+    let name = |i: usize| {
+        if many {
+            format!("sources[{i}]")
+        } else {
+            "sources".to_string()
+        }
+    };
+    let texts = axis.values();
+    if texts.is_empty() {
+        return Err(field(
+            "sources",
+            "must list at least one set (e.g. [\"threads\"])",
+        ));
+    }
+    if file.mpi.is_some() {
+        return Err(field(
+            "sources",
+            "an [mpi] experiment renders on its ranks and the local-thread baseline; remove sources",
+        ));
+    }
+    if file.kind == ExperimentKind::Convergence {
+        return Err(field(
+            "sources",
+            "a convergence experiment renders on threads; remove sources",
+        ));
+    }
+    let mut sets: Vec<SourceSet> = Vec::new();
+    for (i, t) in texts.iter().enumerate() {
+        let set = SourceSet::parse(t).map_err(|e| field(&name(i), e.msg))?;
+        if set.has(SourceKind::Mpi) {
+            return Err(field(
+                &name(i),
+                "'mpi': MPI ranks are set by an [mpi] table (mpi.ranks), not by sources",
+            ));
+        }
+        if !sets.contains(&set) {
+            sets.push(set);
+        }
+    }
+    if file.gpu_adapter.is_some() && !sets.iter().any(|s| s.has(SourceKind::Gpu)) {
+        return Err(field(
+            "gpu_adapter",
+            "applies only with gpu among the sources",
+        ));
+    }
+    Ok(sets)
 }
 
 /// The adaptive-repetition settings of a timing experiment.
@@ -472,28 +616,156 @@ fn check_convergence(file: &ExperimentFile) -> Result<Option<ConvergenceSettings
     }
 }
 
-/// Every scheduler entry's grid × worker counts. A progressive run records no timeline: a
-/// Gantt chart per step would be noise.
-fn expand_grids(
-    file: &ExperimentFile,
-    settings: &Settings,
-) -> Result<Vec<Vec<SchedulerSpec>>, FieldError> {
+/// Every scheduler entry's grid × worker counts × source setups ([`expand_setups`]). A
+/// progressive run records no timeline: a Gantt chart per step would be noise.
+fn expand_grids(file: &ExperimentFile, settings: &Settings) -> Result<Vec<Grid>, FieldError> {
     let timeline = file.timeline && settings.convergence.is_none();
     file.schedulers
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            expand_scheduler(s, &settings.workers, timeline)
-                .map_err(|(f, m)| (format!("schedulers[{i}].{f}"), m))
+            let at = |(f, m): FieldError| (format!("schedulers[{i}].{f}"), m);
+            let (entry, source_axes) = split_source_keys(s).map_err(at)?;
+            let specs = expand_scheduler(&entry, &settings.workers, timeline).map_err(at)?;
+            let kind = specs.first().map_or(SchedulerKind::Master, |s| s.kind());
+            let setups = expand_setups(kind, &source_axes, &settings.sources).map_err(at)?;
+            if (specs.len() as u64).saturating_mul(setups.len() as u64) > MAX_CONFIGS {
+                return Err(at((
+                    "kind".into(),
+                    format!(
+                        "{} scheduler configurations × {} source setups is more than the \
+                         limit of {MAX_CONFIGS} run configurations",
+                        specs.len(),
+                        setups.len()
+                    ),
+                )));
+            }
+            let mut grid = Vec::with_capacity(specs.len() * setups.len());
+            for setup in &setups {
+                for spec in &specs {
+                    let mut spec = spec.clone();
+                    if !setup.set.has(SourceKind::Threads) {
+                        // A GPU alone is one source whatever the thread count: one
+                        // configuration (the repeats are merged by their ids).
+                        spec.workers = 1;
+                    }
+                    grid.push((spec, setup.clone()));
+                }
+            }
+            Ok(grid)
         })
         .collect()
 }
 
+/// One scheduler entry's configurations: each spec with the source setup it runs on.
+type Grid = Vec<(SchedulerSpec, SourceSetup)>;
+
+/// The entry without its per-source keys (`gpu_chunk`, …), and those keys as axes.
+fn split_source_keys(s: &SchedulerEntry) -> Result<(SchedulerEntry, Vec<Axis>), FieldError> {
+    let mut entry = s.clone();
+    let mut axes = Vec::new();
+    for p in source_params() {
+        if let Some(v) = entry.grid.remove(&p.name) {
+            let values = axis_texts(&p.name, &v)?;
+            for t in &values {
+                SourceSetup::default()
+                    .set_param(&p.name, t)
+                    .map_err(|e| (e.field, e.msg))?;
+            }
+            axes.push(Axis {
+                name: p.name.clone(),
+                values,
+            });
+        }
+    }
+    Ok((entry, axes))
+}
+
+/// The source setups one entry of `kind` runs on: every set of the `sources` axis (those with
+/// a GPU for the master only) crossed with the per-source axes that apply to it (a GPU's
+/// chunk only to sets with a GPU, `balance` only to sets of several kinds).
+fn expand_setups(
+    kind: SchedulerKind,
+    axes: &[Axis],
+    sets: &[SourceSet],
+) -> Result<Vec<SourceSetup>, FieldError> {
+    let master = kind == SchedulerKind::Master;
+    let applies = |name: &str, set: &SourceSet| match source_params()
+        .iter()
+        .find(|p| p.name == name)
+        .map(|p| p.field)
+    {
+        Some(SourceField::Chunk(k) | SourceField::Buffer(k)) => set.has(k),
+        Some(SourceField::Balance) => set.kinds().len() > 1,
+        None => false,
+    };
+    for a in axes {
+        if !master {
+            return Err((
+                a.name.clone(),
+                format!(
+                    "'{}' has no {} (only master takes the per-source settings)",
+                    kind.id(),
+                    a.name
+                ),
+            ));
+        }
+        if !sets.iter().any(|s| applies(&a.name, s)) {
+            let listed: Vec<String> = sets.iter().map(|s| s.id()).collect();
+            return Err((
+                a.name.clone(),
+                format!(
+                    "applies to none of sources = [{}] (a GPU's settings need gpu in a set,                      balance a set of several kinds)",
+                    listed.join(", ")
+                ),
+            ));
+        }
+    }
+    let sizes: Vec<u64> = axes.iter().map(|a| a.values.len() as u64).collect();
+    let per_set = checked_product(&sizes).filter(|&n| n <= MAX_CONFIGS);
+    if per_set.is_none() {
+        return Err((
+            "kind".into(),
+            format!("the per-source settings have more than {MAX_CONFIGS} combinations"),
+        ));
+    }
+    let mut out = Vec::new();
+    for set in sets {
+        if !master && set.kinds() != [SourceKind::Threads] {
+            continue; // only the master hands out to anything but its own threads
+        }
+        let mut setups = vec![SourceSetup::of(set.clone())];
+        for a in axes.iter().filter(|a| applies(&a.name, set)) {
+            let mut next = Vec::with_capacity(setups.len() * a.values.len());
+            for s in &setups {
+                for v in &a.values {
+                    let mut s = s.clone();
+                    s.set_param(&a.name, v).map_err(|e| (e.field, e.msg))?;
+                    next.push(s);
+                }
+            }
+            setups = next;
+        }
+        for s in &setups {
+            s.validate().map_err(|e| (e.field, e.msg))?;
+        }
+        out.extend(setups);
+    }
+    if out.is_empty() {
+        return Err((
+            "kind".into(),
+            format!(
+                "'{}' hands out to its own threads only, and sources has no \"threads\" set \
+                 (add one, or use master)",
+                kind.id()
+            ),
+        ));
+    }
+    Ok(out)
+}
+
 /// Scenes × tracers × every grid entry within [`MAX_CONFIGS`], before any scene is loaded.
-fn check_config_count(
-    file: &ExperimentFile,
-    grids: &[Vec<SchedulerSpec>],
-) -> Result<(), FieldError> {
+fn check_config_count(file: &ExperimentFile, grids: &[Grid]) -> Result<(), FieldError> {
     let specs: u64 = grids.iter().map(|g| g.len() as u64).sum();
     let transports = file.mpi.as_ref().map_or(0, |m| m.transports.len() as u64);
     let n = checked_product(&[
@@ -572,11 +844,7 @@ fn build_baselines(
 /// Serial baselines first (so a scheduler run always finds its baseline measured), then every
 /// baseline × grid entry; under `[mpi]` each entry is the local-thread baseline of its launch
 /// size followed by one configuration per transport.
-fn configurations(
-    baselines: usize,
-    grids: &[Vec<SchedulerSpec>],
-    mpi: Option<&MpiSettings>,
-) -> Vec<RunConfig> {
+fn configurations(baselines: usize, grids: &[Grid], mpi: Option<&MpiSettings>) -> Vec<RunConfig> {
     let config = |baseline, spec, sources, ranks| RunConfig {
         id: String::new(),
         baseline,
@@ -585,17 +853,18 @@ fn configurations(
         ranks,
     };
     let mut configs: Vec<RunConfig> = (0..baselines)
-        .map(|b| config(b, None, Sources::Local, None))
+        .map(|b| config(b, None, Sources::threads(), None))
         .collect();
     for b in 0..baselines {
-        for spec in grids.iter().flatten() {
+        for (spec, setup) in grids.iter().flatten() {
             let Some(m) = mpi else {
-                configs.push(config(b, Some(spec.clone()), Sources::Local, None));
+                let sources = Sources::Local(setup.clone());
+                configs.push(config(b, Some(spec.clone()), sources, None));
                 continue;
             };
             // Under [mpi], spec.workers = ranks − 1.
             let ranks = Some(spec.workers + 1);
-            configs.push(config(b, Some(spec.clone()), Sources::Local, ranks));
+            configs.push(config(b, Some(spec.clone()), Sources::threads(), ranks));
             for t in &m.transports {
                 let sources = Sources::Mpi {
                     transport: t.clone(),
@@ -738,9 +1007,13 @@ fn axis_texts(name: &str, v: &toml::Value) -> Result<Vec<String>, (String, Strin
     let text = |v: &toml::Value| match v {
         toml::Value::String(s) => Ok(s.clone()),
         toml::Value::Integer(i) => Ok(i.to_string()),
+        toml::Value::Boolean(b) => Ok(b.to_string()),
         other => Err((
             name.to_string(),
-            format!("expected a number or a string, got {}", other.type_str()),
+            format!(
+                "expected a number, a string or a boolean, got {}",
+                other.type_str()
+            ),
         )),
     };
     match v {

@@ -7,7 +7,7 @@
 
 use super::plan::{ExperimentPlan, RunConfig};
 use crate::hash::{fnv, hex};
-use crate::sched::param_columns;
+use crate::sched::{param_columns, share_columns, source_params};
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::fs::{File, OpenOptions};
@@ -151,6 +151,22 @@ pub struct RunRow {
     /// Its imbalance part (the last worker's lead over the mean, noise included).
     #[serde(default)]
     pub predicted_imbalance_s: Option<f64>,
+    /// Rows with a GPU source (whose image rounds differently, so is never bit-identical):
+    /// the mean per-pixel difference to the serial image over its standard error
+    /// ([`super::image_check`]); empty elsewhere and in files before it.
+    #[serde(default)]
+    pub image_z: Option<f64>,
+    /// Rows with a GPU source: the image agrees with the serial one within 3σ of the paired
+    /// per-pixel differences (empty elsewhere).
+    #[serde(default)]
+    pub agrees: Option<bool>,
+    /// One cell per [`crate::sched::source_params`] entry (`gpu_chunk`, `gpu_buffer`,
+    /// `balance`), then one per [`crate::sched::share_columns`] entry (`threads_items`,
+    /// `threads_pixels`, `threads_busy_s`, `gpu_items`, …: who rendered what), written at the
+    /// end of the row; empty where unset, for a kind that did not render, and in files
+    /// before them.
+    #[serde(skip)]
+    pub sourcing: Vec<Option<String>>,
 }
 
 fn local() -> String {
@@ -158,6 +174,15 @@ fn local() -> String {
 }
 fn one() -> u32 {
     1
+}
+
+/// The columns after the struct's own, from the compute-source definition: the per-source
+/// settings, then the per-kind shares.
+pub fn sourcing_columns() -> impl Iterator<Item = &'static str> {
+    source_params()
+        .iter()
+        .map(|p| p.name.as_str())
+        .chain(share_columns().iter().map(String::as_str))
 }
 
 /// Where the parameter columns start: right after `order`.
@@ -184,7 +209,22 @@ impl RunRow {
             .collect();
         let at = params_at(&cols);
         cols.splice(at..at, param_columns().iter().map(|p| p.name.to_string()));
+        cols.extend(sourcing_columns().map(str::to_string));
         cols
+    }
+
+    /// The value of per-source column `name` (a [`crate::sched::source_params`] or
+    /// [`crate::sched::share_columns`] entry; `None`: empty).
+    pub fn sourcing(&self, name: &str) -> Option<&str> {
+        let i = sourcing_columns().position(|c| c == name)?;
+        self.sourcing.get(i)?.as_deref()
+    }
+
+    /// Who rendered what, per kind in `SourceKind::ALL` order (`None`: the kind did not
+    /// render, or the row predates the columns).
+    pub fn shares(&self) -> Vec<Option<crate::sched::Share>> {
+        let skip = source_params().len();
+        crate::sched::Share::from_cells(self.sourcing.get(skip..).unwrap_or_default())
     }
 
     /// The master's buffer size (what the buffer plots are drawn against).
@@ -255,6 +295,9 @@ impl RunRow {
             predicted_handout_s: None,
             predicted_refill_s: None,
             predicted_imbalance_s: None,
+            image_z: None,
+            agrees: None,
+            sourcing: vec![None; sourcing_columns().count()],
         }
     }
 
@@ -275,10 +318,17 @@ impl RunRow {
         r.max_depth = sc.settings.max_depth;
         r.generator_count = ps.overrides.generator_count;
         r.tracer = b.tracer_id.clone();
-        r.sources = c.sources.id().into();
+        r.sources = c.sources.id();
         r.ranks = c.ranks;
-        if let super::plan::Sources::Mpi { transport } = &c.sources {
-            r.transport = Some(transport.clone());
+        let mut setup_label = String::new();
+        match &c.sources {
+            super::plan::Sources::Mpi { transport } => r.transport = Some(transport.clone()),
+            super::plan::Sources::Local(setup) => {
+                for (cell, p) in r.sourcing.iter_mut().zip(source_params()) {
+                    *cell = setup.get_param(&p.name);
+                }
+                setup_label = setup.label();
+            }
         }
         match &c.spec {
             None => {
@@ -288,7 +338,7 @@ impl RunRow {
             }
             Some(s) => {
                 r.scheduler = s.kind().id().into();
-                r.label = s.label();
+                r.label = s.label() + &setup_label;
                 // The tiles actually cut (the production-renderer policies choose their own).
                 let (chunk, order) = s.layout(sc.width(), sc.height());
                 r.chunk = Some(chunk.to_string());
@@ -335,6 +385,18 @@ impl RunRow {
         if let Some(slow) = &self.slow {
             key += &format!("|slow={slow}");
         }
+        // ... and only rows with other sources than threads their set and settings.
+        if self.ranks.is_none() && self.sources != "local" {
+            key += &format!("|sources={}", self.sources);
+        }
+        for (name, v) in sourcing_columns()
+            .zip(&self.sourcing)
+            .take(source_params().len())
+        {
+            if let Some(v) = v {
+                key += &format!("|{name}={v}");
+            }
+        }
         key
     }
 
@@ -358,6 +420,7 @@ impl RunRow {
             at..at,
             self.params.iter().map(|p| p.clone().unwrap_or_default()),
         );
+        cells.extend(self.sourcing.iter().map(|c| c.clone().unwrap_or_default()));
         record = csv::StringRecord::from(cells);
         let mut w = csv::WriterBuilder::new()
             .has_headers(false)
@@ -373,7 +436,8 @@ impl RunRow {
             return None;
         }
         let params = param_columns();
-        let is_param = |n: &str| params.iter().any(|p| p.name == n);
+        let is_param =
+            |n: &str| params.iter().any(|p| p.name == n) || sourcing_columns().any(|c| c == n);
         let rest_names: csv::StringRecord = names.iter().filter(|n| !is_param(n)).collect();
         let rest: csv::StringRecord = names
             .iter()
@@ -386,6 +450,12 @@ impl RunRow {
             .iter()
             .map(|p| {
                 let v = names.iter().position(|n| n == p.name).map(|i| &rec[i])?;
+                (!v.is_empty()).then(|| v.to_string())
+            })
+            .collect();
+        row.sourcing = sourcing_columns()
+            .map(|c| {
+                let v = names.iter().position(|n| n == c).map(|i| &rec[i])?;
                 (!v.is_empty()).then(|| v.to_string())
             })
             .collect();
@@ -668,13 +738,20 @@ mod tests {
     /// The columns added with adaptive repetitions and the speed probe, before
     /// [`PREDICTION_COLUMNS`].
     const SAMPLE_COLUMNS: usize = 7;
-    /// The cost model's columns, at the end of the row.
+    /// The cost model's columns, before [`CHECK_COLUMNS`].
     const PREDICTION_COLUMNS: usize = 4;
+    /// The GPU image check's columns, before the per-source ones.
+    const CHECK_COLUMNS: usize = 2;
+    /// The per-source settings and shares, at the end of the row.
+    fn source_columns() -> usize {
+        sourcing_columns().count()
+    }
 
     #[test]
     fn a_runs_file_from_before_the_mpi_columns_is_read_and_upgraded_on_resume() {
         let cols = RunRow::header();
-        let old = MPI_COLUMNS + SAMPLE_COLUMNS + PREDICTION_COLUMNS;
+        let old =
+            MPI_COLUMNS + SAMPLE_COLUMNS + PREDICTION_COLUMNS + CHECK_COLUMNS + source_columns();
         let old_header = cols[..cols.len() - old].join(",");
         let strip = |r: &RunRow| {
             let line = String::from_utf8(r.to_line()).unwrap();
@@ -708,13 +785,14 @@ mod tests {
     #[test]
     fn a_runs_file_from_before_the_prediction_columns_reads_them_empty() {
         let cols = RunRow::header();
-        assert_eq!(cols[cols.len() - PREDICTION_COLUMNS], "predicted_wall_s");
-        let old_header = cols[..cols.len() - PREDICTION_COLUMNS].join(",");
+        let later = PREDICTION_COLUMNS + CHECK_COLUMNS + source_columns();
+        assert_eq!(cols[cols.len() - later], "predicted_wall_s");
+        let old_header = cols[..cols.len() - later].join(",");
         let line = String::from_utf8(row("a", 0).to_line()).unwrap();
         let fields: Vec<&str> = line.trim_end().split(',').collect();
         let text = format!(
             "{old_header}\n{}\n",
-            fields[..fields.len() - PREDICTION_COLUMNS].join(",")
+            fields[..fields.len() - later].join(",")
         );
         let (rows, _) = parse_runs(text.as_bytes()).unwrap();
         assert_eq!(rows, vec![row("a", 0)]);
@@ -726,6 +804,58 @@ mod tests {
         let mut bytes = (cols.join(",") + "\n").into_bytes();
         bytes.extend(p.to_line());
         assert_eq!(parse_runs(&bytes).unwrap().0, vec![p]);
+    }
+
+    #[test]
+    fn per_source_columns_derive_from_the_kinds_round_trip_and_read_empty_in_old_files() {
+        let cols = RunRow::header();
+        let n = source_columns();
+        let tail: Vec<&str> = cols[cols.len() - n..].iter().map(String::as_str).collect();
+        assert_eq!(
+            &tail[..4],
+            ["gpu_chunk", "gpu_buffer", "balance", "threads_items"]
+        );
+        assert!(tail.contains(&"gpu_busy_s") && tail.contains(&"mpi_pixels"));
+        // A row of a threads+gpu run round-trips with its settings and shares.
+        let mut r = row("g", 0);
+        r.sources = "threads+gpu".into();
+        r.image_z = Some(-0.5);
+        r.agrees = Some(true);
+        let worker = |source: &str, items: u64, busy_s: f64| crate::metrics::WorkerStats {
+            items,
+            pixels: 16 * items,
+            busy_s,
+            source: source.into(),
+            ..Default::default()
+        };
+        let shares = crate::sched::Share::of(&crate::metrics::RunStats {
+            workers: vec![worker("threads", 3, 0.25), worker("gpu", 5, 0.125)],
+            ..Default::default()
+        });
+        r.sourcing = [Some("4096".to_string()), None, Some("true".into())]
+            .into_iter()
+            .chain(crate::sched::Share::cells(&shares))
+            .collect();
+        let mut bytes = (cols.join(",") + "\n").into_bytes();
+        bytes.extend(r.to_line());
+        let back = parse_runs(&bytes).unwrap().0;
+        assert_eq!(back, vec![r.clone()]);
+        assert_eq!(back[0].sourcing("gpu_chunk"), Some("4096"));
+        assert_eq!(back[0].sourcing("gpu_items"), Some("5"));
+        assert_eq!(back[0].shares(), shares.to_vec());
+        // Its config key differs from the same row on threads alone; a threads row's does not
+        // change with the new columns.
+        let plain = row("g", 0);
+        assert_ne!(r.config_key(), plain.config_key());
+        assert!(!plain.config_key().contains("sources"));
+        // A file from before the columns reads them as empty.
+        let old_header = cols[..cols.len() - n].join(",");
+        let line = String::from_utf8(plain.to_line()).unwrap();
+        let fields: Vec<&str> = line.trim_end().split(',').collect();
+        let text = format!("{old_header}\n{}\n", fields[..fields.len() - n].join(","));
+        let rows = parse_runs(text.as_bytes()).unwrap().0;
+        assert_eq!(rows, vec![plain]);
+        assert!(rows[0].shares().iter().all(Option::is_none));
     }
 
     #[test]

@@ -148,7 +148,15 @@ fn prepare_meta(
                 plan.file_hash
             )));
         }
-        let diffs = meta::resume_conflict(&old, &start);
+        let mut diffs = meta::resume_conflict(&old, &start);
+        if let (Some(a), Some(b)) = (&old.gpu, plan.gpu.as_ref().map(|g| &g.info)) {
+            if a != b {
+                diffs.push(format!(
+                    "GPU {} ({}) → {} ({})",
+                    a.name, a.driver, b.name, b.driver
+                ));
+            }
+        }
         if !diffs.is_empty() {
             return Err(RunError::Refused(format!(
                 "{}: its {rows_before} rows were measured elsewhere ({}); resuming would mix them: use --fresh or another --out",
@@ -174,6 +182,8 @@ fn prepare_meta(
 struct SerialInfo {
     walls: Vec<f64>,
     hash: Option<String>,
+    /// Its image, kept (or read back from `images/`) where GPU rows are compared with it.
+    image: Option<Image>,
 }
 
 /// Measure `plan` into `out/<name>/`, resuming what runs.csv already holds, outside any
@@ -224,7 +234,10 @@ pub fn run_experiment_with(
         serial,
         progress: Progress::new(opts.quiet, todo.upper_bound(plan)),
         remote,
-        mismatches: old_rows.iter().filter(|r| !r.identical).count(),
+        mismatches: old_rows
+            .iter()
+            .filter(|r| !r.identical && r.agrees != Some(true))
+            .count(),
         measured: 0,
         untimed: 0,
         predictions,
@@ -480,9 +493,12 @@ fn predictions(
     let mut groups: Vec<ProbeGroup<'_>> = Vec::new();
     for st in todo.states.iter().filter(|s| !s.done) {
         let c = st.config;
-        let (Some(spec), Sources::Local) = (&c.spec, &c.sources) else {
+        let (Some(spec), Sources::Local(setup)) = (&c.spec, &c.sources) else {
             continue;
         };
+        if setup.set != crate::sched::SourceSet::threads() {
+            continue; // the cost model knows threads only
+        }
         if plan.scene_of(c).scene.frames() > 1 {
             continue;
         }
@@ -522,7 +538,7 @@ fn label_of(plan: &ExperimentPlan, c: &RunConfig) -> String {
         .spec
         .as_ref()
         .map_or("serial".to_string(), |s| match &c.sources {
-            Sources::Local => format!("{} ×{}", s.label(), s.workers),
+            Sources::Local(setup) => format!("{}{} ×{}", s.label(), setup.label(), s.workers),
             Sources::Mpi { transport } => {
                 format!("{} over {} ranks ({transport})", s.label(), s.workers)
             }
@@ -616,6 +632,11 @@ impl Session<'_, '_> {
         let mut row = RunRow::for_config(plan, c);
         row.repetition = rep;
         fill_stats(&mut row, stats);
+        let skip = crate::sched::source_params().len();
+        let shares = crate::sched::Share::cells(&crate::sched::Share::of(stats));
+        for (cell, v) in row.sourcing[skip..].iter_mut().zip(shares) {
+            *cell = v;
+        }
         row.image_hash = hash.clone();
         row.inner = sample.inner;
         row.timestamp = sample.timestamp.clone();
@@ -630,20 +651,19 @@ impl Session<'_, '_> {
             row.predicted_refill_s = Some(p.refill_s);
             row.predicted_imbalance_s = Some(p.imbalance_s);
         }
+        let serial_image = serial_image_path(&self.dir, plan, c);
         let info = self.serial.entry(c.baseline).or_default();
         match &c.spec {
             None => {
                 if info.hash.is_none() {
                     // The image goes first: a row on disk implies its image is too.
-                    let name = &plan.scene_of(c).scene.name;
-                    let stem =
-                        self.dir
-                            .join("images")
-                            .join(format!("serial_{}_{}", slug(name), c.id));
                     image
-                        .save_with_preview(&stem.with_extension("exr"))
-                        .map_err(|e| io_err(&stem, e))?;
+                        .save_with_preview(&serial_image)
+                        .map_err(|e| io_err(&serial_image, e))?;
                     info.hash = Some(hash.clone());
+                    if plan.gpu.is_some() {
+                        info.image = Some(image.clone());
+                    }
                 }
                 info.walls.push(stats.wall_s);
                 row.serial_s = stats.wall_s;
@@ -651,28 +671,79 @@ impl Session<'_, '_> {
             Some(_) => row.serial_s = median(&info.walls),
         }
         row.identical = sample.same && info.hash.as_deref() == Some(hash.as_str());
+        if c.sources.has_gpu() {
+            if info.image.is_none() {
+                // Resumed: the baseline's image is on disk since its first row.
+                let img = Image::load_exr(&serial_image).map_err(|e| io_err(&serial_image, e))?;
+                info.image = Some(img);
+            }
+            let check = super::image_check::compare(image, info.image.as_ref().expect("just set"));
+            row.image_z = Some(check.z);
+            row.agrees = Some(check.agrees);
+        }
         let w = row.workers as f64;
         row.speedup = row.serial_s / row.wall_s;
         row.efficiency = row.speedup / w;
         row.overhead_s = w * row.wall_s - row.serial_s;
         if let Some(t) = &stats.timeline {
-            let mut text = String::from("worker,item,start_ns,end_ns\n");
-            for s in t {
-                text += &format!("{},{},{},{}\n", s.worker, s.item, s.start_ns, s.end_ns);
-            }
-            write_atomic(&timeline_path(&self.dir, &c.id), text.as_bytes())?;
+            write_atomic(
+                &timeline_path(&self.dir, &c.id),
+                timeline_text(t, stats).as_bytes(),
+            )?;
         }
-        if !row.identical {
+        if !row.identical && row.agrees != Some(true) {
             self.mismatches += 1;
             let serial = info.hash.as_deref().unwrap_or("?");
-            let msg = format!(
-                "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {serial}",
-                row.label, row.image_hash
-            );
+            let msg = match row.image_z {
+                Some(z) => format!(
+                    "IMAGE MISMATCH: {} rep {rep}: mean difference to serial {serial} is {z:+.1}σ (beyond 3σ)",
+                    row.label
+                ),
+                None => format!(
+                    "IMAGE MISMATCH: {} rep {rep}: hash {} ≠ serial {serial}",
+                    row.label, row.image_hash
+                ),
+            };
             self.progress.println(&msg);
         }
         self.runs.append(&row).map_err(RunError::from)
     }
+}
+
+/// Where the serial image of `c`'s baseline is: `images/serial_<scene>_<baseline config>.exr`.
+fn serial_image_path(dir: &Path, plan: &ExperimentPlan, c: &RunConfig) -> PathBuf {
+    let id = plan
+        .configs
+        .iter()
+        .find(|b| b.spec.is_none() && b.baseline == c.baseline)
+        .map_or(c.id.as_str(), |b| b.id.as_str());
+    let name = &plan.scene_of(c).scene.name;
+    // `with_extension`, as the images were always named: a scene name with a dot loses its tail.
+    dir.join("images")
+        .join(format!("serial_{}_{id}", slug(name)))
+        .with_extension("exr")
+}
+
+/// A timeline file: one `worker,item,start_ns,end_ns,source` line per span, `source` being
+/// the worker's kind of source (`threads`, `gpu`, …; `master` on the master's lane), so the
+/// Gantt chart groups its lanes by kind.
+pub fn timeline_text(spans: &[crate::metrics::Span], stats: &RunStats) -> String {
+    let mut text = String::from("worker,item,start_ns,end_ns,source\n");
+    for s in spans {
+        let source = if s.worker == crate::metrics::MASTER_LANE {
+            "master"
+        } else {
+            stats
+                .workers
+                .get(s.worker as usize)
+                .map_or("", |w| w.source.as_str())
+        };
+        text += &format!(
+            "{},{},{},{},{source}\n",
+            s.worker, s.item, s.start_ns, s.end_ns
+        );
+    }
+    text
 }
 
 /// What one timed sample recorded besides its renders.
@@ -738,7 +809,12 @@ fn measure(
                 },
             ))
         }
-        Some(spec) if c.sources != Sources::Local => {
+        Some(spec) if c.sources.has_gpu() => {
+            let mut spec = spec.clone();
+            spec.timeline = timeline;
+            measure_gpu(plan, c, &spec)
+        }
+        Some(spec) if c.sources != Sources::threads() => {
             let mut spec = spec.clone();
             spec.timeline = timeline;
             let r = remote.as_deref_mut().ok_or_else(|| {
@@ -758,6 +834,44 @@ fn measure(
             })
         }
     }
+}
+
+/// One timed run of a configuration with a GPU source, on the plan's device.
+#[cfg(feature = "gpu")]
+fn measure_gpu(
+    plan: &ExperimentPlan,
+    c: &RunConfig,
+    spec: &SchedulerSpec,
+) -> Result<(Image, RunStats), RunError> {
+    let b = &plan.baselines[c.baseline];
+    let scene = &plan.scene_of(c).scene;
+    let (Sources::Local(setup), Some(gpu)) = (&c.sources, &plan.gpu) else {
+        return Err(RunError::Refused(format!(
+            "{}: a GPU configuration without the plan's GPU",
+            c.id
+        )));
+    };
+    let renderer = gpu.renderers[b.scene].clone();
+    let opts = crate::sched::RunOptions::default();
+    crate::sched::run_with_sources(spec, setup, scene, &b.tracer, Some(renderer), &opts)
+        .map(|(frames, stats)| (Image::stack(frames), stats))
+        .map_err(|source| RunError::Sched {
+            config: format!("{} {}{}", c.id, spec.label(), setup.label()),
+            source,
+        })
+}
+
+/// Without feature `gpu` no configuration has a GPU source ([`crate::sched::SourceSet::new`]).
+#[cfg(not(feature = "gpu"))]
+fn measure_gpu(
+    _plan: &ExperimentPlan,
+    c: &RunConfig,
+    _spec: &SchedulerSpec,
+) -> Result<(Image, RunStats), RunError> {
+    Err(RunError::Refused(format!(
+        "{}: a GPU configuration in a build without feature `gpu`",
+        c.id
+    )))
 }
 
 fn fill_stats(row: &mut RunRow, s: &RunStats) {

@@ -64,6 +64,57 @@ pub struct Summary {
     pub imbalance_median: f64,
     /// Every repetition's image was identical to the serial baseline's.
     pub identical: bool,
+    /// Configurations with a GPU source: every repetition's image agreed with the serial one
+    /// within 3σ (`None` elsewhere).
+    pub agrees: Option<bool>,
+    /// Who rendered what, per kind in `SourceKind::ALL` order (`None`: the kind did not
+    /// render).
+    pub shares: Vec<Option<ShareSummary>>,
+}
+
+/// What one kind of source did over a configuration's repetitions (medians).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShareSummary {
+    /// Median fraction of the image's pixels the kind rendered.
+    pub pixel_share: f64,
+    /// Median items it rendered.
+    pub items: f64,
+    /// Median busy seconds summed over its sources.
+    pub busy_s: f64,
+}
+
+impl Summary {
+    /// Did every repetition give the serial image: bit for bit, or (a GPU source) within 3σ?
+    pub fn image_ok(&self) -> bool {
+        self.identical || self.agrees == Some(true)
+    }
+}
+
+/// The per-kind medians of `rows`' shares ([`RunRow::shares`]).
+fn share_summaries(rows: &[&RunRow]) -> Vec<Option<ShareSummary>> {
+    let per_row: Vec<Vec<Option<crate::sched::Share>>> = rows.iter().map(|r| r.shares()).collect();
+    (0..crate::sched::SourceKind::ALL.len())
+        .map(|k| {
+            let got: Vec<(crate::sched::Share, u64)> = per_row
+                .iter()
+                .filter_map(|sh| {
+                    let total: u64 = sh.iter().flatten().map(|s| s.pixels).sum();
+                    Some((sh.get(k).copied().flatten()?, total))
+                })
+                .collect();
+            if got.is_empty() {
+                return None;
+            }
+            let m = |f: &dyn Fn(&(crate::sched::Share, u64)) -> f64| {
+                median(&got.iter().map(f).collect::<Vec<f64>>())
+            };
+            Some(ShareSummary {
+                pixel_share: m(&|(s, t)| s.pixels as f64 / (*t).max(1) as f64),
+                items: m(&|(s, _)| s.items as f64),
+                busy_s: m(&|(s, _)| s.busy_s),
+            })
+        })
+        .collect()
 }
 
 impl Summary {
@@ -197,6 +248,12 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
                 imbalance_s_median: median(&col(|r| r.imbalance_s)),
                 imbalance_median: median(&col(|r| r.imbalance)),
                 identical: rs.iter().all(|r| r.identical),
+                agrees: rs
+                    .iter()
+                    .map(|r| r.agrees)
+                    .reduce(|a, b| a.zip(b).map(|(a, b)| a && b))
+                    .flatten(),
+                shares: share_summaries(rs),
             }
         })
         .collect()
@@ -255,9 +312,22 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "speedup_ci_hi",
         "inner",
         "load_max",
+        "agrees",
     ];
+    let kinds = crate::sched::SourceKind::ALL;
+    let share_names: Vec<String> = kinds
+        .iter()
+        .flat_map(|k| {
+            ["pixel_share", "items_median", "busy_s_median"].map(|p| format!("{}_{p}", k.id()))
+        })
+        .collect();
     let params = param_columns().iter().map(|p| p.name);
-    w.write_record(head.into_iter().chain(params).chain(tail))?;
+    w.write_record(
+        head.into_iter()
+            .chain(params)
+            .chain(tail)
+            .chain(share_names.iter().map(String::as_str)),
+    )?;
     let o = |v: &Option<String>| v.clone().unwrap_or_default();
     let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
     for s in sums {
@@ -318,9 +388,18 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
                 .unwrap_or_default(),
             s.inner.to_string(),
             s.load_max.map(|l| format!("{l:.2}")).unwrap_or_default(),
+            s.agrees.map(|a| a.to_string()).unwrap_or_default(),
         ];
+        let shares = s.shares.iter().flat_map(|sh| match sh {
+            Some(x) => [
+                format!("{:.4}", x.pixel_share),
+                format!("{}", x.items),
+                f(x.busy_s),
+            ],
+            None => Default::default(),
+        });
         let params = r.params.iter().map(o);
-        w.write_record(head.into_iter().chain(params).chain(tail))?;
+        w.write_record(head.into_iter().chain(params).chain(tail).chain(shares))?;
     }
     w.flush()?;
     Ok(())

@@ -461,29 +461,96 @@ fn overhead_chart<DB: DrawingBackend>(
     Ok(())
 }
 
-/// (worker, item, start_ns, end_ns) rows of a timeline file.
-fn read_timeline(path: &Path) -> Result<Vec<(u32, u32, u64, u64)>, String> {
-    let mut rdr =
-        csv::Reader::from_path(path).map_err(|err| format!("{}: {err}", path.display()))?;
-    rdr.deserialize()
-        .map(|r| r.map_err(|err| format!("{}: {err}", path.display())))
-        .collect()
+/// One line of a timeline file (`source` is absent in files written before it).
+#[derive(serde::Deserialize)]
+struct SpanLine {
+    worker: u32,
+    item: u32,
+    start_ns: u64,
+    end_ns: u64,
+    #[serde(default)]
+    source: String,
 }
 
-fn gantt_chart<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    title: &str,
-    spans: &[(u32, u32, u64, u64)],
-) -> R {
-    let workers = spans
+/// (worker, item, start_ns, end_ns) rows of a timeline file, and each worker's kind of
+/// source where the file records it.
+fn read_timeline(path: &Path) -> Result<Timeline, String> {
+    let mut rdr =
+        csv::Reader::from_path(path).map_err(|err| format!("{}: {err}", path.display()))?;
+    let mut out = Timeline::default();
+    for r in rdr.deserialize::<SpanLine>() {
+        let l = r.map_err(|err| format!("{}: {err}", path.display()))?;
+        if !l.source.is_empty()
+            && l.worker != MASTER_LANE
+            && !out.kinds.iter().any(|k| k.0 == l.worker)
+        {
+            out.kinds.push((l.worker, l.source));
+        }
+        out.spans.push((l.worker, l.item, l.start_ns, l.end_ns));
+    }
+    Ok(out)
+}
+
+/// A run's spans and the kind of source of each worker (empty for files without it).
+#[derive(Default)]
+struct Timeline {
+    spans: Vec<(u32, u32, u64, u64)>,
+    kinds: Vec<(u32, String)>,
+}
+
+/// The Gantt chart's lanes, bottom to top: workers grouped by kind of source (threads, then
+/// GPU, then MPI ranks, in `SourceKind::ALL` order; workers of no recorded kind first), by id
+/// within a group, then the master. Each lane is (worker, label); also the lane index where
+/// each group after the first starts.
+fn gantt_lanes(tl: &Timeline) -> (Vec<(u32, String)>, Vec<usize>) {
+    let kind_of = |w: u32| {
+        tl.kinds
+            .iter()
+            .find(|k| k.0 == w)
+            .map_or("", |k| k.1.as_str())
+    };
+    let rank = |kind: &str| {
+        crate::sched::SourceKind::ALL
+            .iter()
+            .position(|k| k.id() == kind)
+            .map_or(0, |p| p + 1)
+    };
+    let mut workers: Vec<u32> = tl
+        .spans
         .iter()
-        .filter(|s| s.0 != MASTER_LANE)
-        .map(|s| s.0 + 1)
-        .max()
-        .unwrap_or(1);
-    let has_master = spans.iter().any(|s| s.0 == MASTER_LANE);
-    let lanes = workers + u32::from(has_master);
-    let lane = |w: u32| if w == MASTER_LANE { workers } else { w } as f64;
+        .map(|s| s.0)
+        .filter(|&w| w != MASTER_LANE)
+        .collect();
+    workers.sort_unstable_by_key(|&w| (rank(kind_of(w)), w));
+    workers.dedup();
+    let mut lanes = Vec::new();
+    let mut starts = Vec::new();
+    for w in workers {
+        let kind = kind_of(w);
+        if let Some((prev, _)) = lanes.last() {
+            if kind_of(*prev) != kind {
+                starts.push(lanes.len());
+            }
+        }
+        let label = if kind.is_empty() {
+            format!("worker {w}")
+        } else {
+            format!("{kind} {w}")
+        };
+        lanes.push((w, label));
+    }
+    if tl.spans.iter().any(|s| s.0 == MASTER_LANE) {
+        starts.push(lanes.len());
+        lanes.push((MASTER_LANE, "master".to_string()));
+    }
+    (lanes, starts)
+}
+
+fn gantt_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, tl: &Timeline) -> R {
+    let spans = &tl.spans[..];
+    let (lane_list, group_starts) = gantt_lanes(tl);
+    let lanes = lane_list.len().max(1) as u32;
+    let lane = |w: u32| lane_list.iter().position(|l| l.0 == w).unwrap_or(0) as f64;
     let end_ms = spans.iter().map(|s| s.3).max().unwrap_or(1) as f64 / 1e6;
     let mut chart = ChartBuilder::on(root)
         .caption(title, ("sans-serif", 20))
@@ -494,12 +561,12 @@ fn gantt_chart<DB: DrawingBackend>(
         .build_cartesian_2d(0.0..end_ms * 1.02, -0.5..lanes as f64 + 0.5)
         .map_err(e)?;
     let fmt_y = |v: &f64| {
-        if (v - v.round()).abs() > 1e-6 || *v < 0.0 || v.round() as u32 >= lanes {
+        if (v - v.round()).abs() > 1e-6 || *v < 0.0 {
             String::new()
-        } else if has_master && v.round() as u32 == workers {
-            "master".into()
         } else {
-            format!("worker {}", v.round())
+            lane_list
+                .get(v.round() as usize)
+                .map_or(String::new(), |l| l.1.clone())
         }
     };
     chart
@@ -513,6 +580,16 @@ fn gantt_chart<DB: DrawingBackend>(
         .axis_desc_style(("sans-serif", 16))
         .draw()
         .map_err(e)?;
+    // A line between lane groups: threads below, the GPU above, the master on top.
+    for &g in &group_starts {
+        let y = g as f64 - 0.5;
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, y), (end_ms * 1.02, y)],
+                BLACK.mix(0.6).stroke_width(1),
+            ))
+            .map_err(e)?;
+    }
     // Colour = the item's duration, in five bins of a colour-blind-safe sequential scale
     // (viridis), log-spaced when durations spread over more than a decade.
     const BINS: [RGBColor; 5] = [
@@ -922,13 +999,32 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
             picks.push(("master_per_ray".into(), *pr));
         }
     }
+    // The fastest run of every other set of sources (threads+gpu, gpu): its lanes by kind.
+    let mut sets: Vec<&str> = Vec::new();
+    for s in &gr.all {
+        if s.row.sources != "local" && !sets.contains(&s.row.sources.as_str()) {
+            sets.push(&s.row.sources);
+        }
+    }
+    for set in sets {
+        let fastest = gr
+            .all
+            .iter()
+            .filter(|s| s.row.sources == set)
+            .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median));
+        if let Some(f) = fastest {
+            if !picks.iter().any(|(_, s)| s.row.config == f.row.config) {
+                picks.push((format!("{}_{}", f.row.scheduler, slug(set)), *f));
+            }
+        }
+    }
     for (name, s) in picks {
         let stem = out.plots.join(format!("gantt_{}_{name}", gr.slug));
         let title = format!("Timeline: {} ×{} — {}", s.row.label, s.row.workers, gr.name);
         let tl = timeline_path(out.dir, &s.row.config);
         if tl.exists() {
-            let spans = read_timeline(&tl)?;
-            both!(stem, SIZE, gantt_chart(&title, &spans));
+            let timeline = read_timeline(&tl)?;
+            both!(stem, SIZE, gantt_chart(&title, &timeline));
         } else if out
             .final_plots
             .join(stem.strip_prefix(out.plots).unwrap_or(&stem))
@@ -941,7 +1037,7 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
             out.missing.skipped += 1;
             continue;
         }
-        out.push(&stem, title, "One lane per worker (the master on its own lane); each bar is one work item, coloured by its duration (legend), white gaps are idle time.");
+        out.push(&stem, title, "One lane per worker, grouped by kind of source (threads, GPU, MPI ranks; a line between groups) with the master on its own lane on top; each bar is one work item (a GPU's items of one dispatch share its span), coloured by its duration (legend), white gaps are idle time.");
     }
     Ok(())
 }
@@ -1048,4 +1144,35 @@ fn mpi_throughput(
         title,
         caption: "One line per transport (MPI ranks 1…K−1 render, rank 0 schedules) and one for the same scheduler on K−1 local threads; best buffer B at each chunk size. Per-ray items (left) measure the cost of one message round trip per pixel; from 16×16 tiles on, rendering dominates and the lines should meet.".into(),
     }))
+}
+
+#[cfg(test)]
+mod gantt_tests {
+    use super::*;
+
+    #[test]
+    fn lanes_group_workers_by_kind_of_source_with_the_master_on_top() {
+        let span = |w: u32| (w, 0, 0, 1);
+        let tl = Timeline {
+            spans: vec![span(2), span(MASTER_LANE), span(0), span(1), span(2)],
+            kinds: vec![
+                (2, "gpu".into()),
+                (0, "threads".into()),
+                (1, "threads".into()),
+            ],
+        };
+        let (lanes, starts) = gantt_lanes(&tl);
+        let labels: Vec<&str> = lanes.iter().map(|l| l.1.as_str()).collect();
+        assert_eq!(labels, ["threads 0", "threads 1", "gpu 2", "master"]);
+        assert_eq!(starts, [2, 3]);
+        // A file without kinds: one group, as before.
+        let old = Timeline {
+            spans: tl.spans.clone(),
+            kinds: vec![],
+        };
+        let (lanes, starts) = gantt_lanes(&old);
+        let labels: Vec<&str> = lanes.iter().map(|l| l.1.as_str()).collect();
+        assert_eq!(labels, ["worker 0", "worker 1", "worker 2", "master"]);
+        assert_eq!(starts, [3]);
+    }
 }

@@ -116,7 +116,8 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
 /// budget ran out), and a load average above the core count while measuring.
 pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
     let mut out = Vec::new();
-    for s in sums {
+    // A GPU is not one worker's worth: its rows' efficiency says nothing.
+    for s in sums.iter().filter(|s| !s.row.sources.contains("gpu")) {
         if let Some(r) = &s.speedup {
             let w = s.row.workers as f64;
             if r.lo / w > 1.0 {
@@ -210,6 +211,62 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
     out
 }
 
+/// "Who rendered what": for every configuration whose sources are more than threads, each
+/// kind's share of the pixels, its items and its busy time (medians over the repetitions);
+/// empty when every configuration ran on threads alone.
+pub fn shares_section(sums: &[Summary]) -> String {
+    let mixed: Vec<&Summary> = sums
+        .iter()
+        .filter(|s| s.row.sources != "local" && s.row.sources != "mpi")
+        .collect();
+    if mixed.is_empty() {
+        return String::new();
+    }
+    let mut md = String::from("## Who rendered what\n\n");
+    md += "Per configuration with other sources than threads, each kind's share of the image's pixels, its items and its busy seconds summed over its sources (medians over the repetitions; `<kind>_pixels`, `<kind>_items`, `<kind>_busy_s` in runs.csv).\n\n";
+    md += "| configuration | workers | wall (median) | ";
+    let kinds = crate::sched::SourceKind::ALL;
+    let present: Vec<usize> = (0..kinds.len())
+        .filter(|&k| {
+            mixed
+                .iter()
+                .any(|s| s.shares.get(k).copied().flatten().is_some())
+        })
+        .collect();
+    md += &present
+        .iter()
+        .map(|&k| format!("{} (pixels · items · busy)", kinds[k].id()))
+        .collect::<Vec<_>>()
+        .join(" | ");
+    md += " |\n|---|---|---|";
+    md += &"---|".repeat(present.len());
+    md += "\n";
+    for s in mixed {
+        let cells: Vec<String> = present
+            .iter()
+            .map(|&k| match s.shares.get(k).copied().flatten() {
+                Some(x) => format!(
+                    "{:.1} % · {:.0} · {:.3} s",
+                    100.0 * x.pixel_share,
+                    x.items,
+                    x.busy_s
+                ),
+                None => "—".into(),
+            })
+            .collect();
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | {:.4} s | {} |",
+            s.row.label,
+            s.row.workers,
+            s.wall_median,
+            cells.join(" | ")
+        );
+    }
+    md.push('\n');
+    md
+}
+
 /// The text of `report.md`: `meta` (if readable) for the run and machine sections, `sums` for
 /// the results, `figs` for the plots; `runs` is the number of timed runs.
 pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usize) -> String {
@@ -218,11 +275,11 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         .first()
         .map_or("experiment", |s| s.row.experiment.as_str());
     let _ = writeln!(md, "# Experiment `{name}`\n");
-    let mismatched: Vec<&Summary> = sums.iter().filter(|s| !s.identical).collect();
+    let mismatched: Vec<&Summary> = sums.iter().filter(|s| !s.image_ok()).collect();
     if !mismatched.is_empty() {
         let _ = writeln!(
             md,
-            "**{} configuration(s) produced an image different from the serial baseline** (rows with `identical=false` in runs.csv): {}.\n",
+            "**{} configuration(s) produced an image different from the serial baseline** (rows with `identical=false` in runs.csv, and for a GPU source `agrees=false`): {}.\n",
             mismatched.len(),
             mismatched.iter().map(|s| format!("`{}` ×{}", s.row.label, s.row.workers)).collect::<Vec<_>>().join(", ")
         );
@@ -280,7 +337,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             );
         }
     }
-    let _ = writeln!(md, "- Speedup = t_serial / t (serial = one thread, no scheduler, same scene, tracer and settings); every image is compared bit for bit with the serial one.\n");
+    let _ = writeln!(md, "- Speedup = t_serial / t (serial = one thread, no scheduler, same scene, tracer and settings); every image is compared bit for bit with the serial one, except where a GPU rendered: its kernel rounds differently, so those images must agree with the serial one within 3σ of the paired per-pixel differences (`agrees`, `image_z` in runs.csv).\n");
     if let Some(m) = meta {
         let c = &m.machine;
         let _ = writeln!(md, "## Machine\n");
@@ -300,6 +357,13 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         );
         if let Some(b) = &m.build {
             let _ = writeln!(md, "- build: {} profile, target {}", b.profile, b.target);
+        }
+        if let Some(g) = &m.gpu {
+            let _ = writeln!(
+                md,
+                "- GPU: {} ({}, driver {}, {})",
+                g.name, g.device_type, g.driver, g.backend
+            );
         }
         if !m.history.is_empty() {
             let _ = writeln!(
@@ -328,6 +392,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         }
         let _ = writeln!(md);
     }
+    md += &shares_section(sums);
     let _ = writeln!(md, "## Result\n");
     let mut any = false;
     for g in &groups {

@@ -44,6 +44,8 @@ struct Lane {
     buffer: usize,
     /// Pixels of its results accepted since the balancer last looked.
     pixels_since: u64,
+    /// Pixels per hand-out (its items go out in groups this large); 0: item by item.
+    grain: u64,
 }
 
 impl Lane {
@@ -156,44 +158,100 @@ impl<'a> Ledger<'a> {
         }
     }
 
-    /// Top `lane` up to B fresh outstanding items from the queue; `first` gets the first item
-    /// handed out in this pass.
+    /// Top `lane` up to B fresh outstanding items from the queue (B hand-outs of its grain
+    /// for a lane with one, [`Self::top_up_grouped`]); `first` gets the first item handed out
+    /// in this pass.
     fn top_up(&mut self, lane: &mut Lane, now: Instant, stale: Duration, first: &mut Option<u32>) {
+        if lane.grain > 0 {
+            return self.top_up_grouped(lane, now, stale, first);
+        }
         let mut scanned = 0;
         let len = self.queue.len();
         let mut fresh = lane.slots.iter().filter(|sl| now - sl.at < stale).count();
         while fresh < lane.buffer && scanned < len {
-            let Some(i) = self.queue.pop_front() else {
-                break;
-            };
             scanned += 1;
-            if self.collector.is_done(i) {
-                continue; // finished: leaves the queue for good
-            }
-            if self.handed[i as usize] {
-                if !self.may_reissue(i, &lane.slots, now, stale) {
-                    self.queue.push_back(i);
-                    continue;
-                }
-                self.reissued += 1;
-            }
-            let item = self.items[i as usize].clone();
-            self.item_bytes += wire::item_bytes(&item);
-            self.batch.push(item);
+            let Some(i) = self.pop_ready(&lane.slots, now, stale) else {
+                continue;
+            };
+            self.issue(i, now, first);
             fresh += 1;
             if fresh == 1 {
                 // The source is idle: its first item goes at once, not after the scan.
                 lane.hand_out(&mut self.batch, &mut self.handed_out, now);
             }
-            first.get_or_insert(i);
-            self.issued += 1;
-            self.handed[i as usize] = true;
-            self.issued_at[i as usize] = Some(now);
-            if self.requeue != Requeue::Never {
-                self.queue.push_back(i);
+        }
+        lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+    }
+
+    /// [`Self::top_up`] for a lane with its own grain: consecutive items go out together
+    /// once their pixels reach the grain (one message, one GPU dispatch), up to B such
+    /// hand-outs' pixels outstanding; only the queue's last items go out as a smaller one.
+    fn top_up_grouped(
+        &mut self,
+        lane: &mut Lane,
+        now: Instant,
+        stale: Duration,
+        first: &mut Option<u32>,
+    ) {
+        let items = self.items;
+        let px = |i: u32| items[i as usize].pixel_count() as u64;
+        let cap = lane.buffer as u64 * lane.grain;
+        let mut fresh: u64 = lane
+            .slots
+            .iter()
+            .filter(|sl| now - sl.at < stale)
+            .map(|sl| px(sl.item))
+            .sum();
+        let mut grouped = 0u64;
+        let mut scanned = 0;
+        let len = self.queue.len();
+        // A group once started is completed, so every hand-out but the last is whole.
+        while (fresh < cap || grouped > 0) && scanned < len {
+            scanned += 1;
+            let Some(i) = self.pop_ready(&lane.slots, now, stale) else {
+                continue;
+            };
+            self.issue(i, now, first);
+            fresh += px(i);
+            grouped += px(i);
+            if grouped >= lane.grain {
+                lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+                grouped = 0;
             }
         }
         lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+    }
+
+    /// The queue's next item if it may be handed out now to the source holding `slots`;
+    /// `None` when it is done (it leaves the queue) or may not go out again yet (it goes to
+    /// the back).
+    fn pop_ready(&mut self, slots: &[Slot], now: Instant, stale: Duration) -> Option<u32> {
+        let i = self.queue.pop_front()?;
+        if self.collector.is_done(i) {
+            return None; // finished: leaves the queue for good
+        }
+        if self.handed[i as usize] {
+            if !self.may_reissue(i, slots, now, stale) {
+                self.queue.push_back(i);
+                return None;
+            }
+            self.reissued += 1;
+        }
+        Some(i)
+    }
+
+    /// Put item `i` into the batch being handed out and book it.
+    fn issue(&mut self, i: u32, now: Instant, first: &mut Option<u32>) {
+        let item = self.items[i as usize].clone();
+        self.item_bytes += wire::item_bytes(&item);
+        self.batch.push(item);
+        first.get_or_insert(i);
+        self.issued += 1;
+        self.handed[i as usize] = true;
+        self.issued_at[i as usize] = Some(now);
+        if self.requeue != Requeue::Never {
+            self.queue.push_back(i);
+        }
     }
 
     /// May item `i`, already handed out, go out again, to the source holding `slots`? The
@@ -228,8 +286,13 @@ struct Master<'a> {
 /// whether a time-equalising balancer resizes them as throughputs are measured.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Hetero {
-    /// Per source (by position), its buffer; missing entries take the master's B.
+    /// Per source (by position), its buffer; missing entries take the master's B. For a
+    /// source with a grain, B counts hand-outs of that grain.
     pub buffers: Vec<usize>,
+    /// Per source (by position), pixels per hand-out: consecutive items go out together
+    /// until their pixels reach it (a GPU wants large dispatches, threads small items);
+    /// 0 or a missing entry: item by item.
+    pub grains: Vec<u64>,
     /// Resize every source's buffer so that each holds the same time's worth of work, at most
     /// once per [`REBALANCE_EVERY`] and only when that time differs by more than
     /// [`REBALANCE_IMBALANCE`] between sources (the rule of Blender Cycles' multi-device
@@ -252,6 +315,8 @@ struct Balancer {
     pixels_per_item: f64,
     /// Most items one source may hold: a fast source must not swallow the tail of the queue.
     cap: usize,
+    /// Per lane, pixels per unit of its buffer (its grain, or the mean item).
+    units: Vec<f64>,
     /// Rebalances made.
     pub(crate) moves: u64,
 }
@@ -281,6 +346,7 @@ impl Balancer {
             base: self.base,
             pixels_per_item: self.pixels_per_item,
             cap: self.cap,
+            units: self.units.clone(),
         };
         if let Some(new) = sizing.balanced(&buffers, &thr) {
             for (l, b) in lanes.iter_mut().zip(new) {
@@ -292,10 +358,14 @@ impl Balancer {
 }
 
 /// The time-equalising rule, apart from the master's state so it can be tested alone.
+#[derive(Clone)]
 struct Sizing {
     base: usize,
     pixels_per_item: f64,
+    /// Most items one source may hold.
     cap: usize,
+    /// Per source, pixels per unit of its buffer; a missing entry: `pixels_per_item`.
+    units: Vec<f64>,
 }
 
 impl Sizing {
@@ -304,19 +374,26 @@ impl Sizing {
     /// (the slowest keeps `base`), or `None` when the current ones already agree within
     /// [`REBALANCE_IMBALANCE`].
     fn balanced(&self, buffers: &[usize], thr: &[f64]) -> Option<Vec<usize>> {
+        let unit = |i: usize| self.units.get(i).copied().unwrap_or(self.pixels_per_item);
         let live: Vec<usize> = (0..buffers.len()).filter(|&i| thr[i] > 0.0).collect();
-        let slowest = live.iter().map(|&i| thr[i]).min_by(f64::total_cmp)?;
-        let hold = |i: usize| buffers[i] as f64 * self.pixels_per_item / thr[i];
+        let slowest = live
+            .iter()
+            .copied()
+            .min_by(|&a, &b| thr[a].total_cmp(&thr[b]))?;
+        let hold = |i: usize| buffers[i] as f64 * unit(i) / thr[i];
         let (lo, hi) = live.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &i| {
             (lo.min(hold(i)), hi.max(hold(i)))
         });
         if live.len() < 2 || hi <= 0.0 || (hi - lo) / hi <= REBALANCE_IMBALANCE {
             return None;
         }
+        // Every source holds what the slowest holds with the base buffer.
+        let target_s = self.base as f64 * unit(slowest) / thr[slowest];
         let mut out = buffers.to_vec();
         for &i in &live {
-            let want = (self.base as f64 * thr[i] / slowest).round() as usize;
-            out[i] = want.clamp(1, self.cap.max(1));
+            let want = (target_s * thr[i] / unit(i)).round() as usize;
+            let cap = (self.cap as f64 * self.pixels_per_item / unit(i)).round() as usize;
+            out[i] = want.clamp(1, cap.max(1));
         }
         (out != buffers).then_some(out)
     }
@@ -346,13 +423,29 @@ pub fn run_master_hetero(
     for (lane, &b) in master.lanes.iter_mut().zip(&hetero.buffers) {
         lane.buffer = b.max(1);
     }
+    let pixels: usize = items.iter().map(|i| i.pixel_count()).sum();
+    let pixels_per_item = pixels as f64 / items.len().max(1) as f64;
+    for (lane, &g) in master.lanes.iter_mut().zip(&hetero.grains) {
+        // A grain no larger than the items changes nothing: item by item.
+        lane.grain = if (g as f64) > pixels_per_item { g } else { 0 };
+    }
     if hetero.balance && master.lanes.len() > 1 {
-        let pixels: usize = items.iter().map(|i| i.pixel_count()).sum();
         master.balancer = Some(Balancer {
             last: master.t0,
             base: params.buffer,
-            pixels_per_item: pixels as f64 / items.len().max(1) as f64,
+            pixels_per_item,
             cap: (items.len() / master.lanes.len()).max(params.buffer),
+            units: master
+                .lanes
+                .iter()
+                .map(|l| {
+                    if l.grain > 0 {
+                        l.grain as f64
+                    } else {
+                        pixels_per_item
+                    }
+                })
+                .collect(),
             moves: 0,
         });
     }
@@ -396,6 +489,7 @@ impl<'a> Master<'a> {
                 alive: true,
                 buffer: params.buffer,
                 pixels_since: 0,
+                grain: 0,
             })
             .collect();
         Self {
@@ -579,6 +673,7 @@ mod balancer_tests {
             base: 2,
             pixels_per_item: 16.0,
             cap: 1000,
+            units: vec![],
         };
         // A source 100× as fast as the other gets 100× the buffer.
         assert_eq!(s.balanced(&[2, 2], &[1e3, 1e5]), Some(vec![2, 200]));
@@ -586,18 +681,32 @@ mod balancer_tests {
         assert_eq!(s.balanced(&[2, 200], &[1e3, 1e5]), None);
         assert_eq!(s.balanced(&[100, 100], &[1e3, 1.015e3]), None);
         // 3 % apart: resized (the slowest keeps the base).
-        let s2 = Sizing { base: 100, ..s };
+        let s2 = Sizing {
+            base: 100,
+            ..s.clone()
+        };
         assert_eq!(
             s2.balanced(&[100, 100], &[1e3, 1.03e3]),
             Some(vec![100, 103])
         );
         // A source with no result in the period keeps its buffer; the cap holds.
-        let s3 = Sizing { cap: 50, ..s };
+        let s3 = Sizing {
+            cap: 50,
+            ..s.clone()
+        };
         assert_eq!(
             s3.balanced(&[2, 2, 7], &[1e3, 1e5, 0.0]),
             Some(vec![2, 50, 7])
         );
         // One source alone is never rebalanced.
         assert_eq!(s.balanced(&[2, 2], &[1e3, 0.0]), None);
+        // A source whose buffer counts hand-outs of 1600 px (100 items): 100× as fast, it
+        // holds 100× the slowest's time in 200 items = 2 hand-outs.
+        let g = Sizing {
+            units: vec![16.0, 1600.0],
+            ..s.clone()
+        };
+        assert_eq!(g.balanced(&[2, 1], &[1e3, 1e5]), Some(vec![2, 2]));
+        assert_eq!(g.balanced(&[2, 2], &[1e3, 1e5]), None);
     }
 }

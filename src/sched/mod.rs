@@ -23,7 +23,9 @@ pub use param::{
 };
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
-pub use sources::{SourceKind, SourceSet};
+pub use sources::{
+    share_columns, source_params, HandOut, Share, SourceKind, SourceParam, SourceSet, SourceSetup,
+};
 pub use spec::{
     param_columns, AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams,
     GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
@@ -157,20 +159,50 @@ pub fn run_scheduler_frames<T: Tracer + 'static>(
     Ok((frames, stats))
 }
 
-/// Render every frame of `scene` under the master with `threads` local threads (slowed as
-/// `spec.slow` says) and, when given, the GPU renderer `gpu` as one more source, each source
-/// with its own buffer (`hetero`). Only the master can hand out to a GPU: every other
-/// scheduler runs its own threads.
+/// The master's per-source settings for `threads` local threads followed by `gpus` GPU
+/// sources under `setup`, on a `width`×`height` image: each kind's own buffer and grain
+/// ([`HandOut`]), and whether the balancer runs.
+pub fn hetero_of(
+    setup: &SourceSetup,
+    params: &MasterParams,
+    threads: usize,
+    gpus: usize,
+    (width, height): (u32, u32),
+) -> Hetero {
+    let lanes = std::iter::repeat_n(SourceKind::Threads, threads)
+        .chain(std::iter::repeat_n(SourceKind::Gpu, gpus));
+    let (buffers, grains) = lanes
+        .map(|k| {
+            let own = setup.own(k);
+            (
+                own.buffer.unwrap_or(params.buffer),
+                own.chunk.map_or(0, |c| c.pixels(width, height)),
+            )
+        })
+        .unzip();
+    Hetero {
+        buffers,
+        grains,
+        balance: setup.balance,
+    }
+}
+
+/// Render every frame of `scene` under the master on the sources of `setup`: `spec.workers`
+/// local threads (slowed as `spec.slow` says) when the set has threads, and the GPU renderer
+/// `gpu` as one more source when it has a GPU, each kind with its own buffer and grain
+/// ([`hetero_of`]). Only the master can hand out to a GPU: every other scheduler runs its
+/// own threads.
 #[cfg(feature = "gpu")]
-pub fn run_with_gpu<T: Tracer + 'static>(
+pub fn run_with_sources<T: Tracer + 'static>(
     spec: &SchedulerSpec,
+    setup: &SourceSetup,
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
     gpu: Option<Arc<crate::gpu::GpuRenderer>>,
-    threads: usize,
-    hetero: &Hetero,
     opts: &RunOptions,
 ) -> Result<(Vec<Image>, RunStats), SchedError> {
+    spec.validate()?;
+    setup.validate()?;
     let Policy::Master(m) = spec.policy else {
         return Err(SpecError {
             field: "scheduler".into(),
@@ -181,12 +213,26 @@ pub fn run_with_gpu<T: Tracer + 'static>(
         }
         .into());
     };
+    let gpu = if setup.set.has(SourceKind::Gpu) {
+        Some(gpu.ok_or_else(|| SpecError {
+            field: "sources".into(),
+            msg: "gpu among the sources but no GPU renderer given".into(),
+        })?)
+    } else {
+        None
+    };
+    let threads = if setup.set.has(SourceKind::Threads) {
+        spec.workers
+    } else {
+        0
+    };
     let (w, h) = (scene.width(), scene.height());
     let (chunk, order) = spec.layout(w, h);
     let items = decompose_frames(w, h, scene.frames(), chunk, order);
     let probe = Probe::new(opts.stats, spec.timeline);
     let jobs = worker_jobs(&render_job(scene, tracer), threads, spec.slow);
     let mut sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
+    let gpus = usize::from(gpu.is_some());
     if let Some(g) = gpu {
         let id = sources.len() as u32;
         sources.push(Box::new(crate::source::GpuSource::spawn(id, g, probe)));
@@ -198,7 +244,9 @@ pub fn run_with_gpu<T: Tracer + 'static>(
             total: items.len() as u64,
         });
     }
-    let (results, mut stats) = master::run_master_hetero(&m, hetero, &items, sources, opts, probe)?;
+    let hetero = hetero_of(setup, &m, threads, gpus, (w, h));
+    let (results, mut stats) =
+        master::run_master_hetero(&m, &hetero, &items, sources, opts, probe)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))

@@ -1,10 +1,14 @@
 //! The one definition of the kinds of compute source: ids (CLI `--sources`, experiment
-//! `sources = [...]`, the CSV's `sources` column), the cargo feature each needs, and the set a
-//! run renders with. A run's sources are a set of kinds: `threads`, `gpu`, `threads+gpu`,
-//! `mpi`.
+//! `sources = [...]`, the CSV's `sources` column), the cargo feature each needs, the set a
+//! run renders with, each kind's own hand-out settings under the master ([`SourceSetup`]:
+//! `--gpu-chunk` / `gpu_chunk`, `--gpu-buffer` / `gpu_buffer`, `--balance` / `balance`) and
+//! the per-kind columns of `runs.csv` ([`share_columns`]). A run's sources are a set of
+//! kinds: `threads`, `gpu`, `threads+gpu`, `mpi`.
 
-use super::param::{err, id_enum, one_of, ParamValue, SpecError};
+use super::param::{err, id_enum, one_of, Chunk, ParamValue, SpecError};
+use crate::metrics::RunStats;
 use serde::{Deserialize, Serialize};
+use std::sync::OnceLock;
 
 id_enum! {
     /// A kind of compute source.
@@ -26,6 +30,13 @@ impl SourceKind {
             Self::Gpu => Some("gpu"),
             Self::Mpi => Some("mpi"),
         }
+    }
+
+    /// Does this kind take its own chunk and buffer under the master (`gpu_chunk`,
+    /// `gpu_buffer`)? Threads take the scheduler's `chunk` and `buffer`; MPI ranks are
+    /// configured by their launch.
+    pub fn own_handout(self) -> bool {
+        matches!(self, Self::Gpu)
     }
 
     /// Was this build compiled with what the kind needs?
@@ -100,9 +111,19 @@ impl SourceSet {
         self.0.contains(&k)
     }
 
-    /// The id as written to the CSV: kinds joined by `+` (`threads+gpu`).
+    /// The id: kinds joined by `+` (`threads+gpu`).
     pub fn id(&self) -> String {
         self.0.iter().map(|k| k.id()).collect::<Vec<_>>().join("+")
+    }
+
+    /// The `sources` column of runs.csv: [`Self::id`], except `local` for threads alone
+    /// (the column's value since before the other kinds; [`Self::parse`] reads it back).
+    pub fn column(&self) -> String {
+        if *self == Self::threads() {
+            "local".into()
+        } else {
+            self.id()
+        }
     }
 }
 
@@ -118,6 +139,279 @@ impl ParamValue for SourceSet {
     }
     fn show(&self) -> String {
         self.id()
+    }
+}
+
+/// What one source kind takes under the master instead of the scheduler's values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct HandOut {
+    /// Pixels per hand-out: consecutive items of the decomposition (in hand-out order) until
+    /// their pixels reach this chunk's, sent as one message (one dispatch on a GPU). `None`:
+    /// item by item, as threads get them.
+    pub chunk: Option<Chunk>,
+    /// Hand-outs outstanding at most (its B); `None`: the master's `buffer`.
+    pub buffer: Option<usize>,
+}
+
+/// Which hand-out setting a [`SourceParam`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SourceField {
+    /// [`HandOut::chunk`] of one kind.
+    Chunk(SourceKind),
+    /// [`HandOut::buffer`] of one kind.
+    Buffer(SourceKind),
+    /// [`SourceSetup::balance`].
+    Balance,
+}
+
+/// One setting of [`SourceSetup`]: its TOML key and CSV column (`gpu_chunk`), CLI flag
+/// (`--gpu-chunk`) and help, derived from [`SourceKind::ALL`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceParam {
+    /// TOML key and CSV column.
+    pub name: String,
+    /// What it sets.
+    pub field: SourceField,
+    /// One line of help.
+    pub help: String,
+}
+
+impl SourceParam {
+    /// The CLI flag without its dashes (`gpu-chunk`).
+    pub fn flag(&self) -> String {
+        self.name.replace('_', "-")
+    }
+}
+
+/// Every [`SourceSetup`] setting: `<kind>_chunk` and `<kind>_buffer` of each kind that takes
+/// its own hand-out ([`SourceKind::own_handout`]), then `balance`.
+pub fn source_params() -> &'static [SourceParam] {
+    static PARAMS: OnceLock<Vec<SourceParam>> = OnceLock::new();
+    PARAMS.get_or_init(|| {
+        let mut out = Vec::new();
+        for k in SourceKind::ALL.into_iter().filter(|k| k.own_handout()) {
+            out.push(SourceParam {
+                name: format!("{}_chunk", k.id()),
+                field: SourceField::Chunk(k),
+                help: format!(
+                    "With {0} among the sources (master): pixels per hand-out to {0} —                      consecutive items until their pixels reach this chunk's (N, WxH, rows:N,                      frame), sent as one message; default: item by item",
+                    k.id()
+                ),
+            });
+            out.push(SourceParam {
+                name: format!("{}_buffer", k.id()),
+                field: SourceField::Buffer(k),
+                help: format!(
+                    "With {0} among the sources (master): hand-outs outstanding on {0} (its                      B); default: the master's buffer",
+                    k.id()
+                ),
+            });
+        }
+        out.push(SourceParam {
+            name: "balance".into(),
+            field: SourceField::Balance,
+            help: "With several kinds of source (master): resize each source's buffer to its                    measured throughput (at most once a second, when the sources' outstanding                    times differ by more than 2 %)"
+                .into(),
+        });
+        out
+    })
+}
+
+/// Who renders a run and how the master hands out to each kind: the set of kinds, each
+/// kind's own chunk and buffer, and whether the time-equalising balancer runs.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct SourceSetup {
+    /// The kinds of source.
+    pub set: SourceSet,
+    /// Per kind, in [`SourceKind::ALL`] order.
+    pub own: [HandOut; SourceKind::ALL.len()],
+    /// Resize the buffers to the measured throughputs (several kinds only).
+    pub balance: bool,
+}
+
+fn pos(k: SourceKind) -> usize {
+    SourceKind::ALL
+        .iter()
+        .position(|&a| a == k)
+        .expect("a kind is in ALL")
+}
+
+impl SourceSetup {
+    /// `set` with the scheduler's chunk and buffer for every kind, no balancer.
+    pub fn of(set: SourceSet) -> Self {
+        Self {
+            set,
+            ..Self::default()
+        }
+    }
+
+    /// Kind `k`'s own hand-out settings.
+    pub fn own(&self, k: SourceKind) -> &HandOut {
+        &self.own[pos(k)]
+    }
+
+    /// Set [`source_params`] entry `name` from its text form.
+    pub fn set_param(&mut self, name: &str, text: &str) -> Result<(), SpecError> {
+        let p = source_params()
+            .iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| err(name, "unknown compute-source setting"))?;
+        let bad = |m: String| err(name, m);
+        match p.field {
+            SourceField::Chunk(k) => {
+                self.own[pos(k)].chunk = Some(Chunk::parse(text).map_err(|e| bad(e.msg))?)
+            }
+            SourceField::Buffer(k) => {
+                self.own[pos(k)].buffer = Some(usize::parse_value(text).map_err(bad)?)
+            }
+            SourceField::Balance => {
+                self.balance = match text.trim() {
+                    "true" => true,
+                    "false" => false,
+                    t => return Err(bad(format!("'{t}': expected true or false"))),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The text form of [`source_params`] entry `name`; `None` where it is unset (the
+    /// scheduler's value) or, for `balance`, off.
+    pub fn get_param(&self, name: &str) -> Option<String> {
+        let p = source_params().iter().find(|p| p.name == name)?;
+        match p.field {
+            SourceField::Chunk(k) => self.own(k).chunk.map(|c| c.to_string()),
+            SourceField::Buffer(k) => self.own(k).buffer.map(|b| b.to_string()),
+            SourceField::Balance => self.balance.then(|| "true".to_string()),
+        }
+    }
+
+    /// Settings given for a kind the set lacks, or a balancer over one kind: an error naming
+    /// the setting.
+    pub fn validate(&self) -> Result<(), SpecError> {
+        for p in source_params() {
+            let (SourceField::Chunk(k) | SourceField::Buffer(k)) = p.field else {
+                continue;
+            };
+            if self.get_param(&p.name).is_some() && !self.set.has(k) {
+                return Err(err(
+                    &p.name,
+                    format!(
+                        "applies only with {} among the sources (got {})",
+                        k.id(),
+                        self.set.id()
+                    ),
+                ));
+            }
+        }
+        if self.balance && self.set.kinds().len() < 2 {
+            return Err(err(
+                "balance",
+                format!(
+                    "needs several kinds of source (got {}; e.g. threads+gpu)",
+                    self.set.id()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// ` sources=threads+gpu gpu_chunk=4096 …` for a run label; empty for threads alone.
+    pub fn label(&self) -> String {
+        if *self == Self::default() {
+            return String::new();
+        }
+        let mut s = format!(" sources={}", self.set.id());
+        for p in source_params() {
+            if let Some(v) = self.get_param(&p.name) {
+                s += &match p.field {
+                    SourceField::Balance => " balance".to_string(),
+                    _ => format!(" {}={v}", p.name),
+                };
+            }
+        }
+        s
+    }
+}
+
+/// Who rendered what, per kind of source: the `<kind>_items`, `<kind>_pixels` and
+/// `<kind>_busy_s` columns of runs.csv, in [`SourceKind::ALL`] order.
+pub fn share_columns() -> &'static [String] {
+    static COLUMNS: OnceLock<Vec<String>> = OnceLock::new();
+    COLUMNS.get_or_init(|| {
+        SourceKind::ALL
+            .iter()
+            .flat_map(|k| SHARE_PARTS.map(|part| format!("{}_{part}", k.id())))
+            .collect()
+    })
+}
+
+/// The three measurements [`share_columns`] has per kind.
+const SHARE_PARTS: [&str; 3] = ["items", "pixels", "busy_s"];
+
+/// What the sources of one kind did over a run (the sum over its workers).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Share {
+    /// Items rendered.
+    pub items: u64,
+    /// Pixels of those items.
+    pub pixels: u64,
+    /// Busy seconds summed over the kind's sources.
+    pub busy_s: f64,
+}
+
+impl Share {
+    /// The per-kind sums of `stats.workers` (by [`crate::metrics::WorkerStats::source`]; a
+    /// worker that recorded no kind counts as threads), `None` for kinds with no worker.
+    pub fn of(stats: &RunStats) -> [Option<Share>; SourceKind::ALL.len()] {
+        let mut out = [None; SourceKind::ALL.len()];
+        for w in &stats.workers {
+            let kind = match w.source.as_str() {
+                "" | "local" => SourceKind::Threads,
+                id => match SourceKind::from_id(id) {
+                    Ok(k) => k,
+                    Err(_) => continue,
+                },
+            };
+            let s: &mut Share = out[pos(kind)].get_or_insert_with(Share::default);
+            s.items += w.items;
+            s.pixels += w.pixels;
+            s.busy_s += w.busy_s;
+        }
+        out
+    }
+
+    /// The cells of [`share_columns`] for these shares (empty for an absent kind).
+    pub fn cells(shares: &[Option<Share>]) -> Vec<Option<String>> {
+        shares
+            .iter()
+            .flat_map(|s| match s {
+                Some(s) => [
+                    Some(s.items.to_string()),
+                    Some(s.pixels.to_string()),
+                    Some(format!("{:.6}", s.busy_s)),
+                ],
+                None => [None, None, None],
+            })
+            .collect()
+    }
+
+    /// The shares back from [`Self::cells`]' cells (`None` where a kind's cells are empty or
+    /// unreadable).
+    pub fn from_cells(cells: &[Option<String>]) -> Vec<Option<Share>> {
+        cells
+            .chunks(SHARE_PARTS.len())
+            .map(|c| {
+                let items = c.first()?.as_deref()?.parse().ok()?;
+                let pixels = c.get(1)?.as_deref()?.parse().ok()?;
+                let busy_s = c.get(2)?.as_deref()?.parse().ok()?;
+                Some(Share {
+                    items,
+                    pixels,
+                    busy_s,
+                })
+            })
+            .collect()
     }
 }
 
@@ -142,5 +436,73 @@ mod tests {
         if cfg!(feature = "mpi") {
             assert!(SourceSet::parse("mpi,threads").is_err());
         }
+        assert_eq!(SourceSet::threads().column(), "local");
+    }
+
+    #[test]
+    fn setup_settings_derive_from_the_kinds_and_refuse_what_does_not_apply() {
+        let names: Vec<&str> = source_params().iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["gpu_chunk", "gpu_buffer", "balance"]);
+        assert_eq!(source_params()[0].flag(), "gpu-chunk");
+        let mut s = SourceSetup::default();
+        assert_eq!(s.label(), "");
+        s.set_param("gpu_chunk", "64x32").unwrap();
+        assert_eq!(
+            s.own(SourceKind::Gpu).chunk,
+            Some(Chunk::Tile { w: 64, h: 32 })
+        );
+        let e = s.validate().unwrap_err();
+        assert_eq!(e.field, "gpu_chunk");
+        assert!(
+            e.msg.contains("only with gpu among the sources"),
+            "{}",
+            e.msg
+        );
+        assert!(s
+            .set_param("gpu_buffer", "0")
+            .unwrap_err()
+            .msg
+            .contains("between 1"));
+        assert!(s
+            .set_param("balance", "yes")
+            .unwrap_err()
+            .msg
+            .contains("true or false"));
+        s = SourceSetup::default();
+        s.set_param("balance", "true").unwrap();
+        assert_eq!(s.validate().unwrap_err().field, "balance");
+        assert_eq!(
+            s.set_param("cpu_chunk", "4").unwrap_err().field,
+            "cpu_chunk"
+        );
+    }
+
+    #[test]
+    fn shares_sum_workers_by_kind_and_round_trip_through_their_cells() {
+        use crate::metrics::WorkerStats;
+        let w = |source: &str, items, busy_s| WorkerStats {
+            items,
+            pixels: 4 * items,
+            busy_s,
+            source: source.into(),
+            ..Default::default()
+        };
+        let stats = RunStats {
+            workers: vec![
+                w("threads", 3, 0.5),
+                w("threads", 2, 0.25),
+                w("gpu", 10, 0.125),
+            ],
+            ..Default::default()
+        };
+        let shares = Share::of(&stats);
+        let t = shares[pos(SourceKind::Threads)].unwrap();
+        assert_eq!((t.items, t.pixels, t.busy_s), (5, 20, 0.75));
+        assert_eq!(shares[pos(SourceKind::Gpu)].unwrap().items, 10);
+        assert_eq!(shares[pos(SourceKind::Mpi)], None);
+        let cells = Share::cells(&shares);
+        assert_eq!(cells.len(), share_columns().len());
+        assert_eq!(share_columns()[0], "threads_items");
+        assert_eq!(Share::from_cells(&cells), shares.to_vec());
     }
 }

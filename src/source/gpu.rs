@@ -8,54 +8,34 @@
 //! the same random numbers but rounds differently (`gpu` module docs), so a run with a GPU
 //! source is compared with the serial image statistically, not bit for bit.
 
+use super::thread::{Flags, SourceThread};
 use super::{Completer, ComputeSource, DelayedResult, Notifier, SourceFailure, SourceReport};
 use crate::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer};
 use crate::metrics::{Probe, Span};
 use crate::render::WorkItem;
-use crossbeam::channel::{unbounded, Receiver, Sender, TryRecvError};
+use crossbeam::channel::{Receiver, TryRecvError};
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, OnceLock};
-use std::thread::JoinHandle;
+use std::sync::Arc;
 use std::time::Duration;
 
-struct Shared {
-    lost: AtomicBool,
-    cancel: AtomicBool,
-    notifier: OnceLock<Notifier>,
-}
+/// One inbox message: the items of one hand-out, each with the completer of its result.
+type Batch = Vec<(WorkItem, Completer)>;
 
 /// A GPU as one compute source: one dispatch per hand-out.
 pub struct GpuSource {
     id: u32,
-    inbox: Option<Sender<Vec<(WorkItem, Completer)>>>,
-    shared: Arc<Shared>,
-    handle: Option<JoinHandle<SourceReport>>,
+    thread: SourceThread<Batch>,
     info: GpuInfo,
 }
 
 impl GpuSource {
     /// Start the thread of source `id` over `renderer` (the scene already on the device).
     pub fn spawn(id: u32, renderer: Arc<GpuRenderer>, probe: Probe) -> Self {
-        let (tx, rx) = unbounded();
-        let shared = Arc::new(Shared {
-            lost: AtomicBool::new(false),
-            cancel: AtomicBool::new(false),
-            notifier: OnceLock::new(),
-        });
-        let sh = shared.clone();
         let info = renderer.info().clone();
-        let handle = std::thread::Builder::new()
-            .name(format!("gpu-source-{id}"))
-            .spawn(move || serve(id, &renderer, probe, &sh, &rx))
-            .expect("spawning the GPU source thread");
-        Self {
-            id,
-            inbox: Some(tx),
-            shared,
-            handle: Some(handle),
-            info,
-        }
+        let thread = SourceThread::spawn(format!("gpu-source-{id}"), move |fl, rx| {
+            serve(id, &renderer, probe, fl, rx)
+        });
+        Self { id, thread, info }
     }
 
     /// The adapter this source renders on.
@@ -90,25 +70,14 @@ impl GpuClock {
     }
 }
 
-fn serve(
-    id: u32,
-    r: &GpuRenderer,
-    probe: Probe,
-    sh: &Shared,
-    rx: &Receiver<Vec<(WorkItem, Completer)>>,
-) -> SourceReport {
+fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = "gpu".into();
+    report.stats.source = crate::sched::SourceKind::Gpu.id().into();
     let mut inflight: VecDeque<InFlight> = VecDeque::new();
     let mut clock = GpuClock {
         busy: Duration::ZERO,
         since: None,
         last_end: None,
-    };
-    let ring = || {
-        if let Some(n) = sh.notifier.get() {
-            n.ring();
-        }
     };
     let mut open = true;
     let mut failure: Option<SourceFailure> = None;
@@ -133,7 +102,7 @@ fn serve(
                 batch
                     .into_iter()
                     .for_each(|(_, c)| c.complete(Err(f.clone())));
-            } else if sh.cancel.load(Ordering::Relaxed) {
+            } else if fl.cancelled() {
                 for (item, c) in batch {
                     c.complete(Err(SourceFailure::Cancelled { item: item.id }));
                 }
@@ -151,7 +120,7 @@ fn serve(
                             });
                         }
                         Err(e) => {
-                            let f = lose(sh, id, e.to_string());
+                            let f = lose(fl, id, e.to_string());
                             group
                                 .into_iter()
                                 .for_each(|(_, c)| c.complete(Err(f.clone())));
@@ -160,7 +129,7 @@ fn serve(
                     }
                 }
             }
-            ring();
+            fl.ring();
             if open {
                 next = rx.try_recv().ok();
             }
@@ -197,7 +166,7 @@ fn serve(
                 }
             }
             Err(e) => {
-                let f = lose(sh, id, e.to_string());
+                let f = lose(fl, id, e.to_string());
                 job.items
                     .into_iter()
                     .for_each(|(_, c)| c.complete(Err(f.clone())));
@@ -210,7 +179,7 @@ fn serve(
                 clock.idle(quanta::Instant::now());
             }
         }
-        ring();
+        fl.ring();
     }
     clock.idle(quanta::Instant::now());
     if probe.stats {
@@ -219,8 +188,8 @@ fn serve(
     report
 }
 
-fn lose(sh: &Shared, id: u32, reason: String) -> SourceFailure {
-    sh.lost.store(true, Ordering::SeqCst);
+fn lose(fl: &Flags, id: u32, reason: String) -> SourceFailure {
+    fl.set_lost();
     SourceFailure::Lost {
         source_id: id,
         reason,
@@ -230,10 +199,7 @@ fn lose(sh: &Shared, id: u32, reason: String) -> SourceFailure {
 /// Split a hand-out into dispatches of at most `max_tasks` pixels at item boundaries (one
 /// dispatch unless the hand-out exceeds the device's output-buffer limit; an item larger than
 /// the limit goes alone and fails there with the limit in its message).
-fn dispatch_groups(
-    batch: Vec<(WorkItem, Completer)>,
-    max_tasks: usize,
-) -> Vec<Vec<(WorkItem, Completer)>> {
+fn dispatch_groups(batch: Batch, max_tasks: usize) -> Vec<Batch> {
     let mut groups = vec![Vec::new()];
     let mut pixels = 0;
     for (item, c) in batch {
@@ -268,33 +234,15 @@ impl ComputeSource for GpuSource {
                 (item, c)
             })
             .collect();
-        if let Some(tx) = &self.inbox {
-            // A failed send drops the completers, which fails the results: the thread is gone.
-            let _ = tx.send(batch);
-        }
+        self.thread.send(batch);
     }
     fn is_lost(&self) -> bool {
-        self.shared.lost.load(Ordering::SeqCst)
+        self.thread.is_lost()
     }
     fn set_notifier(&mut self, notifier: Notifier) {
-        let _ = self.shared.notifier.set(notifier);
+        self.thread.set_notifier(notifier);
     }
     fn finish(mut self: Box<Self>) -> SourceReport {
-        self.shared.cancel.store(true, Ordering::SeqCst);
-        self.inbox = None;
-        self.handle
-            .take()
-            .and_then(|h| h.join().ok())
-            .unwrap_or_default()
-    }
-}
-
-impl Drop for GpuSource {
-    fn drop(&mut self) {
-        self.shared.cancel.store(true, Ordering::SeqCst);
-        self.inbox = None;
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
-        }
+        self.thread.finish()
     }
 }

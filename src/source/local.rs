@@ -2,27 +2,17 @@
 //! tracer by `Arc`, so every thread reads the one copy; `Tracer: Sync` and the immutable
 //! `Scene` make that sharing read-only by type, not by convention.
 
+use super::thread::{Flags, SourceThread};
 use super::{Completer, ComputeSource, DelayedResult, Job, Notifier, SourceFailure, SourceReport};
 use crate::metrics::{BusyClock, Probe};
 use crate::render::WorkItem;
-use crossbeam::channel::{unbounded, Receiver, Sender};
+use crossbeam::channel::Receiver;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, OnceLock};
-use std::thread::JoinHandle;
-
-struct Shared {
-    lost: AtomicBool,
-    cancel: AtomicBool,
-    notifier: OnceLock<Notifier>,
-}
 
 /// A compute source that runs its job on one OS thread of its own, items in arrival order.
 pub struct LocalThreadSource {
     id: u32,
-    inbox: Option<Sender<Batch>>,
-    shared: Arc<Shared>,
-    handle: Option<JoinHandle<SourceReport>>,
+    thread: SourceThread<Batch>,
 }
 
 /// One inbox message: the items of one hand-out, each with the completer of its result. A
@@ -49,37 +39,19 @@ impl IntoIterator for Batch {
 impl LocalThreadSource {
     /// Start the thread of source `id`, which runs `job` on every item it is handed.
     pub fn spawn(id: u32, job: Job, probe: Probe) -> Self {
-        let (tx, rx) = unbounded::<Batch>();
-        let shared = Arc::new(Shared {
-            lost: AtomicBool::new(false),
-            cancel: AtomicBool::new(false),
-            notifier: OnceLock::new(),
+        let thread = SourceThread::spawn(format!("source-{id}"), move |fl, rx| {
+            serve(id, &job, probe, fl, rx)
         });
-        let sh = shared.clone();
-        let handle = std::thread::Builder::new()
-            .name(format!("source-{id}"))
-            .spawn(move || serve(id, &job, probe, &sh, &rx))
-            .expect("spawning a source thread");
-        Self {
-            id,
-            inbox: Some(tx),
-            shared,
-            handle: Some(handle),
-        }
+        Self { id, thread }
     }
 }
 
 /// The source's thread: run every message's items in order until the inbox closes or the
 /// job panics (then this item and everything still queued fail as lost).
-fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) -> SourceReport {
+fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = "threads".into();
+    report.stats.source = crate::sched::SourceKind::Threads.id().into();
     let mut clock = BusyClock::start(&probe);
-    let ring = || {
-        if let Some(n) = sh.notifier.get() {
-            n.ring();
-        }
-    };
     let mut failure: Option<SourceFailure> = None;
     while let Ok(batch) = rx.recv() {
         // Waiting for a message never counts as busy.
@@ -89,7 +61,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
                 done.complete(Err(f.clone()));
                 continue;
             }
-            if sh.cancel.load(Ordering::Relaxed) {
+            if fl.cancelled() {
                 done.complete(Err(SourceFailure::Cancelled { item: item.id }));
                 continue;
             }
@@ -100,7 +72,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
                     done.complete(Ok(r));
                 }
                 Err(panic) => {
-                    sh.lost.store(true, Ordering::SeqCst);
+                    fl.set_lost();
                     let f = SourceFailure::Lost {
                         source_id: id,
                         reason: format!("worker panicked: {}", panic_message(&panic)),
@@ -109,7 +81,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
                     failure = Some(f);
                 }
             }
-            ring();
+            fl.ring();
         }
         if let Some(f) = &failure {
             // The source is lost: everything queued behind the panicking item fails too.
@@ -118,7 +90,7 @@ fn serve(id: u32, job: &Job, probe: Probe, sh: &Shared, rx: &Receiver<Batch>) ->
                     done.complete(Err(f.clone()));
                 }
             }
-            ring();
+            fl.ring();
             break;
         }
     }
@@ -134,15 +106,6 @@ pub fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "non-string panic payload".into())
 }
 
-impl LocalThreadSource {
-    fn send(&self, batch: Batch) {
-        if let Some(tx) = &self.inbox {
-            // A failed send drops the completers, which fails the results: the thread is gone.
-            let _ = tx.send(batch);
-        }
-    }
-}
-
 impl ComputeSource for LocalThreadSource {
     fn id(&self) -> u32 {
         self.id
@@ -152,7 +115,7 @@ impl ComputeSource for LocalThreadSource {
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
         let (d, c) = DelayedResult::pending(item.id, self.id);
-        self.send(Batch::One((item, c)));
+        self.thread.send(Batch::One((item, c)));
         d
     }
     fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
@@ -168,31 +131,16 @@ impl ComputeSource for LocalThreadSource {
                 (item, c)
             })
             .collect();
-        self.send(Batch::Many(batch));
+        self.thread.send(Batch::Many(batch));
     }
     fn is_lost(&self) -> bool {
-        self.shared.lost.load(Ordering::SeqCst)
+        self.thread.is_lost()
     }
     fn set_notifier(&mut self, notifier: Notifier) {
-        let _ = self.shared.notifier.set(notifier);
+        self.thread.set_notifier(notifier);
     }
     fn finish(mut self: Box<Self>) -> SourceReport {
-        self.shared.cancel.store(true, Ordering::SeqCst);
-        self.inbox = None;
-        self.handle
-            .take()
-            .and_then(|h| h.join().ok())
-            .unwrap_or_default()
-    }
-}
-
-impl Drop for LocalThreadSource {
-    fn drop(&mut self) {
-        self.shared.cancel.store(true, Ordering::SeqCst);
-        self.inbox = None;
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
-        }
+        self.thread.finish()
     }
 }
 
@@ -200,6 +148,7 @@ impl Drop for LocalThreadSource {
 mod tests {
     use super::*;
     use crate::source::empty_result as result;
+    use std::sync::Arc;
     use std::time::Duration;
 
     #[test]

@@ -17,6 +17,7 @@ pub mod faulty;
 pub mod gpu;
 pub mod local;
 pub mod slow;
+pub mod thread;
 
 pub use delayed::{Completer, DelayedResult};
 pub use doorbell::{Doorbell, Notifier, Wait};
@@ -25,6 +26,7 @@ pub use faulty::{FaultPlan, FaultySource};
 pub use gpu::GpuSource;
 pub use local::LocalThreadSource;
 pub use slow::slowed_job;
+pub use thread::SourceThread;
 
 use crate::metrics::{Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};

@@ -126,8 +126,53 @@ fn bad_configs_exit_2_naming_file_and_field() {
             "kind = \"pbrt\"\nchunk = \"rows:1\"",
             "schedulers[1].chunk",
         ),
+        // The sources axis and the per-source settings, from the one source definition.
+        (
+            "workers = [1, 2]",
+            "workers = [1, 2]\nsources = [\"threads\", \"cuda\"]",
+            "sources[1]: unknown compute source 'cuda'",
+        ),
+        (
+            "workers = [1, 2]",
+            "workers = [1, 2]\nsources = \"threads,threads\"",
+            "sources: 'threads' given twice",
+        ),
+        (
+            "workers = [1, 2]",
+            "workers = [1, 2]\nsources = [\"mpi\"]",
+            "sources[0]",
+        ),
+        (
+            "workers = [1, 2]",
+            "workers = [1, 2]\ngpu_adapter = \"llvmpipe\"",
+            "gpu_adapter: applies only with gpu among the sources",
+        ),
+        (
+            "buffer = [1, 2]",
+            "buffer = [1, 2]\ngpu_chunk = \"64\"",
+            "schedulers[0].gpu_chunk: applies to none of sources",
+        ),
+        (
+            "buffer = [1, 2]",
+            "buffer = [1, 2]\nbalance = [false, true]",
+            "schedulers[0].balance",
+        ),
+        (
+            "kind = \"static\"\nchunk = \"rows:1\"",
+            "kind = \"static\"\nchunk = \"rows:1\"\ngpu_buffer = 2",
+            "schedulers[1].gpu_buffer: 'static' has no gpu_buffer",
+        ),
+        // Without feature `gpu` (tests/it/gpu.rs runs such experiments with it).
+        (
+            "workers = [1, 2]",
+            "workers = [1, 2]\nsources = [\"threads\", \"gpu\"]",
+            "sources[1]: 'gpu' needs cargo feature `gpu`",
+        ),
     ];
     for (i, (from, to, field)) in cases.into_iter().enumerate() {
+        if to.contains("\"gpu\"") && cfg!(feature = "gpu") {
+            continue; // valid with the feature
+        }
         let res = format!("res{i}");
         assert!(good.contains(from), "{from}");
         let p = dir.path().join("bad.toml");
@@ -141,6 +186,7 @@ fn bad_configs_exit_2_naming_file_and_field() {
             continue;
         }
         assert_eq!(out.status.code(), Some(2), "{to}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{to}: {err}");
         assert!(
             err.contains("bad.toml:") && err.contains(field),
             "{to}: {err}"

@@ -378,6 +378,8 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
         "8",
         "--gpu-buffer",
         "4",
+        "--gpu-chunk",
+        "rows:4",
         "--balance",
         "--spp",
         "1",
@@ -404,7 +406,22 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
             vec!["--sources", "gpu", "--scheduler", "static"],
             "a GPU source runs under the master only",
         ),
-        (vec!["--gpu-buffer", "4"], "need gpu among --sources"),
+        (
+            vec!["--gpu-buffer", "4"],
+            "--gpu-buffer: applies only with gpu among the sources",
+        ),
+        (
+            vec!["--sources", "threads,gpu", "--gpu-chunk", "0"],
+            "--gpu-chunk: '0': sizes must be ≥ 1",
+        ),
+        (
+            vec!["--balance"],
+            "--balance: needs several kinds of source",
+        ),
+        (
+            vec!["--gpu-adapter", "x"],
+            "--gpu-adapter: needs gpu among --sources",
+        ),
         (vec!["--sources", "gpu,gpu"], "'gpu' given twice"),
     ] {
         let mut a = vec![scene, "-o", out, "--spp", "1"];
@@ -457,5 +474,220 @@ fn the_upload_gives_every_primitive_one_leaf_slot_within_the_kernel_stack() {
             }
         }
         assert!(seen.iter().all(|&c| c == 1), "{name}: {seen:?}");
+    }
+}
+
+#[test]
+fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
+    use raysched::sched::SourceSetup;
+    use raysched::sched::{run_with_sources, Chunk, SchedulerKind, SchedulerSpec, SourceSet};
+    let scene = Arc::new(load("cornell_box.toml", small(16, 2)));
+    let Some(r) = renderer(&scene) else { return };
+    let tracer = Arc::new(BvhTracer::new(&scene.geometry));
+    let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 1);
+    spec.timeline = true;
+    let mut setup = SourceSetup::of(SourceSet::parse("threads+gpu").unwrap());
+    // 8×8 = 64 pixels: 4 of the 4×4 items per hand-out.
+    setup.set_param("gpu_chunk", "8").unwrap();
+    setup.set_param("gpu_buffer", "1").unwrap();
+    let (frames, stats) = run_with_sources(
+        &spec,
+        &setup,
+        &scene,
+        &tracer,
+        Some(Arc::new(r)),
+        &RunOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(stats.workers[1].source, "gpu");
+    assert!(stats.workers[1].items > 0, "the GPU rendered nothing");
+    // The items of one dispatch share its span: groups of 4 items (64 px), the last maybe fewer.
+    let mut groups: std::collections::BTreeMap<(u64, u64), usize> = Default::default();
+    for s in stats
+        .timeline
+        .as_ref()
+        .unwrap()
+        .iter()
+        .filter(|s| s.worker == 1)
+    {
+        *groups.entry((s.start_ns, s.end_ns)).or_default() += 1;
+    }
+    let sizes: Vec<usize> = groups.values().copied().collect();
+    assert!(sizes.iter().filter(|&&n| n != 4).count() <= 1, "{sizes:?}");
+    assert!(sizes.iter().all(|&n| n <= 4), "{sizes:?}");
+    let d = diff(&Image::stack(frames), &cpu_image(&scene));
+    assert!(
+        d.mean.abs() <= 3.0 * d.se + 1e-6,
+        "mixed image off: {}",
+        d.mean
+    );
+}
+
+/// `raysched run` with `args` in `dir`; (exit code, stderr).
+fn run_cmd(dir: &std::path::Path, args: &[&str]) -> (i32, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stderr).into(),
+    )
+}
+
+#[test]
+fn an_experiment_puts_sources_on_the_grid_and_records_who_rendered_what() {
+    use raysched::experiment::results::read_runs;
+    let Some(ctx) = context() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crate::support::scene_path("cornell_box.toml");
+    let exp = format!(
+        r#"name = "mixed"
+repetitions = 1
+ci_target = 0
+min_sample_s = 0
+workers = [1]
+sources = ["threads", "threads+gpu", "gpu"]
+[[scenes]]
+path = "{}"
+width = 16
+height = 16
+spp = 2
+[[schedulers]]
+kind = "master"
+chunk = "4"
+gpu_chunk = ["64"]
+gpu_buffer = 2
+balance = [false, true]
+[[schedulers]]
+kind = "static"
+chunk = "rows:4"
+"#,
+        scene.display()
+    );
+    std::fs::write(dir.path().join("mixed.toml"), &exp).unwrap();
+    let (code, err) = run_cmd(
+        dir.path(),
+        &["run", "mixed.toml", "--quiet", "--out", "res"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let res = dir.path().join("res/mixed");
+    let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
+    let by = |sources: &str| -> Vec<_> { rows.iter().filter(|r| r.sources == sources).collect() };
+    // serial + master + static on threads; master ×2 (balance) on threads+gpu; master on gpu
+    // alone (balance needs two kinds, so one configuration).
+    assert_eq!(by("local").len(), 3, "{rows:#?}");
+    assert_eq!(by("threads+gpu").len(), 2);
+    assert_eq!(by("gpu").len(), 1);
+    assert!(by("gpu+threads").is_empty());
+    for r in rows.iter().filter(|r| r.sources != "local") {
+        assert_eq!(r.scheduler, "master");
+        assert_eq!(r.sourcing("gpu_chunk"), Some("64"), "{}", r.label);
+        assert_eq!(r.sourcing("gpu_buffer"), Some("2"));
+        assert!(r.label.contains("sources="), "{}", r.label);
+        assert_eq!(r.agrees, Some(true), "{}: z = {:?}", r.label, r.image_z);
+        let gpu_items: u64 = r.sourcing("gpu_items").unwrap().parse().unwrap();
+        let gpu_px: u64 = r.sourcing("gpu_pixels").unwrap().parse().unwrap();
+        let thr_items: u64 = r
+            .sourcing("threads_items")
+            .map_or(0, |v| v.parse().unwrap());
+        assert!(gpu_items > 0 && gpu_px == 16 * gpu_items, "{}", r.label);
+        assert_eq!(gpu_items + thr_items, r.items, "{}", r.label);
+        assert!(r.sourcing("gpu_busy_s").is_some());
+    }
+    assert!(by("gpu")[0].sourcing("threads_items").is_none());
+    assert_eq!(by("gpu")[0].workers, 1);
+    assert_eq!(
+        by("threads+gpu")
+            .iter()
+            .filter(|r| r.sourcing("balance") == Some("true"))
+            .count(),
+        1
+    );
+    for r in by("local") {
+        assert!(r.identical && r.agrees.is_none(), "{}", r.label);
+        assert_eq!(
+            r.sourcing("threads_items").unwrap().parse::<u64>().unwrap(),
+            r.items
+        );
+        assert!(r.sourcing("gpu_items").is_none());
+    }
+    // Provenance: the adapter in meta.toml.
+    let meta: raysched::experiment::meta::Meta =
+        toml::from_str(&std::fs::read_to_string(res.join("meta.toml")).unwrap()).unwrap();
+    let gpu = meta.gpu.expect("meta.toml records the GPU");
+    assert_eq!(gpu.name, ctx.info.name);
+    assert_eq!(gpu.driver, ctx.info.driver);
+    assert!(meta.scenes[0].gpu_upload_s.is_some());
+    // The report shows the shares; the Gantt chart of the mixed run has its lanes by kind.
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(report.contains("## Who rendered what"), "{report}");
+    assert!(report.contains(&format!("- GPU: {}", gpu.name)), "{report}");
+    assert!(!report.contains("produced an image different"), "{report}");
+    let plots: Vec<String> = std::fs::read_dir(res.join("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        plots
+            .iter()
+            .any(|p| p.starts_with("gantt_") && p.contains("threads_gpu") && p.ends_with(".png")),
+        "{plots:?}"
+    );
+    let mixed = by("threads+gpu")[0];
+    let tl = std::fs::read_to_string(res.join("timelines").join(format!("{}.csv", mixed.config)))
+        .unwrap();
+    assert!(
+        tl.starts_with("worker,item,start_ns,end_ns,source\n"),
+        "{tl}"
+    );
+    assert!(tl.contains(",gpu\n") && tl.contains(",threads\n") && tl.contains(",master\n"));
+    let summary = std::fs::read_to_string(res.join("summary.csv")).unwrap();
+    assert!(summary.lines().next().unwrap().contains("gpu_pixel_share"));
+    // A second start resumes: nothing measured twice, the same ids.
+    let (code, err) = run_cmd(
+        dir.path(),
+        &["run", "mixed.toml", "--quiet", "--out", "res"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(read_runs(&res.join("runs.csv")).unwrap().0, rows);
+    // Bad values name the file and the field in one line, exit 2.
+    for (from, to, want) in [
+        (
+            "sources = [\"threads\", \"threads+gpu\", \"gpu\"]",
+            "sources = [\"threads+gpu\"]",
+            "schedulers[1].kind: 'static' hands out to its own threads only",
+        ),
+        (
+            "sources = [\"threads\", \"threads+gpu\", \"gpu\"]",
+            "sources = [\"gpu\"]",
+            "schedulers[0].balance: applies to none of sources = [gpu]",
+        ),
+        (
+            "sources = [\"threads\", \"threads+gpu\", \"gpu\"]",
+            "sources = [\"threads\", \"gpu+gpu\"]",
+            "sources[1]: 'gpu' given twice",
+        ),
+        (
+            "gpu_buffer = 2",
+            "gpu_buffer = 0",
+            "schedulers[0].gpu_buffer: must be between 1",
+        ),
+        (
+            "workers = [1]",
+            "workers = [1]\ngpu_adapter = \"no-such-adapter\"",
+            "gpu_adapter: --gpu-adapter no-such-adapter: no Vulkan adapter matches",
+        ),
+    ] {
+        assert!(exp.contains(from), "{from}");
+        std::fs::write(dir.path().join("bad.toml"), exp.replacen(from, to, 1)).unwrap();
+        let (code, err) = run_cmd(dir.path(), &["run", "bad.toml", "--quiet", "--out", "res2"]);
+        assert_eq!(code, 2, "{to}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{to}: {err}");
+        assert!(
+            err.contains("bad.toml") && err.contains(want),
+            "{to}: {err}"
+        );
     }
 }

@@ -617,6 +617,19 @@ fn every_scheduler_matches_serial_with(tracer: TracerKind) {
     }
 }
 
+/// A job that sleeps `d` per item and returns black pixels: a known, render-free item time.
+fn sleeping_job(d: Duration) -> Job {
+    Arc::new(move |it: &WorkItem| {
+        std::thread::sleep(d);
+        TileResult {
+            item: it.id,
+            pixels: vec![[0.0; 3]; it.pixel_count()],
+            rays: 1,
+            nonfinite: 0,
+        }
+    })
+}
+
 #[test]
 fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_nothing() {
     use raysched::metrics::Probe;
@@ -625,15 +638,7 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     // Source 1 takes 8× as long per item as source 0: at equal buffers it holds 8× the time's
     // worth of work, far past the 2 % the balancer tolerates. 8000 items of ≥ 200 µs on a
     // source that does at least 8/9 of them last ≥ 1.4 s, so the balancer looks at least once.
-    let job: Job = Arc::new(|it: &WorkItem| {
-        std::thread::sleep(Duration::from_micros(200));
-        TileResult {
-            item: it.id,
-            pixels: vec![[0.0; 3]; it.pixel_count()],
-            rays: 1,
-            nonfinite: 0,
-        }
-    });
+    let job = sleeping_job(Duration::from_micros(200));
     let probe = Probe::new(true, false);
     let sources: Vec<Box<dyn ComputeSource>> = vec![
         Box::new(LocalThreadSource::spawn(0, job.clone(), probe)),
@@ -643,6 +648,7 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     let hetero = Hetero {
         buffers: vec![2, 2],
         balance: true,
+        ..Default::default()
     };
     let (results, stats) = run_master_hetero(
         &MasterParams::default(),
@@ -659,4 +665,86 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     assert!(rebalances >= 1, "{:.2} s and no rebalance", stats.wall_s);
     assert!(stats.workers[0].items > stats.workers[1].items);
     assert_eq!(stats.workers[0].source, "threads");
+}
+
+/// A local thread source that records the size of every hand-out it is given.
+struct Recording {
+    inner: raysched::source::LocalThreadSource,
+    sizes: Arc<std::sync::Mutex<Vec<usize>>>,
+}
+
+impl raysched::source::ComputeSource for Recording {
+    fn id(&self) -> u32 {
+        self.inner.id()
+    }
+    fn label(&self) -> String {
+        self.inner.label()
+    }
+    fn submit(&mut self, item: WorkItem) -> raysched::source::DelayedResult {
+        self.sizes.lock().unwrap().push(1);
+        self.inner.submit(item)
+    }
+    fn submit_batch(
+        &mut self,
+        items: &mut Vec<WorkItem>,
+        out: &mut Vec<raysched::source::DelayedResult>,
+    ) {
+        self.sizes.lock().unwrap().push(items.len());
+        self.inner.submit_batch(items, out)
+    }
+    fn is_lost(&self) -> bool {
+        self.inner.is_lost()
+    }
+    fn set_notifier(&mut self, n: raysched::source::Notifier) {
+        self.inner.set_notifier(n)
+    }
+    fn finish(self: Box<Self>) -> raysched::source::SourceReport {
+        Box::new(self.inner).finish()
+    }
+}
+
+#[test]
+fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_items() {
+    use raysched::metrics::Probe;
+    use raysched::sched::{master::run_master_hetero, Hetero};
+    use raysched::source::{ComputeSource, LocalThreadSource};
+    let job = sleeping_job(Duration::from_micros(50));
+    let probe = Probe::new(true, false);
+    let logs: Vec<Arc<std::sync::Mutex<Vec<usize>>>> = (0..2).map(|_| Arc::default()).collect();
+    let sources: Vec<Box<dyn ComputeSource>> = logs
+        .iter()
+        .enumerate()
+        .map(|(i, log)| {
+            Box::new(Recording {
+                inner: LocalThreadSource::spawn(i as u32, job.clone(), probe),
+                sizes: log.clone(),
+            }) as Box<dyn ComputeSource>
+        })
+        .collect();
+    // 1001 items of 16 pixels; source 1 takes 64 px (4 items) per hand-out, 2 outstanding.
+    let items: Vec<WorkItem> = (0..1001).map(|i| WorkItem::rect(i, 0, 0, 4, 4)).collect();
+    let hetero = Hetero {
+        buffers: vec![2, 2],
+        grains: vec![0, 64],
+        balance: false,
+    };
+    let (results, stats) = run_master_hetero(
+        &MasterParams::default(),
+        &hetero,
+        &items,
+        sources,
+        &RunOptions::default(),
+        probe,
+    )
+    .unwrap();
+    assert!((0..1001).all(|i| results.get(i).is_some()));
+    let grouped = logs[1].lock().unwrap().clone();
+    let (last, whole) = grouped.split_last().expect("source 1 got work");
+    assert!(whole.iter().all(|&n| n == 4), "{grouped:?}");
+    assert!(*last >= 1 && *last <= 4, "{grouped:?}");
+    assert_eq!(grouped.iter().sum::<usize>() as u64, stats.workers[1].items);
+    // The other source keeps the master's B = 2 of single items: hand-outs of 1 or 2.
+    let single = logs[0].lock().unwrap().clone();
+    assert!(single.iter().all(|&n| n <= 2), "{single:?}");
+    assert_eq!(stats.workers[0].items + stats.workers[1].items, 1001);
 }

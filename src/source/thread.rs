@@ -1,0 +1,107 @@
+//! [`SourceThread`]: the lifecycle a source that serves from one OS thread of its own shares
+//! with every other such source (local threads, the GPU's submitting thread): the inbox, the
+//! lost and cancel flags, the master's notifier, and stopping (cancel, close the inbox, join)
+//! on `finish` or drop.
+
+use super::{Notifier, SourceReport};
+use crossbeam::channel::{unbounded, Receiver, Sender};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::thread::JoinHandle;
+
+/// What a source's thread and its handle share.
+pub struct Flags {
+    lost: AtomicBool,
+    cancel: AtomicBool,
+    notifier: OnceLock<Notifier>,
+}
+
+impl Flags {
+    /// Ring the master's doorbell, once one is set.
+    pub fn ring(&self) {
+        if let Some(n) = self.notifier.get() {
+            n.ring();
+        }
+    }
+
+    /// The source is gone: none of its outstanding results will arrive.
+    pub fn set_lost(&self) {
+        self.lost.store(true, Ordering::SeqCst);
+    }
+
+    /// Has the handle asked the thread to skip what is still queued?
+    pub fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+/// The handle of a source's thread, which takes messages `M` from its inbox and returns the
+/// source's report when the inbox closes.
+pub struct SourceThread<M> {
+    inbox: Option<Sender<M>>,
+    flags: Arc<Flags>,
+    handle: Option<JoinHandle<SourceReport>>,
+}
+
+impl<M: Send + 'static> SourceThread<M> {
+    /// Spawn thread `name` running `serve` over the inbox.
+    pub fn spawn(
+        name: String,
+        serve: impl FnOnce(&Flags, &Receiver<M>) -> SourceReport + Send + 'static,
+    ) -> Self {
+        let (tx, rx) = unbounded::<M>();
+        let flags = Arc::new(Flags {
+            lost: AtomicBool::new(false),
+            cancel: AtomicBool::new(false),
+            notifier: OnceLock::new(),
+        });
+        let fl = flags.clone();
+        let handle = std::thread::Builder::new()
+            .name(name)
+            .spawn(move || serve(&fl, &rx))
+            .expect("spawning a source thread");
+        Self {
+            inbox: Some(tx),
+            flags,
+            handle: Some(handle),
+        }
+    }
+
+    /// Hand the thread a message. A failed send drops the message's completers, which fails
+    /// their results: the thread is gone.
+    pub fn send(&self, m: M) {
+        if let Some(tx) = &self.inbox {
+            let _ = tx.send(m);
+        }
+    }
+}
+
+impl<M> SourceThread<M> {
+    /// [`super::ComputeSource::is_lost`].
+    pub fn is_lost(&self) -> bool {
+        self.flags.lost.load(Ordering::SeqCst)
+    }
+
+    /// [`super::ComputeSource::set_notifier`].
+    pub fn set_notifier(&self, notifier: Notifier) {
+        let _ = self.flags.notifier.set(notifier);
+    }
+
+    /// Cancel what is queued, close the inbox and join: the thread's report (an empty one if
+    /// it panicked).
+    pub fn finish(&mut self) -> SourceReport {
+        self.stop().unwrap_or_default()
+    }
+
+    fn stop(&mut self) -> Option<SourceReport> {
+        self.flags.cancel.store(true, Ordering::SeqCst);
+        self.inbox = None;
+        self.handle.take().and_then(|h| h.join().ok())
+    }
+}
+
+impl<M> Drop for SourceThread<M> {
+    fn drop(&mut self) {
+        let _ = self.stop();
+    }
+}
