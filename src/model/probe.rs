@@ -27,9 +27,8 @@ pub struct PixelProbe {
     pub noise_cv: f64,
     /// Σ of the pixels' median spans as timed one pixel at a time, before [`calibrate`].
     pub timed_s: f64,
-    /// Σ busy seconds of the same image rendered in rows with no timeline on the same
-    /// workers, median over the passes: what the pixels cost when nothing times them one by
-    /// one.
+    /// Σ seconds of the same image rendered in rows on the same workers, each row's median
+    /// over the passes: what the pixels cost when nothing times them one by one.
     pub bulk_s: f64,
 }
 
@@ -62,15 +61,16 @@ fn pass<T: Tracer + 'static>(
     Ok(px)
 }
 
-/// Σ busy seconds of frame 0 rendered one row per item, cyclically over `workers`, with no
-/// timeline: the level of a run that does not time each pixel.
+/// Each row's seconds with frame 0 rendered one row per item, cyclically over `workers`: the
+/// level of a run that does not time each pixel (one clock read per row).
 fn bulk_pass<T: Tracer + 'static>(
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
     workers: usize,
-) -> Result<f64, SchedError> {
+) -> Result<Vec<f64>, SchedError> {
     let (w, h) = (scene.width(), scene.height());
-    let spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, Chunk::Rows(1), workers);
+    let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, Chunk::Rows(1), workers);
+    spec.timeline = true;
     let items = decompose(w, h, spec.chunk, Order::Scanline);
     let (_, stats) = run_items(
         &spec,
@@ -78,7 +78,13 @@ fn bulk_pass<T: Tracer + 'static>(
         render_job(scene, tracer),
         &RunOptions::default(),
     )?;
-    Ok(stats.busy_s())
+    let mut rows = vec![0.0; items.len()];
+    for s in stats.timeline.unwrap_or_default() {
+        if let Some(r) = rows.get_mut(s.item as usize) {
+            *r = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
+        }
+    }
+    Ok(rows)
 }
 
 /// Per-pixel costs that keep the shape of `timed` (each pixel's share of the image) and sum
@@ -109,8 +115,15 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// Each position's median over the passes.
+fn medians(passes: &[Vec<f64>]) -> Vec<f64> {
+    (0..passes.first().map_or(0, Vec::len))
+        .map(|i| median(&mut passes.iter().map(|p| p[i]).collect::<Vec<_>>()))
+        .collect()
+}
+
 /// Time every pixel of frame 0 of `scene` on `workers` workers, `passes` (≥ 2) times, each
-/// pass followed by an untimed bulk render of the same image on the same workers; each
+/// pass followed by a bulk render (timed per row only) of the same image on the same workers; each
 /// pixel's median span, calibrated to the bulk renders' median ([`calibrate`]). This is the
 /// one probe of per-pixel costs: the cost model's and the simulation's.
 pub fn pixels<T: Tracer + 'static>(
@@ -120,16 +133,17 @@ pub fn pixels<T: Tracer + 'static>(
     passes: u32,
 ) -> Result<PixelProbe, SchedError> {
     let mut spans: Vec<Vec<f64>> = Vec::new();
-    let mut bulk: Vec<f64> = Vec::new();
+    let mut rows: Vec<Vec<f64>> = Vec::new();
     for _ in 0..passes.max(2) {
         spans.push(pass(scene, tracer, workers)?);
-        bulk.push(bulk_pass(scene, tracer, workers)?);
+        rows.push(bulk_pass(scene, tracer, workers)?);
     }
     let noise_cv = relative_spread(&spans[0], &spans[1]);
-    let timed: Vec<f64> = (0..spans[0].len())
-        .map(|p| median(&mut spans.iter().map(|s| s[p]).collect::<Vec<_>>()))
-        .collect();
-    let bulk_s = median(&mut bulk);
+    let timed = medians(&spans);
+    // Rows, like pixels, by their median pass: a row whose thread was preempted in a
+    // minority of passes is out-voted (with busy time of whole passes instead, the bulk level
+    // doubled on the dev box at load 8).
+    let bulk_s = medians(&rows).iter().sum();
     Ok(PixelProbe {
         profile: Profile {
             width: scene.width(),
@@ -218,7 +232,6 @@ pub fn zero_work(
         fixed_s: median(&mut fixed),
     })
 }
-
 
 /// A job whose items each spin for `secs` (a stand-in of known cost).
 fn spinning(secs: f64) -> Job {

@@ -27,7 +27,7 @@ pub struct PixelCosts {
     pub cost_s: Vec<f64>,
     /// Σ of the pixels as timed one by one, before the probe's calibration to `bulk_s`.
     pub timed_s: f64,
-    /// Σ busy of the untimed bulk render the costs are calibrated to.
+    /// Σ of the bulk render (rows, timed per row) the costs are calibrated to.
     pub bulk_s: f64,
 }
 

@@ -56,7 +56,7 @@ impl Inputs {
             .map_err(anyhow::Error::msg)?;
         if !quiet {
             println!(
-                "probe: Σ pixels timed one by one {:.4} s, untimed bulk render {:.4} s ({:+.1} %): the costs sum to the bulk render",
+                "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %): the costs sum to the bulk render",
                 pixels.timed_s,
                 pixels.bulk_s,
                 100.0 * (pixels.timed_s / pixels.bulk_s - 1.0)
@@ -97,7 +97,11 @@ impl Inputs {
                 pixels.height,
                 pixels.serial_s(),
                 counter_s * 1e9,
-                master_h_s.iter().map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9)).collect::<Vec<_>>().join(", ")
+                master_h_s
+                    .iter()
+                    .map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         Ok(Self {
@@ -403,6 +407,8 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         None => None,
     };
     let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, &[], quiet)?;
+    let dir = out.join(&plan.name);
+    std::fs::create_dir_all(dir.join("plots"))?;
     let mut rows = Vec::new();
     for p in &plan.platforms {
         for spec in &plan.specs {
@@ -429,6 +435,8 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
                     );
                 }
                 rows.push(row);
+                // Every row so far, so that a sweep cut short leaves what it simulated.
+                write_rows(&dir.join("sim_runs.csv"), &rows)?;
             }
         }
     }
@@ -453,8 +461,6 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         }
         _ => None,
     };
-    let dir = out.join(&plan.name);
-    std::fs::create_dir_all(dir.join("plots"))?;
     write_rows(&dir.join("sim_runs.csv"), &rows)?;
     let inputs_toml = format!(
         "# Measured inputs of every simulated run ({}).\nmachine = {:?}\nload_average = {:?}\nprobe_scene = {:?}\nprobe_pixels = {}\nprobe_timed_s = {}\nprobe_bulk_s = {}\nserial_s = {}\ncounter_s = {}\n[master_h_s]\n{}",

@@ -154,7 +154,10 @@ mod with_simgrid {
                 slow.wall_s
             );
             let busy: f64 = slow.busy_s.iter().sum();
-            assert!((busy - n as f64 * c).abs() < 1e-9, "waits are not busy: {busy}");
+            assert!(
+                (busy - n as f64 * c).abs() < 1e-9,
+                "waits are not busy: {busy}"
+            );
             // Without a refill period the same run is bound by its work.
             let fast = run(0.0, buffer, workers);
             let work = n as f64 * c / workers as f64;
