@@ -255,10 +255,13 @@ fn spinning(secs: f64) -> Job {
 const LOADED_MAX_S: f64 = 100e-6;
 
 /// The master's refill period per source with items that each cost `item_s`: a source's time
-/// per item, P × (wall − F) / items over spinning items, so the master's wake-up latency
-/// between items (which zero-work items never show: the master never sleeps there) is in it.
-/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` runs of about
-/// 20 ms each.
+/// per item over spinning items, P × the slope of the wall between runs of n and 2n items, so
+/// the master's wake-up latency between items (which zero-work items never show: the master
+/// never sleeps there) is in it and the run's fixed cost is not. (With P × (wall − F) / n of
+/// one 20 ms run instead, the period at B = 2 on one worker came out 65 µs on the dev box,
+/// where the rendering runs took 39 µs per item: F of zero-work runs is not a spinning run's.)
+/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` pairs, the
+/// shorter run about 20 ms.
 pub fn loaded_refill(
     policy: Policy,
     workers: usize,
@@ -273,17 +276,24 @@ pub fn loaded_refill(
     {
         return Ok(zero.refill_s);
     }
-    // A source takes max(item cost, zero-work period) per item: one run near RUN_S.
+    // A source takes max(item cost, zero-work period) per item: the shorter run near RUN_S.
     let per = item_s.max(zero.refill_s);
     let n = ((RUN_S * workers as f64 / per) as u32).clamp(64, 4096);
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
-    let list = decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let lists: Vec<Vec<WorkItem>> = [n, 2 * n]
+        .iter()
+        .map(|&k| decompose(k, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
+        .collect();
     let job = spinning(item_s);
+    let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
+        Ok(run_items(&spec, l, job.clone(), &RunOptions::default())?.1.wall_s)
+    };
     let mut per: Vec<f64> = Vec::new();
     for _ in 0..reps.max(1) {
-        let (_, s) = run_items(&spec, &list, job.clone(), &RunOptions::default())?;
-        per.push(workers as f64 * (s.wall_s - zero.fixed_s).max(0.0) / n as f64);
+        let a = wall(&lists[0])?;
+        let b = wall(&lists[1])?;
+        per.push(workers as f64 * (b - a).max(0.0) / n as f64);
     }
     Ok(median(&mut per).max(zero.refill_s))
 }
