@@ -13,6 +13,10 @@ use std::sync::Arc;
 
 pub use crate::model::probe::ZeroWork;
 
+/// Seconds the shorter zero-work run aims at (up to the plan's item count): 10× the cost
+/// model's, because a simulated master at thousands of workers is limited by h alone.
+const ZERO_WORK_RUN_S: f64 = 0.2;
+
 /// Bytes MPI adds to each result entry: the worker's busy time (`u64`, see `mpi::wire`).
 const RESULT_BUSY_BYTES: u32 = 8;
 
@@ -120,17 +124,19 @@ pub fn master_zero_work(
         buffer,
         ..MasterParams::DEFAULT
     };
-    probe::zero_work(Policy::Master(p), items, workers, reps).map_err(|e| e.to_string())
+    probe::zero_work_for(Policy::Master(p), items, workers, reps, ZERO_WORK_RUN_S)
+        .map_err(|e| e.to_string())
 }
 
 /// The shared counter's cost per grab (zero-work self-scheduling at grab 1, per item) and the
 /// threaded schedulers' fixed cost per run.
 pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWork, String> {
-    probe::zero_work(
+    probe::zero_work_for(
         Policy::defaults(SchedulerKind::SelfScheduling),
         items,
         workers,
         reps,
+        ZERO_WORK_RUN_S,
     )
     .map_err(|e| e.to_string())
 }
