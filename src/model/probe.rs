@@ -300,7 +300,9 @@ pub fn loaded_refill(
         .collect();
     let job = spinning(item_s);
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
-        Ok(run_items(&spec, l, job.clone(), &RunOptions::default())?.1.wall_s)
+        Ok(run_items(&spec, l, job.clone(), &RunOptions::default())?
+            .1
+            .wall_s)
     };
     let mut per: Vec<f64> = Vec::new();
     for _ in 0..reps.max(1) {
