@@ -79,6 +79,51 @@ impl Library {
     }
 }
 
+/// A typed function table resolved from a [`Library`]: `dl_api! { struct NAME, abi "C",
+/// missing |name| message; fname: fn(args) -> ret; … }` declares `struct NAME` with one
+/// `unsafe extern ABI fn` field per function (fields as visible as the struct) and
+/// `unsafe fn NAME::resolve(&Library) -> Result<NAME, String>`, which looks every symbol up by
+/// its own name and returns `missing(name)` for the first one the library lacks. The ABI is a
+/// parameter because SimGrid ends its actors by unwinding through Rust frames (`"C-unwind"`)
+/// and Embree never unwinds (`"C"`).
+macro_rules! dl_api {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $api:ident, abi $abi:literal, missing $missing:expr;
+        $($name:ident: fn($($arg:ty),*) $(-> $ret:ty)?;)*
+    ) => {
+        $(#[$meta])*
+        $vis struct $api {
+            $($vis $name: unsafe extern $abi fn($($arg),*) $(-> $ret)?,)*
+        }
+
+        impl $api {
+            /// # Safety
+            /// `lib` is the library this table was declared for, whose functions have the
+            /// signatures above.
+            unsafe fn resolve(lib: &$crate::dl::Library) -> Result<Self, String> {
+                let missing: fn(&str) -> String = $missing;
+                Ok(Self {
+                    $($name: {
+                        let p = lib.symbol(concat!(stringify!($name), "\0"));
+                        if p.is_null() {
+                            return Err(missing(stringify!($name)));
+                        }
+                        // SAFETY: the symbol is the C function of that name (see `# Safety`).
+                        unsafe {
+                            std::mem::transmute::<
+                                *mut std::ffi::c_void,
+                                unsafe extern $abi fn($($arg),*) $(-> $ret)?,
+                            >(p)
+                        }
+                    },)*
+                })
+            }
+        }
+    };
+}
+pub(crate) use dl_api;
+
 #[cfg(test)]
 mod tests {
     use super::Library;

@@ -146,7 +146,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         }
     );
     out!(
-        "probe {:.2} s: pixels at {probe_spp} spp on {} workers (cheapest of 3 passes), scaled ×{scale:.2}: \
+        "probe {:.2} s: pixels at {probe_spp} spp on {} workers (median of 3 passes, calibrated to a render in rows), scaled ×{scale:.2}: \
          mean {:.2} µs, CV {:.2}, max/mean {:.1}, run-to-run noise {:.1} %; work W = {} ms",
         probed.probe_s,
         args.workers,

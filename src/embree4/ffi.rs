@@ -47,36 +47,9 @@ pub type ErrorFunction =
 /// The Embree 4 library the build script found (`build/embree4.rs`).
 pub const LIBRARY: &str = env!("RAYSCHED_EMBREE4_LIB");
 
-macro_rules! api {
-    ($($name:ident: fn($($arg:ty),*) $(-> $ret:ty)?;)*) => {
-        /// Embree 4's functions, resolved in the deep-bound library.
-        pub struct Api {
-            $(pub $name: unsafe extern "C" fn($($arg),*) $(-> $ret)?,)*
-        }
-
-        impl Api {
-            /// # Safety
-            /// `lib` is an Embree 4 library, whose functions have the
-            /// signatures above (those of `rtcore*.h`, unchanged within 4.x).
-            unsafe fn resolve(lib: &crate::dl::Library) -> Result<Self, String> {
-                Ok(Self {
-                    $($name: {
-                        let p = lib.symbol(concat!(stringify!($name), "\0"));
-                        if p.is_null() {
-                            return Err(format!("{LIBRARY}: no symbol {}", stringify!($name)));
-                        }
-                        // SAFETY: the symbol is the C function of that name (see `# Safety`).
-                        unsafe {
-                            std::mem::transmute::<*mut c_void, unsafe extern "C" fn($($arg),*) $(-> $ret)?>(p)
-                        }
-                    },)*
-                })
-            }
-        }
-    };
-}
-
-api! {
+crate::dl::dl_api! {
+    /// Embree 4's functions, resolved in the deep-bound library.
+    pub struct Api, abi "C", missing |name| format!("{LIBRARY}: no symbol {name}");
     rtcNewDevice: fn(*const c_char) -> RTCDevice;
     rtcReleaseDevice: fn(RTCDevice);
     rtcGetDeviceError: fn(RTCDevice) -> c_int;

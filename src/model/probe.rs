@@ -18,12 +18,18 @@ use std::sync::Arc;
 /// Every pixel's cost at the probe's samples per pixel, and their noise.
 #[derive(Clone, Debug)]
 pub struct PixelProbe {
-    /// Each pixel's cheapest time over the passes (a pixel whose thread was preempted in one
-    /// pass is not dear in all).
+    /// Each pixel's cost: its median span over the passes (a pixel whose thread was
+    /// preempted in a minority of passes is out-voted), scaled so that the pixels sum to
+    /// `bulk_s` ([`calibrate`]).
     pub profile: Profile,
     /// v: the coefficient of variation of a pixel's time between two passes (the rendering
     /// is deterministic, so this is timing noise alone).
     pub noise_cv: f64,
+    /// Σ of the pixels' median spans as timed one pixel at a time, before [`calibrate`].
+    pub timed_s: f64,
+    /// Σ seconds of the same image rendered in rows on the same workers, each row's median
+    /// over the passes: what the pixels cost when nothing times them one by one.
+    pub bulk_s: f64,
 }
 
 /// One pass: frame 0 pixel by pixel, item i to worker i mod P, each pixel's span kept.
@@ -55,29 +61,98 @@ fn pass<T: Tracer + 'static>(
     Ok(px)
 }
 
-/// Time every pixel of frame 0 of `scene` on `workers` workers, `passes` (≥ 2) times.
+/// Each row's seconds with frame 0 rendered one row per item, cyclically over `workers`: the
+/// level of a run that does not time each pixel (one clock read per row).
+fn bulk_pass<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    workers: usize,
+) -> Result<Vec<f64>, SchedError> {
+    let (w, h) = (scene.width(), scene.height());
+    let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, Chunk::Rows(1), workers);
+    spec.timeline = true;
+    let items = decompose(w, h, spec.chunk, Order::Scanline);
+    let (_, stats) = run_items(
+        &spec,
+        &items,
+        render_job(scene, tracer),
+        &RunOptions::default(),
+    )?;
+    let mut rows = vec![0.0; items.len()];
+    for s in stats.timeline.unwrap_or_default() {
+        if let Some(r) = rows.get_mut(s.item as usize) {
+            *r = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
+        }
+    }
+    Ok(rows)
+}
+
+/// Per-pixel costs that keep the shape of `timed` (each pixel's share of the image) and sum
+/// to `bulk_s`. A render timed one pixel at a time (a work item, a clock read and a timeline
+/// entry per pixel) is not the render a run makes: on the 2-core dev box the sum of the
+/// spans came out 5.7 % above the measured serial render, which put every simulated 1-worker
+/// run 4–13 % above its measurement. The bulk render is timed only per row.
+/// Without a usable bulk time (≤ 0 or not finite) the timed costs are kept.
+pub fn calibrate(timed: &[f64], bulk_s: f64) -> Vec<f64> {
+    let sum: f64 = timed.iter().sum();
+    if !(bulk_s.is_finite() && bulk_s > 0.0 && sum > 0.0) {
+        return timed.to_vec();
+    }
+    let k = bulk_s / sum;
+    timed.iter().map(|t| t * k).collect()
+}
+
+/// The median (the mean of the middle two of an even count; NaN of none).
+pub fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Each position's median over the passes.
+fn medians(passes: &[Vec<f64>]) -> Vec<f64> {
+    (0..passes.first().map_or(0, Vec::len))
+        .map(|i| median(&mut passes.iter().map(|p| p[i]).collect::<Vec<_>>()))
+        .collect()
+}
+
+/// Time every pixel of frame 0 of `scene` on `workers` workers, `passes` (≥ 2) times, each
+/// pass followed by a bulk render (timed per row only) of the same image on the same workers; each
+/// pixel's median span, calibrated to the bulk renders' median ([`calibrate`]). This is the
+/// one probe of per-pixel costs: the cost model's and the simulation's.
 pub fn pixels<T: Tracer + 'static>(
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
     workers: usize,
     passes: u32,
 ) -> Result<PixelProbe, SchedError> {
-    let first = pass(scene, tracer, workers)?;
-    let second = pass(scene, tracer, workers)?;
-    let noise_cv = relative_spread(&first, &second);
-    let mut best: Vec<f64> = first.iter().zip(&second).map(|(a, b)| a.min(*b)).collect();
-    for _ in 2..passes {
-        for (b, c) in best.iter_mut().zip(pass(scene, tracer, workers)?) {
-            *b = b.min(c);
-        }
+    let mut spans: Vec<Vec<f64>> = Vec::new();
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    for _ in 0..passes.max(2) {
+        spans.push(pass(scene, tracer, workers)?);
+        rows.push(bulk_pass(scene, tracer, workers)?);
     }
+    let noise_cv = relative_spread(&spans[0], &spans[1]);
+    let timed = medians(&spans);
+    // Rows, like pixels, by their median pass: a row whose thread was preempted in a
+    // minority of passes is out-voted (with busy time of whole passes instead, the bulk level
+    // doubled on the dev box at load 8).
+    let bulk_s = medians(&rows).iter().sum();
     Ok(PixelProbe {
         profile: Profile {
             width: scene.width(),
             height: scene.height(),
-            pixel_s: best,
+            pixel_s: calibrate(&timed, bulk_s),
         },
         noise_cv,
+        timed_s: timed.iter().sum(),
+        bulk_s,
     })
 }
 
@@ -108,16 +183,39 @@ fn nothing() -> Job {
     })
 }
 
-/// Zero-work items: (fixed cost, per-item slope) of `policy` on `workers` workers, from runs
-/// of n and 2n one-pixel items, the median slope of `reps` pairs and the median intercept.
-/// n is at most `items`, fewer where a pilot run shows dear items (a blocking master on a
-/// loaded machine: milliseconds per item), so that one run stays near [`RUN_S`].
-fn zero_work(
+/// What zero-work runs of a scheduler measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZeroWork {
+    /// Seconds of wall per item: the slope between runs of n and 2n one-pixel zero-work items.
+    pub per_item_s: f64,
+    /// Seconds per run that do not grow with the items (threads started and joined, the
+    /// results gathered): the intercept of the same two runs, ≥ 0.
+    pub fixed_s: f64,
+}
+
+/// Zero-work items: the fixed cost and per-item slope of `policy` on `workers` workers, from
+/// runs of n and 2n one-pixel items, the median slope of `reps` pairs and the median
+/// intercept. n is at most `items`, fewer where a pilot run shows dear items (a blocking
+/// master on a loaded machine: milliseconds per item), so that one run stays near [`RUN_S`].
+pub fn zero_work(
     policy: Policy,
     items: u32,
     workers: usize,
     reps: u32,
-) -> Result<(f64, f64), SchedError> {
+) -> Result<ZeroWork, SchedError> {
+    zero_work_for(policy, items, workers, reps, RUN_S)
+}
+
+/// [`zero_work`] with the shorter run aiming at `target_s` instead of [`RUN_S`]. Longer runs
+/// for the simulation's inputs: with 20 ms runs the master's slope at B = 2 came out 0 (the
+/// 2n run no slower than the n run) in one of three probes on the quiet dev box.
+pub fn zero_work_for(
+    policy: Policy,
+    items: u32,
+    workers: usize,
+    reps: u32,
+    target_s: f64,
+) -> Result<ZeroWork, SchedError> {
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
     let pilot = decompose(PILOT_ITEMS, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
@@ -125,7 +223,7 @@ fn zero_work(
         .1
         .wall_s
         / PILOT_ITEMS as f64;
-    let items = ((RUN_S / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
+    let items = ((target_s / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
     let lists: Vec<Vec<WorkItem>> = [items, 2 * items]
         .iter()
         .map(|&n| decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
@@ -142,12 +240,10 @@ fn zero_work(
         slopes.push(slope);
         fixed.push((a - slope * items as f64).max(0.0));
     }
-    Ok((median(&mut fixed), median(&mut slopes)))
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    Ok(ZeroWork {
+        per_item_s: median(&mut slopes),
+        fixed_s: median(&mut fixed),
+    })
 }
 
 /// A job whose items each spin for `secs` (a stand-in of known cost).
@@ -172,10 +268,13 @@ fn spinning(secs: f64) -> Job {
 const LOADED_MAX_S: f64 = 100e-6;
 
 /// The master's refill period per source with items that each cost `item_s`: a source's time
-/// per item, P × (wall − F) / items over spinning items, so the master's wake-up latency
-/// between items (which zero-work items never show: the master never sleeps there) is in it.
-/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` runs of about
-/// 20 ms each.
+/// per item over spinning items, P × the slope of the wall between runs of n and 2n items, so
+/// the master's wake-up latency between items (which zero-work items never show: the master
+/// never sleeps there) is in it and the run's fixed cost is not. (With P × (wall − F) / n of
+/// one 20 ms run instead, the period at B = 2 on one worker came out 65 µs on the dev box,
+/// where the rendering runs took 39 µs per item: F of zero-work runs is not a spinning run's.)
+/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` pairs, the
+/// shorter run about 20 ms.
 pub fn loaded_refill(
     policy: Policy,
     workers: usize,
@@ -190,17 +289,26 @@ pub fn loaded_refill(
     {
         return Ok(zero.refill_s);
     }
-    // A source takes max(item cost, zero-work period) per item: one run near RUN_S.
+    // A source takes max(item cost, zero-work period) per item: the shorter run near RUN_S.
     let per = item_s.max(zero.refill_s);
     let n = ((RUN_S * workers as f64 / per) as u32).clamp(64, 4096);
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
-    let list = decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
+    let lists: Vec<Vec<WorkItem>> = [n, 2 * n]
+        .iter()
+        .map(|&k| decompose(k, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
+        .collect();
     let job = spinning(item_s);
+    let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
+        Ok(run_items(&spec, l, job.clone(), &RunOptions::default())?
+            .1
+            .wall_s)
+    };
     let mut per: Vec<f64> = Vec::new();
     for _ in 0..reps.max(1) {
-        let (_, s) = run_items(&spec, &list, job.clone(), &RunOptions::default())?;
-        per.push(workers as f64 * (s.wall_s - zero.fixed_s).max(0.0) / n as f64);
+        let a = wall(&lists[0])?;
+        let b = wall(&lists[1])?;
+        per.push(workers as f64 * (b - a).max(0.0) / n as f64);
     }
     Ok(median(&mut per).max(zero.refill_s))
 }
@@ -220,11 +328,12 @@ pub const PROBE_ITEMS: u32 = 8192;
 /// slope at its buffer and h self-scheduling's.
 pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads, SchedError> {
     let p = workers as f64;
-    let (fixed_s, slope) = zero_work(policy, PROBE_ITEMS, workers, reps)?;
+    let z = zero_work(policy, PROBE_ITEMS, workers, reps)?;
+    let (fixed_s, slope) = (z.fixed_s, z.per_item_s);
     Ok(match policy {
         Policy::Master(_) => {
             let ss = Policy::defaults(SchedulerKind::SelfScheduling);
-            let (_, worker_slope) = zero_work(ss, PROBE_ITEMS, workers, reps)?;
+            let worker_slope = zero_work(ss, PROBE_ITEMS, workers, reps)?.per_item_s;
             Overheads {
                 per_item_s: p * worker_slope,
                 fixed_s,
@@ -276,6 +385,30 @@ mod tests {
         let mut c = a.clone();
         c[0] = 50.0;
         assert_eq!(relative_spread(&a, &c), 0.0);
+    }
+
+    #[test]
+    fn calibrated_pixels_keep_their_shares_and_sum_to_the_bulk_render() {
+        // Spans inflated by a per-pixel timing cost: the sum is the bulk render's, each
+        // pixel's share of it is its timed share.
+        let timed = [3e-6, 1e-6, 6e-6, 2e-6];
+        let bulk = 10e-6;
+        let c = calibrate(&timed, bulk);
+        let sum: f64 = c.iter().sum();
+        assert!((sum - bulk).abs() < 1e-18, "{sum}");
+        for (a, t) in c.iter().zip(&timed) {
+            assert!((a / bulk - t / 12e-6).abs() < 1e-12);
+        }
+        // No bulk measurement: the timed costs stay.
+        assert_eq!(calibrate(&timed, 0.0), timed);
+        assert_eq!(calibrate(&timed, f64::NAN), timed);
+    }
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&mut []).is_nan());
     }
 
     #[test]

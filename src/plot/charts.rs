@@ -48,20 +48,27 @@ macro_rules! both {
     }};
 }
 
+/// The Okabe–Ito colours every chart draws its lines in: distinguishable with colour
+/// blindness and readable on white.
+pub const PALETTE: [RGBColor; 7] = [
+    RGBColor(213, 94, 0),
+    RGBColor(0, 114, 178),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(230, 159, 0),
+    RGBColor(120, 120, 120),
+];
+
+/// Line `i`'s colour, cycling through [`PALETTE`].
+pub fn palette(i: usize) -> RGBColor {
+    PALETTE[i % PALETTE.len()]
+}
+
 /// A stable colour per scheduler kind (serial and unknown ids get black).
 fn colour(kind: &str) -> RGBColor {
-    // Okabe–Ito colours: distinguishable with colour-blindness and readable on white.
-    const C: [RGBColor; 7] = [
-        RGBColor(213, 94, 0),
-        RGBColor(0, 114, 178),
-        RGBColor(0, 158, 115),
-        RGBColor(204, 121, 167),
-        RGBColor(86, 180, 233),
-        RGBColor(230, 159, 0),
-        RGBColor(120, 120, 120),
-    ];
     match SchedulerKind::ALL.iter().position(|k| k.id() == kind) {
-        Some(i) => C[i % C.len()],
+        Some(i) => palette(i),
         None => BLACK,
     }
 }

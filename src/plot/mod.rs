@@ -7,7 +7,7 @@ pub mod prediction;
 pub mod raster;
 pub mod report;
 
-pub use charts::{mpi_line, throughput, Figure};
+pub use charts::{mpi_line, palette, throughput, Figure, PALETTE};
 
 use crate::experiment::summary::{self, Summary};
 use crate::experiment::{convergence, meta, results};

@@ -38,36 +38,9 @@ extern "C" {
     fn free(p: *mut c_void);
 }
 
-macro_rules! api {
-    ($($name:ident: fn($($arg:ty),*) $(-> $ret:ty)?;)*) => {
-        /// SimGrid's functions, resolved in the library opened with `RTLD_LOCAL`.
-        struct Api {
-            $($name: unsafe extern "C-unwind" fn($($arg),*) $(-> $ret)?,)*
-        }
-
-        impl Api {
-            /// # Safety
-            /// `lib` is SimGrid 3.x, whose functions have the
-            /// signatures above (those of `simgrid/*.h`).
-            unsafe fn resolve(lib: &crate::dl::Library) -> Result<Self, String> {
-                Ok(Self {
-                    $($name: {
-                        let p = lib.symbol(concat!(stringify!($name), "\0"));
-                        if p.is_null() {
-                            return Err(format!("SimGrid has no symbol {}", stringify!($name)));
-                        }
-                        // SAFETY: the symbol is the C function of that name (see `# Safety`).
-                        unsafe {
-                            std::mem::transmute::<*mut c_void, unsafe extern "C-unwind" fn($($arg),*) $(-> $ret)?>(p)
-                        }
-                    },)*
-                })
-            }
-        }
-    };
-}
-
-api! {
+crate::dl::dl_api! {
+    /// SimGrid's functions, resolved in the library opened with `RTLD_LOCAL`.
+    struct Api, abi "C-unwind", missing |name| format!("SimGrid has no symbol {name}");
     simgrid_init: fn(*mut c_int, *mut *mut c_char);
     simgrid_load_platform: fn(*const c_char);
     simgrid_run: fn();

@@ -591,7 +591,8 @@ impl Ledger {
     }
 }
 
-/// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue.
+/// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue;
+/// each worker finishes at most one item per the job's refill period.
 fn master(world: Rc<World>, inbox: Rc<FanIn<MasterMsg>>, buffer: usize, requeue: Requeue) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     for k in 0..w {
@@ -608,10 +609,17 @@ fn master(world: Rc<World>, inbox: Rc<FanIn<MasterMsg>>, buffer: usize, requeue:
                 let Some(item) = local.pop_front() else {
                     continue;
                 };
+                let t0 = clock();
                 work(&wd, k, &[item]);
                 let bytes = wd.job.result_bytes[item] as u64;
                 count_message(&wd.tally, bytes);
                 master.put_detached(MasterMsg::Result { worker: k, item }, bytes);
+                // The source's period per item is at least the master's measured refill
+                // period: it waits for its refill, idle.
+                let rest = wd.job.refill_s - (clock() - t0);
+                if rest > 0.0 {
+                    sleep_for(rest);
+                }
             }
         });
     }

@@ -1,22 +1,26 @@
-//! The measured inputs of a simulation: the cost of every pixel (one per-pixel render with a
-//! timeline) and the per-hand-out costs of the master and of the shared counter (zero-work
-//! runs, as `benches/dispatch.rs` measures them). Nothing here is estimated.
+//! The measured inputs of a simulation: the cost of every pixel (the cost model's probe,
+//! [`crate::model::probe::pixels`]) and the per-hand-out costs of the master and of the shared
+//! counter (its zero-work runs, as `benches/dispatch.rs` measures them). Nothing here is
+//! estimated.
 
-use crate::render::{TileResult, WorkItem};
+use crate::model::probe;
+use crate::render::TileResult;
 use crate::scene::Scene;
-use crate::sched::{
-    decompose, render_job, run_items, wire, Chunk, MasterParams, Order, Policy, RunOptions,
-    SchedulerKind, SchedulerSpec,
-};
-use crate::source::Job;
+use crate::sched::{decompose, wire, Chunk, MasterParams, Order, Policy, SchedulerKind};
 use crate::tracer::AnyTracer;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
+pub use crate::model::probe::ZeroWork;
+
+/// Seconds the shorter zero-work run aims at (up to the plan's item count): 10× the cost
+/// model's, because a simulated master at thousands of workers is limited by h alone.
+const ZERO_WORK_RUN_S: f64 = 0.2;
+
 /// Bytes MPI adds to each result entry: the worker's busy time (`u64`, see `mpi::wire`).
 const RESULT_BUSY_BYTES: u32 = 8;
 
-/// Seconds each pixel took in one per-pixel render on one worker.
+/// Seconds each pixel costs, from the probe.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PixelCosts {
     /// Image width.
@@ -25,93 +29,47 @@ pub struct PixelCosts {
     pub height: u32,
     /// Seconds per pixel, index `y·width + x`.
     pub cost_s: Vec<f64>,
-    /// Wall time of the probe run (the serial-equivalent time), seconds.
-    pub wall_s: f64,
+    /// Σ of the pixels as timed one by one, before the probe's calibration to `bulk_s`.
+    pub timed_s: f64,
+    /// Σ of the bulk render (rows, timed per row) the costs are calibrated to.
+    pub bulk_s: f64,
 }
 
 impl PixelCosts {
-    /// Render `scene` `reps` times pixel by pixel on one worker, timing each pixel (a timeline
-    /// of a `static_cyclic` run at chunk 1), and keep each pixel's median time. The median, not
-    /// the fastest: the fastest of 3 underestimates what a pixel costs in a run (on the loaded
-    /// 2-core dev box Σ of the fastest was 0.38 s where a serial render used 0.49 s of CPU),
-    /// and a pixel during which the thread was descheduled (a whole time slice, tens of ms)
-    /// is out-voted as long as it happens in fewer than half the renders.
-    ///
-    /// With `threads` > 1 the pixels are dealt out cyclically to that many threads rendering
-    /// at once: the cost of a pixel while every core renders (cores share caches, memory and,
-    /// on a virtual machine, possibly one physical core), for simulating a run of that many
-    /// workers on this machine.
+    /// The per-pixel probe ([`probe::pixels`], `reps` passes) of `scene` on `threads` threads
+    /// rendering at once: with `threads` > 1 the cost of a pixel while that many cores render
+    /// (they share caches, memory and, on a virtual machine, possibly physical cores), for
+    /// simulating a run of that many workers on this machine.
     pub fn probe(
         scene: &Arc<Scene>,
         tracer: &Arc<AnyTracer>,
         reps: u32,
         threads: usize,
     ) -> Result<Self, String> {
-        let runs: Vec<Self> = (0..reps.max(1))
-            .map(|_| Self::probe_once(scene, tracer, threads))
-            .collect::<Result<_, _>>()?;
-        let mid = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
-            if n % 2 == 1 {
-                v[n / 2]
-            } else {
-                0.5 * (v[n / 2 - 1] + v[n / 2])
-            }
-        };
-        let cost_s = (0..runs[0].cost_s.len())
-            .map(|p| mid(runs.iter().map(|r| r.cost_s[p]).collect()))
-            .collect();
-        Ok(Self {
-            width: runs[0].width,
-            height: runs[0].height,
-            cost_s,
-            wall_s: mid(runs.iter().map(|r| r.wall_s).collect()),
-        })
-    }
-
-    fn probe_once(
-        scene: &Arc<Scene>,
-        tracer: &Arc<AnyTracer>,
-        threads: usize,
-    ) -> Result<Self, String> {
         if scene.frames() > 1 {
             return Err("animations are not simulated (the probe times one frame)".into());
         }
-        let (w, h) = (scene.width(), scene.height());
-        let mut spec = SchedulerSpec::new(
-            SchedulerKind::StaticCyclic,
-            Chunk::Tile { w: 1, h: 1 },
-            threads.max(1),
-        );
-        spec.timeline = true;
-        let items = decompose(w, h, spec.chunk, Order::Scanline);
-        let (_, stats) = run_items(
-            &spec,
-            &items,
-            render_job(scene, tracer),
-            &RunOptions::default(),
-        )
-        .map_err(|e| e.to_string())?;
-        let mut cost_s = vec![0.0; (w * h) as usize];
-        for span in stats.timeline.unwrap_or_default() {
-            if let Some(item) = items.get(span.item as usize) {
-                for p in item.pixels(w) {
-                    cost_s[p as usize] = (span.end_ns - span.start_ns) as f64 * 1e-9;
-                }
-            }
-        }
+        let p = probe::pixels(scene, tracer, threads.max(1), reps).map_err(|e| e.to_string())?;
         Ok(Self {
-            width: w,
-            height: h,
-            cost_s,
-            wall_s: stats.wall_s,
+            width: p.profile.width,
+            height: p.profile.height,
+            cost_s: p.profile.pixel_s,
+            timed_s: p.timed_s,
+            bulk_s: p.bulk_s,
         })
     }
 
     /// Σ pixel costs: the serial time the simulation's speedups are relative to.
     pub fn serial_s(&self) -> f64 {
         self.cost_s.iter().sum()
+    }
+
+    /// The same costs scaled by `k` (every pixel alike).
+    pub fn scaled(&self, k: f64) -> Self {
+        Self {
+            cost_s: self.cost_s.iter().map(|c| c * k).collect(),
+            ..self.clone()
+        }
     }
 }
 
@@ -155,60 +113,6 @@ impl ItemInputs {
     }
 }
 
-fn nothing() -> Job {
-    Arc::new(|it: &WorkItem| TileResult {
-        item: it.id,
-        pixels: Vec::new(),
-        rays: 0,
-        nonfinite: 0,
-    })
-}
-
-/// What zero-work runs of a scheduler measured: its cost per item and its fixed cost per run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ZeroWork {
-    /// Seconds per item: the slope between runs of n and 2n one-pixel zero-work items.
-    pub per_item_s: f64,
-    /// Seconds per run that do not grow with the items (threads started and joined, the
-    /// results gathered): the intercept of the same two runs, ≥ 0.
-    pub fixed_s: f64,
-}
-
-/// [`ZeroWork`] of `policy` on `workers` threads over one-pixel zero-work items: runs of
-/// `items` and 2·`items` items, median of `reps` pairs (slope and intercept each).
-pub fn zero_work(
-    policy: Policy,
-    items: u32,
-    workers: usize,
-    reps: u32,
-) -> Result<ZeroWork, String> {
-    let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
-    spec.policy = policy;
-    let wall = |n: u32| -> Result<(f64, usize), String> {
-        let side = (n as f64).sqrt().ceil() as u32;
-        let list = decompose(side, side, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
-        let (_, s) = run_items(&spec, &list, nothing(), &RunOptions::default())
-            .map_err(|e| e.to_string())?;
-        Ok((s.wall_s, list.len()))
-    };
-    let pairs: Vec<(f64, f64)> = (0..reps.max(1))
-        .map(|_| {
-            let (a, na) = wall(items)?;
-            let (b, nb) = wall(2 * items)?;
-            let slope = ((b - a) / (nb - na) as f64).max(b / nb as f64 * 0.05);
-            Ok((slope, (a - slope * na as f64).max(0.0)))
-        })
-        .collect::<Result<_, String>>()?;
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    Ok(ZeroWork {
-        per_item_s: median(pairs.iter().map(|p| p.0).collect()),
-        fixed_s: median(pairs.iter().map(|p| p.1).collect()),
-    })
-}
-
 /// The master's cost per hand-out at `buffer` (zero-work dispatch per item) and its fixed cost.
 pub fn master_zero_work(
     buffer: usize,
@@ -220,16 +124,19 @@ pub fn master_zero_work(
         buffer,
         ..MasterParams::DEFAULT
     };
-    zero_work(Policy::Master(p), items, workers, reps)
+    probe::zero_work_for(Policy::Master(p), items, workers, reps, ZERO_WORK_RUN_S)
+        .map_err(|e| e.to_string())
 }
 
 /// The shared counter's cost per grab (zero-work self-scheduling at grab 1, per item) and the
 /// threaded schedulers' fixed cost per run.
 pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWork, String> {
-    zero_work(
+    probe::zero_work_for(
         Policy::defaults(SchedulerKind::SelfScheduling),
         items,
         workers,
         reps,
+        ZERO_WORK_RUN_S,
     )
+    .map_err(|e| e.to_string())
 }

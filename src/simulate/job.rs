@@ -73,6 +73,12 @@ pub struct SimJob {
     /// 0 where that launch is not measured (a cluster's).
     #[serde(default)]
     pub start_s: f64,
+    /// The master's refill period per source, seconds: a source under the master finishes
+    /// at most one item per `refill_s` and waits out the rest (no core used). Measured for
+    /// local threads (the sleeping master's wake-up and round trip per item); 0 where it is
+    /// not measured (a cluster's master, whose round trip is the simulated network's).
+    #[serde(default)]
+    pub refill_s: f64,
     /// Workers lost during the run.
     pub lost: Vec<LostWorker>,
     /// Seed of the work-stealing victim choice.

@@ -3,6 +3,7 @@
 
 use super::sweep::{Inputs, SimRow};
 use super::validate::Validation;
+use crate::plot::palette;
 use crate::sched::{Chunk, Policy};
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -13,17 +14,6 @@ type Series = Vec<(String, Vec<(f64, f64)>)>;
 fn e<T: std::fmt::Display>(err: T) -> String {
     err.to_string()
 }
-
-const COLOURS: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-];
 
 /// A line chart; `hlines` are dashed horizontal references (the analytic limits).
 #[allow(
@@ -80,7 +70,7 @@ fn chart(
                 .draw()
                 .map_err(e)?;
             for (i, (name, p)) in data.iter().enumerate() {
-                let col = COLOURS[i % COLOURS.len()];
+                let col = palette(i);
                 c.draw_series(LineSeries::new(p.clone(), col.stroke_width(2)))
                     .map_err(e)?
                     .label(name.clone())
@@ -328,14 +318,14 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
         .map_err(e)?;
     }
     for (i, (w, pts)) in by_workers.iter().enumerate() {
-        let col = COLOURS[i % COLOURS.len()];
+        let col = palette(i);
         c.draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
             .map_err(e)?
             .label(format!("{w} worker(s)"))
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
     }
     for (i, (w, _)) in by_workers.iter().enumerate() {
-        let col = COLOURS[i % COLOURS.len()];
+        let col = palette(i);
         for r in v.rows.iter().filter(|r| r.spec.workers == *w) {
             c.draw_series(LineSeries::new(
                 vec![(r.measured.1, r.simulated), (r.measured.2, r.simulated)],

@@ -24,11 +24,16 @@ pub struct Inputs {
     /// The fixed cost of a local-thread run, seconds: the master's per buffer size, and the
     /// threaded schedulers' (zero-work self-scheduling).
     pub fixed_s: (BTreeMap<usize, f64>, f64),
-    /// Add the local-thread launch cost to each simulated wall (the validation against
-    /// local-thread runs does; a simulated cluster has no measured launch).
-    pub local_launch: bool,
+    /// Simulating this machine's local threads (the validation against local-thread runs):
+    /// each simulated wall gets the measured launch cost, and a master's sources their
+    /// measured refill period ([`Inputs::refill`]). A simulated cluster has neither measured.
+    pub local_threads: bool,
     /// Item inputs per (chunk, order, probe threads), computed once.
     items: BTreeMap<(String, String, usize), Arc<ItemInputs>>,
+    /// The master's measured refill period per (configuration label, workers), seconds.
+    refill: BTreeMap<(String, usize), f64>,
+    /// Repetitions of each hand-out probe.
+    reps: u32,
 }
 
 impl Inputs {
@@ -49,6 +54,14 @@ impl Inputs {
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
         let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, 1)
             .map_err(anyhow::Error::msg)?;
+        if !quiet {
+            println!(
+                "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %): the costs sum to the bulk render",
+                pixels.timed_s,
+                pixels.bulk_s,
+                100.0 * (pixels.timed_s / pixels.bulk_s - 1.0)
+            );
+        }
         let mut concurrent = BTreeMap::new();
         for &t in concurrency.iter().filter(|&&t| t > 1) {
             let px = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, t)
@@ -79,13 +92,16 @@ impl Inputs {
         let counter_s = counter.per_item_s;
         if !quiet {
             println!(
-                "probe: {}×{} px, serial {:.4} s (Σ pixels {:.4} s); counter {:.1} ns/grab; master h {}",
+                "probe: {}×{} px, Σ pixels {:.4} s; counter {:.1} ns/grab; master h {}",
                 pixels.width,
                 pixels.height,
-                pixels.wall_s,
                 pixels.serial_s(),
                 counter_s * 1e9,
-                master_h_s.iter().map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9)).collect::<Vec<_>>().join(", ")
+                master_h_s
+                    .iter()
+                    .map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         Ok(Self {
@@ -94,9 +110,65 @@ impl Inputs {
             master_h_s,
             counter_s,
             fixed_s: (master_fixed_s, counter.fixed_s),
-            local_launch: false,
+            local_threads: false,
             items: BTreeMap::new(),
+            refill: BTreeMap::new(),
+            reps,
         })
+    }
+
+    /// The same inputs with every pixel cost scaled so that one thread's pixels sum to
+    /// `serial_s` (the costs with more threads at once keep their ratio to one thread's).
+    pub fn at_level(&self, serial_s: f64) -> Self {
+        let k = serial_s / self.pixels.serial_s();
+        Self {
+            pixels: self.pixels.scaled(k),
+            concurrent: self
+                .concurrent
+                .iter()
+                .map(|(t, px)| (*t, px.scaled(k)))
+                .collect(),
+            master_h_s: self.master_h_s.clone(),
+            counter_s: self.counter_s,
+            fixed_s: self.fixed_s.clone(),
+            local_threads: self.local_threads,
+            items: BTreeMap::new(),
+            refill: self.refill.clone(),
+            reps: self.reps,
+        }
+    }
+
+    /// Every refill period measured so far: (configuration label, workers, seconds).
+    pub fn refills(&self) -> Vec<(String, usize, f64)> {
+        self.refill
+            .iter()
+            .map(|((l, w), r)| (l.clone(), *w, *r))
+            .collect()
+    }
+
+    /// A master's refill period on this machine: a source's measured time per item under
+    /// `spec`'s master on `spec.workers` threads, with spinning items of `mean_s` each (the
+    /// cost model's probe, [`crate::model::probe::loaded_refill`]): the sleeping master's
+    /// wake-up and its round trip per item, which zero-work items never show. Measured once
+    /// per configuration; 0 for other schedulers.
+    pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> anyhow::Result<f64> {
+        if !matches!(spec.policy, Policy::Master(_)) {
+            return Ok(0.0);
+        }
+        let key = (spec.label(), spec.workers);
+        if let Some(r) = self.refill.get(&key) {
+            return Ok(*r);
+        }
+        let zero = crate::model::probe::overheads(spec.policy, spec.workers, self.reps)?;
+        let r = crate::model::probe::loaded_refill(
+            spec.policy,
+            spec.workers,
+            mean_s,
+            &zero,
+            self.reps,
+        )?;
+        self.refill.insert(key, r);
+        Ok(r)
     }
 
     fn items(&mut self, chunk: Chunk, order: Order, workers: usize) -> Arc<ItemInputs> {
@@ -111,7 +183,12 @@ impl Inputs {
     }
 
     /// The job simulating `spec` on `platform`.
-    pub fn job(&mut self, spec: &SchedulerSpec, platform: &Path, plan: &SimPlan) -> SimJob {
+    pub fn job(
+        &mut self,
+        spec: &SchedulerSpec,
+        platform: &Path,
+        plan: &SimPlan,
+    ) -> anyhow::Result<SimJob> {
         // pbrt and mitsuba choose their own tiles, as in a measured run.
         let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
         let items = self.items(chunk, order, spec.workers);
@@ -128,7 +205,13 @@ impl Inputs {
             ),
             _ => (0.0, self.fixed_s.1),
         };
-        SimJob {
+        let refill_s = if self.local_threads && !items.cost_s.is_empty() {
+            let mean = items.cost_s.iter().sum::<f64>() / items.cost_s.len() as f64;
+            self.refill(spec, mean)?
+        } else {
+            0.0
+        };
+        Ok(SimJob {
             platform: platform.to_path_buf(),
             scheduler: spec.kind().id().to_string(),
             params,
@@ -138,10 +221,11 @@ impl Inputs {
             result_bytes: items.result_bytes.clone(),
             master_h_s,
             counter_s: self.counter_s,
-            start_s: if self.local_launch { fixed_s } else { 0.0 },
+            start_s: if self.local_threads { fixed_s } else { 0.0 },
+            refill_s,
             lost: plan.lost.clone(),
             seed: plan.seed,
-        }
+        })
     }
 }
 
@@ -281,7 +365,7 @@ pub fn simulate_one(
     platform: &Platform,
     spec: &SchedulerSpec,
 ) -> anyhow::Result<SimRow> {
-    let job = inputs.job(spec, &platform.path, plan);
+    let job = inputs.job(spec, &platform.path, plan)?;
     let out = child::simulate(exe, &job).map_err(|m| {
         anyhow::anyhow!(
             "simulating {} on {} workers of {}: {m}",
@@ -323,6 +407,8 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         None => None,
     };
     let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, &[], quiet)?;
+    let dir = out.join(&plan.name);
+    std::fs::create_dir_all(dir.join("plots"))?;
     let mut rows = Vec::new();
     for p in &plan.platforms {
         for spec in &plan.specs {
@@ -349,6 +435,8 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
                     );
                 }
                 rows.push(row);
+                // Every row so far, so that a sweep cut short leaves what it simulated.
+                write_rows(&dir.join("sim_runs.csv"), &rows)?;
             }
         }
     }
@@ -361,7 +449,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
             counts.sort_unstable();
             counts.dedup();
             let mut v_inputs = Inputs::measure(plan, overrides, &specs, &counts, quiet)?;
-            v_inputs.local_launch = true;
+            v_inputs.local_threads = true;
             Some(validate::compare(
                 configs,
                 &mut v_inputs,
@@ -373,17 +461,16 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         }
         _ => None,
     };
-    let dir = out.join(&plan.name);
-    std::fs::create_dir_all(dir.join("plots"))?;
     write_rows(&dir.join("sim_runs.csv"), &rows)?;
     let inputs_toml = format!(
-        "# Measured inputs of every simulated run ({}).\nmachine = {:?}\nload_average = {:?}\nprobe_scene = {:?}\nprobe_pixels = {}\nprobe_wall_s = {}\nserial_s = {}\ncounter_s = {}\n[master_h_s]\n{}",
+        "# Measured inputs of every simulated run ({}).\nmachine = {:?}\nload_average = {:?}\nprobe_scene = {:?}\nprobe_pixels = {}\nprobe_timed_s = {}\nprobe_bulk_s = {}\nserial_s = {}\ncounter_s = {}\n[master_h_s]\n{}",
         plan.file.display(),
         crate::host::cpu_model(),
         load_average(),
         plan.scene.display().to_string(),
         inputs.pixels.cost_s.len(),
-        inputs.pixels.wall_s,
+        inputs.pixels.timed_s,
+        inputs.pixels.bulk_s,
         inputs.pixels.serial_s(),
         inputs.counter_s,
         inputs.master_h_s.iter().map(|(b, h)| format!("B{b} = {h}\n")).collect::<String>()

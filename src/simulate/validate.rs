@@ -109,8 +109,11 @@ pub struct Comparison {
     pub ci: (f64, f64),
     /// Repetitions measured.
     pub repetitions: usize,
-    /// Simulated wall.
+    /// Simulated wall, the pixel costs at the probe's own level.
     pub simulated: f64,
+    /// Simulated wall with the pixel costs scaled to sum to the measured serial median (the
+    /// probe's shape at the measured runs' level): the error left to the scheduling model.
+    pub simulated_at_serial: f64,
     /// Measured speedup (serial median / median wall).
     pub measured_speedup: f64,
     /// Simulated speedup (Σ probe pixel costs / simulated wall).
@@ -127,6 +130,10 @@ impl Comparison {
     /// (simulated − measured) / measured wall.
     pub fn wall_error(&self) -> f64 {
         (self.simulated - self.measured.0) / self.measured.0
+    }
+    /// (simulated at the serial's level − measured) / measured wall.
+    pub fn wall_error_at_serial(&self) -> f64 {
+        (self.simulated_at_serial - self.measured.0) / self.measured.0
     }
     /// (simulated − measured) / measured speedup.
     pub fn speedup_error(&self) -> f64 {
@@ -147,8 +154,10 @@ pub struct Validation {
     /// The machine's load average while the inputs were measured.
     pub load: String,
     /// The inputs checked against the measured serial baseline: (measured serial median,
-    /// Σ probe pixel costs, the probe's wall).
+    /// Σ probe pixel costs, Σ of the pixels as timed one by one before calibration).
     pub serial: (f64, f64, f64),
+    /// Each master configuration's measured refill period: (label, workers, seconds).
+    pub refill: Vec<(String, usize, f64)>,
     /// Σ pixel costs of the probe with that many threads rendering at once.
     pub concurrent: Vec<(usize, f64)>,
 }
@@ -162,9 +171,12 @@ pub fn compare(
     platform: &Platform,
     quiet: bool,
 ) -> anyhow::Result<Validation> {
+    let serial_s = measured.first().map_or(f64::NAN, |m| m.serial_s);
+    let mut at_serial = inputs.at_level(serial_s);
     let mut rows = Vec::new();
     for m in measured {
         let sim = simulate_one(inputs, plan, exe, platform, &m.spec)?;
+        let sim_at_serial = simulate_one(&mut at_serial, plan, exe, platform, &m.spec)?;
         let med = median(&m.walls);
         let lo = m.walls.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = m.walls.iter().cloned().fold(0.0, f64::max);
@@ -181,6 +193,7 @@ pub fn compare(
             ci: crate::experiment::stats::median_ci(&m.walls, 1),
             repetitions: m.walls.len(),
             simulated: sim.out.wall_s,
+            simulated_at_serial: sim_at_serial.out.wall_s,
             measured_speedup: m.serial_s / med,
             simulated_speedup: sim.speedup(),
             busy: (median(&m.busy), sim_busy),
@@ -189,12 +202,13 @@ pub fn compare(
         };
         if !quiet {
             println!(
-                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %); busy {:.4}/{:.4}, dispatch {:.4}/{:.4}, idle {:.4}/{:.4}",
+                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %; at the serial's level {:+.1} %); busy {:.4}/{:.4}, dispatch {:.4}/{:.4}, idle {:.4}/{:.4}",
                 c.spec.label(),
                 c.spec.workers,
                 med,
                 c.simulated,
                 100.0 * c.wall_error(),
+                100.0 * c.wall_error_at_serial(),
                 c.busy.0,
                 c.busy.1,
                 c.dispatch.0,
@@ -225,11 +239,8 @@ pub fn compare(
         rows,
         ranking,
         load: super::sweep::load_average(),
-        serial: (
-            measured.first().map_or(f64::NAN, |m| m.serial_s),
-            inputs.pixels.serial_s(),
-            inputs.pixels.wall_s,
-        ),
+        serial: (serial_s, inputs.pixels.serial_s(), inputs.pixels.timed_s),
+        refill: inputs.refills(),
         concurrent: inputs
             .concurrent
             .iter()
@@ -251,6 +262,8 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
         "measured_max_s",
         "simulated_wall_s",
         "wall_error",
+        "simulated_at_serial_wall_s",
+        "wall_error_at_serial",
         "measured_speedup",
         "simulated_speedup",
         "speedup_error",
@@ -272,6 +285,8 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
             format!("{:.6}", c.measured.2),
             format!("{:.6}", c.simulated),
             format!("{:.4}", c.wall_error()),
+            format!("{:.6}", c.simulated_at_serial),
+            format!("{:.4}", c.wall_error_at_serial()),
             format!("{:.4}", c.measured_speedup),
             format!("{:.4}", c.simulated_speedup),
             format!("{:.4}", c.speedup_error()),
@@ -295,17 +310,19 @@ fn count(v: &Validation, ok: impl Fn(&Comparison) -> bool) -> usize {
 
 /// The validation table for `report.md`.
 pub fn markdown(v: &Validation) -> String {
-    let (serial, probe_sum, probe_wall) = v.serial;
+    let (serial, probe_sum, timed_sum) = v.serial;
     let mut s = format!(
-        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {}; speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's per-pixel medians {probe_sum:.4} s ({:+.1} %), the probe's own wall {probe_wall:.4} s.{}\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|\n",
+        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {} (with the pixel costs at the measured serial's level: {}); speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's pixel costs {probe_sum:.4} s ({:+.1} %), calibrated to a bulk render in rows; as timed one pixel at a time {timed_sum:.4} s ({:+.1} %).{}{}\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | at serial level | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|---|\n",
         v.platform,
         v.rows.len(),
         count(v, |c| c.wall_error().abs() <= 0.05),
+        count(v, |c| c.wall_error_at_serial().abs() <= 0.05),
         count(v, |c| c.speedup_error().abs() <= 0.10),
         v.ranking.1,
         v.ranking.0,
         v.load,
         100.0 * (probe_sum - serial) / serial,
+        100.0 * (timed_sum - serial) / serial,
         v.concurrent
             .iter()
             .map(|(t, sum)| format!(
@@ -313,10 +330,22 @@ pub fn markdown(v: &Validation) -> String {
                 100.0 * (sum / probe_sum - 1.0)
             ))
             .collect::<String>(),
+        if v.refill.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " The master's refill period per source (spinning items of each configuration's mean cost): {}.",
+                v.refill
+                    .iter()
+                    .map(|(l, w, r)| format!("{l} on {w}: {:.1} µs", r * 1e6))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )
+        },
     );
     for c in &v.rows {
         s += &format!(
-            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
+            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
             c.spec.label(),
             c.spec.workers,
             c.measured.0,
@@ -324,6 +353,7 @@ pub fn markdown(v: &Validation) -> String {
             c.measured.2,
             c.simulated,
             100.0 * c.wall_error(),
+            100.0 * c.wall_error_at_serial(),
             c.measured_speedup,
             c.simulated_speedup,
             c.busy.0,

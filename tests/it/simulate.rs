@@ -80,6 +80,7 @@ mod with_simgrid {
             master_h_s: 0.0,
             counter_s: 0.0,
             start_s: 0.0,
+            refill_s: 0.0,
             lost: Vec::new(),
             seed: 1,
         }
@@ -130,6 +131,40 @@ mod with_simgrid {
             "{}",
             out.wall_s
         );
+    }
+
+    #[test]
+    fn a_master_source_finishes_no_faster_than_its_refill_period() {
+        // Local threads under a sleeping master: items cheaper than the measured refill
+        // period r take r each (the source waits for its refill, idle); dearer ones their cost.
+        let dir = tempfile::tempdir().unwrap();
+        let p = node(dir.path(), 4);
+        let (n, c, r) = (400, 10e-6, 25e-6);
+        let run = |refill_s: f64, buffer: &str, workers: usize| {
+            let mut j = job(&p, "master", &[("buffer", buffer)], workers, vec![c; n]);
+            j.refill_s = refill_s;
+            sim(&j)
+        };
+        for (buffer, workers) in [("2", 1), ("2", 2), ("64", 2)] {
+            let slow = run(r, buffer, workers);
+            let want = n as f64 * r / workers as f64;
+            assert!(
+                (slow.wall_s - want).abs() < 0.02 * want,
+                "B={buffer} P={workers}: {} vs n·r/P = {want}",
+                slow.wall_s
+            );
+            let busy: f64 = slow.busy_s.iter().sum();
+            assert!(
+                (busy - n as f64 * c).abs() < 1e-9,
+                "waits are not busy: {busy}"
+            );
+            // Without a refill period the same run is bound by its work.
+            let fast = run(0.0, buffer, workers);
+            let work = n as f64 * c / workers as f64;
+            assert!(fast.wall_s < 1.05 * work, "{} vs {work}", fast.wall_s);
+            // A period below the item cost changes nothing.
+            assert_eq!(run(c / 2.0, buffer, workers).wall_s, fast.wall_s);
+        }
     }
 
     #[test]
