@@ -12,9 +12,11 @@
 //! Tracer ids are those of `--tracer`, plus `bvh_portable`: `bvh` held to its portable
 //! traversal on a CPU with AVX2 (what AVX2 brings).
 //!
-//! Measured (quiet 2-core AMD EPYC, `taskset -c 0`, 5 rounds, 1 M triangles, 4 runs): bvh/embree
-//! best rate primary 0.47–0.55 at 256², 0.53–0.60 at 1024²; diffuse 0.39–0.42 at both; build
-//! 0.88–1.13 s vs Embree's 0.45–0.86 s (1.1–2.2×).
+//! Measured (quiet 2-core AMD EPYC, `taskset -c 0`, 5 rounds, 1 M triangles, 6 runs, load
+//! 0.83–0.99): bvh/embree best rate primary 0.56–0.64 at 256², 0.65–0.78 at 1024²; diffuse
+//! 0.50–0.55 and 0.45–0.58; build 0.83–1.14 s vs Embree's 0.56–0.87 s in the same runs
+//! (1.22–1.77×; the tracer built first pays the fresh memory: `bvh_portable`, built second,
+//! 0.74–0.91 s). Full table: `benches/peers/results.md`.
 //!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`
 //! `… --example tracer_ab -- --rays diffuse complex 1000000 1024 5 bvh embree`

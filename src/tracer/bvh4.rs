@@ -8,9 +8,11 @@
 //! `unsafe`; the tracer also runs it from a copy compiled for AVX2), and the slab test is
 //! conservative by pbrt's bound (`t_far · (1 + 2γ₃)`), with no epsilon.
 //!
-//! Eight children rather than four: 1 M-triangle displaced sphere, 256², one thread, rough
-//! timings on a loaded 2-core EPYC (`examples/tracer_ab`, 3 rounds, two alternations):
-//! bvh/embree primary 0.59–0.60 (8-wide) vs 0.52–0.55 (4-wide), diffuse bounces 0.55 vs 0.45.
+//! Eight children rather than four (with the inline stack and the inlined leaf tests below):
+//! 1 M-triangle displaced sphere, one thread, bvh/embree best Mrays/s, 6 runs of each binary
+//! alternated (`examples/tracer_ab`, quiet 2-core EPYC): primary 256² 0.56–0.64 against
+//! 0.47–0.52 with 4-wide nodes, 1024² 0.65–0.78 against 0.53–0.59; one diffuse bounce 0.50–0.55
+//! and 0.45–0.58 against 0.40–0.43 and 0.41–0.44.
 
 use crate::geometry::{gamma, Hit, Ray};
 use glam::Vec4;
