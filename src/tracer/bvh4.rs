@@ -40,7 +40,7 @@ const EMPTY: u32 = u32::MAX;
 /// One inner node: [`WIDTH`] child boxes side by side (one lane per child, two `Vec4` halves
 /// per plane) and the children. Plane `a` (x, y, z) holds the lower bounds on axis `a`, plane
 /// `3 + a` the upper ones; an empty lane holds an inverted box (+∞ … −∞) and is never entered.
-/// 224 bytes, starting on a cache line.
+/// 224 bytes of boxes and children, padded to 256 to start on a cache line.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
 struct Node {
