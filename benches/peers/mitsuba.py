@@ -14,10 +14,11 @@ minimum and maximum of each program, and the ratio raysched / Mitsuba pair by pa
 range). raysched's time is the render's wall time as it prints it (scene load and BVH build
 excluded, as Mitsuba's scene load is); its process wall time is printed beside it.
 
-Measured (quiet 2-core AMD EPYC, 64 spp, 5 renders each, two runs): raysched / llvm_ad_rgb
-median 1.30 (1.10-1.32) and 1.25 (1.11-1.37), raysched 23.9-25.1 ms/spp against 20.2-20.8;
-raysched / scalar_rgb 0.69 (0.68-0.71) and 0.67 (0.65-0.69). The raysched binary before the
-4-wide leaf test, same window: 1.45 (1.35-1.57) against llvm_ad_rgb.
+Measured (quiet 2-core AMD EPYC, 64 spp, 5 renders each, three runs, 8-wide BVH): raysched /
+llvm_ad_rgb median 1.06 (0.90-1.12), 1.07 (1.01-1.13), 1.02 (0.91-1.06), raysched 19.3-23.3
+ms/spp (medians) against 18.8-21.7; raysched / scalar_rgb 0.58 (0.53-0.63). The binary with
+4-wide nodes, same window: 1.24 (1.12-1.45) and 1.26 (1.19-1.28). Table:
+benches/peers/results.md.
 
 Setup (once; not part of CI): see benches/peers/README.md, or ``bash benches/peers/setup.sh``.
 

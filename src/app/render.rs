@@ -28,7 +28,7 @@ pub(crate) struct RenderArgs {
     /// Worker threads.
     #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
-    /// Tracer: bvh (native: obvhs build, own 4-wide traversal), brute (reference), embree and
+    /// Tracer: bvh (native: obvhs build, own 8-wide traversal), brute (reference), embree and
     /// embree_robust (feature `embree`, Embree 3), embree4 and embree4_robust (feature `embree4`).
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = parse_tracer)]
     pub(crate) tracer: TracerKind,

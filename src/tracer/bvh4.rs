@@ -1,21 +1,29 @@
-//! A 4-wide BVH with uncompressed `f32` child boxes, collapsed from the binary BVH that
+//! An 8-wide BVH with uncompressed `f32` child boxes, collapsed from the binary BVH that
 //! `obvhs` builds (PLOC + reinsertion + SAH leaf collapse), traversed nearest child first.
 //!
 //! Why not obvhs' own CWBVH traversal: its child boxes are 8-bit quantised, and decoding them
 //! (byte → f32 per plane) dominated a CPU ray; it also starts every node test at a fixed
-//! `t ≥ 1e-4`, which forced a rescaling of every ray. Here one node test is 6 `Vec4`
-//! subtract-multiplies and a min/max tree over four children (SSE2 through glam, no
-//! `unsafe`), and the slab test is conservative by pbrt's bound (`t_far · (1 + 2γ₃)`), with no
-//! epsilon. Measured numbers are in `benches/tracers.rs` and the README.
+//! `t ≥ 1e-4`, which forced a rescaling of every ray. Here one node test is 12 `Vec4`
+//! subtract-multiplies and a min/max tree over eight children (SSE2 through glam, no
+//! `unsafe`; the tracer also runs it from a copy compiled for AVX2), and the slab test is
+//! conservative by pbrt's bound (`t_far · (1 + 2γ₃)`), with no epsilon.
+//!
+//! Eight children rather than four (with the inline stack and the inlined leaf tests below):
+//! 1 M-triangle displaced sphere, one thread, bvh/embree best Mrays/s, 6 runs of each binary
+//! alternated (`examples/tracer_ab`, quiet 2-core EPYC): primary 256² 0.56–0.64 against
+//! 0.47–0.52 with 4-wide nodes, 1024² 0.65–0.78 against 0.53–0.59; one diffuse bounce 0.50–0.55
+//! and 0.45–0.58 against 0.40–0.43 and 0.41–0.44.
 
 use crate::geometry::{gamma, Hit, Ray};
 use glam::Vec4;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{builder::build_bvh2, Bvh2};
 use obvhs::BvhBuildParams;
-use std::cell::RefCell;
+use std::ops::Range;
 use std::time::Duration;
 
+/// Children per inner node.
+pub const WIDTH: usize = 8;
 /// Child reference: an inner node index, or a leaf (high bit) with
 /// `first_packet << LEAF_BITS | packets`.
 const LEAF: u32 = 1 << 31;
@@ -25,34 +33,49 @@ pub const MAX_LEAF_PRIMS: u32 = 8;
 /// Primitives per packet: a leaf's primitives fill whole packets of this many slots, tested
 /// together (the last one padded with [`PAD`]).
 pub const PACKET: usize = 4;
-/// The scene id of a padding slot in [`Bvh4::order`].
+/// The scene id of a padding slot in [`WideBvh::order`].
 pub const PAD: u32 = u32::MAX;
 const EMPTY: u32 = u32::MAX;
 
-/// 112 bytes, aligned to start on a cache line.
+/// One inner node: [`WIDTH`] child boxes side by side (one lane per child, two `Vec4` halves
+/// per plane) and the children. Plane `a` (x, y, z) holds the lower bounds on axis `a`, plane
+/// `3 + a` the upper ones; an empty lane holds an inverted box (+∞ … −∞) and is never entered.
+/// 224 bytes of boxes and children, padded to 256 to start on a cache line.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
-struct Node4 {
-    /// Child boxes, one lane per child; empty lanes hold an inverted box (+∞ … −∞).
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
-    child: [u32; 4],
+struct Node {
+    planes: [[Vec4; 2]; 6],
+    child: [u32; WIDTH],
 }
 
-impl Node4 {
+impl Node {
     const EMPTY: Self = Self {
-        lo: [Vec4::INFINITY; 3],
-        hi: [Vec4::NEG_INFINITY; 3],
-        child: [EMPTY; 4],
+        planes: [
+            [Vec4::INFINITY; 2],
+            [Vec4::INFINITY; 2],
+            [Vec4::INFINITY; 2],
+            [Vec4::NEG_INFINITY; 2],
+            [Vec4::NEG_INFINITY; 2],
+            [Vec4::NEG_INFINITY; 2],
+        ],
+        child: [EMPTY; WIDTH],
     };
+
+    fn set(&mut self, lane: usize, aabb: &Aabb) {
+        for a in 0..3 {
+            self.planes[a][lane / 4][lane % 4] = aabb.min[a];
+            self.planes[3 + a][lane / 4][lane % 4] = aabb.max[a];
+        }
+    }
 }
 
-/// The traversal-side copy of a ray: origin, reciprocal direction, and the lanes holding the
-/// near planes per axis (`neg`: the direction is negative, so the near plane is `hi`).
+/// The traversal-side copy of a ray: origin, reciprocal direction, and per axis the plane
+/// entered first (`near`: the upper one where the direction is negative) and the one left by.
 struct RaySlabs {
     o: [Vec4; 3],
     inv: [Vec4; 3],
-    neg: [bool; 3],
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 /// `t_far` is scaled by this so that rounding in the slab test never culls a box the ray
@@ -71,68 +94,72 @@ impl RaySlabs {
                 d
             }
         });
+        // Indexing by a per-ray plane instead of branching per node: the index is `a` or
+        // `3 + a`, which the compiler sees, so the plane lookups carry no bounds check.
+        let neg = inv.map(|i| i < 0.0);
         Self {
             o: [ray.o.x, ray.o.y, ray.o.z].map(Vec4::splat),
             inv: inv.map(Vec4::splat),
-            neg: inv.map(|i| i < 0.0),
+            near: [0, 1, 2].map(|a| if neg[a] { 3 + a } else { a }),
+            far: [0, 1, 2].map(|a| if neg[a] { a } else { 3 + a }),
         }
     }
 
-    /// Entry distances of the four children and the mask of those entered before `t_max`.
+    /// Entry distances of the children and the mask of those entered before `t_max`.
     #[inline(always)]
-    fn hit4(&self, n: &Node4, t_max: f32) -> (Vec4, u32) {
-        let mut t0 = Vec4::ZERO;
-        let mut t1 = Vec4::splat(f32::INFINITY);
+    fn hit(&self, n: &Node, t_max: f32) -> ([Vec4; 2], u32) {
+        let mut t0 = [Vec4::ZERO; 2];
+        let mut t1 = [Vec4::INFINITY; 2];
         for a in 0..3 {
-            let (near, far) = if self.neg[a] {
-                (n.hi[a], n.lo[a])
-            } else {
-                (n.lo[a], n.hi[a])
-            };
-            t0 = t0.max((near - self.o[a]) * self.inv[a]);
-            t1 = t1.min((far - self.o[a]) * self.inv[a]);
+            let (near, far) = (&n.planes[self.near[a]], &n.planes[self.far[a]]);
+            for h in 0..2 {
+                t0[h] = t0[h].max((near[h] - self.o[a]) * self.inv[a]);
+                t1[h] = t1[h].min((far[h] - self.o[a]) * self.inv[a]);
+            }
         }
-        let t1 = (t1 * FAR_SCALE).min(Vec4::splat(t_max));
-        (t0, t0.cmple(t1).bitmask())
+        let t_max = Vec4::splat(t_max);
+        let inside = |h: usize| t0[h].cmple((t1[h] * FAR_SCALE).min(t_max)).bitmask();
+        (t0, inside(0) | inside(1) << 4)
     }
 }
 
-thread_local! {
-    /// Traversal stack, reused by every query on this thread: no allocation per ray and no
-    /// depth limit.
-    static STACK: RefCell<Vec<(u32, f32)>> = const { RefCell::new(Vec::new()) };
+/// What a traversal asks of the leaves: the caller's primitive tests on a leaf's packets
+/// (packet `k` holds slots `PACKET·k ..` of [`WideBvh::order`]). A trait rather than a closure
+/// so that `#[inline(always)]` puts the tests into the traversal loop (and into its AVX2 copy).
+pub trait Leaves {
+    /// The nearest hit below `t_max` among the packets `packets`.
+    fn closest(&self, packets: Range<usize>, t_max: f32) -> Option<Hit>;
+    /// Whether a primitive of the packets `packets` blocks the ray.
+    fn any(&self, packets: Range<usize>) -> bool;
 }
 
-/// A 4-wide BVH flattened from an obvhs binary BVH; leaves index packets of [`Bvh4::order`].
-pub struct Bvh4 {
-    nodes: Vec<Node4>,
+/// An 8-wide BVH flattened from an obvhs binary BVH; leaves index packets of
+/// [`WideBvh::order`].
+pub struct WideBvh {
+    nodes: Vec<Node>,
     /// What the traversal starts from: node 0, or a single leaf when the tree is one leaf.
     root: u32,
     /// Scene primitive ids in leaf order, each leaf padded with [`PAD`] to whole packets:
     /// packet `k` is slots `PACKET·k .. PACKET·(k+1)`, a leaf a range of packets.
     pub order: Vec<u32>,
-    /// The most entries a traversal's stack can hold: 3 per level of inner nodes on the path
-    /// (the siblings left behind; `any` pushes all 4 at the deepest), plus one.
-    max_stack: usize,
 }
 
-impl Bvh4 {
+impl WideBvh {
     /// Build over primitive boxes `aabbs` (indexed by scene primitive id).
     pub fn build(aabbs: &[Aabb], params: BvhBuildParams) -> Self {
         let mut params = params;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
         let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
         let mut out = Self {
-            nodes: Vec::with_capacity(bvh2.nodes.len() / 2 + 1),
+            nodes: Vec::with_capacity(bvh2.nodes.len() / 4 + 1),
             root: 0,
             order: Vec::new(),
-            max_stack: 1,
         };
         let root = &bvh2.nodes[0];
         if root.prim_count > 0 {
             out.root = out.leaf(&bvh2, 0);
         } else {
-            out.collapse(&bvh2, 0, 1);
+            out.collapse(&bvh2, 0);
         }
         out
     }
@@ -152,14 +179,13 @@ impl Bvh4 {
         LEAF | (first as u32) << LEAF_BITS | packets as u32
     }
 
-    /// Append the 4-wide node for binary inner node `b` (and, recursively, its subtree):
-    /// open the largest inner child until four children (or only leaves) remain.
-    fn collapse(&mut self, bvh2: &Bvh2, b: usize, level: usize) -> u32 {
-        self.max_stack = self.max_stack.max(3 * level + 1);
+    /// Append the wide node for binary inner node `b` (and, recursively, its subtree): open
+    /// the largest inner child until [`WIDTH`] children (or only leaves) remain.
+    fn collapse(&mut self, bvh2: &Bvh2, b: usize) -> u32 {
         let area = |i: usize| bvh2.nodes[i].aabb.half_area();
         let first = bvh2.nodes[b].first_index as usize;
         let mut kids = vec![first, first + 1];
-        while kids.len() < 4 {
+        while kids.len() < WIDTH {
             let open = (0..kids.len())
                 .filter(|&k| bvh2.nodes[kids[k]].prim_count == 0)
                 .max_by(|&x, &y| area(kids[x]).total_cmp(&area(kids[y])));
@@ -169,52 +195,26 @@ impl Bvh4 {
             kids.insert(k + 1, f + 1);
         }
         let me = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
-        let mut node = Node4::EMPTY;
+        self.nodes.push(Node::EMPTY);
+        let mut node = Node::EMPTY;
         for (lane, &k) in kids.iter().enumerate() {
             let n = &bvh2.nodes[k];
-            for a in 0..3 {
-                node.lo[a][lane] = n.aabb.min[a];
-                node.hi[a][lane] = n.aabb.max[a];
-            }
+            node.set(lane, &n.aabb);
             node.child[lane] = if n.prim_count > 0 {
                 self.leaf(bvh2, k)
             } else {
-                self.collapse(bvh2, k, level + 1)
+                self.collapse(bvh2, k)
             };
         }
         self.nodes[me] = node;
         me as u32
     }
 
-    /// Closest hit: `leaf(packets, t_max)` tests a leaf's packets (packet `k` holds slots
-    /// `PACKET·k ..` of [`Self::order`]) and returns the nearest hit below `t_max`.
+    /// Closest hit below `t_max`, the leaves tested by `leaves`.
     #[inline(always)]
-    pub fn closest(
-        &self,
-        ray: &Ray,
-        t_max: f32,
-        mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Option<Hit>,
-    ) -> Option<Hit> {
-        if self.max_stack <= INLINE_STACK {
-            self.closest_in(&mut ArrayStack::new(), ray, t_max, &mut leaf)
-        } else {
-            STACK.with_borrow_mut(|stack| {
-                stack.clear();
-                self.closest_in(stack, ray, t_max, &mut leaf)
-            })
-        }
-    }
-
-    #[inline(always)]
-    fn closest_in(
-        &self,
-        stack: &mut impl Stack,
-        ray: &Ray,
-        t_max: f32,
-        leaf: &mut impl FnMut(std::ops::Range<usize>, f32) -> Option<Hit>,
-    ) -> Option<Hit> {
+    pub fn closest(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
         let slabs = RaySlabs::new(ray);
+        let mut stack = Stack::new();
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
         stack.push((self.root, 0.0));
@@ -225,17 +225,17 @@ impl Bvh4 {
             // Descend nearest-first; the farther children wait on the stack.
             while r & LEAF == 0 {
                 let n = &self.nodes[r as usize];
-                let (t0, mask) = slabs.hit4(n, t_max);
+                let (t0, mask) = slabs.hit(n, t_max);
                 if mask == 0 {
                     r = EMPTY;
                     break;
                 }
-                r = push_sorted(stack, n, t0, mask);
+                r = push_sorted(&mut stack, n, &t0, mask);
             }
             if r == EMPTY {
                 continue;
             }
-            if let Some(h) = leaf(leaf_range(r), t_max) {
+            if let Some(h) = leaves.closest(leaf_range(r), t_max) {
                 t_max = h.t;
                 best = Some(h);
             }
@@ -243,44 +243,22 @@ impl Bvh4 {
         best
     }
 
-    /// Any hit: `leaf(packets)` says whether a primitive of the leaf's packets blocks the ray.
-    /// Children are visited in lane order, without sorting: any blocker ends the query.
+    /// Whether anything blocks the ray below `t_max`. Children are visited in lane order,
+    /// without sorting: any blocker ends the query.
     #[inline(always)]
-    pub fn any(
-        &self,
-        ray: &Ray,
-        t_max: f32,
-        mut leaf: impl FnMut(std::ops::Range<usize>) -> bool,
-    ) -> bool {
-        if self.max_stack <= INLINE_STACK {
-            self.any_in(&mut ArrayStack::new(), ray, t_max, &mut leaf)
-        } else {
-            STACK.with_borrow_mut(|stack| {
-                stack.clear();
-                self.any_in(stack, ray, t_max, &mut leaf)
-            })
-        }
-    }
-
-    #[inline(always)]
-    fn any_in(
-        &self,
-        stack: &mut impl Stack,
-        ray: &Ray,
-        t_max: f32,
-        leaf: &mut impl FnMut(std::ops::Range<usize>) -> bool,
-    ) -> bool {
+    pub fn any(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
         let slabs = RaySlabs::new(ray);
+        let mut stack = Stack::new();
         stack.push((self.root, 0.0));
         while let Some((r, _)) = stack.pop() {
             if r & LEAF != 0 {
-                if leaf(leaf_range(r)) {
+                if leaves.any(leaf_range(r)) {
                     return true;
                 }
                 continue;
             }
             let n = &self.nodes[r as usize];
-            let (_, mut mask) = slabs.hit4(n, t_max);
+            let (_, mut mask) = slabs.hit(n, t_max);
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -291,80 +269,74 @@ impl Bvh4 {
     }
 }
 
+/// Entries kept on the call stack before a traversal spills into a `Vec` (allocated only by
+/// the rare query that goes deeper): no allocation per ray, no depth limit, and no
+/// thread-local lookup, whose closure kept the traversal out of its AVX2 copy (a
+/// thread-local `Vec` was 20 % of a 1 M-triangle trace in `perf`).
+const INLINE_STACK: usize = 32;
+
 /// Pending (child reference, entry distance) pairs of a traversal.
-trait Stack {
-    fn push(&mut self, e: (u32, f32));
-    fn pop(&mut self) -> Option<(u32, f32)>;
-}
-
-impl Stack for Vec<(u32, f32)> {
-    #[inline(always)]
-    fn push(&mut self, e: (u32, f32)) {
-        Vec::push(self, e);
-    }
-    #[inline(always)]
-    fn pop(&mut self) -> Option<(u32, f32)> {
-        Vec::pop(self)
-    }
-}
-
-/// Entries of the stack kept on the call stack, used when [`Bvh4::max_stack`] says the tree
-/// fits (deeper trees, e.g. 1 M triangles, use the thread-local `Vec`). It does not pay on the
-/// closest-hit side: callgrind, Cornell box 128², 1 spp, one thread, render only: occlusion
-/// queries 23.7 M → 22.8 M instructions, closest-hit 67.0 M → 68.9 M (zeroing 512 bytes per
-/// query costs more than the `Vec`'s capacity checks), the render 148.4 M → 151.0 M (+1.8 %).
-/// Kept here only because every wall-clock number in the README was taken with it; the next
-/// change to try is the `Vec` for `closest` and this for `any`.
-const INLINE_STACK: usize = 64;
-
-struct ArrayStack {
+struct Stack {
     items: [(u32, f32); INLINE_STACK],
     len: usize,
+    spill: Vec<(u32, f32)>,
 }
 
-impl ArrayStack {
+impl Stack {
     #[inline(always)]
     fn new() -> Self {
         Self {
             items: [(0, 0.0); INLINE_STACK],
             len: 0,
+            spill: Vec::new(),
         }
     }
-}
 
-impl Stack for ArrayStack {
     #[inline(always)]
     fn push(&mut self, e: (u32, f32)) {
-        self.items[self.len] = e;
+        if self.len < INLINE_STACK {
+            self.items[self.len] = e;
+        } else {
+            self.spill.push(e);
+        }
         self.len += 1;
     }
+
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32)> {
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
-        Some(self.items[self.len])
+        if self.len < INLINE_STACK {
+            Some(self.items[self.len])
+        } else {
+            self.spill.pop()
+        }
     }
 }
 
 #[inline(always)]
-fn leaf_range(r: u32) -> std::ops::Range<usize> {
+fn leaf_range(r: u32) -> Range<usize> {
     let first = ((r & !LEAF) >> LEAF_BITS) as usize;
     first..first + (r & ((1 << LEAF_BITS) - 1)) as usize
 }
 
 /// Push the hit children of `n` except the nearest, farthest first, and return the nearest.
+/// One child hit (the common case low in the tree) is returned without sorting.
 #[inline(always)]
-fn push_sorted(stack: &mut impl Stack, n: &Node4, t0: Vec4, mask: u32) -> u32 {
-    let mut hits = [(0u32, 0f32); 4];
+fn push_sorted(stack: &mut Stack, n: &Node, t0: &[Vec4; 2], mask: u32) -> u32 {
+    if mask & (mask - 1) == 0 {
+        return n.child[mask.trailing_zeros() as usize];
+    }
+    let mut hits = [(0u32, 0f32); WIDTH];
     let mut k = 0;
     let mut m = mask;
     while m != 0 {
         let lane = m.trailing_zeros() as usize;
         m &= m - 1;
         // Insertion sort, nearest last.
-        let e = (n.child[lane], t0[lane]);
+        let e = (n.child[lane], t0[lane / 4][lane % 4]);
         let mut j = k;
         while j > 0 && hits[j - 1].1 < e.1 {
             hits[j] = hits[j - 1];
@@ -377,4 +349,22 @@ fn push_sorted(stack: &mut impl Stack, n: &Node4, t0: Vec4, mask: u32) -> u32 {
         stack.push(e);
     }
     hits[k - 1].0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stack_spills_past_its_inline_part_and_pops_in_order() {
+        let mut s = Stack::new();
+        let n = 3 * INLINE_STACK as u32;
+        for i in 0..n {
+            s.push((i, i as f32));
+        }
+        for i in (0..n).rev() {
+            assert_eq!(s.pop(), Some((i, i as f32)));
+        }
+        assert_eq!(s.pop(), None);
+    }
 }

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "snake_case")]
 #[value(rename_all = "snake_case")]
 pub enum TracerKind {
-    /// obvhs CWBVH, flattened to a 4-wide BVH.
+    /// obvhs binary BVH, flattened to an 8-wide BVH.
     Bvh,
     /// Every primitive per ray: the reference.
     Brute,

@@ -66,7 +66,7 @@ pub enum TracerError {
 
 /// Every tracer behind one enum: static dispatch, one `match` per query.
 pub enum AnyTracer {
-    /// The native 4-wide BVH.
+    /// The native 8-wide BVH.
     Bvh(BvhTracer),
     /// Every primitive per ray.
     Brute(BruteTracer),
