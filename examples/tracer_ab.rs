@@ -9,14 +9,14 @@
 //!   (facing the camera), leaving from the offset origin the renderer uses (incoherent: the
 //!   rays of one screen tile scatter over the whole scene).
 //!
-//! Tracer ids are those of `--tracer`, plus `bvh_portable`: `bvh` held to its portable
-//! traversal on a CPU with AVX2 (what AVX2 brings).
+//! Tracer ids are those of `--tracer`.
 //!
 //! Measured (quiet 2-core AMD EPYC, `taskset -c 0`, 5 rounds, 1 M triangles, 6 runs, load
 //! 0.83–0.99): bvh/embree best rate primary 0.56–0.64 at 256², 0.65–0.78 at 1024²; diffuse
 //! 0.50–0.55 and 0.45–0.58; build 0.83–1.14 s vs Embree's 0.56–0.87 s in the same runs
-//! (1.22–1.77×; the tracer built first pays the fresh memory: `bvh_portable`, built second,
-//! 0.74–0.91 s). Full table: `benches/peers/results.md`.
+//! (1.22–1.77×; the tracer built first pays the fresh memory: a second bvh build took
+//! 0.74–0.91 s). Those `bvh` rates are of a traversal copy compiled for AVX2, since removed:
+//! the portable one measured 0.92–1.13× its rate. Full table: `benches/peers/results.md`.
 //!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`
 //! `… --example tracer_ab -- --rays diffuse complex 1000000 1024 5 bvh embree`
@@ -25,7 +25,7 @@ use glam::Vec3;
 use raysched::geometry::{basis, Ray};
 use raysched::render::integrator::interaction;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
-use raysched::tracer::{AnyTracer, BvhTracer, Tracer, TracerKind};
+use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
 use std::time::Instant;
 
@@ -77,11 +77,6 @@ fn main() {
         .iter()
         .map(|id| {
             let t0 = Instant::now();
-            if *id == "bvh_portable" {
-                let t = AnyTracer::Bvh(BvhTracer::new(&scene.geometry).portable());
-                builds.push(t0.elapsed().as_secs_f64());
-                return t;
-            }
             let t = TracerKind::from_id(id)
                 .and_then(|kind| AnyTracer::build(kind, &scene, 1))
                 .unwrap_or_else(|e| {

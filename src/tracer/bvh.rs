@@ -53,8 +53,6 @@ pub struct BvhTracer {
     bvh: Option<WideBvh>,
     /// Scene primitive id per leaf slot ([`WideBvh::order`]).
     order: Vec<u32>,
-    /// Whether the CPU has AVX2, so that queries run the copy of the traversal compiled for it.
-    avx2: bool,
     /// Set when the scene is below [`BVH_MIN_PRIMS`]: primitives tested linearly instead.
     linear: Option<Geometry>,
     /// The BVH's leaf slots four by four (scene ids: `order`).
@@ -72,7 +70,6 @@ impl BvhTracer {
             return Self {
                 bvh: None,
                 order: Vec::new(),
-                avx2: false,
                 linear: Some(geometry.clone()),
                 packets: Vec::new(),
                 spheres: Vec::new(),
@@ -99,7 +96,6 @@ impl BvhTracer {
             return Self {
                 bvh: None,
                 order: Vec::new(),
-                avx2: false,
                 linear: None,
                 packets: Vec::new(),
                 spheres: Vec::new(),
@@ -150,7 +146,6 @@ impl BvhTracer {
         Self {
             bvh: Some(bvh),
             order,
-            avx2: avx2_detected(),
             linear: None,
             packets,
             spheres,
@@ -214,10 +209,6 @@ impl Tracer for BvhTracer {
         if let Some(g) = &self.linear {
             return linear_intersect(g, ray, t_max);
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            return simd::intersect_avx2(self, ray, t_max);
-        }
         self.intersect_tree(ray, t_max)
     }
 
@@ -225,10 +216,6 @@ impl Tracer for BvhTracer {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if let Some(g) = &self.linear {
             return (0..g.len() as u32).any(|p| g.intersect_prim(p, ray, t_max).is_some());
-        }
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            return simd::occluded_avx2(self, ray, t_max);
         }
         self.occluded_tree(ray, t_max)
     }
@@ -281,7 +268,12 @@ impl BvhTracer {
         }
     }
 
-    /// Closest hit through the tree (compiled once portably and once, in [`simd`], for AVX2).
+    /// Closest hit through the tree.
+    ///
+    /// One portable copy: the same traversal compiled a second time with AVX2 enabled (chosen at
+    /// run time) was measured at 0.92–1.13×, median 1.03×, of this copy's ray rate (1 M
+    /// triangles, primary and diffuse rays, 256² and 1024², 6 runs, quiet 2-core EPYC): not
+    /// worth `unsafe` outside an FFI module while the node test is two 4-lane halves.
     #[inline(always)]
     fn intersect_tree(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
@@ -292,7 +284,7 @@ impl BvhTracer {
         })
     }
 
-    /// Occlusion through the tree (compiled like [`Self::intersect_tree`]).
+    /// Occlusion through the tree.
     #[inline(always)]
     fn occluded_tree(&self, ray: &Ray, t_max: f32) -> bool {
         self.bvh
@@ -300,64 +292,6 @@ impl BvhTracer {
             .is_some_and(|bvh| bvh.any(ray, t_max, &self.query(ray, t_max)))
     }
 
-    /// This tracer, made to run the portable traversal even on a CPU with AVX2 (for checking
-    /// that both copies agree, and for measuring what AVX2 brings).
-    pub fn portable(mut self) -> Self {
-        self.avx2 = false;
-        self
-    }
-}
-
-/// Whether this CPU runs AVX2 (false off x86-64).
-fn avx2_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// The traversal compiled a second time with AVX2 enabled (VEX three-operand encoding); the
-/// binary still runs on any x86-64, which takes the portable copy. Both copies run the same
-/// IEEE operations (no fused multiply-add: Rust never contracts `a·b + c`), so they return
-/// bit-identical hits. Measured against the portable copy in the same process (1 M triangles,
-/// primary and diffuse rays, 256² and 1024², 6 runs, quiet 2-core EPYC): 0.92–1.13×, median
-/// 1.03× the ray rate; the node test is still two 4-lane halves in both copies, and a 256-bit
-/// node test is what this copy is for.
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    use super::BvhTracer;
-    use crate::geometry::{Hit, Ray};
-
-    #[target_feature(enable = "avx2")]
-    fn intersect_in_avx2(t: &BvhTracer, ray: &Ray, t_max: f32) -> Option<Hit> {
-        t.intersect_tree(ray, t_max)
-    }
-
-    #[target_feature(enable = "avx2")]
-    fn occluded_in_avx2(t: &BvhTracer, ray: &Ray, t_max: f32) -> bool {
-        t.occluded_tree(ray, t_max)
-    }
-
-    /// [`BvhTracer::intersect_tree`] in its AVX2 copy; only for a tracer whose `avx2` is set.
-    #[inline(always)]
-    pub(super) fn intersect_avx2(t: &BvhTracer, ray: &Ray, t_max: f32) -> Option<Hit> {
-        debug_assert!(t.avx2);
-        // SAFETY: `t.avx2` is set only where `is_x86_feature_detected!("avx2")` found AVX2 on
-        // this CPU, the one target feature the callee enables.
-        unsafe { intersect_in_avx2(t, ray, t_max) }
-    }
-
-    /// [`BvhTracer::occluded_tree`] in its AVX2 copy; only for a tracer whose `avx2` is set.
-    #[inline(always)]
-    pub(super) fn occluded_avx2(t: &BvhTracer, ray: &Ray, t_max: f32) -> bool {
-        debug_assert!(t.avx2);
-        // SAFETY: as in `intersect_avx2`: the CPU was checked for AVX2 when `t` was built.
-        unsafe { occluded_in_avx2(t, ray, t_max) }
-    }
 }
 
 /// Closest hit over every primitive in id order (what `brute` does).

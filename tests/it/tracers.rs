@@ -123,35 +123,6 @@ fn bvh_matches_brute_force_on_random_scenes() {
     assert!(hits > total / 10 && hits < total * 9 / 10, "{hits}/{total}");
 }
 
-/// The traversal's AVX2 copy and its portable copy return the same hits bit for bit (on a CPU
-/// without AVX2 both sides run the portable copy).
-#[test]
-fn avx2_and_portable_traversals_agree_bit_for_bit() {
-    for seed in 0..3 {
-        let scene = random_scene(seed);
-        let fast = BvhTracer::new(&scene.geometry);
-        let portable = BvhTracer::new(&scene.geometry).portable();
-        let mut s = Sampler::new(seed, 2, 2);
-        let mut hits = 0;
-        for i in 0..1500 {
-            let o = Vec3::new(s.next(), s.next(), s.next()) * 10.0
-                - Vec3::splat(5.0)
-                - scene.origin.as_vec3();
-            let ray = Ray::new(o, random_dir(&mut s));
-            let t_max = [f32::INFINITY, 2.0, 0.5][i % 3];
-            let h = fast.intersect(&ray, t_max);
-            assert_eq!(h, portable.intersect(&ray, t_max), "seed {seed} ray {i}");
-            assert_eq!(
-                fast.occluded(&ray, t_max),
-                portable.occluded(&ray, t_max),
-                "seed {seed} ray {i}"
-            );
-            hits += h.is_some() as u32;
-        }
-        assert!(hits > 150 && hits < 1350, "seed {seed}: {hits} of 1500 hit");
-    }
-}
-
 #[test]
 fn grazing_rays_and_rays_along_box_edges_agree() {
     let scene = crate::support::load_str(&format!(
