@@ -291,7 +291,6 @@ impl BvhTracer {
             .as_ref()
             .is_some_and(|bvh| bvh.any(ray, t_max, &self.query(ray, t_max)))
     }
-
 }
 
 /// Closest hit over every primitive in id order (what `brute` does).
