@@ -38,12 +38,9 @@ pub fn probe_s() -> f64 {
     start.elapsed().as_secs_f64()
 }
 
-/// SplitMix64's finaliser.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+/// One SplitMix64 step: the golden-ratio increment, then the finaliser.
+fn mix(z: u64) -> u64 {
+    crate::hash::mix64(z.wrapping_add(0x9e37_79b9_7f4a_7c15))
 }
 
 #[cfg(test)]

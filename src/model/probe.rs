@@ -38,27 +38,7 @@ fn pass<T: Tracer + 'static>(
     tracer: &Arc<T>,
     workers: usize,
 ) -> Result<Vec<f64>, SchedError> {
-    let (w, h) = (scene.width(), scene.height());
-    let mut spec = SchedulerSpec::new(
-        SchedulerKind::StaticCyclic,
-        Chunk::Tile { w: 1, h: 1 },
-        workers,
-    );
-    spec.timeline = true;
-    let items = decompose(w, h, spec.chunk, Order::Scanline);
-    let (_, stats) = run_items(
-        &spec,
-        &items,
-        render_job(scene, tracer),
-        &RunOptions::default(),
-    )?;
-    let mut px = vec![0.0; items.len()];
-    for s in stats.timeline.unwrap_or_default() {
-        if let Some(p) = px.get_mut(s.item as usize) {
-            *p = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
-        }
-    }
-    Ok(px)
+    timed_pass(scene, tracer, workers, Chunk::Tile { w: 1, h: 1 })
 }
 
 /// Each row's seconds with frame 0 rendered one row per item, cyclically over `workers`: the
@@ -68,8 +48,19 @@ fn bulk_pass<T: Tracer + 'static>(
     tracer: &Arc<T>,
     workers: usize,
 ) -> Result<Vec<f64>, SchedError> {
+    timed_pass(scene, tracer, workers, Chunk::Rows(1))
+}
+
+/// Each item's seconds with frame 0 cut into `chunk`s in scanline order, rendered cyclically
+/// over `workers` (one timeline span per item).
+fn timed_pass<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    workers: usize,
+    chunk: Chunk,
+) -> Result<Vec<f64>, SchedError> {
     let (w, h) = (scene.width(), scene.height());
-    let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, Chunk::Rows(1), workers);
+    let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, chunk, workers);
     spec.timeline = true;
     let items = decompose(w, h, spec.chunk, Order::Scanline);
     let (_, stats) = run_items(
@@ -78,13 +69,13 @@ fn bulk_pass<T: Tracer + 'static>(
         render_job(scene, tracer),
         &RunOptions::default(),
     )?;
-    let mut rows = vec![0.0; items.len()];
+    let mut secs = vec![0.0; items.len()];
     for s in stats.timeline.unwrap_or_default() {
-        if let Some(r) = rows.get_mut(s.item as usize) {
-            *r = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
+        if let Some(x) = secs.get_mut(s.item as usize) {
+            *x = s.end_ns.saturating_sub(s.start_ns) as f64 * 1e-9;
         }
     }
-    Ok(rows)
+    Ok(secs)
 }
 
 /// Per-pixel costs that keep the shape of `timed` (each pixel's share of the image) and sum
