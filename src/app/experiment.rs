@@ -2,7 +2,8 @@
 //! MPI ranks), its summary, plots and report redrawn from its CSV files.
 
 use super::error::CliError;
-use raysched::experiment::{self, ExperimentPlan, RunError, RunOptions, RunOutcome};
+use raysched::experiment::config::Isolation;
+use raysched::experiment::{self, isolate, ExperimentPlan, RunError, RunOptions, RunOutcome};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -33,6 +34,30 @@ pub(crate) struct RunArgs {
     /// Most seconds of timed runs per configuration (overrides budget_s).
     #[arg(long)]
     pub(crate) budget_s: Option<f64>,
+    /// Which process takes the timed samples: `round` (a fresh one per round) or `none` (this
+    /// one); overrides isolation.
+    #[arg(long, value_parser = parse_isolation)]
+    pub(crate) isolation: Option<Isolation>,
+}
+
+fn parse_isolation(s: &str) -> Result<Isolation, String> {
+    Isolation::parse(s).ok_or_else(|| format!("must be one of {}", Isolation::NAMES.join(", ")))
+}
+
+/// `raysched round-child JOB`: one round of an isolated run, started by the run's process.
+#[derive(clap::Args, Debug)]
+pub(crate) struct RoundChildArgs {
+    /// The round's job as JSON ([`raysched::experiment::isolate::RoundJob`]).
+    pub(crate) job: String,
+}
+
+pub(crate) fn round_child(args: RoundChildArgs) -> Result<(), CliError> {
+    let job: isolate::RoundJob = serde_json::from_str(&args.job)
+        .map_err(|e| CliError::input(anyhow::anyhow!("round job: {e}")))?;
+    isolate::child_main(&job).map_err(|e| match e {
+        RunError::Refused(_) => CliError::input(e),
+        _ => CliError::runtime(e),
+    })
 }
 
 /// Where `raysched run` writes by default: ignored by git, never the published snapshots.
@@ -68,6 +93,9 @@ pub(crate) fn apply_stats_flags(plan: &mut ExperimentPlan, args: &RunArgs) -> Re
         }
         st.budget_s = b;
     }
+    if let Some(i) = args.isolation {
+        st.isolation = i;
+    }
     Ok(())
 }
 
@@ -81,17 +109,9 @@ pub(crate) struct PlotArgs {
 }
 
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
-    let range = raysched::plot::raster::PNG_SCALE_RANGE;
-    if !range.contains(&args.png_scale) {
-        return Err(CliError::input(anyhow::anyhow!(
-            "--png-scale: must be in {}–{} (got {})",
-            range.start(),
-            range.end(),
-            args.png_scale
-        )));
-    }
-    let written =
-        raysched::plot::redraw_scaled(&args.dir, args.png_scale).map_err(CliError::message)?;
+    let scale = raysched::plot::raster::PngScale::new(args.png_scale)
+        .map_err(|m| CliError::input(anyhow::anyhow!("--png-scale: {m}")))?;
+    let written = raysched::plot::redraw_scaled(&args.dir, scale).map_err(CliError::message)?;
     out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
 }
@@ -130,13 +150,15 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
         out: args.out.clone(),
         fresh: args.fresh,
         quiet: args.quiet,
+        child_round: None,
     };
     if args.dry_run {
         let text = experiment::dry_run::plan_text(&plan, &opts).map_err(CliError::runtime)?;
         super::write_stdout(format_args!("{text}"));
         return Ok(());
     }
-    let outcome = experiment::run_experiment(&plan, &opts);
+    let exe = std::env::current_exe().map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
+    let outcome = experiment::run_experiment_isolated(&plan, &opts, &exe);
     finish_experiment(&plan, outcome, args.quiet)
 }
 

@@ -69,6 +69,9 @@ enum Command {
     /// Simulate every scheduler with SimGrid on platform XML files (feature `simgrid`): rows
     /// like a measured run's, plots, and a validation against measured runs.
     Simulate(simulate::SimulateArgs),
+    /// Measure one round of an isolated `run` (what `run` starts in a fresh process per round).
+    #[command(name = "round-child", hide = true)]
+    RoundChild(experiment::RoundChildArgs),
     /// Run one SimGrid simulation (what `simulate` starts in a child process).
     #[command(name = "simgrid-child", hide = true)]
     SimgridChild(simulate::ChildArgs),
@@ -160,6 +163,7 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Advise(args) => advise::advise_cmd(args),
         Command::Simulate(args) => simulate::simulate(args),
         Command::SimgridChild(args) => simulate::child(args),
+        Command::RoundChild(args) => experiment::round_child(args),
     }
 }
 

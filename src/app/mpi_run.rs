@@ -159,6 +159,7 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
         out: args.out.clone(),
         fresh: args.fresh,
         quiet: args.quiet,
+        child_round: None,
     };
     let outcome = run_experiment_with(&plan, &opts, Some(&mut remote));
     *lost = !remote.lost.is_empty();

@@ -9,6 +9,7 @@
 //! budget_s = 10                   # … or 10 s of timed runs have been spent
 //! min_sample_s = 0.05             # shorter renders are repeated inside one timed sample
 //! seed = 1                        # seeds the shuffled order of each round
+//! isolation = "round"             # a fresh process per round ("none": one process)
 //! warmup = 1                      # untimed runs before them
 //! workers = [1, 2]                # or "1..max", or [1, 2, "max"]
 //! tracers = ["bvh"]
@@ -58,6 +59,9 @@ pub struct ExperimentFile {
     pub min_sample_s: Option<f64>,
     /// Seeds the shuffled order of each round (default 1).
     pub seed: Option<u64>,
+    /// Which process takes the timed samples (default `round`: a fresh one per round).
+    #[serde(default)]
+    pub isolation: Isolation,
     /// Untimed runs before each configuration's timed ones (default 0).
     #[serde(default)]
     pub warmup: u32,
@@ -129,6 +133,38 @@ pub enum ExperimentKind {
     Timing,
     /// Progressive renders: image error against run time.
     Convergence,
+}
+
+/// Which process takes a run's timed samples (`isolation = …`).
+///
+/// A process's speed depends on where its heap, stack and code landed and on the physical
+/// pages behind them, fixed at its start (Mytkowicz et al., "Producing wrong data without
+/// doing anything obviously wrong!", ASPLOS 2009; Curtsinger & Berger, "Stabilizer", ASPLOS
+/// 2013). Samples that all come from one process share that draw, so two runs of one commit
+/// differ per configuration by more than their samples' spread says.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Isolation {
+    /// Each round (one sample of every open configuration) runs in a fresh process, so the
+    /// layout draw varies between a configuration's samples and enters its interval.
+    #[default]
+    Round,
+    /// Every round in the process that was started (no start-up cost per round).
+    None,
+}
+
+impl Isolation {
+    /// The key's values, for messages.
+    pub const NAMES: [&'static str; 2] = ["round", "none"];
+
+    /// Parse a flag's value.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "round" => Some(Self::Round),
+            "none" => Some(Self::None),
+            _ => None,
+        }
+    }
 }
 
 fn one() -> u32 {

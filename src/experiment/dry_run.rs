@@ -28,7 +28,15 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
             st.budget_s
         )
     };
-    let _ = writeln!(out, "{rule}; {} warm-up(s); seed {}", plan.warmup, st.seed);
+    let procs = match st.isolation {
+        super::config::Isolation::Round if plan.gpu.is_none() => "a fresh process per round",
+        _ => "every round in one process",
+    };
+    let _ = writeln!(
+        out,
+        "{rule}; {} warm-up(s); seed {}; {procs}",
+        plan.warmup, st.seed
+    );
     let runs = dir.join("runs.csv");
     if runs.exists() && !opts.fresh {
         let rows = super::results::read_runs(&runs)?.0.len();

@@ -11,6 +11,7 @@ pub mod convergence;
 pub mod dry_run;
 pub mod export;
 pub mod image_check;
+pub mod isolate;
 pub mod lock;
 pub mod meta;
 pub mod plan;
@@ -21,6 +22,7 @@ pub mod speed;
 pub mod stats;
 pub mod summary;
 
+pub use isolate::run_experiment_isolated;
 pub use plan::{ConfigError, ExperimentPlan, Launch, Sources};
 pub use run::{run_experiment, run_experiment_with, Remote, RunError, RunOptions, RunOutcome};
 

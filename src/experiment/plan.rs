@@ -512,6 +512,13 @@ pub struct StatsSettings {
     /// Seeds each round's shuffled order (bootstrap intervals are seeded by the configuration
     /// id, so `raysched plot` reproduces them from the CSV alone).
     pub seed: u64,
+    /// Which process takes the samples (absent in `meta.toml` files before it: one process).
+    #[serde(default = "one_process")]
+    pub isolation: super::config::Isolation,
+}
+
+fn one_process() -> super::config::Isolation {
+    super::config::Isolation::None
 }
 
 /// Default relative CI half-width: ±2 % of the median.
@@ -578,6 +585,7 @@ fn check_stats(file: &ExperimentFile) -> Result<StatsSettings, FieldError> {
         budget_s,
         min_sample_s,
         seed: file.seed.unwrap_or(1),
+        isolation: file.isolation,
     })
 }
 

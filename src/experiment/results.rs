@@ -138,6 +138,10 @@ pub struct RunRow {
     /// sample's round (empty in files before it).
     #[serde(default)]
     pub probe_s: Option<f64>,
+    /// The id of the process that took the sample (rows of one process share it; with
+    /// `isolation = "round"` each round has its own; empty in files before it).
+    #[serde(default)]
+    pub process: Option<u32>,
     /// The cost model's predicted wall time of one render (`predict = true`; empty otherwise
     /// and in files before it).
     #[serde(default)]
@@ -291,6 +295,7 @@ impl RunRow {
             load_before: None,
             load_after: None,
             probe_s: None,
+            process: None,
             predicted_wall_s: None,
             predicted_handout_s: None,
             predicted_refill_s: None,

@@ -27,6 +27,9 @@ pub struct RunOptions {
     pub fresh: bool,
     /// Hide the progress bar.
     pub quiet: bool,
+    /// Set in a round's own process ([`super::isolate`]): measure this round only; the parent
+    /// holds the folder's lock and wrote `meta.toml` and the header.
+    pub child_round: Option<u64>,
 }
 
 /// What a run did.
@@ -92,9 +95,12 @@ pub enum RunError {
     /// Another run holds the results folder's lock.
     #[error(transparent)]
     Locked(#[from] super::lock::LockError),
+    /// A round's own process could not start, failed, or could not plan the experiment.
+    #[error("{0}")]
+    Child(String),
 }
 
-fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
+pub(super) fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
     RunError::Io {
         path: path.display().to_string(),
         msg: e.to_string(),
@@ -179,7 +185,7 @@ fn prepare_meta(
 
 /// What the serial baseline of one (scene, tracer) measured so far.
 #[derive(Default)]
-struct SerialInfo {
+pub(super) struct SerialInfo {
     walls: Vec<f64>,
     hash: Option<String>,
     /// Its image, kept (or read back from `images/`) where GPU rows are compared with it.
@@ -209,23 +215,23 @@ pub fn run_experiment_with(
 ) -> Result<RunOutcome, RunError> {
     let launch = remote.as_ref().map(|r| r.launch().clone());
     let dir = opts.out.join(&plan.name);
-    let _lock = super::lock::ResultsLock::acquire(&dir)?;
-    prepare_dir(plan, &dir, opts.fresh)?;
-    let runs_path = dir.join("runs.csv");
-    let rows_before = if opts.fresh || !runs_path.exists() {
-        0
-    } else {
-        super::results::read_runs(&runs_path)?.0.len()
+    let child = opts.child_round;
+    let _lock = match child {
+        None => Some(super::lock::ResultsLock::acquire(&dir)?),
+        Some(_) => None,
     };
-    prepare_meta(plan, &dir, opts.fresh, rows_before)?;
-    let (runs, old_rows) = RunsFile::open(&runs_path, opts.fresh)?;
+    let fresh = opts.fresh && child.is_none();
+    if child.is_none() {
+        prepare(plan, &dir, fresh)?;
+    }
+    let (runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), fresh)?;
     let serial = check_old_rows(plan, &runs, &old_rows)?;
     let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
     todo.update_done(plan);
-    let predictions = if plan.predict {
-        predictions(plan, &todo)?
-    } else {
-        HashMap::new()
+    let predictions = match child {
+        Some(_) => super::isolate::read_predictions(plan, &dir)?,
+        None if plan.predict => predictions(plan, &todo)?,
+        None => HashMap::new(),
     };
     let mut session = Session {
         plan,
@@ -242,14 +248,18 @@ pub fn run_experiment_with(
         untimed: 0,
         predictions,
         probe_s: None,
+        child: child.is_some(),
     };
     let skipped = old_rows.len();
-    let mut round = 0u64;
+    let mut round = child.unwrap_or(0);
     loop {
         todo.update_done(plan);
         let order = todo.round_order(plan, round);
         if order.is_empty() {
             break;
+        }
+        if let (Some(_), Some(&first)) = (child, order.first()) {
+            session.warm_process(&todo.states[first])?;
         }
         // Once per round, 0.2 % of a round of `quick` (see `speed::STEPS`).
         session.probe_s = Some(super::speed::probe_s());
@@ -260,6 +270,9 @@ pub fn run_experiment_with(
                 .set_bound(todo.upper_bound_now(plan) + session.measured as u64);
         }
         round += 1;
+        if child.is_some() {
+            break;
+        }
     }
     session.progress.finish(session.measured);
     Ok(RunOutcome {
@@ -270,6 +283,20 @@ pub fn run_experiment_with(
         other_launches: todo.other_launches,
         untimed: session.untimed,
     })
+}
+
+/// The results folder ready for this start: its folders, and `meta.toml` checked (or
+/// started) with this start appended to its history. Returns the rows already in runs.csv.
+pub(super) fn prepare(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<usize, RunError> {
+    prepare_dir(plan, dir, fresh)?;
+    let runs_path = dir.join("runs.csv");
+    let rows_before = if fresh || !runs_path.exists() {
+        0
+    } else {
+        super::results::read_runs(&runs_path)?.0.len()
+    };
+    prepare_meta(plan, dir, fresh, rows_before)?;
+    Ok(rows_before)
 }
 
 /// The results folder with its `images/` (and `timelines/`); `fresh` clears old timelines and
@@ -289,7 +316,7 @@ fn prepare_dir(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), Run
 
 /// Resume: old rows must belong to this plan's scenes as they are now. Returns what the serial
 /// baselines measured so far.
-fn check_old_rows(
+pub(super) fn check_old_rows(
     plan: &ExperimentPlan,
     runs: &RunsFile,
     old_rows: &[RunRow],
@@ -364,14 +391,18 @@ pub const MIN_ADAPTIVE_RUNS: u32 = 5;
 pub const MAX_INNER: u32 = 1000;
 
 /// What this launch measures.
-struct Todo<'p> {
+pub(super) struct Todo<'p> {
     states: Vec<ConfigState<'p>>,
     /// Configurations that belong to other `mpirun` launches.
-    other_launches: usize,
+    pub(super) other_launches: usize,
 }
 
 impl<'p> Todo<'p> {
-    fn of(plan: &'p ExperimentPlan, old_rows: &[RunRow], launch: Option<&Launch>) -> Self {
+    pub(super) fn of(
+        plan: &'p ExperimentPlan,
+        old_rows: &[RunRow],
+        launch: Option<&Launch>,
+    ) -> Self {
         let mine = |c: &&RunConfig| c.in_launch(launch);
         let other_launches = plan.configs.iter().filter(|c| !mine(c)).count();
         let mut by_id: HashMap<&str, Vec<&RunRow>> = HashMap::new();
@@ -403,7 +434,7 @@ impl<'p> Todo<'p> {
 
     /// Mark what is done: a configuration by its own criteria, a serial baseline once every
     /// configuration compared with it is done too (or its runs are spent).
-    fn update_done(&mut self, plan: &ExperimentPlan) {
+    pub(super) fn update_done(&mut self, plan: &ExperimentPlan) {
         for s in &mut self.states {
             s.done = s.own_criteria_met(plan);
         }
@@ -425,7 +456,7 @@ impl<'p> Todo<'p> {
     }
 
     /// This round's samples: the open baselines, then the open configurations, each shuffled.
-    fn round_order(&self, plan: &ExperimentPlan, round: u64) -> Vec<usize> {
+    pub(super) fn round_order(&self, plan: &ExperimentPlan, round: u64) -> Vec<usize> {
         let open = |serial: bool| -> Vec<usize> {
             self.states
                 .iter()
@@ -443,7 +474,7 @@ impl<'p> Todo<'p> {
     }
 
     /// The most samples still to come (every open configuration up to its run cap).
-    fn upper_bound_now(&self, plan: &ExperimentPlan) -> u64 {
+    pub(super) fn upper_bound_now(&self, plan: &ExperimentPlan) -> u64 {
         self.states
             .iter()
             .filter(|s| match s.config.spec {
@@ -474,6 +505,8 @@ struct Session<'p, 'r> {
     predictions: HashMap<String, Prediction>,
     /// This round's machine-speed probe, seconds.
     probe_s: Option<f64>,
+    /// This process measures one round for a parent ([`super::isolate`]).
+    child: bool,
 }
 
 /// The probe's samples per pixel: a few, scaled to the configuration's (see `model::probe`).
@@ -485,7 +518,7 @@ type ProbeGroup<'a> = ((usize, usize), Vec<&'a SchedulerSpec>, Vec<&'a str>);
 /// The cost model's prediction for every local thread-scheduler configuration of `plan` not
 /// yet done: one probe per (scene, tracer, workers), every configuration predicted from it.
 /// Animations are not probed (the probe times one frame).
-fn predictions(
+pub(super) fn predictions(
     plan: &ExperimentPlan,
     todo: &Todo<'_>,
 ) -> Result<HashMap<String, Prediction>, RunError> {
@@ -552,6 +585,18 @@ fn label_of(plan: &ExperimentPlan, c: &RunConfig) -> String {
 }
 
 impl Session<'_, '_> {
+    /// A round's process starts cold (page faults on its first buffers, empty caches): one
+    /// untimed render of the round's first configuration, unless that one's own warm-ups come
+    /// first anyway.
+    fn warm_process(&mut self, first: &ConfigState<'_>) -> Result<(), RunError> {
+        if first.inner.is_none() && self.plan.warmup > 0 {
+            return Ok(());
+        }
+        measure(self.plan, first.config, false, &mut self.remote)?;
+        self.untimed += 1;
+        Ok(())
+    }
+
     /// One timed sample of `st` (its warm-ups first when it has none yet), appended.
     fn sample(&mut self, st: &mut ConfigState<'_>) -> Result<(), RunError> {
         let plan = self.plan;
@@ -614,6 +659,9 @@ impl Session<'_, '_> {
         st.next_rep += 1;
         self.measured += 1;
         self.progress.inc();
+        if self.child {
+            println!("{}", super::isolate::sample_line(&label_of(plan, c)));
+        }
         Ok(())
     }
 
@@ -645,6 +693,7 @@ impl Session<'_, '_> {
         row.load_before = sample.load.0;
         row.load_after = sample.load.1;
         row.probe_s = self.probe_s;
+        row.process = Some(std::process::id());
         if let Some(p) = self.predictions.get(&c.id) {
             row.predicted_wall_s = Some(p.wall_s);
             row.predicted_handout_s = Some(p.handout_s);

@@ -78,7 +78,7 @@ pub struct Overheads {
 }
 
 /// A predicted wall time and its parts; `wall_s` is their sum.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Prediction {
     /// The predicted wall time.
     pub wall_s: f64,

@@ -73,21 +73,14 @@ pub fn warnings_of(dir: &Path) -> Vec<String> {
 /// on stderr). Everything is written to a staging folder and moved into place at the end, so a
 /// failure leaves the previous files.
 pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
-    redraw_scaled(dir, 1.0)
+    redraw_scaled(dir, raster::PngScale::ONE)
 }
 
-/// [`redraw`], with every PNG rasterised from its SVG at `png_scale` (in
-/// [`raster::PNG_SCALE_RANGE`]) when that is not 1: print-quality figures.
-pub fn redraw_scaled(dir: &Path, png_scale: f32) -> Result<Vec<PathBuf>, String> {
-    if !raster::PNG_SCALE_RANGE.contains(&png_scale) {
-        return Err(format!(
-            "PNG scale {png_scale}: must be in {}–{}",
-            raster::PNG_SCALE_RANGE.start(),
-            raster::PNG_SCALE_RANGE.end()
-        ));
-    }
+/// [`redraw`], with every PNG rasterised from its SVG at `png_scale` when that is not 1:
+/// print-quality figures.
+pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
     let rescale = |staged_png: &Path| -> Result<(), String> {
-        if png_scale == 1.0 {
+        if png_scale == raster::PngScale::ONE {
             return Ok(());
         }
         raster::svg_to_png(&staged_png.with_extension("svg"), staged_png, png_scale)

@@ -8,16 +8,37 @@ use std::path::Path;
 /// 147 MB of pixmap.
 pub const PNG_SCALE_RANGE: std::ops::RangeInclusive<f32> = 1.0..=8.0;
 
-/// Rasterise `svg` at `scale` into `png` (1.0 = the SVG's own pixel size), with the bundled
-/// DejaVu Sans as the SVG's "sans-serif", the font the PNG backend draws with.
-pub fn svg_to_png(svg: &Path, png: &Path, scale: f32) -> Result<(), String> {
-    if !PNG_SCALE_RANGE.contains(&scale) {
-        return Err(format!(
-            "PNG scale {scale} outside {}–{}",
-            PNG_SCALE_RANGE.start(),
-            PNG_SCALE_RANGE.end()
-        ));
+/// A PNG scale checked against [`PNG_SCALE_RANGE`] once, where it enters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PngScale(f32);
+
+impl PngScale {
+    /// The SVG's own pixel size.
+    pub const ONE: Self = Self(1.0);
+
+    /// `scale` if it is in [`PNG_SCALE_RANGE`]; otherwise why not.
+    pub fn new(scale: f32) -> Result<Self, String> {
+        if PNG_SCALE_RANGE.contains(&scale) {
+            Ok(Self(scale))
+        } else {
+            Err(format!(
+                "must be in {}–{} (got {scale})",
+                PNG_SCALE_RANGE.start(),
+                PNG_SCALE_RANGE.end()
+            ))
+        }
     }
+
+    /// The factor.
+    pub fn get(self) -> f32 {
+        self.0
+    }
+}
+
+/// Rasterise `svg` at `scale` into `png` (1 = the SVG's own pixel size), with the bundled
+/// DejaVu Sans as the SVG's "sans-serif", the font the PNG backend draws with.
+pub fn svg_to_png(svg: &Path, png: &Path, scale: PngScale) -> Result<(), String> {
+    let scale = scale.get();
     let text = std::fs::read_to_string(svg).map_err(|e| format!("{}: {e}", svg.display()))?;
     let mut opt = resvg::usvg::Options::default();
     let db = opt.fontdb_mut();
@@ -71,7 +92,7 @@ mod tests {
         .unwrap();
         let dark = |scale: f32| {
             let png = dir.path().join(format!("f{scale}.png"));
-            svg_to_png(&svg, &png, scale).unwrap();
+            svg_to_png(&svg, &png, PngScale::new(scale).unwrap()).unwrap();
             let img = image::open(&png).unwrap().to_luma8();
             let s = scale as u32;
             assert_eq!((img.width(), img.height()), (100 * s, 40 * s));
@@ -90,6 +111,7 @@ mod tests {
         // Per SVG unit² the ink is the same at both scales, within antialiasing.
         assert!((text3 / text1 - 1.0).abs() < 0.25, "{text1} vs {text3}");
         assert!((line3 / line1 - 1.0).abs() < 0.1, "{line1} vs {line3}");
-        assert!(svg_to_png(&svg, &dir.path().join("x.png"), 9.0).is_err());
+        assert!(PngScale::new(9.0).is_err() && PngScale::new(0.5).is_err());
+        assert!(PngScale::new(f32::NAN).is_err());
     }
 }

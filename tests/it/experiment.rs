@@ -97,6 +97,11 @@ fn bad_configs_exit_2_naming_file_and_field() {
             "schedulers[1].buffer",
         ),
         ("repetitions = 1", "repetitions = 0", "repetitions"),
+        (
+            "warmup = 0",
+            "warmup = 0\nisolation = \"fork\"",
+            "isolation",
+        ),
         ("workers = [1, 2]", "workers = [0, 2]", "workers"),
         (
             "chunk = [\"1\", \"4\"]",
@@ -201,6 +206,79 @@ fn bad_configs_exit_2_naming_file_and_field() {
 
 /// Kill the runner at random moments, resume, and check every (config, repetition) appears
 /// exactly once and no partial line survives.
+/// The process ids of `rows`, per repetition.
+fn processes_by_repetition(rows: &[raysched::experiment::results::RunRow]) -> Vec<Vec<u32>> {
+    let reps = rows.iter().map(|r| r.repetition + 1).max().unwrap_or(0);
+    (0..reps)
+        .map(|k| {
+            let mut p: Vec<u32> = rows
+                .iter()
+                .filter(|r| r.repetition == k)
+                .map(|r| r.process.expect("every new row names its process"))
+                .collect();
+            p.sort_unstable();
+            p.dedup();
+            p
+        })
+        .collect()
+}
+
+#[test]
+fn each_round_is_measured_in_its_own_process_unless_isolation_is_none() {
+    let (dir, exp) = run_tiny(3);
+    let csv = dir.path().join("res/tiny/runs.csv");
+    let (rows, _) = read_runs(&csv).unwrap();
+    // 2 scenes × (serial + 8 master + 2 static) × 3 repetitions, one round per repetition.
+    assert_eq!(rows.len(), 2 * 11 * 3);
+    assert!(rows.iter().all(|r| r.identical), "every image as serial");
+    let by_rep = processes_by_repetition(&rows);
+    assert!(
+        by_rep.iter().all(|p| p.len() == 1),
+        "one process per round: {by_rep:?}"
+    );
+    let mut all: Vec<u32> = by_rep.concat();
+    all.dedup();
+    assert_eq!(all.len(), 3, "a new process for each round: {by_rep:?}");
+    assert!(
+        !all.contains(&std::process::id()),
+        "not this test's process"
+    );
+    assert!(
+        !dir.path().join("res/tiny/.predictions.json").exists(),
+        "no scratch file left"
+    );
+
+    let one = [
+        "run",
+        exp.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        "res",
+        "--fresh",
+        "--isolation",
+        "none",
+    ];
+    let out = run(&one, dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, _) = read_runs(&csv).unwrap();
+    assert_eq!(rows.len(), 2 * 11 * 3);
+    let mut all: Vec<u32> = processes_by_repetition(&rows).concat();
+    all.sort_unstable();
+    all.dedup();
+    assert_eq!(all.len(), 1, "isolation none: one process for every round");
+
+    let bad = run(
+        &["run", exp.to_str().unwrap(), "--isolation", "fork"],
+        dir.path(),
+    );
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--isolation"));
+}
+
 #[test]
 fn killed_runs_resume_without_lost_or_duplicated_rows() {
     let dir = tempfile::tempdir().unwrap();
