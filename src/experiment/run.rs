@@ -635,8 +635,13 @@ impl Session<'_, '_> {
         let mut first_hash = None;
         let mut same = true;
         let mut last = None;
+        let mut timeline = None;
         for k in 0..inner {
-            let (image, stats) = measure(plan, c, want_timeline && k == 0, &mut self.remote)?;
+            let (image, mut stats) = measure(plan, c, want_timeline && k == 0, &mut self.remote)?;
+            if k == 0 {
+                // The first render's timeline: the row keeps the last render's stats.
+                timeline = stats.timeline.take();
+            }
             total += stats.wall_s;
             let h = image.hash();
             same &= *first_hash.get_or_insert(h) == h;
@@ -645,6 +650,7 @@ impl Session<'_, '_> {
         let cpu1 = crate::cpu_time::process_cpu_s();
         let (image, mut stats) = last.expect("inner ≥ 1");
         stats.wall_s = total / f64::from(inner);
+        stats.timeline = timeline;
         let sample = Sample {
             rep,
             inner,
