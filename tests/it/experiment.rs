@@ -271,6 +271,35 @@ fn each_round_is_measured_in_its_own_process_unless_isolation_is_none() {
     all.dedup();
     assert_eq!(all.len(), 1, "isolation none: one process for every round");
 
+    // Renders repeated inside one sample still leave repetition 0's timeline (the first
+    // render's) for every scheduler configuration.
+    let text = std::fs::read_to_string(&exp).unwrap();
+    std::fs::write(
+        &exp,
+        text.replace("min_sample_s = 0", "min_sample_s = 0.01"),
+    )
+    .unwrap();
+    let out = run(&one[..6], dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (rows, _) = read_runs(&csv).unwrap();
+    assert!(
+        rows.iter().any(|r| r.inner > 1),
+        "some samples repeat their render"
+    );
+    for r in rows
+        .iter()
+        .filter(|r| r.scheduler != "serial" && r.repetition == 0)
+    {
+        let t = dir
+            .path()
+            .join(format!("res/tiny/timelines/{}.csv", r.config));
+        assert!(t.exists(), "{} (inner {}): no timeline", r.label, r.inner);
+    }
+
     let bad = run(
         &["run", exp.to_str().unwrap(), "--isolation", "fork"],
         dir.path(),
