@@ -24,13 +24,7 @@ pub struct Measured {
 }
 
 fn median(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    match s.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => s[n / 2],
-        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
-    }
+    crate::model::probe::median(&mut v.to_vec())
 }
 
 fn spec_of(r: &RunRow) -> Result<SchedulerSpec, String> {
