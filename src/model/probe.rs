@@ -257,18 +257,36 @@ pub fn zero_work_for(
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
         Ok(run_items(&spec, l, nothing(), &opts)?.1.wall_s)
     };
-    let (mut slopes, mut fixed) = (Vec::new(), Vec::new());
-    for _ in 0..reps.max(1) {
-        let a = wall(&lists[0])?;
-        let b = wall(&lists[1])?;
-        let slope = ((b - a) / items as f64).max(0.0);
-        slopes.push(slope);
-        fixed.push((a - slope * items as f64).max(0.0));
+    let mut pairs = Vec::new();
+    for k in 0..reps.max(1) {
+        // Alternately n first and 2n first, so that whatever the first run of a pair pays
+        // (caches, a sleeping core) falls on both sides.
+        let (a, b) = if k % 2 == 0 {
+            let a = wall(&lists[0])?;
+            (a, wall(&lists[1])?)
+        } else {
+            let b = wall(&lists[1])?;
+            (wall(&lists[0])?, b)
+        };
+        pairs.push((a, b));
     }
-    Ok(ZeroWork {
-        per_item_s: median(&mut slopes),
-        fixed_s: median(&mut fixed),
-    })
+    Ok(fit(&pairs, items))
+}
+
+/// Per-item slope and fixed cost from pairs of walls (n items, 2n items): the median slope
+/// (≥ 0), and each pair's intercept under that one slope, median (≥ 0). An intercept under
+/// the pair's own slope, clamped at 0 where the 2n run came out no slower, would be that
+/// pair's whole wall: in one validation run on the dev box the master at B = 2 got h = 0 and
+/// F ≈ a whole zero-work run that way, added to every simulated run of it (+81 % and +131 %
+/// at chunk 16).
+pub fn fit(pairs: &[(f64, f64)], n: u32) -> ZeroWork {
+    let n = f64::from(n.max(1));
+    let slope = median(&mut pairs.iter().map(|(a, b)| (b - a) / n).collect::<Vec<_>>()).max(0.0);
+    let mut fixed: Vec<f64> = pairs.iter().map(|(a, _)| a - slope * n).collect();
+    ZeroWork {
+        per_item_s: slope,
+        fixed_s: median(&mut fixed).max(0.0),
+    }
 }
 
 /// A job whose items each spin for `secs` (a stand-in of known cost).
@@ -456,6 +474,19 @@ mod tests {
             assert_eq!(v.iter().sum::<u32>(), b);
             assert!(v.iter().all(|&k| k >= 1));
         }
+    }
+
+    #[test]
+    fn the_fixed_cost_is_taken_under_the_median_slope() {
+        // F = 1 ms, h = 1 µs per item at n = 1000; one pair whose 2n run came out faster.
+        let pairs = [(2.0e-3, 3.0e-3), (2.1e-3, 2.0e-3), (2.0e-3, 3.1e-3)];
+        let z = fit(&pairs, 1000);
+        assert!((z.per_item_s - 1.0e-6).abs() < 1e-12, "{z:?}");
+        assert!((z.fixed_s - 1.0e-3).abs() < 1e-9, "{z:?}");
+        // No pair shows a per-item cost: slope 0 and F the runs' wall, not more.
+        let z = fit(&[(2.0e-3, 1.9e-3), (2.0e-3, 1.8e-3)], 1000);
+        assert_eq!(z.per_item_s, 0.0);
+        assert!((z.fixed_s - 2.0e-3).abs() < 1e-12);
     }
 
     #[test]
