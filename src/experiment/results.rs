@@ -242,7 +242,7 @@ impl RunRow {
         let i = param_columns().iter().position(|p| p.name == name)?;
         self.params.get(i)?.as_deref()
     }
-    fn example() -> Self {
+    pub(crate) fn example() -> Self {
         Self {
             experiment: String::new(),
             config: String::new(),

@@ -28,8 +28,11 @@ pub struct PixelProbe {
     /// Σ of the pixels' median spans as timed one pixel at a time, before [`calibrate`].
     pub timed_s: f64,
     /// Σ seconds of the same image rendered in rows on the same workers, each row's median
-    /// over the passes: what the pixels cost when nothing times them one by one.
+    /// over the bulk passes: what the pixels cost when nothing times them one by one.
     pub bulk_s: f64,
+    /// The fastest and slowest bulk pass (Σ of its rows): how far the machine's speed moved
+    /// while the probe ran.
+    pub bulk_range_s: (f64, f64),
 }
 
 /// One pass: frame 0 pixel by pixel, item i to worker i mod P, each pixel's span kept.
@@ -123,11 +126,37 @@ pub fn pixels<T: Tracer + 'static>(
     workers: usize,
     passes: u32,
 ) -> Result<PixelProbe, SchedError> {
+    pixels_with(scene, tracer, workers, passes, passes)
+}
+
+/// How many bulk passes follow each of `pixel` pixel passes so that `bulk` are spread evenly
+/// among them (every pixel pass is followed by at least one).
+pub fn bulk_after(pixel: u32, bulk: u32) -> Vec<u32> {
+    let pixel = pixel.max(1);
+    let bulk = bulk.max(pixel);
+    (0..pixel)
+        .map(|i| (i + 1) * bulk / pixel - i * bulk / pixel)
+        .collect()
+}
+
+/// [`pixels`] with `bulk_passes` bulk renders (≥ `pixel_passes`) spread among the pixel
+/// passes. The shape needs few pixel passes; the level many bulk passes: on the 2-core dev
+/// box one render of the validation scene varies by ±10 % from one second to the next, so a
+/// level from the median of 3 moved 0.321–0.388 s between probes a minute apart.
+pub fn pixels_with<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    workers: usize,
+    pixel_passes: u32,
+    bulk_passes: u32,
+) -> Result<PixelProbe, SchedError> {
     let mut spans: Vec<Vec<f64>> = Vec::new();
     let mut rows: Vec<Vec<f64>> = Vec::new();
-    for _ in 0..passes.max(2) {
+    for k in bulk_after(pixel_passes.max(2), bulk_passes) {
         spans.push(pass(scene, tracer, workers)?);
-        rows.push(bulk_pass(scene, tracer, workers)?);
+        for _ in 0..k {
+            rows.push(bulk_pass(scene, tracer, workers)?);
+        }
     }
     let noise_cv = relative_spread(&spans[0], &spans[1]);
     let timed = medians(&spans);
@@ -135,6 +164,10 @@ pub fn pixels<T: Tracer + 'static>(
     // minority of passes is out-voted (with busy time of whole passes instead, the bulk level
     // doubled on the dev box at load 8).
     let bulk_s = medians(&rows).iter().sum();
+    let totals = rows.iter().map(|r| r.iter().sum::<f64>());
+    let bulk_range_s = totals.fold((f64::INFINITY, 0.0_f64), |(lo, hi), t| {
+        (lo.min(t), hi.max(t))
+    });
     Ok(PixelProbe {
         profile: Profile {
             width: scene.width(),
@@ -144,6 +177,7 @@ pub fn pixels<T: Tracer + 'static>(
         noise_cv,
         timed_s: timed.iter().sum(),
         bulk_s,
+        bulk_range_s,
     })
 }
 
@@ -223,18 +257,36 @@ pub fn zero_work_for(
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
         Ok(run_items(&spec, l, nothing(), &opts)?.1.wall_s)
     };
-    let (mut slopes, mut fixed) = (Vec::new(), Vec::new());
-    for _ in 0..reps.max(1) {
-        let a = wall(&lists[0])?;
-        let b = wall(&lists[1])?;
-        let slope = ((b - a) / items as f64).max(0.0);
-        slopes.push(slope);
-        fixed.push((a - slope * items as f64).max(0.0));
+    let mut pairs = Vec::new();
+    for k in 0..reps.max(1) {
+        // Alternately n first and 2n first, so that whatever the first run of a pair pays
+        // (caches, a sleeping core) falls on both sides.
+        let (a, b) = if k % 2 == 0 {
+            let a = wall(&lists[0])?;
+            (a, wall(&lists[1])?)
+        } else {
+            let b = wall(&lists[1])?;
+            (wall(&lists[0])?, b)
+        };
+        pairs.push((a, b));
     }
-    Ok(ZeroWork {
-        per_item_s: median(&mut slopes),
-        fixed_s: median(&mut fixed),
-    })
+    Ok(fit(&pairs, items))
+}
+
+/// Per-item slope and fixed cost from pairs of walls (n items, 2n items): the median slope
+/// (≥ 0), and each pair's intercept under that one slope, median (≥ 0). An intercept under
+/// the pair's own slope, clamped at 0 where the 2n run came out no slower, would be that
+/// pair's whole wall: in one validation run on the dev box the master at B = 2 got h = 0 and
+/// F ≈ a whole zero-work run that way, added to every simulated run of it (+81 % and +131 %
+/// at chunk 16).
+pub fn fit(pairs: &[(f64, f64)], n: u32) -> ZeroWork {
+    let n = f64::from(n.max(1));
+    let slope = median(&mut pairs.iter().map(|(a, b)| (b - a) / n).collect::<Vec<_>>()).max(0.0);
+    let mut fixed: Vec<f64> = pairs.iter().map(|(a, _)| a - slope * n).collect();
+    ZeroWork {
+        per_item_s: slope,
+        fixed_s: median(&mut fixed).max(0.0),
+    }
 }
 
 /// A job whose items each spin for `secs` (a stand-in of known cost).
@@ -273,6 +325,19 @@ pub fn loaded_refill(
     zero: &Overheads,
     reps: u32,
 ) -> Result<f64, SchedError> {
+    loaded_refill_for(policy, workers, item_s, zero, reps, RUN_S)
+}
+
+/// [`loaded_refill`] with the shorter run aiming at `target_s` instead of [`RUN_S`] (and up
+/// to proportionally more items).
+pub fn loaded_refill_for(
+    policy: Policy,
+    workers: usize,
+    item_s: f64,
+    zero: &Overheads,
+    reps: u32,
+    target_s: f64,
+) -> Result<f64, SchedError> {
     if !matches!(policy, Policy::Master(_))
         || item_s.is_nan()
         || item_s <= 0.0
@@ -282,7 +347,8 @@ pub fn loaded_refill(
     }
     // A source takes max(item cost, zero-work period) per item: the shorter run near RUN_S.
     let per = item_s.max(zero.refill_s);
-    let n = ((RUN_S * workers as f64 / per) as u32).clamp(64, 4096);
+    let most = (4096.0 * (target_s / RUN_S).max(1.0)) as u32;
+    let n = ((target_s * workers as f64 / per) as u32).clamp(64, most);
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
     let lists: Vec<Vec<WorkItem>> = [n, 2 * n]
@@ -393,6 +459,34 @@ mod tests {
         // No bulk measurement: the timed costs stay.
         assert_eq!(calibrate(&timed, 0.0), timed);
         assert_eq!(calibrate(&timed, f64::NAN), timed);
+    }
+
+    #[test]
+    fn bulk_passes_are_spread_evenly_after_the_pixel_passes() {
+        assert_eq!(bulk_after(3, 3), [1, 1, 1]);
+        assert_eq!(bulk_after(3, 15), [5, 5, 5]);
+        assert_eq!(bulk_after(4, 10), [2, 3, 2, 3]);
+        // Never fewer bulk passes than pixel passes, never a pixel pass without one.
+        assert_eq!(bulk_after(3, 1), [1, 1, 1]);
+        assert_eq!(bulk_after(0, 0), [1]);
+        for (p, b) in [(2, 7), (5, 16), (3, 100)] {
+            let v = bulk_after(p, b);
+            assert_eq!(v.iter().sum::<u32>(), b);
+            assert!(v.iter().all(|&k| k >= 1));
+        }
+    }
+
+    #[test]
+    fn the_fixed_cost_is_taken_under_the_median_slope() {
+        // F = 1 ms, h = 1 µs per item at n = 1000; one pair whose 2n run came out faster.
+        let pairs = [(2.0e-3, 3.0e-3), (2.1e-3, 2.0e-3), (2.0e-3, 3.1e-3)];
+        let z = fit(&pairs, 1000);
+        assert!((z.per_item_s - 1.0e-6).abs() < 1e-12, "{z:?}");
+        assert!((z.fixed_s - 1.0e-3).abs() < 1e-9, "{z:?}");
+        // No pair shows a per-item cost: slope 0 and F the runs' wall, not more.
+        let z = fit(&[(2.0e-3, 1.9e-3), (2.0e-3, 1.8e-3)], 1000);
+        assert_eq!(z.per_item_s, 0.0);
+        assert!((z.fixed_s - 2.0e-3).abs() < 1e-12);
     }
 
     #[test]

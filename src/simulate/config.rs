@@ -15,7 +15,8 @@
 //! tracer = "bvh"
 //! dispatch_items = 65536                          # zero-work runs for h
 //! dispatch_workers = 2
-//! probe_repetitions = 3                           # median time per pixel kept
+//! probe_repetitions = 3                           # pixel passes: each pixel's median kept
+//! probe_level_repetitions = 15                    # bulk renders: the level (Σ) of the costs
 //!
 //! [[schedulers]]                                  # as in a timing experiment
 //! kind = "master"
@@ -76,6 +77,8 @@ struct ProbeEntry {
     dispatch_repetitions: u32,
     #[serde(default = "three")]
     probe_repetitions: u32,
+    #[serde(default = "fifteen")]
+    probe_level_repetitions: u32,
 }
 
 fn bvh() -> String {
@@ -89,6 +92,11 @@ fn two() -> usize {
 }
 fn three() -> u32 {
     3
+}
+/// Bulk renders of the probe: the median of 3 moved ±10 % between probes a minute apart on
+/// the dev box, about what one render moves (see `model::probe::pixels_with`).
+fn fifteen() -> u32 {
+    15
 }
 
 #[derive(Debug, Deserialize)]
@@ -136,8 +144,10 @@ pub struct SimPlan {
     pub tracer: crate::tracer::TracerKind,
     /// Zero-work items, threads and runs of the dispatch measurement.
     pub dispatch: (u32, usize, u32),
-    /// Probe renders; each pixel's fastest is kept.
+    /// Pixel passes of the probe; each pixel's median is kept.
     pub probe_repetitions: u32,
+    /// Bulk renders of the probe (≥ `probe_repetitions`): the costs' level is their median.
+    pub probe_level_repetitions: u32,
     /// Every scheduler configuration (workers set per simulated run).
     pub specs: Vec<SchedulerSpec>,
     /// Workers lost in every simulated run.
@@ -340,6 +350,9 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         },
         tracer,
         probe_repetitions: probe.probe_repetitions.max(1),
+        probe_level_repetitions: probe
+            .probe_level_repetitions
+            .max(probe.probe_repetitions.max(1)),
         dispatch: (
             probe.dispatch_items,
             probe.dispatch_workers,

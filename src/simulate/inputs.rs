@@ -15,7 +15,7 @@ pub use crate::model::probe::ZeroWork;
 
 /// Seconds the shorter zero-work run aims at (up to the plan's item count): 10× the cost
 /// model's, because a simulated master at thousands of workers is limited by h alone.
-const ZERO_WORK_RUN_S: f64 = 0.2;
+pub(crate) const ZERO_WORK_RUN_S: f64 = 0.2;
 
 /// Bytes MPI adds to each result entry: the worker's busy time (`u64`, see `mpi::wire`).
 const RESULT_BUSY_BYTES: u32 = 8;
@@ -33,10 +33,13 @@ pub struct PixelCosts {
     pub timed_s: f64,
     /// Σ of the bulk render (rows, timed per row) the costs are calibrated to.
     pub bulk_s: f64,
+    /// The fastest and slowest bulk pass: the machine's speed while the probe ran.
+    pub bulk_range_s: (f64, f64),
 }
 
 impl PixelCosts {
-    /// The per-pixel probe ([`probe::pixels`], `reps` passes) of `scene` on `threads` threads
+    /// The per-pixel probe ([`probe::pixels_with`], `reps` pixel passes among `level_reps`
+    /// bulk passes) of `scene` on `threads` threads
     /// rendering at once: with `threads` > 1 the cost of a pixel while that many cores render
     /// (they share caches, memory and, on a virtual machine, possibly physical cores), for
     /// simulating a run of that many workers on this machine.
@@ -44,18 +47,21 @@ impl PixelCosts {
         scene: &Arc<Scene>,
         tracer: &Arc<AnyTracer>,
         reps: u32,
+        level_reps: u32,
         threads: usize,
     ) -> Result<Self, String> {
         if scene.frames() > 1 {
             return Err("animations are not simulated (the probe times one frame)".into());
         }
-        let p = probe::pixels(scene, tracer, threads.max(1), reps).map_err(|e| e.to_string())?;
+        let p = probe::pixels_with(scene, tracer, threads.max(1), reps, level_reps)
+            .map_err(|e| e.to_string())?;
         Ok(Self {
             width: p.profile.width,
             height: p.profile.height,
             cost_s: p.profile.pixel_s,
             timed_s: p.timed_s,
             bulk_s: p.bulk_s,
+            bulk_range_s: p.bulk_range_s,
         })
     }
 

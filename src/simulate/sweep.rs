@@ -52,25 +52,31 @@ impl Inputs {
                 .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
         );
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
-        let pixels = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, 1)
-            .map_err(anyhow::Error::msg)?;
+        let reps = (plan.probe_repetitions, plan.probe_level_repetitions);
+        let pixels =
+            PixelCosts::probe(&scene, &tracer, reps.0, reps.1, 1).map_err(anyhow::Error::msg)?;
         if !quiet {
             println!(
-                "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %): the costs sum to the bulk render",
+                "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %; {} bulk passes {:.4}–{:.4} s): the costs sum to the bulk render",
                 pixels.timed_s,
                 pixels.bulk_s,
-                100.0 * (pixels.timed_s / pixels.bulk_s - 1.0)
+                100.0 * (pixels.timed_s / pixels.bulk_s - 1.0),
+                reps.1,
+                pixels.bulk_range_s.0,
+                pixels.bulk_range_s.1,
             );
         }
         let mut concurrent = BTreeMap::new();
         for &t in concurrency.iter().filter(|&&t| t > 1) {
-            let px = PixelCosts::probe(&scene, &tracer, plan.probe_repetitions, t)
+            let px = PixelCosts::probe(&scene, &tracer, reps.0, reps.1, t)
                 .map_err(anyhow::Error::msg)?;
             if !quiet {
                 println!(
-                    "probe on {t} threads at once: Σ pixels {:.4} s ({:+.1} % against one thread)",
+                    "probe on {t} threads at once: Σ pixels {:.4} s ({:+.1} % against one thread; bulk passes {:.4}–{:.4} s)",
                     px.serial_s(),
-                    100.0 * (px.serial_s() / pixels.serial_s() - 1.0)
+                    100.0 * (px.serial_s() / pixels.serial_s() - 1.0),
+                    px.bulk_range_s.0,
+                    px.bulk_range_s.1,
                 );
             }
             concurrent.insert(t, px);
@@ -148,9 +154,11 @@ impl Inputs {
 
     /// A master's refill period on this machine: a source's measured time per item under
     /// `spec`'s master on `spec.workers` threads, with spinning items of `mean_s` each (the
-    /// cost model's probe, [`crate::model::probe::loaded_refill`]): the sleeping master's
-    /// wake-up and its round trip per item, which zero-work items never show. Measured once
-    /// per configuration; 0 for other schedulers.
+    /// cost model's probe, [`crate::model::probe::loaded_refill_for`], with runs as long as
+    /// the zero-work runs': with 20 ms runs the simulated per-ray master moved −24 … +21 %
+    /// between probes a minute apart): the sleeping master's wake-up and its round trip per
+    /// item, which zero-work items never show. Measured once per configuration; 0 for other
+    /// schedulers.
     pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> anyhow::Result<f64> {
         if !matches!(spec.policy, Policy::Master(_)) {
             return Ok(0.0);
@@ -160,12 +168,13 @@ impl Inputs {
             return Ok(*r);
         }
         let zero = crate::model::probe::overheads(spec.policy, spec.workers, self.reps)?;
-        let r = crate::model::probe::loaded_refill(
+        let r = crate::model::probe::loaded_refill_for(
             spec.policy,
             spec.workers,
             mean_s,
             &zero,
             self.reps,
+            inputs::ZERO_WORK_RUN_S,
         )?;
         self.refill.insert(key, r);
         Ok(r)
