@@ -66,6 +66,7 @@ impl Probed {
         let work = Workload {
             item_s: &items,
             noise_cv: self.pixels.noise_cv,
+            per_item_s: self.pixels.per_item_s,
         };
         let mut o = self.overheads_of(&spec.policy);
         if matches!(spec.policy, crate::sched::Policy::Master(_)) && !items.is_empty() {

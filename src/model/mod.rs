@@ -7,8 +7,9 @@
 //!
 //! ```text
 //! wall = W/C                      work: W = Σ tᵢ, spread evenly
-//!      + F + h·n/P                hand-out: the run's fixed cost F (threads started and joined)
-//!                                 and h per item on the worker that takes it
+//!      + F + (h + c)·n/P          hand-out: the run's fixed cost F (threads started and joined),
+//!                                 h per item on the worker that takes it and c, what the job
+//!                                 spends per item beyond its pixels (result, pixel buffer)
 //!      + Σ max(0, r − fᵥtᵢ − h)/P refill waiting (master only): a source cannot finish items
 //!                                 faster than the master refills it, one item per r seconds
 //!      + I                        imbalance: how much later than the mean the last worker ends
@@ -101,6 +102,10 @@ pub struct Workload<'a> {
     pub item_s: &'a [f64],
     /// v: coefficient of variation of an item's cost from run to run.
     pub noise_cv: f64,
+    /// c: what every item costs the render job beyond its pixels (its result and pixel
+    /// buffer, the per-item setup), on the worker and slowed with it; not in h, whose
+    /// zero-work items return nothing ([`probe::per_item_cost`]).
+    pub per_item_s: f64,
 }
 
 /// The expected maximum of `p` independent standard normal variables.
@@ -271,7 +276,10 @@ fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> 
 pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Prediction {
     let p = spec.workers.max(1);
     let speeds: Vec<f64> = (0..p).map(|w| spec.slow.factor_of(w)).collect();
-    let item_s = work.item_s;
+    let c = work.per_item_s.max(0.0);
+    // Each item as the job runs it: its pixels and its own cost c.
+    let with_c: Vec<f64> = work.item_s.iter().map(|t| t + c).collect();
+    let item_s = &with_c[..];
     let n = item_s.len();
     let o_run = match spec.policy {
         Policy::Master(_) => *o,
@@ -312,25 +320,27 @@ pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Pred
             None => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1)),
         },
     };
-    decompose_played(&played, item_s, &speeds, &o_run, work.noise_cv)
+    decompose_played(&played, work, &speeds, &o_run)
 }
 
+/// The played schedule's wall time split into work (the pixels alone), hand-out (F and
+/// h + c per item), refill waiting and the rest, imbalance.
 fn decompose_played(
     played: &Played,
-    item_s: &[f64],
+    work: &Workload<'_>,
     speeds: &[f64],
     o: &Overheads,
-    noise_cv: f64,
 ) -> Prediction {
     let p = speeds.len() as f64;
     let capacity: f64 = speeds.iter().map(|f| 1.0 / f).sum();
-    let n = item_s.len();
-    let work_s = item_s.iter().sum::<f64>() / capacity;
-    let handout_s = o.fixed_s + o.per_item_s * n as f64 / p;
+    let n = work.item_s.len();
+    let work_s = work.item_s.iter().sum::<f64>() / capacity;
+    let per_item = o.per_item_s + work.per_item_s.max(0.0);
+    let handout_s = o.fixed_s + per_item * n as f64 / p;
     let refill_s = played.refill / p;
     let makespan = played.finish.iter().copied().fold(0.0, f64::max);
     let sd = played.exposed.iter().map(|v| v.sqrt()).sum::<f64>() / p;
-    let noise = noise_cv * sd * expected_max_normal(speeds.len());
+    let noise = work.noise_cv * sd * expected_max_normal(speeds.len());
     let wall_s = o.fixed_s + makespan + noise;
     Prediction {
         wall_s,
@@ -366,6 +376,7 @@ mod tests {
         let w = Workload {
             item_s: items,
             noise_cv: 0.0,
+            per_item_s: 0.0,
         };
         predict(&spec(kind, p), &w, &o)
     }
@@ -480,6 +491,7 @@ mod tests {
             let w = Workload {
                 item_s: &items,
                 noise_cv: 0.0,
+                per_item_s: 0.0,
             };
             predict(&s, &w, &NONE).wall_s
         };
@@ -500,6 +512,7 @@ mod tests {
         let w = Workload {
             item_s: &items,
             noise_cv: 0.0,
+            per_item_s: 0.0,
         };
         let ss = predict(&s, &w, &NONE);
         assert!(close(ss.work_s, 90.0), "{ss:?}");
@@ -516,6 +529,7 @@ mod tests {
         let w = Workload {
             item_s: &items,
             noise_cv: 0.1,
+            per_item_s: 0.0,
         };
         let r = predict(&spec(SchedulerKind::Static, 2), &w, &NONE);
         assert!((r.imbalance_s - 0.5642).abs() < 1e-9, "{r:?}");

@@ -30,6 +30,8 @@ pub struct PixelProbe {
     /// Σ seconds of the same image rendered in rows on the same workers, each row's median
     /// over the passes: what the pixels cost when nothing times them one by one.
     pub bulk_s: f64,
+    /// c: each item's own cost beyond its pixels ([`per_item_cost`] of the two renders).
+    pub per_item_s: f64,
 }
 
 /// One pass: frame 0 pixel by pixel, item i to worker i mod P, each pixel's span kept.
@@ -93,6 +95,22 @@ pub fn calibrate(timed: &[f64], bulk_s: f64) -> Vec<f64> {
     timed.iter().map(|t| t * k).collect()
 }
 
+/// c, what one item costs beyond its pixels: the timed render's excess over the bulk render,
+/// spread over the items the timed render has more of (`pixels` one-pixel items against
+/// `rows` rows), ≥ 0. The excess is each item's result and pixel buffer, the render job's
+/// per-item setup and hand-out, and the timeline's clock read (~20 ns, kept: a run's items
+/// read no clock, so c is high by that). Calibrating the pixels to the rows took c out of
+/// them; one-pixel items pay it again per pixel.
+pub fn per_item_cost(timed_s: f64, bulk_s: f64, pixels: usize, rows: usize) -> f64 {
+    let extra = pixels.saturating_sub(rows);
+    let c = (timed_s - bulk_s) / extra as f64;
+    if extra == 0 || !c.is_finite() {
+        0.0
+    } else {
+        c.max(0.0)
+    }
+}
+
 /// The median (the mean of the middle two of an even count; NaN of none).
 pub fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -135,6 +153,8 @@ pub fn pixels<T: Tracer + 'static>(
     // minority of passes is out-voted (with busy time of whole passes instead, the bulk level
     // doubled on the dev box at load 8).
     let bulk_s = medians(&rows).iter().sum();
+    let timed_s: f64 = timed.iter().sum();
+    let (w, h) = (scene.width() as usize, scene.height() as usize);
     Ok(PixelProbe {
         profile: Profile {
             width: scene.width(),
@@ -142,8 +162,9 @@ pub fn pixels<T: Tracer + 'static>(
             pixel_s: calibrate(&timed, bulk_s),
         },
         noise_cv,
-        timed_s: timed.iter().sum(),
+        timed_s,
         bulk_s,
+        per_item_s: per_item_cost(timed_s, bulk_s, w * h, h),
     })
 }
 
@@ -393,6 +414,18 @@ mod tests {
         // No bulk measurement: the timed costs stay.
         assert_eq!(calibrate(&timed, 0.0), timed);
         assert_eq!(calibrate(&timed, f64::NAN), timed);
+    }
+
+    #[test]
+    fn the_per_item_cost_is_the_timed_excess_over_the_items_the_rows_do_not_have() {
+        // 100×10 pixels timed one by one sum to 1.1 ms, the 10 rows to 1.0 ms: the 990
+        // extra items cost 0.1 ms, c ≈ 101 ns.
+        let c = per_item_cost(1.1e-3, 1.0e-3, 1000, 10);
+        assert!((c - 1e-4 / 990.0).abs() < 1e-15, "{c}");
+        // A timed render below the bulk one (noise) or no extra items: no cost.
+        assert_eq!(per_item_cost(0.9e-3, 1.0e-3, 1000, 10), 0.0);
+        assert_eq!(per_item_cost(1.1e-3, 1.0e-3, 10, 10), 0.0);
+        assert_eq!(per_item_cost(f64::NAN, 1.0e-3, 1000, 10), 0.0);
     }
 
     #[test]
