@@ -19,7 +19,7 @@
 //! does): wall(n) = F + h·n/P there, so h = P × the slope between two item counts and F the
 //! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
 //! period when the master is the bottleneck), raised to a source's measured time per item
-//! over spinning items of the configuration's mean cost where that is larger (the sleeping
+//! over spinning items of the configuration's median cost where that is larger (the sleeping
 //! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
 //! and returning an item, which the model takes to be self-scheduling's h (one synchronised
 //! hand-off per item).
@@ -438,6 +438,45 @@ mod tests {
             assert!(close(r.wall_s, 5e-4 + 5e-5 + h * 500.0), "{r:?}");
             assert!(r.imbalance_s.abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn each_item_pays_its_own_cost_once_so_bigger_items_pay_it_less_often() {
+        // 1000 one-unit pixels on 2 workers, c = 0.1 per item: as 1000 items the run pays
+        // 0.1·1000/2 = 50 on top of the work, as 10 items of 100 pixels only 0.5.
+        let pixels = vec![1.0; 1000];
+        let tiles = vec![100.0; 10];
+        let with_c = |items: &[f64]| {
+            let w = Workload {
+                item_s: items,
+                noise_cv: 0.0,
+                per_item_s: 0.1,
+            };
+            predict(&spec(SchedulerKind::SelfScheduling, 2), &w, &NONE)
+        };
+        let (fine, coarse) = (with_c(&pixels), with_c(&tiles));
+        assert!(close(fine.work_s, 500.0) && close(coarse.work_s, 500.0));
+        assert!(
+            close(fine.handout_s, 50.0) && close(fine.wall_s, 550.0),
+            "{fine:?}"
+        );
+        assert!(
+            close(coarse.handout_s, 0.5) && close(coarse.wall_s, 500.5),
+            "{coarse:?}"
+        );
+        assert!(fine.imbalance_s.abs() < 1e-9 && coarse.imbalance_s.abs() < 1e-9);
+        // A slowed worker runs c slowed too: it is part of the job.
+        let mut slowed = spec(SchedulerKind::Static, 2);
+        slowed.slow = Slow {
+            workers: 1,
+            factor: 2.0,
+        };
+        let w = Workload {
+            item_s: &pixels,
+            noise_cv: 0.0,
+            per_item_s: 0.1,
+        };
+        assert!(close(predict(&slowed, &w, &NONE).wall_s, 500.0 * 1.1 * 2.0));
     }
 
     #[test]
