@@ -372,6 +372,13 @@ mod tests {
         SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, p)
     }
 
+    /// Two workers, the first `factor`× slower.
+    fn one_slowed(kind: SchedulerKind, factor: f64) -> SchedulerSpec {
+        let mut s = spec(kind, 2);
+        s.slow = Slow { workers: 1, factor };
+        s
+    }
+
     fn run(kind: SchedulerKind, p: usize, items: &[f64], o: Overheads) -> Prediction {
         let w = Workload {
             item_s: items,
@@ -466,16 +473,12 @@ mod tests {
         );
         assert!(fine.imbalance_s.abs() < 1e-9 && coarse.imbalance_s.abs() < 1e-9);
         // A slowed worker runs c slowed too: it is part of the job.
-        let mut slowed = spec(SchedulerKind::Static, 2);
-        slowed.slow = Slow {
-            workers: 1,
-            factor: 2.0,
-        };
         let w = Workload {
             item_s: &pixels,
             noise_cv: 0.0,
             per_item_s: 0.1,
         };
+        let slowed = one_slowed(SchedulerKind::Static, 2.0);
         assert!(close(predict(&slowed, &w, &NONE).wall_s, 500.0 * 1.1 * 2.0));
     }
 
@@ -543,11 +546,7 @@ mod tests {
     fn a_slowed_worker_lowers_capacity_and_weighted_schemes_follow_it() {
         // Worker 0 is 3× slower: capacity 1/3 + 1 = 4/3, so 120 unit items take 90 ideally.
         let items = vec![1.0; 120];
-        let mut s = spec(SchedulerKind::SelfScheduling, 2);
-        s.slow = Slow {
-            workers: 1,
-            factor: 3.0,
-        };
+        let s = one_slowed(SchedulerKind::SelfScheduling, 3.0);
         let w = Workload {
             item_s: &items,
             noise_cv: 0.0,
