@@ -4,6 +4,7 @@
 
 use super::error::CliError;
 use raysched::model::advise::{advise, Probed};
+use raysched::model::probe;
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{Chunk, MasterParams, Policy, SchedulerKind, SchedulerSpec, Slow};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -50,7 +51,8 @@ pub(crate) struct AdviseArgs {
     /// Samples per pixel the prediction is for (default: the scene's render.spp).
     #[arg(long, value_parser = super::spp_arg())]
     spp: Option<u32>,
-    /// Samples per pixel of the probe render (default: min(spp, 4)); costs scale linearly.
+    /// Samples per pixel of the probe render (default: min(spp, 4)); costs scale linearly
+    /// beyond a fixed part per pixel that a 1-spp render of the probe measures.
     #[arg(long, value_parser = super::spp_arg())]
     probe_spp: Option<u32>,
     /// Tracer id (bvh, brute, embree, …).
@@ -130,7 +132,9 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         Probed::measure(&scene, &tracer, args.workers, &policies).map_err(CliError::runtime)?;
     let advice = advise(&probed, &specs, spp, args.tolerance_pct / 100.0);
     let px = probed.pixels.profile.pixels();
-    let scale = spp as f64 / probe_spp as f64;
+    let work_s: f64 = (probed.pixels.profile.pixel_s.iter())
+        .map(|&t| probe::scaled_pixel(t, probed.pixels.fixed_pixel_s, probe_spp, spp))
+        .sum();
     out!(
         "scene {} ({}×{}, {spp} spp, max_depth {}), tracer {}, {} workers{}",
         scene.name,
@@ -146,15 +150,18 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         }
     );
     out!(
-        "probe {:.2} s: pixels at {probe_spp} spp on {} workers (median of 3 passes, calibrated to a render in rows), scaled ×{scale:.2}: \
-         mean {:.2} µs, CV {:.2}, max/mean {:.1}, run-to-run noise {:.1} %; work W = {} ms",
+        "probe {:.2} s: pixels at {probe_spp} spp on {} workers (median of 3 passes, calibrated to a render in rows), scaled to {spp} spp: \
+         mean {:.2} µs, CV {:.2}, max/mean {:.1}, run-to-run noise {:.1} %; work W = {} ms; \
+         per pixel {:.0} ns not scaled with spp, per item c {:.0} ns",
         probed.probe_s,
         args.workers,
-        px.mean * scale * 1e6,
+        work_s / px.n as f64 * 1e6,
         px.cv(),
         px.max_over_mean(),
         probed.pixels.noise_cv * 100.0,
-        ms(px.total * scale)
+        ms(work_s),
+        probed.pixels.fixed_pixel_s * 1e9,
+        probed.pixels.per_item_s * 1e9
     );
     for (p, o) in &probed.overheads {
         // The master's line always carries its r (a noisy probe can measure 0).

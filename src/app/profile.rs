@@ -88,10 +88,11 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     }
     out!(
         "total {:.3} s; the costliest 1 % of pixels hold {:.1} % of it, the costliest 10 % {:.1} %; \
-         the costliest 10 % cost {:.0}× the median pixel",
+         the costliest 1 % cost {:.0}× the median pixel, the costliest 10 % {:.0}×",
         p.pixels().total,
         100.0 * p.share_of_top(0.01),
         100.0 * p.share_of_top(0.10),
+        p.hot_over_median(0.01),
         p.hot_over_median(0.10)
     );
     if let Some(dir) = args.output.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -62,15 +62,24 @@ impl Probed {
     /// refill period is measured again with spinning items of this configuration's mean item
     /// cost ([`probe::loaded_refill`]); a failed run of that probe keeps the zero-work period.
     pub fn predict(&self, spec: &SchedulerSpec, spp: u32) -> Prediction {
-        let items = probe::item_costs(&self.pixels.profile, spec, self.probe_spp, spp);
+        let items = probe::item_costs(
+            &self.pixels.profile,
+            spec,
+            self.probe_spp,
+            spp,
+            self.pixels.fixed_pixel_s,
+        );
         let work = Workload {
             item_s: &items,
             noise_cv: self.pixels.noise_cv,
+            per_item_s: self.pixels.per_item_s,
         };
         let mut o = self.overheads_of(&spec.policy);
         if matches!(spec.policy, crate::sched::Policy::Master(_)) && !items.is_empty() {
-            let mean = items.iter().sum::<f64>() / items.len() as f64;
-            let r = probe::loaded_refill(spec.policy, spec.workers, mean, &o, 3);
+            // The period that matters is that of the items that wait, the cheap ones: at the
+            // median item's cost, not the mean's, which a hot spot pulls far above them.
+            let typical = probe::median(&mut items.clone());
+            let r = probe::loaded_refill(spec.policy, spec.workers, typical, &o, 3);
             o.refill_s = r.unwrap_or(o.refill_s);
         }
         predict(spec, &work, &o)

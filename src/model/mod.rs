@@ -7,8 +7,9 @@
 //!
 //! ```text
 //! wall = W/C                      work: W = Σ tᵢ, spread evenly
-//!      + F + h·n/P                hand-out: the run's fixed cost F (threads started and joined)
-//!                                 and h per item on the worker that takes it
+//!      + F + (h + c)·n/P          hand-out: the run's fixed cost F (threads started and joined),
+//!                                 h per item on the worker that takes it and c, what the job
+//!                                 spends per item beyond its pixels (result, pixel buffer)
 //!      + Σ max(0, r − fᵥtᵢ − h)/P refill waiting (master only): a source cannot finish items
 //!                                 faster than the master refills it, one item per r seconds
 //!      + I                        imbalance: how much later than the mean the last worker ends
@@ -18,7 +19,7 @@
 //! does): wall(n) = F + h·n/P there, so h = P × the slope between two item counts and F the
 //! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
 //! period when the master is the bottleneck), raised to a source's measured time per item
-//! over spinning items of the configuration's mean cost where that is larger (the sleeping
+//! over spinning items of the configuration's median cost where that is larger (the sleeping
 //! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
 //! and returning an item, which the model takes to be self-scheduling's h (one synchronised
 //! hand-off per item).
@@ -101,6 +102,10 @@ pub struct Workload<'a> {
     pub item_s: &'a [f64],
     /// v: coefficient of variation of an item's cost from run to run.
     pub noise_cv: f64,
+    /// c: what every item costs the render job beyond its pixels (its result and pixel
+    /// buffer, the per-item setup), on the worker and slowed with it; not in h, whose
+    /// zero-work items return nothing ([`probe::per_item_cost`]).
+    pub per_item_s: f64,
 }
 
 /// The expected maximum of `p` independent standard normal variables.
@@ -271,7 +276,10 @@ fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> 
 pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Prediction {
     let p = spec.workers.max(1);
     let speeds: Vec<f64> = (0..p).map(|w| spec.slow.factor_of(w)).collect();
-    let item_s = work.item_s;
+    let c = work.per_item_s.max(0.0);
+    // Each item as the job runs it: its pixels and its own cost c.
+    let with_c: Vec<f64> = work.item_s.iter().map(|t| t + c).collect();
+    let item_s = &with_c[..];
     let n = item_s.len();
     let o_run = match spec.policy {
         Policy::Master(_) => *o,
@@ -312,25 +320,27 @@ pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Pred
             None => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1)),
         },
     };
-    decompose_played(&played, item_s, &speeds, &o_run, work.noise_cv)
+    decompose_played(&played, work, &speeds, &o_run)
 }
 
+/// The played schedule's wall time split into work (the pixels alone), hand-out (F and
+/// h + c per item), refill waiting and the rest, imbalance.
 fn decompose_played(
     played: &Played,
-    item_s: &[f64],
+    work: &Workload<'_>,
     speeds: &[f64],
     o: &Overheads,
-    noise_cv: f64,
 ) -> Prediction {
     let p = speeds.len() as f64;
     let capacity: f64 = speeds.iter().map(|f| 1.0 / f).sum();
-    let n = item_s.len();
-    let work_s = item_s.iter().sum::<f64>() / capacity;
-    let handout_s = o.fixed_s + o.per_item_s * n as f64 / p;
+    let n = work.item_s.len();
+    let work_s = work.item_s.iter().sum::<f64>() / capacity;
+    let per_item = o.per_item_s + work.per_item_s.max(0.0);
+    let handout_s = o.fixed_s + per_item * n as f64 / p;
     let refill_s = played.refill / p;
     let makespan = played.finish.iter().copied().fold(0.0, f64::max);
     let sd = played.exposed.iter().map(|v| v.sqrt()).sum::<f64>() / p;
-    let noise = noise_cv * sd * expected_max_normal(speeds.len());
+    let noise = work.noise_cv * sd * expected_max_normal(speeds.len());
     let wall_s = o.fixed_s + makespan + noise;
     Prediction {
         wall_s,
@@ -362,10 +372,18 @@ mod tests {
         SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, p)
     }
 
+    /// Two workers, the first `factor`× slower.
+    fn one_slowed(kind: SchedulerKind, factor: f64) -> SchedulerSpec {
+        let mut s = spec(kind, 2);
+        s.slow = Slow { workers: 1, factor };
+        s
+    }
+
     fn run(kind: SchedulerKind, p: usize, items: &[f64], o: Overheads) -> Prediction {
         let w = Workload {
             item_s: items,
             noise_cv: 0.0,
+            per_item_s: 0.0,
         };
         predict(&spec(kind, p), &w, &o)
     }
@@ -430,6 +448,41 @@ mod tests {
     }
 
     #[test]
+    fn each_item_pays_its_own_cost_once_so_bigger_items_pay_it_less_often() {
+        // 1000 one-unit pixels on 2 workers, c = 0.1 per item: as 1000 items the run pays
+        // 0.1·1000/2 = 50 on top of the work, as 10 items of 100 pixels only 0.5.
+        let pixels = vec![1.0; 1000];
+        let tiles = vec![100.0; 10];
+        let with_c = |items: &[f64]| {
+            let w = Workload {
+                item_s: items,
+                noise_cv: 0.0,
+                per_item_s: 0.1,
+            };
+            predict(&spec(SchedulerKind::SelfScheduling, 2), &w, &NONE)
+        };
+        let (fine, coarse) = (with_c(&pixels), with_c(&tiles));
+        assert!(close(fine.work_s, 500.0) && close(coarse.work_s, 500.0));
+        assert!(
+            close(fine.handout_s, 50.0) && close(fine.wall_s, 550.0),
+            "{fine:?}"
+        );
+        assert!(
+            close(coarse.handout_s, 0.5) && close(coarse.wall_s, 500.5),
+            "{coarse:?}"
+        );
+        assert!(fine.imbalance_s.abs() < 1e-9 && coarse.imbalance_s.abs() < 1e-9);
+        // A slowed worker runs c slowed too: it is part of the job.
+        let w = Workload {
+            item_s: &pixels,
+            noise_cv: 0.0,
+            per_item_s: 0.1,
+        };
+        let slowed = one_slowed(SchedulerKind::Static, 2.0);
+        assert!(close(predict(&slowed, &w, &NONE).wall_s, 500.0 * 1.1 * 2.0));
+    }
+
+    #[test]
     fn static_bands_take_a_hot_band_whole_while_dynamic_grabs_share_it() {
         // The first half costs 3, the second 1: band 0 holds 3·4 = 12 of 16.
         let items: Vec<f64> = (0..8).map(|i| if i < 4 { 3.0 } else { 1.0 }).collect();
@@ -480,6 +533,7 @@ mod tests {
             let w = Workload {
                 item_s: &items,
                 noise_cv: 0.0,
+                per_item_s: 0.0,
             };
             predict(&s, &w, &NONE).wall_s
         };
@@ -492,14 +546,11 @@ mod tests {
     fn a_slowed_worker_lowers_capacity_and_weighted_schemes_follow_it() {
         // Worker 0 is 3× slower: capacity 1/3 + 1 = 4/3, so 120 unit items take 90 ideally.
         let items = vec![1.0; 120];
-        let mut s = spec(SchedulerKind::SelfScheduling, 2);
-        s.slow = Slow {
-            workers: 1,
-            factor: 3.0,
-        };
+        let s = one_slowed(SchedulerKind::SelfScheduling, 3.0);
         let w = Workload {
             item_s: &items,
             noise_cv: 0.0,
+            per_item_s: 0.0,
         };
         let ss = predict(&s, &w, &NONE);
         assert!(close(ss.work_s, 90.0), "{ss:?}");
@@ -516,6 +567,7 @@ mod tests {
         let w = Workload {
             item_s: &items,
             noise_cv: 0.1,
+            per_item_s: 0.0,
         };
         let r = predict(&spec(SchedulerKind::Static, 2), &w, &NONE);
         assert!((r.imbalance_s - 0.5642).abs() < 1e-9, "{r:?}");

@@ -33,6 +33,11 @@ pub struct PixelProbe {
     /// The fastest and slowest bulk pass (Σ of its rows): how far the machine's speed moved
     /// while the probe ran.
     pub bulk_range_s: (f64, f64),
+    /// c: each item's own cost beyond its pixels ([`per_item_cost`] of the two renders).
+    pub per_item_s: f64,
+    /// a: each pixel's cost that does not grow with its samples ([`fixed_per_pixel`] of
+    /// bulk renders at the probe's spp and at 1 spp); 0 for a 1-spp probe.
+    pub fixed_pixel_s: f64,
 }
 
 /// One pass: frame 0 pixel by pixel, item i to worker i mod P, each pixel's span kept.
@@ -96,6 +101,36 @@ pub fn calibrate(timed: &[f64], bulk_s: f64) -> Vec<f64> {
     timed.iter().map(|t| t * k).collect()
 }
 
+/// c, what one item costs beyond its pixels: the timed render's excess over the bulk render,
+/// spread over the items the timed render has more of (`pixels` one-pixel items against
+/// `rows` rows), ≥ 0. The excess is each item's result and pixel buffer, the render job's
+/// per-item setup and hand-out, and the timeline's clock read (~20 ns, kept: a run's items
+/// read no clock, so c is high by that). Calibrating the pixels to the rows took c out of
+/// them; one-pixel items pay it again per pixel.
+pub fn per_item_cost(timed_s: f64, bulk_s: f64, pixels: usize, rows: usize) -> f64 {
+    let extra = pixels.saturating_sub(rows);
+    let c = (timed_s - bulk_s) / extra as f64;
+    if extra == 0 || !c.is_finite() {
+        0.0
+    } else {
+        c.max(0.0)
+    }
+}
+
+/// a, the part of a pixel's cost that its samples do not multiply (its sampler and film
+/// setup, storing it), from bulk renders of `pixels` pixels at `spp` (`bulk_s`) and at one
+/// sample (`one_s`): bulk = pixels·a + b·spp, so a = (spp·one − bulk) / ((spp − 1)·pixels),
+/// clamped to [0, one/pixels]. Scaling a whole pixel's cost by spp/probe-spp would scale a too:
+/// on the dev box a Cornell-box prediction from a 2/4/8-spp probe came out 119/109/102 ms.
+pub fn fixed_per_pixel(bulk_s: f64, one_s: f64, spp: u32, pixels: usize) -> f64 {
+    if spp <= 1 || pixels == 0 || !(bulk_s.is_finite() && one_s.is_finite()) {
+        return 0.0;
+    }
+    let n = pixels as f64;
+    let a = (spp as f64 * one_s - bulk_s) / ((spp - 1) as f64 * n);
+    a.clamp(0.0, (one_s / n).max(0.0))
+}
+
 /// The median (the mean of the middle two of an even count; NaN of none).
 pub fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -152,10 +187,20 @@ pub fn pixels_with<T: Tracer + 'static>(
 ) -> Result<PixelProbe, SchedError> {
     let mut spans: Vec<Vec<f64>> = Vec::new();
     let mut rows: Vec<Vec<f64>> = Vec::new();
+    let mut rows_one: Vec<Vec<f64>> = Vec::new();
+    let spp = scene.settings.spp;
+    let one = (spp > 1).then(|| {
+        let mut s = (**scene).clone();
+        s.settings.spp = 1;
+        Arc::new(s)
+    });
     for k in bulk_after(pixel_passes.max(2), bulk_passes) {
         spans.push(pass(scene, tracer, workers)?);
         for _ in 0..k {
             rows.push(bulk_pass(scene, tracer, workers)?);
+        }
+        if let Some(one) = &one {
+            rows_one.push(bulk_pass(one, tracer, workers)?);
         }
     }
     let noise_cv = relative_spread(&spans[0], &spans[1]);
@@ -168,6 +213,9 @@ pub fn pixels_with<T: Tracer + 'static>(
     let bulk_range_s = totals.fold((f64::INFINITY, 0.0_f64), |(lo, hi), t| {
         (lo.min(t), hi.max(t))
     });
+    let timed_s: f64 = timed.iter().sum();
+    let (w, h) = (scene.width() as usize, scene.height() as usize);
+    let one_s: f64 = medians(&rows_one).iter().sum();
     Ok(PixelProbe {
         profile: Profile {
             width: scene.width(),
@@ -175,9 +223,11 @@ pub fn pixels_with<T: Tracer + 'static>(
             pixel_s: calibrate(&timed, bulk_s),
         },
         noise_cv,
-        timed_s: timed.iter().sum(),
+        timed_s,
         bulk_s,
         bulk_range_s,
+        per_item_s: per_item_cost(timed_s, bulk_s, w * h, h),
+        fixed_pixel_s: fixed_per_pixel(bulk_s, one_s, spp, w * h),
     })
 }
 
@@ -406,19 +456,31 @@ pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads,
 }
 
 /// Each item's cost in hand-out order under `spec` (its own layout), from per-pixel costs at
-/// `probe_spp` scaled to `spp`.
-pub fn item_costs(profile: &Profile, spec: &SchedulerSpec, probe_spp: u32, spp: u32) -> Vec<f64> {
+/// `probe_spp` scaled to `spp`: a pixel costing t keeps its fixed part `fixed_pixel_s` (a)
+/// and has the rest, t − a ≥ 0, scaled by spp / probe-spp.
+pub fn item_costs(
+    profile: &Profile,
+    spec: &SchedulerSpec,
+    probe_spp: u32,
+    spp: u32,
+    fixed_pixel_s: f64,
+) -> Vec<f64> {
     let (chunk, order) = spec.layout(profile.width, profile.height);
-    let scale = spp as f64 / probe_spp.max(1) as f64;
     decompose(profile.width, profile.height, chunk, order)
         .iter()
         .map(|it| {
             it.pixels(profile.width)
-                .map(|p| profile.pixel_s[p as usize])
+                .map(|p| scaled_pixel(profile.pixel_s[p as usize], fixed_pixel_s, probe_spp, spp))
                 .sum::<f64>()
-                * scale
         })
         .collect()
+}
+
+/// One pixel's cost `t` at `probe_spp` as it would be at `spp`: its fixed part a stays, the
+/// rest (t − a ≥ 0) scales by spp / probe-spp.
+pub fn scaled_pixel(t: f64, fixed_pixel_s: f64, probe_spp: u32, spp: u32) -> f64 {
+    let a = fixed_pixel_s.max(0.0);
+    a.min(t) + (t - a).max(0.0) * spp as f64 / probe_spp.max(1) as f64
 }
 
 #[cfg(test)]
@@ -490,6 +552,18 @@ mod tests {
     }
 
     #[test]
+    fn the_per_item_cost_is_the_timed_excess_over_the_items_the_rows_do_not_have() {
+        // 100×10 pixels timed one by one sum to 1.1 ms, the 10 rows to 1.0 ms: the 990
+        // extra items cost 0.1 ms, c ≈ 101 ns.
+        let c = per_item_cost(1.1e-3, 1.0e-3, 1000, 10);
+        assert!((c - 1e-4 / 990.0).abs() < 1e-15, "{c}");
+        // A timed render below the bulk one (noise) or no extra items: no cost.
+        assert_eq!(per_item_cost(0.9e-3, 1.0e-3, 1000, 10), 0.0);
+        assert_eq!(per_item_cost(1.1e-3, 1.0e-3, 10, 10), 0.0);
+        assert_eq!(per_item_cost(f64::NAN, 1.0e-3, 1000, 10), 0.0);
+    }
+
+    #[test]
     fn median_of_odd_and_even_counts() {
         assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&mut [4.0, 1.0, 2.0, 3.0]), 2.5);
@@ -504,7 +578,23 @@ mod tests {
             pixel_s: vec![1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0],
         };
         let s = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 2, h: 2 }, 2);
-        assert_eq!(item_costs(&p, &s, 1, 1), [4.0, 12.0]);
-        assert_eq!(item_costs(&p, &s, 2, 8), [16.0, 48.0]);
+        assert_eq!(item_costs(&p, &s, 1, 1, 0.0), [4.0, 12.0]);
+        assert_eq!(item_costs(&p, &s, 2, 8, 0.0), [16.0, 48.0]);
+        // A fixed part of 0.5 per pixel stays: a 1-pixel is 0.5 + 0.5·4, a 3-pixel 0.5 + 2.5·4.
+        assert_eq!(item_costs(&p, &s, 2, 8, 0.5), [4.0 * 2.5, 4.0 * 10.5]);
+    }
+
+    #[test]
+    fn the_fixed_part_of_a_pixel_solves_two_sample_counts() {
+        // 1000 pixels of a = 1 µs and b = 2 µs per sample: 4 spp → 9 ms, 1 spp → 3 ms.
+        let a = fixed_per_pixel(9e-3, 3e-3, 4, 1000);
+        assert!((a - 1e-6).abs() < 1e-15, "{a}");
+        // Costs that scale exactly with spp have no fixed part; noise below zero is clamped,
+        // and a 1-spp probe has nothing to split.
+        assert_eq!(fixed_per_pixel(12e-3, 3e-3, 4, 1000), 0.0);
+        assert_eq!(fixed_per_pixel(13e-3, 3e-3, 4, 1000), 0.0);
+        assert_eq!(fixed_per_pixel(3e-3, 3e-3, 1, 1000), 0.0);
+        // At most the whole 1-spp pixel.
+        assert!((fixed_per_pixel(3e-3, 3e-3, 4, 1000) - 3e-6).abs() < 1e-15);
     }
 }
