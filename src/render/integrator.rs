@@ -9,6 +9,7 @@ use crate::rng::Sampler;
 use crate::scene::{Light, Material, Scene, NO_LIGHT};
 use crate::tracer::Tracer;
 use glam::{DVec3, Vec3};
+use std::cell::OnceCell;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The scene features a specialised [`radiance_with`] keeps. Each flag is a constant, so a
@@ -69,6 +70,9 @@ pub struct Interaction {
     /// For a sphere hit, the sphere and `p` to f64 precision: rays leave from that point
     /// ([`Ray::leaving`]).
     pub sphere: Option<(Sphere, DVec3)>,
+    /// A triangle hit's offset origin on the front side of `n`, computed on first use: a
+    /// diffuse vertex's shadow ray and its next segment both start there.
+    front: OnceCell<Vec3>,
 }
 
 impl Interaction {
@@ -76,12 +80,21 @@ impl Interaction {
     /// to a target from the ray's start). Triangle hits offset the start past `p`'s error box;
     /// sphere hits start at the exact surface point, which the sphere test recognises (and, for
     /// f32-only tests, from [`Sphere::spawn_origin`]).
+    #[inline]
     pub fn spawn(&self, w: Vec3, d: impl FnOnce(Vec3) -> Vec3) -> Ray {
         let offset = || offset_ray_origin(self.p, self.p_err, self.n, w);
         match self.sphere {
             Some((sphere, exact)) => {
                 let o = sphere.spawn_origin(self.p, w).unwrap_or_else(offset);
                 Ray::leaving(exact, o, d(o))
+            }
+            // `offset_ray_origin` reads `w` only through `w·n < 0`: every `w` that is not
+            // behind `n` gets the front origin, the same bits as `w = n`.
+            None if !(w.dot(self.n) < 0.0) => {
+                let o = *self
+                    .front
+                    .get_or_init(|| offset_ray_origin(self.p, self.p_err, self.n, self.n));
+                Ray::new(o, d(o))
             }
             None => {
                 let o = offset();
@@ -92,6 +105,7 @@ impl Interaction {
 }
 
 /// Shading data for `hit`, a hit of `ray` in `scene`.
+#[inline]
 pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
     let g = &scene.geometry;
     let info = g.info[hit.prim as usize];
@@ -104,7 +118,7 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
     } else {
         let tri = &g.triangles[(hit.prim - ns) as usize];
         let (p, err) = tri.point(hit.b1, hit.b2);
-        (p, err, tri.normal(), None)
+        (p, err, scene.tri_normals[(hit.prim - ns) as usize], None)
     };
     Interaction {
         p,
@@ -113,6 +127,7 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
         material: info.material,
         light: info.light,
         sphere,
+        front: OnceCell::new(),
     }
 }
 
@@ -160,6 +175,7 @@ struct LightPoint {
     n: Vec3,
 }
 
+#[inline]
 fn sample_area(
     scene: &Scene,
     prims: &[u32],
@@ -195,7 +211,7 @@ fn sample_area(
         LightPoint {
             p,
             err,
-            n: tri.normal(),
+            n: scene.tri_normals[(prim - ns) as usize],
         }
     }
 }
@@ -365,7 +381,6 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
         if depth >= max_depth {
             break;
         }
-        let wo = -ray.d.normalize();
         let next_dir = match scene.materials[it.material as usize] {
             Material::Diffuse { reflectance } => {
                 if !front {
@@ -391,9 +406,11 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
                 }
                 beta *= reflectance;
                 specular = true;
+                let wo = -ray.d.normalize();
                 it.n * (2.0 * wo.dot(it.n)) - wo
             }
             Material::Dielectric { ior } if F::SPECULAR => {
+                let wo = -ray.d.normalize();
                 let cos_o = wo.dot(it.n);
                 let (nf, eta, cos_i) = if cos_o > 0.0 {
                     (it.n, ior, cos_o)

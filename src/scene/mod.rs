@@ -286,6 +286,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Every primitive, in render space.
     pub geometry: Geometry,
+    /// Unit geometric normal of each triangle ([`crate::geometry::Triangle::normal`]), by
+    /// triangle index, computed once at load: shading reads one per hit and per light sample.
+    pub tri_normals: Vec<Vec3>,
     /// Area lights (one per emitting shape of positive area), then the file's lights in order.
     pub lights: Vec<Light>,
     /// Index of the environment light in `lights`, if any.
