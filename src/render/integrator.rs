@@ -9,7 +9,7 @@ use crate::rng::Sampler;
 use crate::scene::{Light, Material, Scene, NO_LIGHT};
 use crate::tracer::Tracer;
 use glam::{DVec3, Vec3};
-use std::cell::OnceCell;
+use std::cell::Cell;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The scene features a specialised [`radiance_with`] keeps. Each flag is a constant, so a
@@ -72,7 +72,7 @@ pub struct Interaction {
     pub sphere: Option<(Sphere, DVec3)>,
     /// A triangle hit's offset origin on the front side of `n`, computed on first use: a
     /// diffuse vertex's shadow ray and its next segment both start there.
-    front: OnceCell<Vec3>,
+    front: Cell<Option<Vec3>>,
 }
 
 impl Interaction {
@@ -91,9 +91,11 @@ impl Interaction {
             // `offset_ray_origin` reads `w` only through `w·n < 0`: every `w` that is not
             // behind `n` gets the front origin, the same bits as `w = n`.
             None if !(w.dot(self.n) < 0.0) => {
-                let o = *self
-                    .front
-                    .get_or_init(|| offset_ray_origin(self.p, self.p_err, self.n, self.n));
+                let o = self.front.get().unwrap_or_else(|| {
+                    let o = offset_ray_origin(self.p, self.p_err, self.n, self.n);
+                    self.front.set(Some(o));
+                    o
+                });
                 Ray::new(o, d(o))
             }
             None => {
@@ -127,7 +129,7 @@ pub fn interaction(scene: &Scene, ray: &Ray, hit: &Hit) -> Interaction {
         material: info.material,
         light: info.light,
         sphere,
-        front: OnceCell::new(),
+        front: Cell::new(None),
     }
 }
 
