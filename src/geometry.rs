@@ -102,6 +102,7 @@ pub fn next_float_down(v: f32) -> f32 {
 
 /// Push `p` (with absolute error bound `p_err`) along the geometric normal `n` to the side `w`
 /// points to, far enough that the new origin is certainly on that side of the surface.
+#[inline]
 pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let dist = n.abs().dot(p_err);
     let mut offset = n * dist;

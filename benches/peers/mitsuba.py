@@ -105,8 +105,8 @@ def mitsuba_render(p):
     return json.loads(p.stdout.readline())["s"]
 
 
-def raysched_render(args):
-    cmd = ["taskset", "-c", str(args.core), args.raysched, "render",
+def raysched_render(args, binary):
+    cmd = ["taskset", "-c", str(args.core), binary, "render",
            os.path.join(ROOT, "scenes", "cornell_box.toml"), "--threads", "1",
            "--spp", str(args.spp), "--tracer", args.tracer,
            "-o", os.path.join(args.tmp, "raysched_peer.exr")]
@@ -134,7 +134,9 @@ def main():
     ap.add_argument("--size", type=int, default=128)
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--core", type=int, default=0, help="the one CPU both programs run on")
-    ap.add_argument("--raysched", default=os.path.join(ROOT, "target", "release", "raysched"))
+    ap.add_argument("--raysched", default=os.path.join(ROOT, "target", "release", "raysched"),
+                    help="raysched binary, or several separated by commas (e.g. a new and an "
+                         "old build): each renders after every Mitsuba render, in this order")
     ap.add_argument("--tracer", default="bvh")
     ap.add_argument("--tmp", default="/tmp")
     args = ap.parse_args()
@@ -144,27 +146,35 @@ def main():
     if args.size != 128 or args.max_depth != 8:
         print("note: raysched renders scenes/cornell_box.toml at 128², max_depth 8 whatever "
               "--size/--max-depth say", file=sys.stderr)
-    if not os.access(args.raysched, os.X_OK):
-        sys.exit(f"--raysched {args.raysched}: not an executable (cargo build --release)")
+    binaries = args.raysched.split(",")
+    for b in binaries:
+        if not os.access(b, os.X_OK):
+            sys.exit(f"--raysched {b}: not an executable (cargo build --release)")
     for variant in args.variants.split(","):
         p = start_mitsuba(variant, args)
-        raysched_render(args)  # untimed, as Mitsuba's first render
-        mts, rs, rs_proc = [], [], []
+        for b in binaries:
+            raysched_render(args, b)  # untimed, as Mitsuba's first render
+        mts = []
+        rs = {b: [] for b in binaries}
+        rs_proc = {b: [] for b in binaries}
         for _ in range(args.renders):
             mts.append(mitsuba_render(p) * 1e3 / args.spp)
-            r, w = raysched_render(args)
-            rs.append(r * 1e3 / args.spp)
-            rs_proc.append(w * 1e3 / args.spp)
+            for b in binaries:
+                r, w = raysched_render(args, b)
+                rs[b].append(r * 1e3 / args.spp)
+                rs_proc[b].append(w * 1e3 / args.spp)
         p.stdin.close()
         p.wait()
-        ratios = [a / b for a, b in zip(rs, mts)]
         print(f"Cornell box {args.size}², {args.spp} spp, max_depth {args.max_depth}, "
               f"one core (taskset -c {args.core}), {args.renders} interleaved renders each")
         print(f"  mitsuba {variant}: ms/spp " + " ".join(f"{x:.2f}" for x in mts)
               + f"  ({spread(mts)})")
-        print(f"  raysched {args.tracer}: ms/spp " + " ".join(f"{x:.2f}" for x in rs)
-              + f"  ({spread(rs)}); process wall {spread(rs_proc)}")
-        print(f"  ratio raysched / mitsuba {variant}: {spread(ratios)}", flush=True)
+        for b in binaries:
+            ratios = [a / m for a, m in zip(rs[b], mts)]
+            print(f"  raysched {args.tracer} ({b}): ms/spp "
+                  + " ".join(f"{x:.2f}" for x in rs[b])
+                  + f"  ({spread(rs[b])}); process wall {spread(rs_proc[b])}")
+            print(f"  ratio raysched / mitsuba {variant}: {spread(ratios)}", flush=True)
 
 
 if __name__ == "__main__":

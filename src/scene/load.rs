@@ -120,6 +120,7 @@ fn build_scene(
         cameras,
         settings,
         materials,
+        tri_normals: geometry.triangles.iter().map(|t| t.normal()).collect(),
         geometry,
         lights,
         environment,

@@ -286,6 +286,12 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Every primitive, in render space.
     pub geometry: Geometry,
+    /// Unit geometric normal of each triangle ([`crate::geometry::Triangle::normal`]), by
+    /// triangle index, computed once at load: shading reads one per hit and per light sample.
+    /// With the cached front origin of `Interaction` and the shading helpers inlined: Cornell
+    /// box 128², 64 spp, one thread, new/old wall 0.81 (0.78–0.84, 7 alternated pairs, quiet
+    /// 2-core EPYC), images bit-identical on every shipped scene.
+    pub tri_normals: Vec<Vec3>,
     /// Area lights (one per emitting shape of positive area), then the file's lights in order.
     pub lights: Vec<Light>,
     /// Index of the environment light in `lights`, if any.
