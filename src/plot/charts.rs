@@ -994,8 +994,13 @@ fn overhead(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
 
 /// Gantt: each kind's best run, plus the per-ray master if there is one.
 fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
-    let mut picks: Vec<(String, &Summary)> =
-        best.iter().map(|s| (s.row.scheduler.clone(), *s)).collect();
+    // A best run with a GPU among its sources is named by its set too, so a chart's name
+    // says which sources it shows whichever configuration came out fastest.
+    let named = |s: &Summary| match s.row.sources.as_str() {
+        "local" => s.row.scheduler.clone(),
+        set => format!("{}_{}", s.row.scheduler, slug(set)),
+    };
+    let mut picks: Vec<(String, &Summary)> = best.iter().map(|s| (named(s), *s)).collect();
     if let Some(pr) = gr
         .at_max
         .iter()
@@ -1021,7 +1026,7 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
             .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median));
         if let Some(f) = fastest {
             if !picks.iter().any(|(_, s)| s.row.config == f.row.config) {
-                picks.push((format!("{}_{}", f.row.scheduler, slug(set)), *f));
+                picks.push((named(f), *f));
             }
         }
     }
