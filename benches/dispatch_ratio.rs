@@ -7,7 +7,13 @@
 //! off. Each of `ROUNDS` rounds times the counter, then the scheduler; the table gives the
 //! medians in ns per item, the ratio of the medians and the ratio's range over the rounds.
 //!
-//! `cargo bench --bench dispatch_ratio` (~1 min). The goals it checks: the factoring family no
+//! Two more tables: the round trip of one message between two threads over the channels the
+//! master and its local sources use (a master thread that refills B items per source per round
+//! trip cannot hand out faster than one round trip per B·P items), and the master's stats-on
+//! time over its stats-off time, paired round by round (on and off alternate, so machine drift
+//! between rows does not enter the ratio).
+//!
+//! `cargo bench --bench dispatch_ratio` (~2 min). The goals it checks: the factoring family no
 //! dearer per item than `guided`; the master at B ≥ 4 within 10× the counter; the master's
 //! stats-on cost within 10 % of stats-off.
 
@@ -24,6 +30,7 @@ use std::time::Instant;
 
 const ITEMS: usize = 1 << 18;
 const ROUNDS: usize = 9;
+const BUFFERS: [usize; 4] = [2, 4, 16, 64];
 
 fn counter_ns() -> f64 {
     let next = CachePadded::new(AtomicUsize::new(0));
@@ -51,6 +58,41 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
+/// Smallest and largest of `v`.
+fn range(v: &[f64]) -> (f64, f64) {
+    v.iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(*x), b.max(*x)))
+}
+
+/// Round trips of one message between two threads over crossbeam channels, ns each.
+fn round_trip_ns() -> f64 {
+    const TRIPS: usize = 20_000;
+    let (to_echo, echo_in) = crossbeam::channel::unbounded::<u32>();
+    let (to_main, main_in) = crossbeam::channel::unbounded::<u32>();
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            for m in echo_in {
+                let _ = to_main.send(m);
+            }
+        });
+        let t0 = Instant::now();
+        for i in 0..TRIPS as u32 {
+            to_echo.send(i).unwrap();
+            main_in.recv().unwrap();
+        }
+        let ns = t0.elapsed().as_secs_f64() * 1e9 / TRIPS as f64;
+        drop(to_echo);
+        ns
+    })
+}
+
+/// One timed run of `spec`, ns per item.
+fn run_ns(spec: &SchedulerSpec, items: &[WorkItem], job: &Job, opts: &RunOptions) -> f64 {
+    let t0 = Instant::now();
+    run_items(spec, items, job.clone(), opts).unwrap();
+    t0.elapsed().as_secs_f64() * 1e9 / items.len() as f64
+}
+
 fn main() {
     // `cargo bench` passes `--bench`; a filter argument selects rows by name.
     let filter: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with('-'));
@@ -62,56 +104,51 @@ fn main() {
     });
     let px = Chunk::Tile { w: 1, h: 1 };
     let items = decompose(512, 512, px, Order::Scanline);
+    let master = |buffer: usize| SchedulerSpec {
+        policy: Policy::Master(MasterParams {
+            wait: Wait::Block,
+            buffer,
+            requeue: Requeue::Never,
+        }),
+        ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
+    };
     let mut rows: Vec<(String, SchedulerSpec, bool)> = SchedulerKind::ALL
         .into_iter()
         .filter(|k| *k != SchedulerKind::Master)
         .map(|k| (k.id().to_string(), SchedulerSpec::new(k, px, 2), true))
         .collect();
-    for buffer in [2, 4, 16, 64] {
+    for buffer in BUFFERS {
         for stats in [true, false] {
-            let s = SchedulerSpec {
-                policy: Policy::Master(MasterParams {
-                    wait: Wait::Block,
-                    buffer,
-                    requeue: Requeue::Never,
-                }),
-                ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
-            };
-            let name = format!(
-                "master_block_b{buffer}_{}",
-                if stats { "stats_on" } else { "stats_off" }
-            );
-            rows.push((name, s, stats));
+            let on_off = if stats { "stats_on" } else { "stats_off" };
+            rows.push((
+                format!("master_block_b{buffer}_{on_off}"),
+                master(buffer),
+                stats,
+            ));
         }
     }
+    let wanted = |name: &str| filter.as_deref().is_none_or(|f| name.contains(f));
     println!(
         "{:<34} {:>9} {:>9} {:>7} {:>15}",
         "scheduler (2 workers, 2^18 items)", "ns/item", "counter", "ratio", "ratio range"
     );
-    for (name, spec, stats) in rows {
-        if filter.as_deref().is_some_and(|f| !name.contains(f)) {
-            continue;
-        }
+    for (name, spec, stats) in rows.iter().filter(|r| wanted(&r.0)) {
         let opts = RunOptions {
-            stats,
+            stats: *stats,
             ..Default::default()
         };
         // One untimed run of each first (thread and allocator warm-up).
         counter_ns();
-        run_items(&spec, &items, job.clone(), &opts).unwrap();
+        run_items(spec, &items, job.clone(), &opts).unwrap();
         let (mut c, mut s, mut r) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..ROUNDS {
             let cn = counter_ns();
-            let t0 = Instant::now();
-            run_items(&spec, &items, job.clone(), &opts).unwrap();
-            let sn = t0.elapsed().as_secs_f64() * 1e9 / ITEMS as f64;
+            let sn = run_ns(spec, &items, &job, &opts);
             c.push(cn);
             s.push(sn);
             r.push(sn / cn);
         }
-        let (lo, hi) = r
-            .iter()
-            .fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(*x), b.max(*x)));
+        let (lo, hi) = range(&r);
         let (cm, sm) = (median(&mut c), median(&mut s));
         println!(
             "{name:<34} {sm:>9.1} {cm:>9.1} {:>6.1}× {:>7.1}–{:.1}×",
@@ -119,5 +156,61 @@ fn main() {
             lo,
             hi
         );
+    }
+    if wanted("round_trip") {
+        let (mut c, mut t) = (Vec::new(), Vec::new());
+        for _ in 0..ROUNDS {
+            c.push(counter_ns());
+            t.push(round_trip_ns());
+        }
+        let (cm, tm) = (median(&mut c), median(&mut t));
+        let (lo, hi) = range(&t);
+        println!(
+            "\n{:<34} {tm:>9.1} {cm:>9.1} {:>6.1}× {lo:>7.0}–{hi:.0} ns",
+            "round_trip (ns per trip)",
+            tm / cm
+        );
+        for buffer in BUFFERS {
+            // One round trip per B items per source, the P = 2 sources served in one pass.
+            let floor = tm / (buffer as f64 * 2.0);
+            println!(
+                "  master floor at B = {buffer:<3} {floor:>16.1} ns/item {:>6.1}×",
+                floor / cm
+            );
+        }
+    }
+    if wanted("stats_pair") {
+        println!(
+            "\n{:<34} {:>9} {:>15}",
+            "master stats on / off, paired", "median", "range"
+        );
+        for buffer in BUFFERS {
+            let spec = master(buffer);
+            let mut r = Vec::new();
+            for round in 0..ROUNDS {
+                let time = |stats| {
+                    let opts = RunOptions {
+                        stats,
+                        ..Default::default()
+                    };
+                    run_ns(&spec, &items, &job, &opts)
+                };
+                // Alternate which goes first, so a trend in the machine favours neither.
+                let (on, off) = if round % 2 == 0 {
+                    let on = time(true);
+                    (on, time(false))
+                } else {
+                    let off = time(false);
+                    (time(true), off)
+                };
+                r.push(on / off);
+            }
+            let (lo, hi) = range(&r);
+            println!(
+                "{:<34} {:>8.3}× {lo:>7.3}–{hi:.3}×",
+                format!("stats_pair_b{buffer}"),
+                median(&mut r)
+            );
+        }
     }
 }
