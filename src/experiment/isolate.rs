@@ -8,7 +8,7 @@
 
 use super::plan::{ExperimentPlan, StatsSettings};
 use super::progress::Progress;
-use super::results::{read_runs, RunsFile};
+use super::results::{read_runs, RunRow, RunsFile};
 use super::run::{self, RunError, RunOptions, RunOutcome, Todo};
 use crate::model::Prediction;
 use serde::{Deserialize, Serialize};
@@ -76,13 +76,18 @@ pub fn run_experiment_isolated(
     let dir = opts.out.join(&plan.name);
     let _lock = super::lock::ResultsLock::acquire(&dir)?;
     let runs_path = dir.join("runs.csv");
-    let rows_before = run::prepare(plan, &dir, opts.fresh)?;
+    run::prepare(plan, &dir, opts.fresh)?;
     let (runs, old_rows) = RunsFile::open(&runs_path, opts.fresh)?;
-    run::check_old_rows(plan, &runs, &old_rows)?;
+    run::validate_old_rows(plan, &runs, &old_rows)?;
     drop(runs);
-    debug_assert_eq!(rows_before, old_rows.len());
-    let mut todo = Todo::of(plan, &old_rows, None);
-    todo.update_done(plan);
+    let skipped = old_rows.len();
+    let todo_of = |rows: &[RunRow]| {
+        let mut todo = Todo::of(plan, rows, None);
+        todo.update_done(plan);
+        todo
+    };
+    let mut rows = old_rows;
+    let mut todo = todo_of(&rows);
     let pred_path = predictions_path(&dir);
     if plan.predict {
         let p = run::predictions(plan, &todo)?;
@@ -92,13 +97,7 @@ pub fn run_experiment_isolated(
     let mut progress = Progress::new(opts.quiet, todo.upper_bound_now(plan));
     let (mut measured, mut untimed) = (0u64, 0usize);
     let mut round = 0u64;
-    let rows = loop {
-        let (rows, _) = read_runs(&runs_path)?;
-        let mut todo = Todo::of(plan, &rows, None);
-        todo.update_done(plan);
-        if todo.round_order(plan, round).is_empty() {
-            break rows;
-        }
+    while !todo.round_order(plan, round).is_empty() {
         progress.set_bound(todo.upper_bound_now(plan) + measured);
         let job = RoundJob {
             experiment: plan.file.clone(),
@@ -125,23 +124,25 @@ pub fn run_experiment_isolated(
             )));
         }
         round += 1;
-    };
+        // The child appended its round: the parent alone decides from the file what is left.
+        rows = read_runs(&runs_path)?.0;
+        todo = todo_of(&rows);
+    }
     if plan.predict {
         let _ = std::fs::remove_file(&pred_path);
     }
-    let new = rows.len() - old_rows.len();
+    let new = rows.len() - skipped;
     progress.finish(new);
-    let final_todo = Todo::of(plan, &rows, None);
     Ok(RunOutcome {
         dir,
         measured: new,
-        skipped: old_rows.len(),
+        skipped,
         untimed,
         mismatches: rows
             .iter()
             .filter(|r| !r.identical && r.agrees != Some(true))
             .count(),
-        other_launches: final_todo.other_launches,
+        other_launches: todo.other_launches,
     })
 }
 

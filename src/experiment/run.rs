@@ -185,7 +185,7 @@ fn prepare_meta(
 
 /// What the serial baseline of one (scene, tracer) measured so far.
 #[derive(Default)]
-pub(super) struct SerialInfo {
+struct SerialInfo {
     walls: Vec<f64>,
     hash: Option<String>,
     /// Its image, kept (or read back from `images/`) where GPU rows are compared with it.
@@ -286,8 +286,8 @@ pub fn run_experiment_with(
 }
 
 /// The results folder ready for this start: its folders, and `meta.toml` checked (or
-/// started) with this start appended to its history. Returns the rows already in runs.csv.
-pub(super) fn prepare(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<usize, RunError> {
+/// started) with this start appended to its history.
+pub(super) fn prepare(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), RunError> {
     prepare_dir(plan, dir, fresh)?;
     let runs_path = dir.join("runs.csv");
     let rows_before = if fresh || !runs_path.exists() {
@@ -296,7 +296,7 @@ pub(super) fn prepare(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<
         super::results::read_runs(&runs_path)?.0.len()
     };
     prepare_meta(plan, dir, fresh, rows_before)?;
-    Ok(rows_before)
+    Ok(())
 }
 
 /// The results folder with its `images/` (and `timelines/`); `fresh` clears old timelines and
@@ -314,9 +314,17 @@ fn prepare_dir(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), Run
     Ok(())
 }
 
-/// Resume: old rows must belong to this plan's scenes as they are now. Returns what the serial
-/// baselines measured so far.
-pub(super) fn check_old_rows(
+/// Resume: old rows must belong to this plan's scenes as they are now.
+pub(super) fn validate_old_rows(
+    plan: &ExperimentPlan,
+    runs: &RunsFile,
+    old_rows: &[RunRow],
+) -> Result<(), RunError> {
+    check_old_rows(plan, runs, old_rows).map(drop)
+}
+
+/// [`validate_old_rows`], returning what the serial baselines measured so far.
+fn check_old_rows(
     plan: &ExperimentPlan,
     runs: &RunsFile,
     old_rows: &[RunRow],
