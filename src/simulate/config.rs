@@ -334,30 +334,22 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1",
         ));
     }
+    let existing = |what: &str, p: &str| -> anyhow::Result<PathBuf> {
+        let full = base.join(p);
+        std::fs::metadata(&full)
+            .map_err(|e| field(path, what, format!("{}: {e}", full.display())))?;
+        Ok(full)
+    };
     let validation = match &file.validation {
         None => None,
-        Some(v) => {
-            let measured = base.join(&v.measured);
-            std::fs::metadata(&measured).map_err(|e| {
-                field(
-                    path,
-                    "validation.measured",
-                    format!("{}: {e}", measured.display()),
-                )
-            })?;
-            Some((measured, load_platform("validation.platform", &v.platform)?))
-        }
+        Some(v) => Some((
+            existing("validation.measured", &v.measured)?,
+            load_platform("validation.platform", &v.platform)?,
+        )),
     };
     let mpi_validation = match file.validation.as_ref().map(|v| (&v.mpi_measured, v)) {
         Some((Some(m), v)) => {
-            let measured = base.join(m);
-            std::fs::metadata(&measured).map_err(|e| {
-                field(
-                    path,
-                    "validation.mpi_measured",
-                    format!("{}: {e}", measured.display()),
-                )
-            })?;
+            let measured = existing("validation.mpi_measured", m)?;
             if v.mpi_platforms.is_empty() {
                 return Err(field(
                     path,
