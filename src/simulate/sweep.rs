@@ -258,6 +258,10 @@ pub struct SimRow {
 impl SimRow {
     /// serial / wall.
     pub fn speedup(&self) -> f64 {
+        // NaN stays NaN (a run stopped at run_limit_s has no wall): `max` would drop it.
+        if self.out.wall_s.is_nan() {
+            return f64::NAN;
+        }
         self.serial_s / self.out.wall_s.max(1e-300)
     }
     /// speedup / workers.

@@ -282,6 +282,9 @@ mod with_simgrid {
         );
         let csv = std::fs::read_to_string(dir.path().join("out/t/sim_runs.csv")).unwrap();
         assert_eq!(csv.lines().count(), 2, "{csv}");
+        let (head, row) = csv.split_once('\n').unwrap();
+        let col = head.split(',').position(|c| c == "speedup").unwrap();
+        assert_eq!(row.split(',').nth(col), Some("NaN"), "{csv}");
         assert!(
             csv.contains("not simulated: still running after run_limit_s"),
             "{csv}"
