@@ -14,8 +14,11 @@ import argparse, os, pathlib, signal, subprocess, sys, tomllib
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 # RAYSCHED_BIN picks the binary (e.g. target/release/raysched built with --features mpi).
 BIN = pathlib.Path(os.environ.get("RAYSCHED_BIN", ROOT / "target" / "debug" / "raysched"))
+# No binding: OpenMPI binds each of 2 ranks to one core (rank 0 then sees 1 core, 3 ranks see
+# 2), and a runs.csv refuses launches that saw different core counts.
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1")
+           OMPI_MCA_rmaps_base_oversubscribe="1", OMPI_MCA_mpi_yield_when_idle="1",
+           OMPI_MCA_hwloc_base_binding_policy="none")
 TRANSPORT_ENV = {
     "shared_memory": {"OMPI_MCA_btl": "self,vader"},
     "tcp_loopback": {"OMPI_MCA_btl": "self,tcp", "OMPI_MCA_btl_tcp_if_include": "lo"},

@@ -2,9 +2,11 @@
 //! engine runs once per process, and a malformed platform aborts the process that loads it.
 
 use super::job::{PlatformInfo, SimJob, SimOutcome};
+use std::io::Read;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 /// The hidden subcommand the child runs.
 pub const CHILD_COMMAND: &str = "simgrid-child";
@@ -35,37 +37,86 @@ fn last_line(stderr: &[u8]) -> String {
     line
 }
 
-fn run_child<T: serde::de::DeserializeOwned>(exe: &Path, args: &[&str]) -> Result<T, String> {
-    let out = Command::new(exe)
+/// Why a child gave no answer.
+#[derive(Debug)]
+pub enum Failure {
+    /// It failed, with this message.
+    Error(String),
+    /// It was still running after the limit and was stopped.
+    OverLimit,
+}
+
+fn run_child<T: serde::de::DeserializeOwned>(
+    exe: &Path,
+    args: &[&str],
+    limit: Option<Duration>,
+) -> Result<T, Failure> {
+    let mut child = Command::new(exe)
         .arg(CHILD_COMMAND)
         .args(args)
         .stdin(Stdio::null())
-        .output()
-        .map_err(|e| format!("starting {}: {e}", exe.display()))?;
-    if !out.status.success() {
-        return Err(last_line(&out.stderr));
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| Failure::Error(format!("starting {}: {e}", exe.display())))?;
+    // Read both pipes while waiting: an answer larger than a pipe's buffer would block it.
+    let drain = |mut r: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut b = Vec::new();
+            let _ = r.read_to_end(&mut b);
+            b
+        })
+    };
+    let stdout = drain(Box::new(child.stdout.take().expect("piped")));
+    let stderr = drain(Box::new(child.stderr.take().expect("piped")));
+    let start = Instant::now();
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(s)) => break s,
+            Ok(None) if limit.is_some_and(|l| start.elapsed() > l) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(Failure::OverLimit);
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => return Err(Failure::Error(format!("waiting for the simulation: {e}"))),
+        }
+    };
+    let out = stdout.join().unwrap_or_default();
+    let err = stderr.join().unwrap_or_default();
+    if !status.success() {
+        return Err(Failure::Error(last_line(&err)));
     }
-    let text = String::from_utf8_lossy(&out.stdout);
-    toml::from_str(&text).map_err(|e| format!("reading the simulation's answer: {e}"))
+    let text = String::from_utf8_lossy(&out);
+    toml::from_str(&text)
+        .map_err(|e| Failure::Error(format!("reading the simulation's answer: {e}")))
+}
+
+fn message(f: Failure) -> String {
+    match f {
+        Failure::Error(m) => m,
+        Failure::OverLimit => "over the time limit".into(),
+    }
 }
 
 /// Load `platform` in a child and list its hosts; a malformed file is an error with
 /// SimGrid's message.
 pub fn inspect(exe: &Path, platform: &Path) -> Result<PlatformInfo, String> {
     std::fs::metadata(platform).map_err(|e| e.to_string())?;
-    let info: PlatformInfo = run_child(exe, &["inspect", &platform.to_string_lossy()])?;
+    let info: PlatformInfo =
+        run_child(exe, &["inspect", &platform.to_string_lossy()], None).map_err(message)?;
     if info.worker_slots() == 0 {
         return Err("the platform has no host with a core".into());
     }
     Ok(info)
 }
 
-/// Simulate `job` in a child process.
-pub fn simulate(exe: &Path, job: &SimJob) -> Result<SimOutcome, String> {
+/// Simulate `job` in a child process, stopping it after `limit` of real time.
+pub fn simulate(exe: &Path, job: &SimJob, limit: Option<Duration>) -> Result<SimOutcome, Failure> {
     let path = scratch("simjob");
-    let text = toml::to_string(job).map_err(|e| e.to_string())?;
-    std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-    let out = run_child(exe, &["run", &path.to_string_lossy()]);
+    let text = toml::to_string(job).map_err(|e| Failure::Error(e.to_string()))?;
+    std::fs::write(&path, text).map_err(|e| Failure::Error(format!("{}: {e}", path.display())))?;
+    let out = run_child(exe, &["run", &path.to_string_lossy()], limit);
     let _ = std::fs::remove_file(&path);
     out
 }

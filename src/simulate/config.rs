@@ -27,9 +27,14 @@
 //! worker = 1
 //! at_s = 0.01
 //!
+//! run_limit_s = 120                               # optional: a run simulating longer is cut
+//!
 //! [validation]                                    # optional: against a measured runs.csv
 //! measured = "../results/runs/simvalidate/runs.csv"
 //! platform = "../platforms/smp2.xml"
+//! mpi_measured = "../results/runs/simvalidate_mpi/runs.csv"   # optional: MPI launches
+//! [validation.mpi_platforms]                       # a platform per measured transport
+//! shared_memory = "../platforms/smp2_mpi_shared_memory.xml"
 //! ```
 
 use super::child;
@@ -57,6 +62,7 @@ struct SimFile {
     validation: Option<ValidationEntry>,
     #[serde(default)]
     seed: u64,
+    run_limit_s: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -111,6 +117,9 @@ struct SchedEntry {
 struct ValidationEntry {
     measured: String,
     platform: String,
+    mpi_measured: Option<String>,
+    #[serde(default)]
+    mpi_platforms: BTreeMap<String, String>,
 }
 
 /// A platform file, loaded once by SimGrid to check it.
@@ -154,8 +163,13 @@ pub struct SimPlan {
     pub lost: Vec<LostWorker>,
     /// `(measured runs.csv, platform)` to validate against.
     pub validation: Option<(PathBuf, Platform)>,
+    /// `(measured MPI runs.csv, platform per transport)` to validate against.
+    pub mpi_validation: Option<(PathBuf, BTreeMap<String, Platform>)>,
     /// Seed of random choices (work-stealing victims).
     pub seed: u64,
+    /// Seconds of real time one simulated run may take; a run still going then is stopped
+    /// and its row says so (no wall time).
+    pub run_limit_s: Option<f64>,
 }
 
 /// The most simulated workers accepted.
@@ -320,19 +334,44 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1",
         ));
     }
+    let existing = |what: &str, p: &str| -> anyhow::Result<PathBuf> {
+        let full = base.join(p);
+        std::fs::metadata(&full)
+            .map_err(|e| field(path, what, format!("{}: {e}", full.display())))?;
+        Ok(full)
+    };
     let validation = match &file.validation {
         None => None,
-        Some(v) => {
-            let measured = base.join(&v.measured);
-            std::fs::metadata(&measured).map_err(|e| {
-                field(
+        Some(v) => Some((
+            existing("validation.measured", &v.measured)?,
+            load_platform("validation.platform", &v.platform)?,
+        )),
+    };
+    let mpi_validation = match file.validation.as_ref().map(|v| (&v.mpi_measured, v)) {
+        Some((Some(m), v)) => {
+            let measured = existing("validation.mpi_measured", m)?;
+            if v.mpi_platforms.is_empty() {
+                return Err(field(
                     path,
-                    "validation.measured",
-                    format!("{}: {e}", measured.display()),
-                )
-            })?;
-            Some((measured, load_platform("validation.platform", &v.platform)?))
+                    "validation.mpi_platforms",
+                    "must name a platform per measured transport (shared_memory = \"…xml\")",
+                ));
+            }
+            let mut platforms = BTreeMap::new();
+            for (t, p) in &v.mpi_platforms {
+                let what = format!("validation.mpi_platforms.{t}");
+                platforms.insert(t.clone(), load_platform(&what, p)?);
+            }
+            Some((measured, platforms))
         }
+        Some((None, v)) if !v.mpi_platforms.is_empty() => {
+            return Err(field(
+                path,
+                "validation.mpi_platforms",
+                "given without validation.mpi_measured",
+            ))
+        }
+        _ => None,
     };
     Ok(SimPlan {
         name,
@@ -361,7 +400,18 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         specs,
         lost: file.lost,
         validation,
+        mpi_validation,
         seed: file.seed,
+        run_limit_s: match file.run_limit_s {
+            Some(t) if !(t > 0.0 && t <= 86_400.0) => {
+                return Err(field(
+                    path,
+                    "run_limit_s",
+                    format!("must be in (0, 86400] seconds (got {t})"),
+                ))
+            }
+            t => t,
+        },
     })
 }
 

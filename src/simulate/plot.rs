@@ -271,10 +271,11 @@ pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>,
 
 /// Simulated against measured wall time, one point per configuration, with y = x.
 pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
-    let mut by_workers: BTreeMap<usize, Vec<(f64, f64)>> = BTreeMap::new();
+    let group = |c: &crate::simulate::validate::Comparison| (c.sources.clone(), c.spec.workers);
+    let mut by_workers: BTreeMap<(String, usize), Vec<(f64, f64)>> = BTreeMap::new();
     for c in &v.rows {
         by_workers
-            .entry(c.spec.workers)
+            .entry(group(c))
             .or_default()
             .push((c.measured.0, c.simulated));
     }
@@ -321,12 +322,12 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
         let col = palette(i);
         c.draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
             .map_err(e)?
-            .label(format!("{w} worker(s)"))
+            .label(format!("{}, {} worker(s)", w.0, w.1))
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
     }
     for (i, (w, _)) in by_workers.iter().enumerate() {
         let col = palette(i);
-        for r in v.rows.iter().filter(|r| r.spec.workers == *w) {
+        for r in v.rows.iter().filter(|r| group(r) == *w) {
             c.draw_series(LineSeries::new(
                 vec![(r.measured.1, r.simulated), (r.measured.2, r.simulated)],
                 col.stroke_width(1),

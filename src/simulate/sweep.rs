@@ -258,6 +258,10 @@ pub struct SimRow {
 impl SimRow {
     /// serial / wall.
     pub fn speedup(&self) -> f64 {
+        // NaN stays NaN (a run stopped at run_limit_s has no wall): `max` would drop it.
+        if self.out.wall_s.is_nan() {
+            return f64::NAN;
+        }
         self.serial_s / self.out.wall_s.max(1e-300)
     }
     /// speedup / workers.
@@ -375,14 +379,25 @@ pub fn simulate_one(
     spec: &SchedulerSpec,
 ) -> anyhow::Result<SimRow> {
     let job = inputs.job(spec, &platform.path, plan)?;
-    let out = child::simulate(exe, &job).map_err(|m| {
-        anyhow::anyhow!(
+    let limit = plan.run_limit_s.map(std::time::Duration::from_secs_f64);
+    let out = match child::simulate(exe, &job, limit) {
+        Ok(out) => out,
+        Err(child::Failure::OverLimit) => SimOutcome {
+            wall_s: f64::NAN,
+            error: Some(format!(
+                "not simulated: still running after run_limit_s = {} s of real time",
+                plan.run_limit_s.unwrap_or_default()
+            )),
+            host_s: plan.run_limit_s.unwrap_or_default(),
+            ..Default::default()
+        },
+        Err(child::Failure::Error(m)) => anyhow::bail!(
             "simulating {} on {} workers of {}: {m}",
             spec.label(),
             spec.workers,
             platform.name
-        )
-    })?;
+        ),
+    };
     Ok(SimRow {
         platform: platform.name.clone(),
         spec: spec.clone(),
@@ -413,6 +428,34 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     // The validation's measured runs are read first: a bad file fails before any measurement.
     let measured = match &plan.validation {
         Some((csv, _)) => Some(validate::measured_configs(csv)?),
+        None => None,
+    };
+    let mpi_measured = match &plan.mpi_validation {
+        Some((csv, platforms)) => {
+            let (configs, overrides) = validate::mpi_configs(csv)?;
+            if let Some(m) = configs
+                .iter()
+                .find(|m| !platforms.contains_key(m.transport.as_deref().unwrap_or_default()))
+            {
+                anyhow::bail!(
+                    "{}: validation.mpi_platforms: no platform for transport '{}' of {}",
+                    plan.file.display(),
+                    m.transport.as_deref().unwrap_or_default(),
+                    csv.display()
+                );
+            }
+            if measured.as_ref().is_some_and(|(_, o)| *o != overrides) {
+                anyhow::bail!(
+                    "{}: the MPI runs render another scene setting than {}",
+                    csv.display(),
+                    plan.validation
+                        .as_ref()
+                        .map(|v| v.0.display().to_string())
+                        .unwrap_or_default()
+                );
+            }
+            Some((configs, overrides))
+        }
         None => None,
     };
     let mut inputs = Inputs::measure(plan, &plan.overrides, &plan.specs, &[], quiet)?;
@@ -449,26 +492,33 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
             }
         }
     }
-    let validation = match (&plan.validation, &measured) {
-        (Some((_, platform)), Some((configs, overrides))) => {
-            let specs: Vec<SchedulerSpec> = configs.iter().map(|m| m.spec.clone()).collect();
+    let mut pairs: Vec<(validate::Measured, Platform)> = Vec::new();
+    let mut scene = None;
+    if let (Some((_, platform)), Some((configs, overrides))) = (&plan.validation, &measured) {
+        pairs.extend(configs.iter().map(|m| (m.clone(), platform.clone())));
+        scene = Some(overrides.clone());
+    }
+    if let (Some((_, platforms)), Some((configs, overrides))) =
+        (&plan.mpi_validation, &mpi_measured)
+    {
+        for m in configs {
+            let t = m.transport.as_deref().unwrap_or_default();
+            pairs.push((m.clone(), platforms[t].clone()));
+        }
+        scene = Some(overrides.clone());
+    }
+    let validation = match scene {
+        Some(overrides) => {
+            let specs: Vec<SchedulerSpec> = pairs.iter().map(|m| m.0.spec.clone()).collect();
             // This machine's runs: each worker count's items costed with that many threads
-            // rendering at once.
+            // (or ranks) rendering at once.
             let mut counts: Vec<usize> = specs.iter().map(|s| s.workers).collect();
             counts.sort_unstable();
             counts.dedup();
-            let mut v_inputs = Inputs::measure(plan, overrides, &specs, &counts, quiet)?;
-            v_inputs.local_threads = true;
-            Some(validate::compare(
-                configs,
-                &mut v_inputs,
-                plan,
-                exe,
-                platform,
-                quiet,
-            )?)
+            let mut v_inputs = Inputs::measure(plan, &overrides, &specs, &counts, quiet)?;
+            Some(validate::compare(&pairs, &mut v_inputs, plan, exe, quiet)?)
         }
-        _ => None,
+        None => None,
     };
     write_rows(&dir.join("sim_runs.csv"), &rows)?;
     let inputs_toml = format!(

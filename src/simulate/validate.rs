@@ -19,8 +19,19 @@ pub struct Measured {
     pub busy: Vec<f64>,
     /// The master's dispatch seconds of each repetition.
     pub dispatch: Vec<f64>,
-    /// Median of the serial baseline it was compared with.
+    /// Round (repetition index) of each repetition.
+    pub rounds: Vec<u32>,
+    /// The MPI transport of its launches (`shared_memory`, `tcp_loopback`, …); `None` for
+    /// local threads.
+    pub transport: Option<String>,
+    /// Median of every serial render of the measured set.
     pub serial_s: f64,
+    /// Median of the serial renders of the rounds its repetitions were taken in: the
+    /// machine's speed while this configuration ran. The serial of the published set went
+    /// from 0.238 s in its first rounds to 0.27 s in its last (+13 % in 110 s), and the
+    /// configurations that reached their CI target early were measured in the fast rounds
+    /// only: against one level they came out 5 % fast.
+    pub level_s: f64,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -49,18 +60,33 @@ pub fn measured_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverr
     configs_of(&rows).map_err(|m| anyhow::anyhow!("{}: {m}", csv.display()))
 }
 
-/// [`measured_configs`] of rows already read. Each configuration's serial time is the median
-/// of every serial row: a row's own `serial_s` is the median of the serial samples taken
-/// before it, so the first round's rows hold the first serial render alone (0.419 s in the
-/// published validation set, whose 30 serial renders have median 0.370 s: it made the serial
-/// look slower than every 1-worker run).
+/// [`measured_configs`] of rows already read. The serial time is the median of every serial
+/// row: a row's own `serial_s` is the median of the serial samples taken before it, so the
+/// first round's rows hold the first serial render alone (0.419 s in an earlier validation
+/// set, whose 30 serial renders have median 0.370 s: it made the serial look slower than
+/// every 1-worker run). Each configuration's level is the median of the serial rows of its
+/// own rounds (repetition k of every configuration is taken in round k, serial first).
 pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), String> {
+    configs_where(rows, false)
+}
+
+/// The MPI configurations of `csv` (one per scheduler configuration, rank count and
+/// transport) and their scene settings. Their level is every serial render's median: a
+/// launch sequence measures the serial once, in its first launch, so rounds of different
+/// launches share repetition numbers and no serial of their own.
+pub fn mpi_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)> {
+    let (rows, _) = read_runs(csv)?;
+    configs_where(&rows, true).map_err(|m| anyhow::anyhow!("{}: {m}", csv.display()))
+}
+
+fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOverrides), String> {
     let local = |r: &&RunRow| r.sources == "local";
+    let picked = |r: &&RunRow| r.sources == if mpi { "mpi" } else { "local" };
     let mut out: Vec<Measured> = Vec::new();
     let mut size: Option<(u32, u32, u32, i32)> = None;
     for r in rows
         .iter()
-        .filter(local)
+        .filter(picked)
         .filter(|r| r.scheduler != "serial")
     {
         let this = (r.width, r.height, r.spp, r.max_depth);
@@ -71,37 +97,54 @@ pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), St
             ));
         }
         let spec = spec_of(r).map_err(|m| format!("{}: {m}", r.label))?;
-        match out.iter_mut().find(|m| m.spec == spec) {
+        let transport = r.transport.clone().filter(|_| mpi);
+        match out
+            .iter_mut()
+            .find(|m| m.spec == spec && m.transport == transport)
+        {
             Some(m) => {
                 m.walls.push(r.wall_s);
                 m.busy.push(r.work_s);
                 m.dispatch.push(r.dispatch_s);
+                m.rounds.push(r.repetition);
                 m.serial_s = r.serial_s;
+                m.level_s = r.serial_s;
             }
             None => out.push(Measured {
                 spec,
                 walls: vec![r.wall_s],
                 busy: vec![r.work_s],
                 dispatch: vec![r.dispatch_s],
+                rounds: vec![r.repetition],
+                transport,
                 serial_s: r.serial_s,
+                level_s: r.serial_s,
             }),
         }
     }
     let Some((width, height, spp, max_depth)) = size else {
-        return Err("no local-thread scheduler rows to validate against".into());
+        return Err(format!(
+            "no {} scheduler rows to validate against",
+            if mpi { "MPI" } else { "local-thread" }
+        ));
     };
-    let serial: Vec<f64> = rows
+    let serial: Vec<&RunRow> = rows
         .iter()
         .filter(local)
         .filter(|r| r.scheduler == "serial")
         .filter(|r| (r.width, r.height, r.spp, r.max_depth) == (width, height, spp, max_depth))
-        .map(|r| r.wall_s)
         .collect();
     // Without serial rows each configuration keeps its last row's (the most samples).
     if !serial.is_empty() {
-        let s = median(&serial);
+        let s = median(&serial.iter().map(|r| r.wall_s).collect::<Vec<_>>());
         for m in &mut out {
             m.serial_s = s;
+            let own: Vec<f64> = serial
+                .iter()
+                .filter(|r| !mpi && m.rounds.contains(&r.repetition))
+                .map(|r| r.wall_s)
+                .collect();
+            m.level_s = if own.is_empty() { s } else { median(&own) };
         }
     }
     let overrides = SceneOverrides {
@@ -119,6 +162,10 @@ pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), St
 pub struct Comparison {
     /// The configuration.
     pub spec: SchedulerSpec,
+    /// The platform it was simulated on.
+    pub platform: String,
+    /// Who rendered: `threads`, or `MPI <transport>` (ranks = workers + 1).
+    pub sources: String,
     /// Measured wall: median, min, max over repetitions.
     pub measured: (f64, f64, f64),
     /// The measured median's 95 % confidence interval (bootstrap, `experiment::stats`).
@@ -127,10 +174,13 @@ pub struct Comparison {
     pub repetitions: usize,
     /// Simulated wall, the pixel costs at the probe's own level.
     pub simulated: f64,
-    /// Simulated wall with the pixel costs scaled to sum to the measured serial median (the
-    /// probe's shape at the measured runs' level): the error left to the scheduling model.
+    /// The serial renders of its rounds, median ([`Measured::level_s`]).
+    pub level_s: f64,
+    /// Simulated wall with the pixel costs scaled to sum to `level_s` (the probe's shape at
+    /// the machine's speed while this configuration was measured): the error left to the
+    /// scheduling model.
     pub simulated_at_serial: f64,
-    /// Measured speedup (serial median / median wall).
+    /// Measured speedup (`level_s` / median wall: the serial of the same rounds).
     pub measured_speedup: f64,
     /// Simulated speedup (Σ probe pixel costs / simulated wall).
     pub simulated_speedup: f64,
@@ -178,21 +228,24 @@ pub struct Validation {
     pub concurrent: Vec<(usize, f64)>,
 }
 
-/// Simulate every measured configuration on `platform`.
+/// Simulate every measured configuration on its platform: local threads with this machine's
+/// launch cost and refill period, MPI ranks with neither (their round trip is the platform's
+/// loopback, their wall excludes the launch).
 pub fn compare(
-    measured: &[Measured],
+    measured: &[(Measured, Platform)],
     inputs: &mut Inputs,
     plan: &SimPlan,
     exe: &Path,
-    platform: &Platform,
     quiet: bool,
 ) -> anyhow::Result<Validation> {
-    let serial_s = measured.first().map_or(f64::NAN, |m| m.serial_s);
-    let mut at_serial = inputs.at_level(serial_s);
+    let serial_s = measured.first().map_or(f64::NAN, |m| m.0.serial_s);
     let mut rows = Vec::new();
-    for m in measured {
+    for (m, platform) in measured {
+        inputs.local_threads = m.transport.is_none();
         let sim = simulate_one(inputs, plan, exe, platform, &m.spec)?;
-        let sim_at_serial = simulate_one(&mut at_serial, plan, exe, platform, &m.spec)?;
+        // After `sim`: the scaled inputs share its measured refill period.
+        let mut at_level = inputs.at_level(m.level_s);
+        let sim_at_serial = simulate_one(&mut at_level, plan, exe, platform, &m.spec)?;
         let med = median(&m.walls);
         let lo = m.walls.iter().cloned().fold(f64::INFINITY, f64::min);
         let hi = m.walls.iter().cloned().fold(0.0, f64::max);
@@ -205,12 +258,18 @@ pub fn compare(
             .collect();
         let c = Comparison {
             spec: m.spec.clone(),
+            platform: platform.name.clone(),
+            sources: match &m.transport {
+                Some(t) => format!("MPI {t}"),
+                None => "threads".into(),
+            },
             measured: (med, lo, hi),
             ci: crate::experiment::stats::median_ci(&m.walls, 1),
             repetitions: m.walls.len(),
             simulated: sim.out.wall_s,
+            level_s: m.level_s,
             simulated_at_serial: sim_at_serial.out.wall_s,
-            measured_speedup: m.serial_s / med,
+            measured_speedup: m.level_s / med,
             simulated_speedup: sim.speedup(),
             busy: (median(&m.busy), sim_busy),
             dispatch: (median(&m.dispatch), sim.out.dispatch_s),
@@ -218,7 +277,8 @@ pub fn compare(
         };
         if !quiet {
             println!(
-                "validation {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %; at the serial's level {:+.1} %); busy {:.4}/{:.4}, dispatch {:.4}/{:.4}, idle {:.4}/{:.4}",
+                "validation {} {} workers={}: measured {:.4} s, simulated {:.4} s ({:+.1} %; at the serial's level {:+.1} %); busy {:.4}/{:.4}, dispatch {:.4}/{:.4}, idle {:.4}/{:.4}",
+                c.sources,
                 c.spec.label(),
                 c.spec.workers,
                 med,
@@ -238,7 +298,7 @@ pub fn compare(
     let mut ranking = (0, 0);
     for (i, a) in rows.iter().enumerate() {
         for b in &rows[i + 1..] {
-            if a.spec.workers != b.spec.workers {
+            if (a.spec.workers, &a.sources) != (b.spec.workers, &b.sources) {
                 continue;
             }
             let separated = a.ci.1 < b.ci.0 || b.ci.1 < a.ci.0;
@@ -250,8 +310,10 @@ pub fn compare(
             }
         }
     }
+    let mut platforms: Vec<String> = rows.iter().map(|c| c.platform.clone()).collect();
+    platforms.dedup();
     Ok(Validation {
-        platform: platform.name.clone(),
+        platform: platforms.join(", "),
         rows,
         ranking,
         load: super::sweep::load_average(),
@@ -270,6 +332,7 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "platform",
+        "sources",
         "label",
         "workers",
         "repetitions",
@@ -278,6 +341,7 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
         "measured_max_s",
         "simulated_wall_s",
         "wall_error",
+        "serial_level_s",
         "simulated_at_serial_wall_s",
         "wall_error_at_serial",
         "measured_speedup",
@@ -292,7 +356,8 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
     ])?;
     for c in &v.rows {
         w.write_record([
-            v.platform.clone(),
+            c.platform.clone(),
+            c.sources.clone(),
             c.spec.label(),
             c.spec.workers.to_string(),
             c.repetitions.to_string(),
@@ -301,6 +366,7 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
             format!("{:.6}", c.measured.2),
             format!("{:.6}", c.simulated),
             format!("{:.4}", c.wall_error()),
+            format!("{:.6}", c.level_s),
             format!("{:.6}", c.simulated_at_serial),
             format!("{:.4}", c.wall_error_at_serial()),
             format!("{:.4}", c.measured_speedup),
@@ -328,7 +394,7 @@ fn count(v: &Validation, ok: impl Fn(&Comparison) -> bool) -> usize {
 pub fn markdown(v: &Validation) -> String {
     let (serial, probe_sum, timed_sum) = v.serial;
     let mut s = format!(
-        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {} (with the pixel costs at the measured serial's level: {}); speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's pixel costs {probe_sum:.4} s ({:+.1} %), calibrated to a bulk render in rows; as timed one pixel at a time {timed_sum:.4} s ({:+.1} %).{}{}\n\n| configuration | workers | measured wall s (min–max) | simulated s | wall error | at serial level | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|---|\n",
+        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {} (with the pixel costs at the level of the serial renders of each configuration's own rounds: {}); speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's pixel costs {probe_sum:.4} s ({:+.1} %), calibrated to a bulk render in rows; as timed one pixel at a time {timed_sum:.4} s ({:+.1} %).{}{}\n\n| sources | configuration | workers | measured wall s (min–max) | simulated s | wall error | serial of its rounds s | at that level | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         v.platform,
         v.rows.len(),
         count(v, |c| c.wall_error().abs() <= 0.05),
@@ -361,7 +427,8 @@ pub fn markdown(v: &Validation) -> String {
     );
     for c in &v.rows {
         s += &format!(
-            "| {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
+            "| {} | {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.4} | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
+            c.sources,
             c.spec.label(),
             c.spec.workers,
             c.measured.0,
@@ -369,6 +436,7 @@ pub fn markdown(v: &Validation) -> String {
             c.measured.2,
             c.simulated,
             100.0 * c.wall_error(),
+            c.level_s,
             100.0 * c.wall_error_at_serial(),
             c.measured_speedup,
             c.simulated_speedup,
@@ -423,5 +491,80 @@ mod tests {
         let (configs, _) = configs_of(&[rows[1].clone(), rows[3].clone()]).unwrap();
         assert_eq!(configs[0].serial_s, 0.375);
         assert!(configs_of(&rows[..1]).is_err());
+    }
+
+    #[test]
+    fn each_configurations_level_is_the_serial_of_its_own_rounds() {
+        // The machine's speed moves between rounds; `rows:1` was measured in rounds 1 and 2
+        // only. Each row's `serial_s` column is the running median, as a run writes it.
+        let serials = [0.26, 0.24, 0.25, 0.27, 0.28];
+        let mut rows = Vec::new();
+        for (k, s) in serials.into_iter().enumerate() {
+            let running = median(&serials[..=k]);
+            let mut r = row("serial", s, running);
+            r.repetition = k as u32;
+            rows.push(r);
+            let mut r = row("static", s * 1.02, running);
+            r.repetition = k as u32;
+            rows.push(r);
+            if (1..3).contains(&k) {
+                let mut r = row("static", s * 0.98, running);
+                r.chunk = Some("rows:1".into());
+                r.repetition = k as u32;
+                rows.push(r);
+            }
+        }
+        let (configs, _) = configs_of(&rows).unwrap();
+        let level = |chunk: &str| {
+            let m = configs
+                .iter()
+                .find(|m| m.spec.label().ends_with(chunk))
+                .unwrap();
+            (m.serial_s, m.level_s)
+        };
+        assert_eq!(level("chunk=16"), (0.26, 0.26));
+        assert_eq!(level("chunk=rows:1"), (0.26, 0.245));
+        // A configuration without a serial render in its rounds takes every serial's median.
+        let mut late = row("static", 0.3, 0.3);
+        late.chunk = Some("8".into());
+        late.repetition = 9;
+        rows.push(late);
+        let (configs, _) = configs_of(&rows).unwrap();
+        let m = configs.iter().find(|m| m.spec.label().ends_with("=8"));
+        assert_eq!(m.unwrap().level_s, 0.26);
+    }
+
+    #[test]
+    fn mpi_rows_are_one_configuration_per_transport_at_every_serials_level() {
+        let mut rows = vec![row("serial", 0.24, 0.24), row("serial", 0.28, 0.26)];
+        rows[1].repetition = 1;
+        for (t, wall) in [("shared_memory", 0.13), ("tcp_loopback", 0.15)] {
+            for rep in 0..2 {
+                let mut r = row("master", wall, 0.26);
+                (r.sources, r.ranks, r.transport) = ("mpi".into(), Some(3), Some(t.into()));
+                (r.workers, r.repetition) = (2, rep);
+                rows.push(r);
+            }
+        }
+        // The launch's local-thread baseline is not an MPI configuration.
+        let mut local = row("master", 0.12, 0.26);
+        local.ranks = Some(3);
+        rows.push(local);
+        let (mpi, _) = configs_where(&rows, true).unwrap();
+        let got: Vec<(Option<&str>, usize, f64)> = mpi
+            .iter()
+            .map(|m| (m.transport.as_deref(), m.walls.len(), m.level_s))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (Some("shared_memory"), 2, 0.26),
+                (Some("tcp_loopback"), 2, 0.26)
+            ]
+        );
+        let (threads, _) = configs_of(&rows).unwrap();
+        assert_eq!(threads.len(), 1);
+        assert_eq!(threads[0].transport, None);
+        assert!(configs_where(&rows[..2], true).is_err());
     }
 }

@@ -87,7 +87,7 @@ mod with_simgrid {
     }
 
     fn sim(j: &SimJob) -> SimOutcome {
-        child::simulate(Path::new(env!("CARGO_BIN_EXE_raysched")), j).unwrap()
+        child::simulate(Path::new(env!("CARGO_BIN_EXE_raysched")), j, None).unwrap()
     }
 
     #[test]
@@ -242,6 +242,106 @@ mod with_simgrid {
         )
         .unwrap();
         path
+    }
+
+    #[test]
+    fn a_run_still_going_at_its_limit_is_stopped_and_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let j = job(
+            &cluster(dir.path(), 4, "5us"),
+            "static",
+            &[],
+            4,
+            vec![1e-3; 8],
+        );
+        let exe = Path::new(env!("CARGO_BIN_EXE_raysched"));
+        // No child answers within a nanosecond of its start (the process has to start).
+        let cut = child::simulate(exe, &j, Some(std::time::Duration::from_nanos(1)));
+        assert!(matches!(cut, Err(child::Failure::OverLimit)), "{cut:?}");
+        let full = child::simulate(exe, &j, Some(std::time::Duration::from_secs(600)));
+        assert_eq!(full.unwrap().done, 8);
+        // The sweep writes such a run as a row that says why it has no wall time.
+        let exp = experiment(
+            dir.path(),
+            &dir.path().join("cluster4.xml").to_string_lossy(),
+            "[2]",
+        );
+        let text = std::fs::read_to_string(&exp).unwrap();
+        std::fs::write(&exp, format!("run_limit_s = 1e-9\n{text}")).unwrap();
+        let out = raysched()
+            .arg("simulate")
+            .arg(&exp)
+            .arg("--out")
+            .arg(dir.path().join("out"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let csv = std::fs::read_to_string(dir.path().join("out/t/sim_runs.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 2, "{csv}");
+        let (head, row) = csv.split_once('\n').unwrap();
+        let col = head.split(',').position(|c| c == "speedup").unwrap();
+        assert_eq!(row.split(',').nth(col), Some("NaN"), "{csv}");
+        assert!(
+            csv.contains("not simulated: still running after run_limit_s"),
+            "{csv}"
+        );
+    }
+
+    /// A node whose loopback (every message between its actors) takes `lat` seconds one way
+    /// (a plain number: SimGrid's config takes no units).
+    fn node_with_loopback(dir: &Path, lat: &str) -> std::path::PathBuf {
+        let path = dir.join("loop.xml");
+        std::fs::write(
+            &path,
+            format!(
+                "<?xml version='1.0'?>\n<!DOCTYPE platform SYSTEM \"https://simgrid.org/simgrid.dtd\">\n\
+                 <platform version=\"4.1\"><config><prop id=\"network/latency-factor\" value=\"1\"/>\
+                 <prop id=\"network/loopback-lat\" value=\"{lat}\"/></config>\
+                 <zone id=\"z\" routing=\"Full\"><host id=\"n\" speed=\"1Gf\" core=\"4\"/></zone></platform>\n"
+            ),
+        )
+        .unwrap();
+        path
+    }
+
+    #[test]
+    fn a_master_over_a_loopback_with_latency_waits_a_round_trip_per_hand_out() {
+        // The MPI validation's platforms: ranks on one node, each message the transport's
+        // one-way latency. With B = 1 every item waits for its hand-out: n · (c + 2·lat).
+        let dir = tempfile::tempdir().unwrap();
+        let (n, c, lat) = (100, 1e-4, 50e-6);
+        let mut j = job(
+            &node_with_loopback(dir.path(), "5e-5"),
+            "master",
+            &[("buffer", "1")],
+            1,
+            vec![c; n],
+        );
+        j.item_bytes = vec![0; n];
+        j.result_bytes = vec![0; n];
+        let out = sim(&j);
+        let want = n as f64 * (c + 2.0 * lat);
+        assert!(
+            (out.wall_s - want).abs() < 0.01 * want,
+            "{} vs {want}",
+            out.wall_s
+        );
+        let none = sim(&job(
+            &node(dir.path(), 4),
+            "master",
+            &[("buffer", "1")],
+            1,
+            vec![c; n],
+        ));
+        assert!(
+            (none.wall_s - n as f64 * c).abs() < 0.01 * n as f64 * c,
+            "{}",
+            none.wall_s
+        );
     }
 
     #[test]
