@@ -20,7 +20,8 @@
 //! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
 //! period when the master is the bottleneck), raised to a source's measured time per item
 //! over spinning items of the configuration's median cost where that is larger (the sleeping
-//! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
+//! master's wake-up, which zero-work items never show: with every core busy a woken master
+//! waits for one, up to a scheduler time slice); h is the worker-side cost of taking
 //! and returning an item, which the model takes to be self-scheduling's h (one synchronised
 //! hand-off per item).
 //!
@@ -41,8 +42,10 @@
 //!   Banicescu et al. 2003): the scheduler's own [`ChunkRule`] decides each grab, fed the
 //!   model's item times in place of measured ones, so the adaptive rules adapt to the same
 //!   costs the model predicts.
-//! - the master (buffer B): each source holds up to B items, refilled one item per completion
-//!   in queue order, so a source commits to its next B − 1 items before it starts them.
+//! - the master (buffer B): each source holds up to B items, filled one source after the
+//!   other at the start (as the master tops its sources up in turn) and refilled one item per
+//!   completion in queue order, so a source commits to its next B − 1 items before it starts
+//!   them.
 //!
 //! The noise term follows Kruskal & Weiss: item costs vary run to run with coefficient of
 //! variation v (measured by the probe from two passes), a worker's exposed sum S has standard
@@ -520,21 +523,7 @@ mod tests {
         // ones as it frees up (wall 6, ideal 5.5); at B = 4 the dear item's source is filled
         // first, with three cheap ones behind it (4 + 3 = 7), at B = 64 with all of them (11).
         let items = [4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
-        let at = |buffer: usize| {
-            let s = SchedulerSpec {
-                policy: Policy::Master(MasterParams {
-                    buffer,
-                    ..MasterParams::DEFAULT
-                }),
-                ..spec(SchedulerKind::Master, 2)
-            };
-            let w = Workload {
-                item_s: &items,
-                noise_cv: 0.0,
-                per_item_s: 0.0,
-            };
-            predict(&s, &w, &NONE).wall_s
-        };
+        let at = |buffer: usize| master_wall(buffer, &items);
         assert_eq!(at(1), 6.0);
         assert_eq!(at(4), 7.0);
         assert_eq!(at(64), 11.0);
@@ -547,19 +536,24 @@ mod tests {
         // t = 4 (a tie, lower source first) is also given the last cheap item: wall 9. Dealt
         // out one by one in turn, each source would get one dear item: wall 7.
         let items = [4.0, 4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        assert_eq!(master_wall(2, &items), 9.0);
+    }
+
+    /// The master's predicted wall at `buffer` on 2 workers, no overheads or noise.
+    fn master_wall(buffer: usize, items: &[f64]) -> f64 {
         let s = SchedulerSpec {
             policy: Policy::Master(MasterParams {
-                buffer: 2,
+                buffer,
                 ..MasterParams::DEFAULT
             }),
             ..spec(SchedulerKind::Master, 2)
         };
         let w = Workload {
-            item_s: &items,
+            item_s: items,
             noise_cv: 0.0,
             per_item_s: 0.0,
         };
-        assert_eq!(predict(&s, &w, &NONE).wall_s, 9.0);
+        predict(&s, &w, &NONE).wall_s
     }
 
     #[test]
