@@ -16,7 +16,8 @@ use raysched::sched::{
 pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
     chunk: Chunk,
-    order: Order,
+    /// `None`: the kind's own default order.
+    order: Option<Order>,
     slow: Slow,
     /// (parameter name, text given), in column order.
     params: Vec<(&'static str, String)>,
@@ -27,10 +28,12 @@ impl SchedulerFlags {
     pub(crate) fn spec(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
         let mut spec = SchedulerSpec {
             timeline,
-            order: self.order,
             slow: self.slow,
             ..SchedulerSpec::new(self.kind, self.chunk, workers)
         };
+        if let Some(order) = self.order {
+            spec.order = order;
+        }
         for (name, text) in &self.params {
             spec.set(name, text)
                 .map_err(|e| format!("--{}: {}", name.replace('_', "-"), e.msg))?;
@@ -94,9 +97,13 @@ impl Args for SchedulerFlags {
                 Arg::new("order")
                     .long("order")
                     .value_name("ORDER")
-                    .default_value(Order::Scanline.id())
                     .value_parser(|s: &str| Order::from_id(s).map_err(|e| e.msg))
-                    .help(format!("Hand-out order of the items: {}", ids(&orders))),
+                    .help(format!(
+                        "Hand-out order of the items: {} [default: scatter for guided and \
+                         the factoring family, whose first chunks are a share of all items; \
+                         scanline otherwise]",
+                        ids(&orders)
+                    )),
             )
             .arg(
                 Arg::new("slow")
@@ -131,7 +138,7 @@ impl FromArgMatches for SchedulerFlags {
         Ok(Self {
             kind: *m.get_one("scheduler").expect("has a default"),
             chunk: *m.get_one("chunk").expect("has a default"),
-            order: *m.get_one("order").expect("has a default"),
+            order: m.get_one("order").copied(),
             slow: *m.get_one("slow").expect("has a default"),
             params: param_columns()
                 .iter()

@@ -20,7 +20,8 @@
 //! intercept. For the master, r = P × its zero-work slope at the run's buffer B (a source's
 //! period when the master is the bottleneck), raised to a source's measured time per item
 //! over spinning items of the configuration's median cost where that is larger (the sleeping
-//! master's wake-up, which zero-work items never show); h is the worker-side cost of taking
+//! master's wake-up, which zero-work items never show: with every core busy a woken master
+//! waits for one, up to a scheduler time slice); h is the worker-side cost of taking
 //! and returning an item, which the model takes to be self-scheduling's h (one synchronised
 //! hand-off per item).
 //!
@@ -41,8 +42,10 @@
 //!   Banicescu et al. 2003): the scheduler's own [`ChunkRule`] decides each grab, fed the
 //!   model's item times in place of measured ones, so the adaptive rules adapt to the same
 //!   costs the model predicts.
-//! - the master (buffer B): each source holds up to B items, refilled one item per completion
-//!   in queue order, so a source commits to its next B − 1 items before it starts them.
+//! - the master (buffer B): each source holds up to B items, filled one source after the
+//!   other at the start (as the master tops its sources up in turn) and refilled one item per
+//!   completion in queue order, so a source commits to its next B − 1 items before it starts
+//!   them.
 //!
 //! The noise term follows Kruskal & Weiss: item costs vary run to run with coefficient of
 //! variation v (measured by the probe from two passes), a worker's exposed sum S has standard
@@ -223,8 +226,9 @@ fn ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
 }
 
-/// The master: every source first gets `buffer` items in turn, then one more each time it
-/// completes one; a source runs its items in the order it got them.
+/// The master: every source in turn is first filled with `buffer` consecutive items (the
+/// master tops one source up before the next), then gets one more each time it completes
+/// one; a source runs its items in the order it got them.
 fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> Played {
     let p = speeds.len();
     let n = item_s.len();
@@ -235,13 +239,10 @@ fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> 
     };
     let mut queues: Vec<VecDeque<usize>> = vec![VecDeque::new(); p];
     let mut next = 0;
-    for _ in 0..buffer.max(1) {
-        for q in queues.iter_mut() {
-            if next < n {
-                q.push_back(next);
-                next += 1;
-            }
-        }
+    for q in queues.iter_mut() {
+        let take = buffer.max(1).min(n - next);
+        q.extend(next..next + take);
+        next += take;
     }
     let mut events: BinaryHeap<Reverse<(u64, usize)>> = BinaryHeap::new();
     let start = |w: usize, at: f64, out: &mut Played, q: &mut VecDeque<usize>| -> Option<f64> {
@@ -519,27 +520,90 @@ mod tests {
     #[test]
     fn the_master_commits_to_its_buffer_so_a_late_hot_item_can_strand() {
         // One dear item first, seven cheap ones. At B = 1 the other source takes the cheap
-        // ones as it frees up (wall 6, ideal 5.5); at B = 4 every item is committed at the
-        // start in turn, so the dear item's source also holds three cheap ones (4 + 3 = 7).
+        // ones as it frees up (wall 6, ideal 5.5); at B = 4 the dear item's source is filled
+        // first, with three cheap ones behind it (4 + 3 = 7), at B = 64 with all of them (11).
         let items = [4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
-        let at = |buffer: usize| {
-            let s = SchedulerSpec {
-                policy: Policy::Master(MasterParams {
-                    buffer,
-                    ..MasterParams::DEFAULT
-                }),
-                ..spec(SchedulerKind::Master, 2)
-            };
-            let w = Workload {
-                item_s: &items,
-                noise_cv: 0.0,
-                per_item_s: 0.0,
-            };
-            predict(&s, &w, &NONE).wall_s
-        };
+        let at = |buffer: usize| master_wall(buffer, &items);
         assert_eq!(at(1), 6.0);
         assert_eq!(at(4), 7.0);
-        assert_eq!(at(64), 7.0);
+        assert_eq!(at(64), 11.0);
+    }
+
+    #[test]
+    fn the_master_fills_one_source_before_the_next() {
+        // As `run_master` tops lanes up in turn, source 0 starts with items 0 and 1 at B = 2,
+        // source 1 with 2 and 3. Two dear items first: both go to source 0 (4 + 4), which at
+        // t = 4 (a tie, lower source first) is also given the last cheap item: wall 9. Dealt
+        // out one by one in turn, each source would get one dear item: wall 7.
+        let items = [4.0, 4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        assert_eq!(master_wall(2, &items), 9.0);
+    }
+
+    /// The master's predicted wall at `buffer` on 2 workers, no overheads or noise.
+    fn master_wall(buffer: usize, items: &[f64]) -> f64 {
+        let s = SchedulerSpec {
+            policy: Policy::Master(MasterParams {
+                buffer,
+                ..MasterParams::DEFAULT
+            }),
+            ..spec(SchedulerKind::Master, 2)
+        };
+        let w = Workload {
+            item_s: items,
+            noise_cv: 0.0,
+            per_item_s: 0.0,
+        };
+        predict(&s, &w, &NONE).wall_s
+    }
+
+    #[test]
+    fn share_rules_strand_a_hot_spot_in_scanline_order_and_share_it_in_scatter_order() {
+        // 64×64 one-pixel items of cost 1 with an 8×8 hot block of cost 100 at (8..16, 8..16):
+        // W = 4032 + 6400, W/2 = 5216. In scanline order the first chunk of FAC2 and guided
+        // (R/(2P) = 1024 items, rows 0–15) holds the whole block, ≥ 960 + 6400 = 7360; AF's
+        // probe chunk (rows 0–3) sees only sky, so it hands out half of the rest at once,
+        // block included. In stratified order every chunk holds its share of the block.
+        use crate::sched::{decompose, Order};
+        let hot = |p: u32| (8..16).contains(&(p % 64)) && (8..16).contains(&(p / 64));
+        let half = (4032.0 + 6400.0) / 2.0;
+        for kind in [
+            SchedulerKind::Factoring,
+            SchedulerKind::Guided,
+            SchedulerKind::Awf,
+            SchedulerKind::AdaptiveFactoring,
+        ] {
+            let wall = |order: Order| {
+                let costs: Vec<f64> = decompose(64, 64, Chunk::Tile { w: 1, h: 1 }, order)
+                    .iter()
+                    .map(|it| {
+                        it.pixels(64)
+                            .map(|p| if hot(p) { 100.0 } else { 1.0 })
+                            .sum()
+                    })
+                    .collect();
+                let s = SchedulerSpec {
+                    order,
+                    ..spec(kind, 2)
+                };
+                let w = Workload {
+                    item_s: &costs,
+                    noise_cv: 0.0,
+                    per_item_s: 0.0,
+                };
+                predict(&s, &w, &NONE).wall_s
+            };
+            let (scan, scatter) = (wall(Order::Scanline), wall(Order::Scatter));
+            assert!(scan >= 7360.0, "{kind:?} scanline: {scan}");
+            assert!(
+                scatter <= half * 1.03,
+                "{kind:?} scatter: {scatter} vs {half}"
+            );
+        }
+        assert_eq!(SchedulerKind::Awf.default_order(), Order::Scatter);
+        assert_eq!(
+            SchedulerKind::SelfScheduling.default_order(),
+            Order::Scanline
+        );
     }
 
     #[test]

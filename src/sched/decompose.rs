@@ -1,8 +1,9 @@
 //! Cutting an image into work items by granularity ([`Chunk`]) and hand-out order ([`Order`]).
 //!
 //! Items are axis-aligned rectangles on a grid of cells (tiles, row bands or the frame); the
-//! order sorts the grid cells by scanline, Morton (Z) or Hilbert index. Ids are 0..n in hand-out
-//! order and every pixel lies in exactly one item.
+//! order sorts the grid cells by scanline, Morton (Z), Hilbert or stratified ([`scatter`]) index,
+//! or walks them in a spiral. Ids are 0..n in hand-out order and every pixel lies in exactly one
+//! item.
 //!
 //! An animation is cut frame by frame ([`decompose_frames`]): all items of frame 0 in the
 //! order's sequence, then those of frame 1, … With chunk `frame` one item is one whole frame,
@@ -31,6 +32,10 @@ pub fn decompose(width: u32, height: u32, chunk: Chunk, order: Order) -> Vec<Wor
             cells.sort_by_key(|&(x, y)| hilbert(side, x, y));
         }
         Order::Spiral => cells = spiral(gx, gy),
+        Order::Scatter => {
+            let side = gx.max(gy).next_power_of_two();
+            cells.sort_by_key(|&(x, y)| scatter(side, x, y));
+        }
     }
     cells
         .into_iter()
@@ -75,6 +80,17 @@ pub fn morton(x: u32, y: u32) -> u64 {
         v
     }
     spread(x) | (spread(y) << 1)
+}
+
+/// The stratified index of (x, y) in a `side`×`side` square (side a power of two): its Morton
+/// index with the 2·log₂(side) bits reversed, so the lowest bits of x and y decide first. Cells
+/// 4ᵏ·j … 4ᵏ·(j+1) − 1 of a full square then hold one cell of each block of side/2ᵏ.
+pub fn scatter(side: u32, x: u32, y: u32) -> u64 {
+    let bits = 2 * side.max(1).trailing_zeros();
+    if bits == 0 {
+        return 0;
+    }
+    morton(x, y).reverse_bits() >> (64 - bits)
 }
 
 /// The cells of a `gx`×`gy` grid in a square spiral from the centre cell (⌊gx/2⌋, ⌊gy/2⌋)
@@ -270,6 +286,40 @@ mod tests {
         assert!(cells.windows(2).all(|w| ring(&w[0]) <= ring(&w[1])));
         assert_eq!(cells.len(), 64);
         assert_eq!(spiral(1, 5).len(), 5);
+    }
+
+    #[test]
+    fn scatter_runs_sample_every_block_once() {
+        // 8×8 cells: each aligned run of 4 holds one cell per 4×4 quadrant, each run of 16
+        // one per 2×2 block, so a hot 2×2 block is shared by every run of 16.
+        let items = decompose(8, 8, Chunk::Tile { w: 1, h: 1 }, Order::Scatter);
+        let at = |it: &WorkItem| match it.region {
+            crate::render::Region::Rect { x, y, .. } => (x, y),
+            _ => unreachable!(),
+        };
+        for (run, side) in [(4, 4), (16, 2)] {
+            for group in items.chunks(run) {
+                let mut blocks: Vec<(u32, u32)> = group
+                    .iter()
+                    .map(|it| (at(it).0 / side, at(it).1 / side))
+                    .collect();
+                blocks.sort();
+                blocks.dedup();
+                assert_eq!(blocks.len(), run, "{run}: {blocks:?}");
+            }
+        }
+        assert_eq!(at(&items[0]), (0, 0));
+        assert_eq!(
+            at(&items[1]),
+            (0, 4),
+            "the second cell is half the image away"
+        );
+        // A row of cells is stratified along its one axis: 0, 4, 2, 6, 1, 5, 3, 7.
+        let row: Vec<u32> = decompose(8, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scatter)
+            .iter()
+            .map(|it| at(it).0)
+            .collect();
+        assert_eq!(row, [0, 4, 2, 6, 1, 5, 3, 7]);
     }
 
     #[test]

@@ -285,6 +285,13 @@ id_enum! {
         /// Outward from the centre cell in a square spiral (Mitsuba's block order: the centre
         /// of the image, where the subject usually is, first).
         Spiral = "spiral",
+        /// Stratified: the cells by their Morton index with its bits reversed, so the first 4
+        /// cells lie one in each quadrant, the first 16 one in each sixteenth, and any run of
+        /// consecutive items samples the whole image evenly (a scattered decomposition,
+        /// Nicol & Saltz 1990). The default of the rules that hand out a share of what is
+        /// left at once (the factoring family, guided): their analysis assumes item costs
+        /// independent of their position in the order, which a hot spot in scanline order is not.
+        Scatter = "scatter",
     }
 }
 
@@ -480,7 +487,7 @@ mod tests {
         }
         assert_eq!(
             Order::from_id("zigzag").unwrap_err().msg,
-            "unknown order 'zigzag' (expected scanline, morton, hilbert or spiral)"
+            "unknown order 'zigzag' (expected scanline, morton, hilbert, spiral or scatter)"
         );
         assert_eq!(
             Wait::from_id("nap").unwrap_err().msg,

@@ -67,6 +67,21 @@ impl SchedulerKind {
         matches!(self, Self::Pbrt | Self::Mitsuba)
     }
 
+    /// The order this kind takes its items in unless told otherwise: stratified
+    /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
+    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes are chosen
+    /// so that a chunk of independent items is unlikely to end after the optimum (Hummel,
+    /// Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk instead,
+    /// which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot
+    /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers).
+    pub fn default_order(self) -> Order {
+        if self.is_dls() || self == Self::Guided {
+            Order::Scatter
+        } else {
+            Order::Scanline
+        }
+    }
+
     /// Is this one of the dynamic-loop-scheduling rules of `sched::dls` (a chunk size per
     /// grab from a shared dispenser)?
     pub fn is_dls(self) -> bool {
@@ -349,12 +364,13 @@ pub struct SchedulerSpec {
 }
 
 impl SchedulerSpec {
-    /// `kind` at its defaults, scanline order, no timeline.
+    /// `kind` at its defaults, in its default order ([`SchedulerKind::default_order`]), no
+    /// timeline.
     pub fn new(kind: SchedulerKind, chunk: Chunk, workers: usize) -> Self {
         Self {
             policy: Policy::defaults(kind),
             chunk,
-            order: Order::Scanline,
+            order: kind.default_order(),
             workers,
             timeline: false,
             slow: Slow::NONE,
@@ -444,6 +460,9 @@ impl SchedulerSpec {
         } else {
             format!("{} chunk={}", self.kind().id(), self.chunk)
         };
+        if !self.kind().picks_own_layout() && self.order != self.kind().default_order() {
+            s += &format!(" order={}", self.order.id());
+        }
         if !self.slow.is_none() {
             s += &format!(" slow={}", self.slow);
         }
