@@ -3,10 +3,10 @@
 //!
 //! Why not obvhs' own CWBVH traversal: its child boxes are 8-bit quantised, and decoding them
 //! (byte → f32 per plane) dominated a CPU ray; it also starts every node test at a fixed
-//! `t ≥ 1e-4`, which forced a rescaling of every ray. Here one node test is 12 `Vec4`
-//! subtract-multiplies and a min/max tree over eight children (SSE2 through glam, no
-//! `unsafe`; the tracer also runs it from a copy compiled for AVX2), and the slab test is
-//! conservative by pbrt's bound (`t_far · (1 + 2γ₃)`), with no epsilon.
+//! `t ≥ 1e-4`, which forced a rescaling of every ray. Here one node test is 6 subtract-multiplies
+//! and a min/max tree over eight children in one AVX register per plane (`tracer::simd`,
+//! where the CPU has AVX2) or two SSE ones (glam), and the slab test is conservative by pbrt's
+//! bound (`t_far · (1 + 2γ₃)`), with no epsilon.
 //!
 //! Eight children rather than four (with the inline stack and the inlined leaf tests below):
 //! 1 M-triangle displaced sphere, one thread, bvh/embree best Mrays/s, 6 runs of each binary
