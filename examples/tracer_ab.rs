@@ -11,12 +11,11 @@
 //!
 //! Tracer ids are those of `--tracer`.
 //!
-//! Measured (quiet 2-core AMD EPYC, `taskset -c 0`, 5 rounds, 1 M triangles, 6 runs, load
-//! 0.83–0.99): bvh/embree best rate primary 0.56–0.64 at 256², 0.65–0.78 at 1024²; diffuse
-//! 0.50–0.55 and 0.45–0.58; build 0.83–1.14 s vs Embree's 0.56–0.87 s in the same runs
-//! (1.22–1.77×; the tracer built first pays the fresh memory: a second bvh build took
-//! 0.74–0.91 s). Those `bvh` rates are of a traversal copy compiled for AVX2, since removed:
-//! the portable one measured 0.92–1.13× its rate. Full table: `benches/peers/results.md`.
+//! Measured (quiet 2-core Intel Xeon KVM guest with AVX-512, `taskset -c 0`, 5 rounds, 1 M
+//! triangles, 5 runs, load 0.16–0.9, AVX node test): bvh/embree best rate primary 0.68–0.69 at
+//! 256², 0.83 at 1024²; diffuse 0.61–0.64 and 0.63–0.65; build 0.55–0.59 s, 0.95–1.70× Embree's
+//! (median 1.59; the tracer built first pays the fresh memory). Full table:
+//! `benches/peers/results.md`.
 //!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`
 //! `… --example tracer_ab -- --rays diffuse complex 1000000 1024 5 bvh embree`

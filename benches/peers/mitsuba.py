@@ -14,6 +14,8 @@ minimum and maximum of each program, and the ratio raysched / Mitsuba pair by pa
 range). raysched's time is the render's wall time as it prints it (scene load and BVH build
 excluded, as Mitsuba's scene load is); its process wall time is printed beside it.
 
+Measured (quiet 2-core Intel Xeon with AVX-512, 2026-12-02, AVX node test): raysched /
+llvm_ad_rgb medians 1.68, 1.71, 1.67 (1.59-1.78); raysched / scalar_rgb 0.59.
 Measured (quiet 2-core AMD EPYC, 64 spp, 5 renders each, three runs, 8-wide BVH): raysched /
 llvm_ad_rgb median 1.06 (0.90-1.12), 1.07 (1.01-1.13), 1.02 (0.91-1.06), raysched 19.3-23.3
 ms/spp (medians) against 18.8-21.7; raysched / scalar_rgb 0.58 (0.53-0.63). The binary with

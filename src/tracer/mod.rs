@@ -12,6 +12,8 @@ mod embree;
 #[cfg(feature = "embree4")]
 mod embree4;
 pub mod kind;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 
 pub use brute::BruteTracer;
 pub use bvh::BvhTracer;
