@@ -21,15 +21,41 @@ struct Slot {
     item: u32,
     result: DelayedResult,
     at: Instant,
+    /// Its place among the items submitted to its source.
+    seq: u64,
 }
 
-/// A slot outstanding longer than this no longer counts against the buffer, so a dropped
-/// result cannot block its source for good. `seed`/`never`: 4× the slowest result seen so far
-/// (at least 10 ms); `timeout:<ms>`: the timeout.
+/// For a source that cannot count its finished items: a slot outstanding longer than this no
+/// longer counts against the buffer, so a dropped result cannot block its source for good.
+/// `seed`/`never`: 4× the slowest result seen so far (at least 10 ms); `timeout:<ms>`: the
+/// timeout.
 fn stale_after(requeue: Requeue, slowest: Duration) -> Duration {
     match requeue {
         Requeue::Timeout(d) => d,
         _ => (slowest * 4).max(Duration::from_millis(10)),
+    }
+}
+
+/// When a slot still holds its source: the source's count of finished items where it keeps
+/// one (a finished item whose result has not arrived was lost), else the slot's age.
+#[derive(Clone, Copy)]
+struct Staleness {
+    now: Instant,
+    after: Duration,
+    finished: Option<u64>,
+}
+
+impl Staleness {
+    /// Does `sl` still count against its source's buffer? Judged by age alone, a slot whose
+    /// item outlasted `after` went stale while it was being rendered, and the master queued
+    /// more items behind it: on a scene whose costliest tile took ~15 ms against a 10 ms
+    /// floor, that worker ran 8–9 tiles against 5 and finished 1.4 ms after the other
+    /// (skewed_x100 at 16², B = 2; at B = 4 the other sat idle 8.3 ms).
+    fn fresh(&self, sl: &Slot) -> bool {
+        match self.finished {
+            Some(f) => sl.seq >= f || sl.result.is_ready(),
+            None => self.now - sl.at < self.after,
+        }
     }
 }
 
@@ -46,6 +72,8 @@ struct Lane {
     pixels_since: u64,
     /// Pixels per hand-out (its items go out in groups this large); 0: item by item.
     grain: u64,
+    /// Items submitted to it so far (the next slot's `seq`).
+    submitted: u64,
 }
 
 impl Lane {
@@ -64,11 +92,15 @@ impl Lane {
             return;
         }
         self.src.submit_batch(batch, results);
-        self.slots.extend(results.drain(..).map(|result| Slot {
-            item: result.item(),
-            result,
-            at: now,
-        }));
+        let first = self.submitted;
+        self.submitted += results.len() as u64;
+        self.slots
+            .extend(results.drain(..).zip(first..).map(|(result, seq)| Slot {
+                item: result.item(),
+                result,
+                at: now,
+                seq,
+            }));
     }
 }
 
@@ -161,16 +193,21 @@ impl<'a> Ledger<'a> {
     /// Top `lane` up to B fresh outstanding items from the queue (B hand-outs of its grain
     /// for a lane with one, [`Self::top_up_grouped`]); `first` gets the first item handed out
     /// in this pass.
-    fn top_up(&mut self, lane: &mut Lane, now: Instant, stale: Duration, first: &mut Option<u32>) {
+    fn top_up(&mut self, lane: &mut Lane, now: Instant, after: Duration, first: &mut Option<u32>) {
+        let stale = Staleness {
+            now,
+            after,
+            finished: lane.src.finished(),
+        };
         if lane.grain > 0 {
-            return self.top_up_grouped(lane, now, stale, first);
+            return self.top_up_grouped(lane, stale, first);
         }
         let mut scanned = 0;
         let len = self.queue.len();
-        let mut fresh = lane.slots.iter().filter(|sl| now - sl.at < stale).count();
+        let mut fresh = lane.slots.iter().filter(|sl| stale.fresh(sl)).count();
         while fresh < lane.buffer && scanned < len {
             scanned += 1;
-            let Some(i) = self.pop_ready(&lane.slots, now, stale) else {
+            let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
             };
             self.issue(i, now, first);
@@ -186,20 +223,15 @@ impl<'a> Ledger<'a> {
     /// [`Self::top_up`] for a lane with its own grain: consecutive items go out together
     /// once their pixels reach the grain (one message, one GPU dispatch), up to B such
     /// hand-outs' pixels outstanding; only the queue's last items go out as a smaller one.
-    fn top_up_grouped(
-        &mut self,
-        lane: &mut Lane,
-        now: Instant,
-        stale: Duration,
-        first: &mut Option<u32>,
-    ) {
+    fn top_up_grouped(&mut self, lane: &mut Lane, stale: Staleness, first: &mut Option<u32>) {
+        let now = stale.now;
         let items = self.items;
         let px = |i: u32| items[i as usize].pixel_count() as u64;
         let cap = lane.buffer as u64 * lane.grain;
         let mut fresh: u64 = lane
             .slots
             .iter()
-            .filter(|sl| now - sl.at < stale)
+            .filter(|sl| stale.fresh(sl))
             .map(|sl| px(sl.item))
             .sum();
         let mut grouped = 0u64;
@@ -208,7 +240,7 @@ impl<'a> Ledger<'a> {
         // A group once started is completed, so every hand-out but the last is whole.
         while (fresh < cap || grouped > 0) && scanned < len {
             scanned += 1;
-            let Some(i) = self.pop_ready(&lane.slots, now, stale) else {
+            let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
             };
             self.issue(i, now, first);
@@ -225,13 +257,13 @@ impl<'a> Ledger<'a> {
     /// The queue's next item if it may be handed out now to the source holding `slots`;
     /// `None` when it is done (it leaves the queue) or may not go out again yet (it goes to
     /// the back).
-    fn pop_ready(&mut self, slots: &[Slot], now: Instant, stale: Duration) -> Option<u32> {
+    fn pop_ready(&mut self, slots: &[Slot], stale: Staleness) -> Option<u32> {
         let i = self.queue.pop_front()?;
         if self.collector.is_done(i) {
             return None; // finished: leaves the queue for good
         }
         if self.handed[i as usize] {
-            if !self.may_reissue(i, slots, now, stale) {
+            if !self.may_reissue(i, slots, stale) {
                 self.queue.push_back(i);
                 return None;
             }
@@ -256,13 +288,13 @@ impl<'a> Ledger<'a> {
 
     /// May item `i`, already handed out, go out again, to the source holding `slots`? The
     /// re-queue policy says when; never to a source that still holds a fresh copy.
-    fn may_reissue(&self, i: u32, slots: &[Slot], now: Instant, stale: Duration) -> bool {
+    fn may_reissue(&self, i: u32, slots: &[Slot], stale: Staleness) -> bool {
         let again = match (self.requeue, self.issued_at[i as usize]) {
             (Requeue::Revisit, _) | (_, None) => true,
-            (Requeue::Timeout(d), Some(at)) => now - at >= d,
+            (Requeue::Timeout(d), Some(at)) => stale.now - at >= d,
             (Requeue::Never, _) => false,
         };
-        again && !slots.iter().any(|sl| sl.item == i && now - sl.at < stale)
+        again && !slots.iter().any(|sl| sl.item == i && stale.fresh(sl))
     }
 }
 
@@ -490,6 +522,7 @@ impl<'a> Master<'a> {
                 buffer: params.buffer,
                 pixels_since: 0,
                 grain: 0,
+                submitted: 0,
             })
             .collect();
         Self {
@@ -708,5 +741,59 @@ mod balancer_tests {
         };
         assert_eq!(g.balanced(&[2, 1], &[1e3, 1e5]), Some(vec![2, 2]));
         assert_eq!(g.balanced(&[2, 2], &[1e3, 1e5]), None);
+    }
+}
+
+#[cfg(test)]
+mod staleness_tests {
+    use super::*;
+    use crate::render::TileResult;
+    use crate::source::{Job, LocalThreadSource};
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use std::sync::Arc;
+
+    /// Item 0 is rendered until every item but the one queued behind it (item 1) is done by
+    /// the other source (or 2 s pass). A slot judged stale by its age alone (10 ms) lets the
+    /// master queue more items behind item 0, which then cannot finish before 2 s and its
+    /// source renders more than its B = 2.
+    #[test]
+    fn a_long_item_keeps_its_slot_and_nothing_more_queues_behind_it() {
+        const N: u32 = 40;
+        let elsewhere = Arc::new(AtomicU32::new(0));
+        let count = elsewhere.clone();
+        let job: Job = Arc::new(move |it: &WorkItem| {
+            if it.id == 0 {
+                let t0 = Instant::now();
+                while count.load(Ordering::SeqCst) < N - 2 && t0.elapsed() < Duration::from_secs(2)
+                {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            } else {
+                std::thread::sleep(Duration::from_millis(1));
+                if it.id > 1 {
+                    count.fetch_add(1, Ordering::SeqCst);
+                }
+            }
+            TileResult {
+                item: it.id,
+                pixels: vec![],
+                rays: 0,
+                nonfinite: 0,
+            }
+        });
+        let probe = Probe::new(true, false);
+        let sources: Vec<Box<dyn ComputeSource>> = (0..2)
+            .map(|id| Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as _)
+            .collect();
+        let items: Vec<WorkItem> = (0..N).map(|i| WorkItem::rect(i, i, 0, 1, 1)).collect();
+        let params = MasterParams {
+            wait: crate::source::Wait::Block,
+            buffer: 2,
+            requeue: Requeue::Never,
+        };
+        let (_, stats) =
+            run_master(&params, &items, sources, &RunOptions::default(), probe).unwrap();
+        let per_source: Vec<u64> = stats.workers.iter().map(|w| w.items).collect();
+        assert_eq!(per_source, vec![2, u64::from(N) - 2]);
     }
 }

@@ -117,6 +117,9 @@ impl ComputeSource for FaultySource {
     fn is_lost(&self) -> bool {
         self.inner.is_lost()
     }
+    fn finished(&self) -> Option<u64> {
+        self.inner.finished()
+    }
     fn set_notifier(&mut self, notifier: Notifier) {
         self.inner.set_notifier(notifier)
     }

@@ -59,10 +59,12 @@ fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> 
         for (item, done) in batch {
             if let Some(f) = &failure {
                 done.complete(Err(f.clone()));
+                fl.item_finished();
                 continue;
             }
             if fl.cancelled() {
                 done.complete(Err(SourceFailure::Cancelled { item: item.id }));
+                fl.item_finished();
                 continue;
             }
             match catch_unwind(AssertUnwindSafe(|| job(&item))) {
@@ -81,6 +83,7 @@ fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> 
                     failure = Some(f);
                 }
             }
+            fl.item_finished();
             fl.ring();
         }
         if let Some(f) = &failure {
@@ -88,6 +91,7 @@ fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> 
             while let Ok(batch) = rx.try_recv() {
                 for (_, done) in batch {
                     done.complete(Err(f.clone()));
+                    fl.item_finished();
                 }
             }
             fl.ring();
@@ -135,6 +139,9 @@ impl ComputeSource for LocalThreadSource {
     }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()
+    }
+    fn finished(&self) -> Option<u64> {
+        Some(self.thread.finished())
     }
     fn set_notifier(&mut self, notifier: Notifier) {
         self.thread.set_notifier(notifier);

@@ -70,6 +70,13 @@ pub trait ComputeSource: Send {
     }
     /// The source is gone: none of its outstanding results will arrive.
     fn is_lost(&self) -> bool;
+    /// How many of its items the source has taken to the end (rendered, failed or skipped),
+    /// where it serves items in submission order and counts them; `None` where it cannot
+    /// say. An item counted here whose result has not arrived was lost on the way back; one
+    /// not counted yet is still queued or being rendered, however long it takes.
+    fn finished(&self) -> Option<u64> {
+        None
+    }
     /// Where to ring after each completed result (sources that cannot simply never ring; the
     /// master then wakes on its own tick).
     fn set_notifier(&mut self, _notifier: Notifier) {}

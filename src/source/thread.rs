@@ -5,7 +5,7 @@
 
 use super::{Notifier, SourceReport};
 use crossbeam::channel::{unbounded, Receiver, Sender};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 
@@ -13,6 +13,8 @@ use std::thread::JoinHandle;
 pub struct Flags {
     lost: AtomicBool,
     cancel: AtomicBool,
+    /// Items taken to the end, in inbox order ([`super::ComputeSource::finished`]).
+    finished: AtomicU64,
     notifier: OnceLock<Notifier>,
 }
 
@@ -22,6 +24,12 @@ impl Flags {
         if let Some(n) = self.notifier.get() {
             n.ring();
         }
+    }
+
+    /// One more item taken to the end; call after its result is completed, so that a master
+    /// that sees the count also sees the result.
+    pub fn item_finished(&self) {
+        self.finished.fetch_add(1, Ordering::SeqCst);
     }
 
     /// The source is gone: none of its outstanding results will arrive.
@@ -53,6 +61,7 @@ impl<M: Send + 'static> SourceThread<M> {
         let flags = Arc::new(Flags {
             lost: AtomicBool::new(false),
             cancel: AtomicBool::new(false),
+            finished: AtomicU64::new(0),
             notifier: OnceLock::new(),
         });
         let fl = flags.clone();
@@ -80,6 +89,11 @@ impl<M> SourceThread<M> {
     /// [`super::ComputeSource::is_lost`].
     pub fn is_lost(&self) -> bool {
         self.flags.lost.load(Ordering::SeqCst)
+    }
+
+    /// [`super::ComputeSource::finished`], for a thread that calls [`Flags::item_finished`].
+    pub fn finished(&self) -> u64 {
+        self.flags.finished.load(Ordering::SeqCst)
     }
 
     /// [`super::ComputeSource::set_notifier`].
