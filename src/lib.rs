@@ -4,8 +4,9 @@
 //! ray-tracing work be handed out, and by whom?*
 //!
 //! - [`scene`]: TOML scenes, validated into an immutable, `Sync` [`scene::Scene`].
-//! - [`tracer`]: the [`tracer::Tracer`] seam (closest hit + occlusion): `bvh` (built by obvhs, flattened to an 8-wide BVH traversed here),
-//!   `brute` (reference), `embree` (feature `embree`, Embree 3), `embree4` (feature `embree4`).
+//! - [`tracer`]: the [`tracer::Tracer`] seam (closest hit + occlusion): `bvh` (built by obvhs,
+//!   flattened to an 8-wide BVH traversed here), `brute` (reference), `embree` (feature
+//!   `embree`, Embree 3), `embree4` (feature `embree4`).
 //! - `gpu` (feature `gpu`): the path tracer ported to WGSL, run through wgpu on Vulkan.
 //! - [`render`]: the path tracer and [`render::render_item`], a pure function of
 //!   (scene, tracer, item, seed), so every scheduler produces bit-identical images.
