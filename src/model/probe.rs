@@ -271,7 +271,9 @@ pub struct ZeroWork {
 /// Zero-work items: the fixed cost and per-item slope of `policy` on `workers` workers, from
 /// runs of n and 2n one-pixel items, the median slope of `reps` pairs and the median
 /// intercept. n is at most `items`, fewer where a pilot run shows dear items (a blocking
-/// master on a loaded machine: milliseconds per item), so that one run stays near [`RUN_S`].
+/// master on a loaded machine: milliseconds per item), so that one run stays near [`RUN_S`];
+/// where no pair shows a per-item cost, n is doubled (twice at most), then
+/// [`ZeroWork::or_origin_bound`] is taken.
 pub fn zero_work(
     policy: Policy,
     items: u32,
@@ -298,14 +300,37 @@ pub fn zero_work_for(
         .1
         .wall_s
         / PILOT_ITEMS as f64;
-    let items = ((target_s / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
+    let mut items = ((target_s / per.max(1e-9)) as u32).clamp(PILOT_ITEMS, items);
+    let mut retries = 0;
+    loop {
+        let pairs = zero_work_pairs(&spec, items, reps)?;
+        let z = fit(&pairs, items);
+        // No pair rose with the items: their cost is below the runs' noise. Twice the items,
+        // twice the signal; after the last doubling, the bound through the origin.
+        if z.per_item_s > 0.0 || retries == ZERO_SLOPE_RETRIES {
+            return Ok(z.or_origin_bound(&pairs, items));
+        }
+        retries += 1;
+        items = items.saturating_mul(2);
+    }
+}
+
+/// Doublings of the items when no pair of zero-work runs shows a per-item cost.
+const ZERO_SLOPE_RETRIES: u32 = 2;
+
+/// `reps` pairs of walls (n one-pixel items, 2n) of `spec` doing nothing per item.
+fn zero_work_pairs(
+    spec: &SchedulerSpec,
+    items: u32,
+    reps: u32,
+) -> Result<Vec<(f64, f64)>, SchedError> {
     let lists: Vec<Vec<WorkItem>> = [items, 2 * items]
         .iter()
         .map(|&n| decompose(n, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline))
         .collect();
     let opts = RunOptions::default();
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
-        Ok(run_items(&spec, l, nothing(), &opts)?.1.wall_s)
+        Ok(run_items(spec, l, nothing(), &opts)?.1.wall_s)
     };
     let mut pairs = Vec::new();
     for k in 0..reps.max(1) {
@@ -320,7 +345,23 @@ pub fn zero_work_for(
         };
         pairs.push((a, b));
     }
-    Ok(fit(&pairs, items))
+    Ok(pairs)
+}
+
+impl ZeroWork {
+    /// This fit, or where it found no per-item cost, the most the items can cost: the median
+    /// 2n-item wall over 2n with no fixed part (a per-item cost of 0 would make every hand-out
+    /// free in the simulation; the master at B = 2 fitted 0 in two of three probes).
+    pub fn or_origin_bound(self, pairs: &[(f64, f64)], n: u32) -> Self {
+        if self.per_item_s > 0.0 || pairs.is_empty() {
+            return self;
+        }
+        let walls = &mut pairs.iter().map(|p| p.1).collect::<Vec<_>>();
+        Self {
+            per_item_s: median(walls).max(0.0) / (2.0 * f64::from(n.max(1))),
+            fixed_s: 0.0,
+        }
+    }
 }
 
 /// Per-item slope and fixed cost from pairs of walls (n items, 2n items): the median slope
@@ -557,9 +598,18 @@ mod tests {
         assert!((z.per_item_s - 1.0e-6).abs() < 1e-12, "{z:?}");
         assert!((z.fixed_s - 1.0e-3).abs() < 1e-9, "{z:?}");
         // No pair shows a per-item cost: slope 0 and F the runs' wall, not more.
-        let z = fit(&[(2.0e-3, 1.9e-3), (2.0e-3, 1.8e-3)], 1000);
+        let flat = [(2.0e-3, 1.9e-3), (2.0e-3, 1.8e-3), (2.0e-3, 2.0e-3)];
+        let z = fit(&flat, 1000);
         assert_eq!(z.per_item_s, 0.0);
         assert!((z.fixed_s - 2.0e-3).abs() < 1e-12);
+        // ... which, kept after the retries, becomes the bound through the origin: the
+        // median 2n wall (1.9 ms) over 2000 items, nothing fixed.
+        let b = z.or_origin_bound(&flat, 1000);
+        assert!((b.per_item_s - 0.95e-6).abs() < 1e-15, "{b:?}");
+        assert_eq!(b.fixed_s, 0.0);
+        // A fit that found a slope is kept as it is.
+        let z = fit(&pairs, 1000);
+        assert_eq!(z.or_origin_bound(&pairs, 1000), z);
     }
 
     #[test]
