@@ -640,13 +640,17 @@ impl<'a> Master<'a> {
         let mut spans = self.spans;
         let mut master_stats = self.stats;
         master_stats.rebalances = self.balancer.as_ref().map_or(0, |b| b.moves);
-        finish_sources(
+        let lost_at_end = finish_sources(
             sources,
             self.t0.elapsed().as_secs_f64(),
             &mut stats,
             &mut spans,
         );
-        stats.lost_sources = alive.iter().filter(|a| !**a).count() as u64;
+        stats.lost_sources = alive
+            .iter()
+            .zip(&lost_at_end)
+            .filter(|(alive, lost)| !**alive || **lost)
+            .count() as u64;
         outcome?;
         let wall_s = self.t0.elapsed().as_secs_f64();
         seal_stats(
@@ -662,19 +666,23 @@ impl<'a> Master<'a> {
 }
 
 /// Stop every source (its results' handles already dropped) and add its report to `stats`
-/// and `spans`; its idle time is `wall_s` minus its busy time.
+/// and `spans`; its idle time is `wall_s` minus its busy time. Returns, per source, whether it
+/// was lost by the time it stopped.
 pub(crate) fn finish_sources(
     sources: Vec<Box<dyn ComputeSource>>,
     wall_s: f64,
     stats: &mut RunStats,
     spans: &mut Vec<Span>,
-) {
+) -> Vec<bool> {
+    let mut lost = Vec::with_capacity(sources.len());
     for src in sources {
         let mut rep = src.finish();
         rep.stats.idle_s = (wall_s - rep.stats.busy_s).max(0.0);
         stats.workers.push(rep.stats);
         spans.extend(rep.spans);
+        lost.push(rep.lost);
     }
+    lost
 }
 
 /// A finished run's last numbers: its timeline (sorted, when recorded), wall time, the

@@ -116,6 +116,10 @@ pub struct SourceReport {
     pub stats: WorkerStats,
     /// Its per-item timeline spans (empty unless a timeline is recorded).
     pub spans: Vec<Span>,
+    /// It was lost by the time it stopped: a worker that panicked as the run ended, after the
+    /// master's last look (a panic's message and backtrace can take longer than what is left
+    /// of a short run), still counts as a lost source.
+    pub lost: bool,
 }
 
 /// `submit` of a source whose hand-out logic lives in `submit_batch`: a batch of one.

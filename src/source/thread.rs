@@ -104,13 +104,19 @@ impl<M> SourceThread<M> {
     /// Cancel what is queued, close the inbox and join: the thread's report (an empty one if
     /// it panicked).
     pub fn finish(&mut self) -> SourceReport {
-        self.stop().unwrap_or_default()
+        self.stop().unwrap_or(SourceReport {
+            lost: true,
+            ..Default::default()
+        })
     }
 
     fn stop(&mut self) -> Option<SourceReport> {
         self.flags.cancel.store(true, Ordering::SeqCst);
         self.inbox = None;
-        self.handle.take().and_then(|h| h.join().ok())
+        let mut report = self.handle.take().and_then(|h| h.join().ok())?;
+        // Joined: the flag is final.
+        report.lost = self.is_lost();
+        Some(report)
     }
 }
 
