@@ -8,7 +8,7 @@
 
 use super::plan::{ExperimentPlan, StatsSettings};
 use super::progress::Progress;
-use super::results::{read_runs, RunRow, RunsFile};
+use super::results::{read_runs, RunRow};
 use super::run::{self, RunError, RunOptions, RunOutcome, Todo};
 use crate::model::Prediction;
 use serde::{Deserialize, Serialize};
@@ -76,8 +76,7 @@ pub fn run_experiment_isolated(
     let dir = opts.out.join(&plan.name);
     let _lock = super::lock::ResultsLock::acquire(&dir)?;
     let runs_path = dir.join("runs.csv");
-    run::prepare(plan, &dir, opts.fresh)?;
-    let (runs, old_rows) = RunsFile::open(&runs_path, opts.fresh)?;
+    let (runs, old_rows) = run::open_results(plan, &dir, opts.fresh)?;
     run::validate_old_rows(plan, &runs, &old_rows)?;
     drop(runs);
     let skipped = old_rows.len();

@@ -610,16 +610,57 @@ impl RunsFile {
     /// Open (or create) `path`. With `fresh` any old content is discarded; otherwise a trailing
     /// partial row is dropped and the rest kept. Returns the file and the rows already in it.
     pub fn open(path: &Path, fresh: bool) -> Result<(Self, Vec<RunRow>), ResultsError> {
-        let (rows, valid) = if fresh || !path.exists() {
-            (vec![], 0)
+        Self::read(path, fresh)?.open()
+    }
+
+    /// Read `path` (one read) without changing it, so a caller can check its rows before
+    /// [`OldRuns::open`] appends to it; with `fresh`, or where it does not exist, no rows.
+    pub fn read(path: &Path, fresh: bool) -> Result<OldRuns, ResultsError> {
+        let (rows, valid, legacy) = if fresh || !path.exists() {
+            (vec![], 0, false)
         } else {
-            read_runs(path)?
+            let bytes = std::fs::read(path).map_err(io(path))?;
+            let legacy = bytes
+                .split(|&c| c == b'\n')
+                .next()
+                .is_some_and(is_legacy_header);
+            let (rows, valid) = parse_runs(&bytes).map_err(|msg| ResultsError::Corrupt {
+                path: path.display().to_string(),
+                msg,
+            })?;
+            (rows, valid, legacy)
         };
-        let legacy = !fresh
-            && std::fs::read(path)
-                .ok()
-                .and_then(|b| b.split(|&c| c == b'\n').next().map(is_legacy_header))
-                .unwrap_or(false);
+        Ok(OldRuns {
+            path: path.to_path_buf(),
+            rows,
+            valid,
+            legacy,
+        })
+    }
+}
+
+/// runs.csv as [`RunsFile::read`] found it: its rows, and what opening it for appending does.
+pub struct OldRuns {
+    path: PathBuf,
+    /// The complete rows already in it.
+    pub rows: Vec<RunRow>,
+    /// Bytes up to the end of its last complete row.
+    valid: u64,
+    /// Its header is an earlier version's: it is rewritten in this version's columns.
+    legacy: bool,
+}
+
+impl OldRuns {
+    /// Open the file for appending: a legacy file rewritten (atomically), a trailing partial
+    /// row cut off, a header written to an empty one. Returns the file and its rows.
+    pub fn open(self) -> Result<(RunsFile, Vec<RunRow>), ResultsError> {
+        let Self {
+            path,
+            rows,
+            valid,
+            legacy,
+        } = self;
+        let path = path.as_path();
         if legacy {
             // Rewrite in this version's columns (atomically) before appending to it.
             let mut text = RunRow::header().join(",").into_bytes();
@@ -668,7 +709,7 @@ impl RunsFile {
             file.flush().map_err(io(path))?;
         }
         Ok((
-            Self {
+            RunsFile {
                 path: path.to_path_buf(),
                 file,
                 done,
@@ -676,7 +717,9 @@ impl RunsFile {
             rows,
         ))
     }
+}
 
+impl RunsFile {
     /// Is repetition `repetition` of configuration `config` already in the file?
     pub fn is_done(&self, config: &str, repetition: u32) -> bool {
         self.done.contains(&(config.to_string(), repetition))

@@ -221,10 +221,10 @@ pub fn run_experiment_with(
         Some(_) => None,
     };
     let fresh = opts.fresh && child.is_none();
-    if child.is_none() {
-        prepare(plan, &dir, fresh)?;
-    }
-    let (runs, old_rows) = RunsFile::open(&dir.join("runs.csv"), fresh)?;
+    let (runs, old_rows) = match child {
+        None => open_results(plan, &dir, fresh)?,
+        Some(_) => RunsFile::open(&dir.join("runs.csv"), false)?,
+    };
     let serial = check_old_rows(plan, &runs, &old_rows)?;
     let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
     todo.update_done(plan);
@@ -285,18 +285,18 @@ pub fn run_experiment_with(
     })
 }
 
-/// The results folder ready for this start: its folders, and `meta.toml` checked (or
-/// started) with this start appended to its history.
-pub(super) fn prepare(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), RunError> {
+/// The results folder ready for this start and its runs.csv open for appending: the folders
+/// made, `meta.toml` checked (or started) against the rows already there, before the file is
+/// changed, with this start appended to its history.
+pub(super) fn open_results(
+    plan: &ExperimentPlan,
+    dir: &Path,
+    fresh: bool,
+) -> Result<(RunsFile, Vec<RunRow>), RunError> {
     prepare_dir(plan, dir, fresh)?;
-    let runs_path = dir.join("runs.csv");
-    let rows_before = if fresh || !runs_path.exists() {
-        0
-    } else {
-        super::results::read_runs(&runs_path)?.0.len()
-    };
-    prepare_meta(plan, dir, fresh, rows_before)?;
-    Ok(())
+    let old = RunsFile::read(&dir.join("runs.csv"), fresh)?;
+    prepare_meta(plan, dir, fresh, old.rows.len())?;
+    Ok(old.open()?)
 }
 
 /// The results folder with its `images/` (and `timelines/`); `fresh` clears old timelines and

@@ -2,6 +2,7 @@
 //! `predict = true` recording each configuration's prediction and reporting it. No timing is
 //! asserted: only that every candidate is predicted, the parts add up, and a best is named.
 
+use crate::support::assert_ok;
 use raysched::experiment::results::read_runs;
 use std::path::Path;
 use std::process::Command;
@@ -49,11 +50,7 @@ fn advise_predicts_every_candidate_and_names_a_best() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     // 4 schedulers × 3 chunks + pbrt once (it picks its own tile).
     let rows: Vec<&str> = stdout
         .lines()
@@ -124,11 +121,7 @@ chunk = ["1", "4"]
         .current_dir(dir.path())
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let res = dir.path().join("res/pred");
     let (rows, _) = read_runs(&res.join("runs.csv")).unwrap();
     assert_eq!(rows.len(), 5);

@@ -1,5 +1,6 @@
 //! The experiment runner through the real binary: config errors, resume after kills, plots.
 
+use crate::support::assert_ok;
 use raysched::experiment::results::read_runs;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -55,11 +56,7 @@ fn run_tiny(reps: u32) -> (tempfile::TempDir, PathBuf) {
         &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     (dir, exp)
 }
 
@@ -259,11 +256,7 @@ fn each_round_is_measured_in_its_own_process_unless_isolation_is_none() {
         "none",
     ];
     let out = run(&one, dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let (rows, _) = read_runs(&csv).unwrap();
     assert_eq!(rows.len(), 2 * 11 * 3);
     let mut all: Vec<u32> = processes_by_repetition(&rows).concat();
@@ -280,11 +273,7 @@ fn each_round_is_measured_in_its_own_process_unless_isolation_is_none() {
     )
     .unwrap();
     let out = run(&one[..6], dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let (rows, _) = read_runs(&csv).unwrap();
     assert!(
         rows.iter().any(|r| r.inner > 1),
@@ -359,11 +348,7 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
         }
     }
     let out = run(&args, dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let bytes = std::fs::read(&csv).unwrap();
     assert_eq!(bytes.last(), Some(&b'\n'), "no partial last line");
     let (rows, valid) = read_runs(&csv).unwrap();
@@ -427,11 +412,7 @@ fn plot_regenerates_everything_from_the_csv() {
     std::fs::remove_dir_all(res.join("plots")).unwrap();
     std::fs::remove_file(res.join("report.md")).unwrap();
     let out = run(&["plot", res.to_str().unwrap()], dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let plots: Vec<String> = std::fs::read_dir(res.join("plots"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -463,11 +444,7 @@ fn plot_regenerates_everything_from_the_csv() {
         &["plot", res.to_str().unwrap(), "--png-scale", "2"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let big = image::open(res.join("plots").join(png)).unwrap();
     assert_eq!(
         (big.width(), big.height()),
@@ -569,11 +546,7 @@ chunk = "4"
         &["run", "feats.toml", "--quiet", "--out", "res"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let (rows, _) = read_runs(&dir.path().join("res/feats/runs.csv")).unwrap();
     assert_eq!(rows.len(), 4, "serial + one scheduler config per scene");
     for r in &rows {
@@ -624,11 +597,7 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
     );
     std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
     let out = run(&["run", "conv.toml", "--quiet", "--out", "res"], dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
     // 1, 2, 4, 8 spp for each of the two tracers.
     assert_eq!(rows.len(), 8);
@@ -650,11 +619,7 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
     // `raysched plot` redraws it from the CSV alone.
     std::fs::remove_file(dir.path().join("res/conv/convergence.png")).unwrap();
     let out = run(&["plot", "res/conv"], dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(dir.path().join("res/conv/convergence.png").exists());
 
     assert_bad_configs(
@@ -687,11 +652,7 @@ fn convergence_per_scheduler_same_errors_and_budget_winner() {
     std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
     let out = run(&["run", "conv.toml", "--out", "res"], dir.path());
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
     let mut by_sched: std::collections::BTreeMap<String, Vec<_>> = Default::default();
     for r in &rows {
@@ -787,11 +748,7 @@ fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_rec
         ],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let published = dir.path().join("results/published/tiny");
     let snapshot: Vec<Vec<u8>> = ["runs.csv", "meta.toml", "report.md", "summary.csv"]
         .iter()
@@ -801,11 +758,7 @@ fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_rec
     // The command as the README gives it: no --out.
     let out = run(&["run", exp.to_str().unwrap()], dir.path());
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let configs = 2 * (1 + 8 + 2);
     assert!(
         stdout.contains(&format!("tiny: {} runs measured", configs * 2))
@@ -834,11 +787,7 @@ fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_rec
     let meta = std::fs::read_to_string(mine.join("meta.toml")).unwrap();
     let out = run(&["run", exp.to_str().unwrap()], dir.path());
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(
         stdout.contains(&format!(
             "tiny: 0 runs measured (0 untimed warm-ups and probes), {} already done",
@@ -879,11 +828,7 @@ fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_rec
         &["run", exp.to_str().unwrap(), "--quiet", "--fresh"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
 }
 
 /// Adaptive repetitions: a configuration stops early only with its median's interval within
@@ -902,11 +847,7 @@ fn adaptive_runs_stop_at_the_ci_target_or_the_cap() {
         &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
     let sums = raysched::experiment::summary::summarize(&rows);
     assert_eq!(sums.len(), 2 * (1 + 8 + 2));
@@ -977,11 +918,7 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
         run(&args, dir.path())
     };
     let same = cmp("a/tiny", "a/tiny", &["--fail-on-regression"]);
-    assert!(
-        same.status.success(),
-        "{}",
-        String::from_utf8_lossy(&same.stderr)
-    );
+    assert_ok(&same);
     let v: serde_json::Value = serde_json::from_slice(&same.stdout).unwrap();
     let changes = v["changes"].as_array().unwrap();
     assert_eq!(changes.len(), 2 * (1 + 8 + 2));
@@ -1046,11 +983,7 @@ fn dry_run_plans_without_measuring() {
         dir.path(),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(
         stdout.contains("22 configurations; estimated") && stdout.contains("Nothing was measured"),
         "{stdout}"
@@ -1093,11 +1026,7 @@ fn report_warns_of_impossible_efficiency_and_lists_ties() {
     }
     drop(f);
     let out = run(&["plot", res.to_str().unwrap()], dir.path());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
     assert!(report.contains("## Warnings"), "{report}");
     assert!(

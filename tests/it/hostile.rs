@@ -3,6 +3,7 @@
 //! results, write failures, concurrent runs and one-line messages. Each bad input must give a
 //! one-line error naming the file and the field (or flag), no panic, no hang, no partial file.
 
+use crate::support::assert_ok;
 use raysched::limits::{
     MAX_DEPTH, MAX_GENERATOR_COUNT, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP, MAX_THREADS,
 };
@@ -396,11 +397,7 @@ fn measured_results(dir: &Path) -> std::path::PathBuf {
         &["run", p.to_str().unwrap(), "--out", "res", "--quiet"],
         dir,
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     dir.join("res/x")
 }
 
@@ -537,11 +534,7 @@ fn a_second_run_on_a_locked_results_folder_is_refused_and_a_stale_lock_is_taken(
         &["run", p.to_str().unwrap(), "--out", "res", "--quiet"],
         dir.path(),
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(!lock.exists(), "the lock outlived its run");
 }
 

@@ -3,6 +3,7 @@
 //! its whole process group is killed past it.
 #![cfg(feature = "mpi")]
 
+use crate::support::assert_ok;
 use raysched::render::{render_serial, render_serial_frames, Image};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -553,7 +554,7 @@ fn mpirun_raysched_run_appends_mpi_rows_per_transport_beside_the_local_baseline(
         .arg(out.join("tiny_mpi"))
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     assert!(plot(&out.join("tiny_mpi")));
 }
 

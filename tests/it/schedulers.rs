@@ -488,6 +488,7 @@ fn bad_parameters_are_clear_errors() {
 }
 
 mod cli {
+    use crate::support::assert_ok;
     use std::process::{Command, Output};
 
     fn scene_file(dir: &std::path::Path) -> std::path::PathBuf {
@@ -535,7 +536,7 @@ mod cli {
             "--wait",
             "spin",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         assert!(out.exists());
         for (flag, value) in [
             ("--chunk", "0"),

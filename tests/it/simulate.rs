@@ -2,6 +2,7 @@
 //! against what they must give exactly (static on identical hosts, the master's 1/h limit,
 //! re-queue after a lost host) and bad platforms / worker counts refused before any output.
 
+use crate::support::assert_ok;
 use std::path::Path;
 use std::process::Command;
 
@@ -275,11 +276,7 @@ mod with_simgrid {
             .arg(dir.path().join("out"))
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_ok(&out);
         let csv = std::fs::read_to_string(dir.path().join("out/t/sim_runs.csv")).unwrap();
         assert_eq!(csv.lines().count(), 2, "{csv}");
         let (head, row) = csv.split_once('\n').unwrap();

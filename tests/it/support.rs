@@ -5,6 +5,7 @@ use raysched::render::sample_pixel;
 use raysched::scene::{load_scene, load_scene_str, Scene, SceneOverrides};
 use raysched::tracer::Tracer;
 use std::path::{Path, PathBuf};
+use std::process::Output;
 
 /// An 8×8, 1-spp scene text: a white diffuse sphere of radius 1 seen from (0, 0, 4), and a
 /// `glass` material for the tests that add shapes (a literal, so `concat!` can extend it).
@@ -38,6 +39,16 @@ radius = 1
     };
 }
 pub(crate) use sphere_scene_8x8;
+
+/// Assert that a run of the binary succeeded, showing its stderr where it did not.
+#[track_caller]
+pub(crate) fn assert_ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
 
 /// A 4×4 camera at (0, 0, 10) looking at the origin, for scenes that are only ray-cast.
 pub(crate) const CAMERA_4X4: &str = "[camera]\norigin = [0, 0, 10]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\nwidth = 4\nheight = 4\n";
