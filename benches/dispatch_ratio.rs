@@ -13,7 +13,7 @@
 //! time over its stats-off time, paired round by round (on and off alternate, so machine drift
 //! between rows does not enter the ratio).
 //!
-//! `cargo bench --bench dispatch_ratio` (~2 min). The goals it checks: the factoring family no
+//! `cargo bench --bench dispatch_ratio` (~20 s on the 2-core VM). The goals it checks: the factoring family no
 //! dearer per item than `guided`; the master at B ≥ 4 within 10× the counter; the master's
 //! stats-on cost within 10 % of stats-off.
 
@@ -30,6 +30,9 @@ use std::time::Instant;
 
 const ITEMS: usize = 1 << 18;
 const ROUNDS: usize = 9;
+/// Pairs per buffer in the stats on/off table: enough for a distribution-free 95 % interval of
+/// the median ratio (order statistics 10 and 22 of 31), since single pairs range 0.75–1.38×.
+const PAIRS: usize = 31;
 const BUFFERS: [usize; 4] = [2, 4, 16, 64];
 
 fn counter_ns() -> f64 {
@@ -56,6 +59,24 @@ fn counter_ns() -> f64 {
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// The ranks (0-based, in sorted order) bounding a distribution-free interval of at least
+/// 95 % for the median of `n` samples: the sign-test interval from the binomial(n, ½) tails.
+fn median_ci_ranks(n: usize) -> (usize, usize) {
+    // P(X ≤ j) for X ~ binomial(n, ½), summed until the tail would pass 2.5 %.
+    let mut tail = 0.0f64;
+    let mut term = 0.5f64.powi(n as i32); // P(X = 0)
+    let mut k = 0;
+    for j in 0..n / 2 {
+        if tail + term > 0.025 {
+            break;
+        }
+        tail += term;
+        term *= (n - j) as f64 / (j + 1) as f64;
+        k = j + 1;
+    }
+    (k.saturating_sub(1), (n - k).min(n - 1))
 }
 
 /// Smallest and largest of `v`.
@@ -180,14 +201,21 @@ fn main() {
         }
     }
     if wanted("stats_pair") {
+        // The sign-test tables (Conover, Practical Nonparametric Statistics): n = 9 → order
+        // statistics 2 and 8, n = 31 → 10 and 22 (1-based).
+        assert_eq!((median_ci_ranks(9), median_ci_ranks(31)), ((1, 7), (9, 21)));
+        let (lo_rank, hi_rank) = median_ci_ranks(PAIRS);
         println!(
-            "\n{:<34} {:>9} {:>15}",
-            "master stats on / off, paired", "median", "range"
+            "\n{:<34} {:>9} {:>15} {:>15}",
+            format!("master stats on / off, {PAIRS} pairs"),
+            "median",
+            "95 % CI",
+            "range"
         );
         for buffer in BUFFERS {
             let spec = master(buffer);
             let mut r = Vec::new();
-            for round in 0..ROUNDS {
+            for round in 0..PAIRS {
                 let time = |stats| {
                     let opts = RunOptions {
                         stats,
@@ -206,10 +234,12 @@ fn main() {
                 r.push(on / off);
             }
             let (lo, hi) = range(&r);
+            let m = median(&mut r); // sorts r
             println!(
-                "{:<34} {:>8.3}× {lo:>7.3}–{hi:.3}×",
+                "{:<34} {m:>8.3}× {:>7.3}–{:.3}× {lo:>7.3}–{hi:.3}×",
                 format!("stats_pair_b{buffer}"),
-                median(&mut r)
+                r[lo_rank],
+                r[hi_rank]
             );
         }
     }
