@@ -28,11 +28,12 @@ fn e<T: std::fmt::Display>(err: T) -> String {
 
 const SIZE: (u32, u32) = (900, 560);
 
-/// Draw `$f(&root, args…)` once on a PNG and once on an SVG backend.
+/// Draw `$f(&root, args…)` on an SVG backend and, where `$bitmap` holds, on a PNG one (a
+/// PNG rasterised from the SVG afterwards, at `--png-scale`, is not drawn twice).
 macro_rules! both {
-    ($stem:expr, $size:expr, $f:ident ( $($arg:expr),* )) => {{
+    ($bitmap:expr, $stem:expr, $size:expr, $f:ident ( $($arg:expr),* )) => {{
         let png = $stem.with_extension("png");
-        {
+        if $bitmap {
             let root = BitMapBackend::new(&png, $size).into_drawing_area();
             root.fill(&WHITE).map_err(e)?;
             $f(&root, $($arg),*)?;
@@ -659,22 +660,25 @@ fn gantt_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, t
 /// Every figure of every group (scene + settings + tracer) into `plots`, in a fixed order: MPI
 /// throughput, speedup vs workers, granularity, buffer, overhead, then the Gantt timelines.
 /// `plots` is where they are written, `final_plots` where they will be (their names in the
-/// report, and the charts drawn before that a missing timeline keeps).
+/// report, and the charts drawn before that a missing timeline keeps). `bitmap`: draw each
+/// PNG too (false where the caller rasterises the SVGs itself).
 pub(crate) fn draw_all(
     dir: &Path,
     plots: &Path,
     final_plots: &Path,
+    bitmap: bool,
     sums: &[Summary],
 ) -> Result<Vec<Figure>, String> {
     let mut out = Drawn {
         dir,
         plots,
         final_plots,
+        bitmap,
         figs: Vec::new(),
         missing: MissingTimelines::default(),
     };
     for g in &group_names(sums) {
-        if let Some(f) = mpi_throughput(dir, plots, final_plots, g, &slug(g), sums)? {
+        if let Some(f) = mpi_throughput(dir, plots, final_plots, bitmap, g, &slug(g), sums)? {
             out.figs.push(f);
         }
         // The figures below compare thread schedulers; MPI rows have their own figure.
@@ -698,6 +702,8 @@ struct Drawn<'a> {
     dir: &'a Path,
     plots: &'a Path,
     final_plots: &'a Path,
+    /// Draw the PNGs too, not only the SVGs.
+    bitmap: bool,
     figs: Vec<Figure>,
     missing: MissingTimelines,
 }
@@ -787,6 +793,7 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
     let stem = out.plots.join(format!("speedup_vs_workers_{}", gr.slug));
     let title = format!("Speedup vs workers — {}", gr.name);
     both!(
+        out.bitmap,
         stem,
         SIZE,
         line_chart(
@@ -815,6 +822,7 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
     let stem = out.plots.join(format!("granularity_{}", gr.slug));
     let title = format!("Granularity, {max_w} workers — {g}");
     both!(
+        out.bitmap,
         stem,
         (900, 820),
         two_charts(
@@ -900,6 +908,7 @@ fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
         gr.max_w, gr.name
     );
     both!(
+        out.bitmap,
         stem,
         (520 * cols, 420 * rows),
         prediction_panels(gr.name, &panels)
@@ -938,6 +947,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
         gr.max_w, gr.name
     );
     both!(
+        out.bitmap,
         stem,
         SIZE,
         line_chart(
@@ -985,7 +995,12 @@ fn overhead(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
         .collect();
     let stem = out.plots.join(format!("overhead_{}", gr.slug));
     let title = format!("Where the time goes, {} workers — {}", gr.max_w, gr.name);
-    both!(stem, SIZE, overhead_chart(&title, &bars, serial_s));
+    both!(
+        out.bitmap,
+        stem,
+        SIZE,
+        overhead_chart(&title, &bars, serial_s)
+    );
     let drawn: Vec<String> = best.iter().map(|s| format!("`{}`", s.row.label)).collect();
     let caption = format!("Medians of wall-clock spans summed over the workers (busy, idle split into imbalance and the rest) plus the master's dispatch time on its own thread; total height ≈ workers × wall time. Everything above the black serial line is overhead. Drawn: {}.", drawn.join(", "));
     out.push(&stem, title, &caption);
@@ -1036,7 +1051,7 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
         let tl = timeline_path(out.dir, &s.row.config);
         if tl.exists() {
             let timeline = read_timeline(&tl)?;
-            both!(stem, SIZE, gantt_chart(&title, &timeline));
+            both!(out.bitmap, stem, SIZE, gantt_chart(&title, &timeline));
         } else if out
             .final_plots
             .join(stem.strip_prefix(out.plots).unwrap_or(&stem))
@@ -1103,6 +1118,7 @@ fn mpi_throughput(
     dir: &Path,
     plots: &Path,
     final_plots: &Path,
+    bitmap: bool,
     g: &str,
     gs: &str,
     sums: &[Summary],
@@ -1131,6 +1147,7 @@ fn mpi_throughput(
     let stem = plots.join(format!("mpi_throughput_{gs}"));
     let title = format!("MPI ranks vs local threads — {g}");
     both!(
+        bitmap,
         stem,
         (900, 820),
         two_charts(

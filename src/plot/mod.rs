@@ -30,7 +30,7 @@ pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
     register_font();
     let plots = dir.join("plots");
     std::fs::create_dir_all(&plots).map_err(|e| format!("{}: {e}", plots.display()))?;
-    charts::draw_all(dir, &plots, &plots, sums)
+    charts::draw_all(dir, &plots, &plots, true, sums)
 }
 
 /// The largest magnitude a plotted value may have: plotters computes its tick marks in loops
@@ -79,11 +79,11 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
 /// [`redraw`], with every PNG rasterised from its SVG at `png_scale` when that is not 1:
 /// print-quality figures.
 pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
-    let rescale = |staged_png: &Path| -> Result<(), String> {
+    let rescale = |svg: &Path, staged_png: &Path| -> Result<(), String> {
         if png_scale == raster::PngScale::ONE {
             return Ok(());
         }
-        raster::svg_to_png(&staged_png.with_extension("svg"), staged_png, png_scale)
+        raster::svg_to_png(svg, staged_png, png_scale)
     };
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
@@ -98,7 +98,12 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         // A convergence experiment: its plots are drawn from its CSV alone too.
         let rows = crate::converge::read_csv(&convergence)
             .map_err(|e| format!("{}: {e}", convergence.display()))?;
-        for p in convergence::PLOTS {
+        // A PNG rasterised from its SVG below is not drawn as a bitmap first.
+        let bitmap = png_scale == raster::PngScale::ONE;
+        for p in convergence::PLOTS
+            .iter()
+            .filter(|p| bitmap || !p.ends_with(".png"))
+        {
             let staged = staging.path(p);
             if let Some(d) = staged.parent() {
                 std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
@@ -107,7 +112,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
                 .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
         }
         for p in convergence::PLOTS.iter().filter(|p| p.ends_with(".png")) {
-            rescale(&staging.path(p))?;
+            let png = staging.path(p);
+            rescale(&png.with_extension("svg"), &png)?;
         }
         commit(staging)?;
         return Ok(convergence::PLOTS.map(|p| dir.join(p)).to_vec());
@@ -137,10 +143,22 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
     let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
-    let figs = charts::draw_all(dir, &plots, &real_plots, &sums)?;
+    let bitmap = png_scale == raster::PngScale::ONE;
+    let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
     for f in &figs {
         let rel = Path::new(&f.file);
-        rescale(&plots.join(rel.strip_prefix("plots").unwrap_or(rel)))?;
+        let png = plots.join(rel.strip_prefix("plots").unwrap_or(rel));
+        // A Gantt chart kept from an earlier drawing (its timeline is gone) was not staged:
+        // its SVG beside the kept PNG is rasterised, and one without an SVG stays as it is.
+        let svg = [
+            png.with_extension("svg"),
+            dir.join(rel).with_extension("svg"),
+        ]
+        .into_iter()
+        .find(|p| p.exists());
+        if let Some(svg) = svg {
+            rescale(&svg, &png)?;
+        }
     }
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()

@@ -499,6 +499,20 @@ fn plot_without_timelines_keeps_or_skips_gantt_charts_with_a_note() {
     assert_eq!(gantts(&res), before);
     let report = std::fs::read_to_string(res.join("report.md")).unwrap();
     assert!(report.contains(&format!("plots/{}", before[0])), "{report}");
+    // Print quality from a folder without timelines: a kept chart is rasterised from the SVG
+    // kept beside it (this failed on the staged SVG it never had).
+    let gantt = res.join("plots").join(&before[0]);
+    let small = image::open(&gantt).unwrap();
+    let out = run(
+        &["plot", res.to_str().unwrap(), "--png-scale", "2"],
+        dir.path(),
+    );
+    assert_ok(&out);
+    let big = image::open(&gantt).unwrap();
+    assert_eq!(
+        (big.width(), big.height()),
+        (2 * small.width(), 2 * small.height())
+    );
 
     std::fs::remove_dir_all(res.join("plots")).unwrap();
     let out = run(&["plot", res.to_str().unwrap()], dir.path());

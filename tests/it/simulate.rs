@@ -2,7 +2,6 @@
 //! against what they must give exactly (static on identical hosts, the master's 1/h limit,
 //! re-queue after a lost host) and bad platforms / worker counts refused before any output.
 
-use crate::support::assert_ok;
 use std::path::Path;
 use std::process::Command;
 
@@ -41,6 +40,7 @@ fn without_the_feature_simulate_is_a_one_line_error_naming_feature_and_package()
 #[cfg(feature = "simgrid")]
 mod with_simgrid {
     use super::*;
+    use crate::support::assert_ok;
     use raysched::simulate::child;
     use raysched::simulate::job::{LostWorker, SimJob, SimOutcome};
     use std::collections::BTreeMap;
