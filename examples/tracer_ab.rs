@@ -11,11 +11,10 @@
 //!
 //! Tracer ids are those of `--tracer`.
 //!
-//! Measured (quiet 2-core Intel Xeon KVM guest with AVX-512, `taskset -c 0`, 5 rounds, 1 M
-//! triangles, 5 runs, load 0.16–0.9, AVX node test): bvh/embree best rate primary 0.68–0.69 at
-//! 256², 0.83 at 1024²; diffuse 0.61–0.64 and 0.63–0.65; build 0.55–0.59 s, 0.95–1.70× Embree's
-//! (median 1.59; the tracer built first pays the fresh memory). Full table:
-//! `benches/peers/results.md`.
+//! Measured (quiet 2-core AMD EPYC KVM guest, `taskset -c 0`, 5 rounds, 1 M triangles, 3 runs,
+//! load 1.9–2.9, 8-lane leaf test): bvh/embree best rate primary 0.87–0.93 at 256², 0.99–1.01
+//! at 1024²; diffuse 0.79–0.81 and 0.75–0.79; build 0.48–0.54 s, 1.68–2.11× Embree's. Full
+//! table: `benches/peers/results.md`.
 //!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`
 //! `… --example tracer_ab -- --rays diffuse complex 1000000 1024 5 bvh embree`

@@ -138,9 +138,12 @@ pub struct Triangle {
 /// (0, 0, 1). Computed once per query and shared by every triangle it meets.
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
-    o: Vec3,
-    k: [usize; 3],
-    s: Vec3,
+    /// The ray's origin.
+    pub(crate) o: Vec3,
+    /// The axes that become x, y and z.
+    pub(crate) k: [usize; 3],
+    /// The shear: `d[kx]/d[kz]`, `d[ky]/d[kz]`, `1/d[kz]`.
+    pub(crate) s: Vec3,
 }
 
 impl ShearedRay {

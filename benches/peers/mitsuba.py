@@ -14,6 +14,8 @@ minimum and maximum of each program, and the ratio raysched / Mitsuba pair by pa
 range). raysched's time is the render's wall time as it prints it (scene load and BVH build
 excluded, as Mitsuba's scene load is); its process wall time is printed beside it.
 
+Measured (2-core AMD EPYC, 2026-12-02 07:00, 8-lane leaf test, 2 runs): raysched /
+llvm_ad_rgb medians 1.69, 1.69 (1.46-1.76); the base binary in the same runs 1.74, 1.75.
 Measured (quiet 2-core Intel Xeon with AVX-512, 2026-12-02, AVX node test): raysched /
 llvm_ad_rgb medians 1.68, 1.71, 1.67 (1.59-1.78); raysched / scalar_rgb 0.59.
 Measured (quiet 2-core AMD EPYC, 64 spp, 5 renders each, three runs, 8-wide BVH): raysched /

@@ -1,10 +1,11 @@
 //! Native tracer: `obvhs` builds a binary BVH over every primitive's bounds (PLOC, reinsertion,
 //! SAH leaf collapse), [`WideBvh`] flattens it to 8 children per node and traverses it; leaves
-//! hold their triangles in packets of four ([`Triangle4`]) tested at once, and analytic spheres
+//! hold their triangles in packets of four ([`Triangle4`]) tested at once (a leaf of two
+//! packets in one 8-lane test where the CPU has AVX2), and analytic spheres
 //! one by one, with the shared routines of [`crate::geometry`], so hits agree bit for bit with
 //! `brute`.
 
-use super::bvh4::{Leaves, WideBvh, PACKET, PAD};
+use super::bvh4::{Leaves, Wide, WideBvh, PACKET, PAD};
 use super::Tracer;
 use crate::geometry::{Hit, Hit4, Ray, ShearedRay, Sphere, Triangle4};
 use crate::scene::Geometry;
@@ -53,6 +54,34 @@ pub const BUILD_PARAMS: BvhBuildParams = {
     p
 };
 
+/// From this many primitives on, [`BUILD_PARAMS_LARGE`]: with leaves of five to eight
+/// triangles tested in one 8-lane step, bigger leaves pay on a big mesh of small triangles but
+/// not on the Cornell box. Measured at the two ends only (36 and 998 002 triangles); a scene
+/// between them takes the large-scene setting from here on.
+pub const LARGE_SCENE_PRIMS: usize = 10_000;
+
+/// [`BUILD_PARAMS`] with the collapse cost raised from 2.5 to 4 (leaves of 4–8 triangles
+/// instead of 2–4). `examples/tracer_ab`, 1 M-triangle displaced sphere, one thread, best of 5
+/// rounds, 2 runs, quiet 2-core AMD EPYC (load 1.5–2.4): bvh/Embree primary 256² 0.85–0.86
+/// against 0.78–0.80 at 2.5, 1024² 0.98–1.00 against 0.94; diffuse 0.71–0.74 against
+/// 0.65–0.71. Without the 8-lane leaf test, cost 4 gave 0.84–0.85, 0.92–0.95 and 0.69–0.73.
+/// Cost 6 was no better (0.98–1.01 at 1024², diffuse 0.70–0.74). On the Cornell box (1 thread,
+/// 32 spp, 6 renders) cost 4 took 0.402–0.421 s against 0.376–0.387 at 2.5.
+pub const BUILD_PARAMS_LARGE: BvhBuildParams = {
+    let mut p = BUILD_PARAMS;
+    p.collapse_traversal_cost = 4.0;
+    p
+};
+
+/// The build parameters for a scene of `prims` primitives.
+pub fn build_params(prims: usize) -> BvhBuildParams {
+    if prims >= LARGE_SCENE_PRIMS {
+        BUILD_PARAMS_LARGE
+    } else {
+        BUILD_PARAMS
+    }
+}
+
 /// The native tracer: a [`WideBvh`] over the scene's primitives, or (from [`BvhTracer::new`], below
 /// [`BVH_MIN_PRIMS`]) a linear list.
 pub struct BvhTracer {
@@ -82,12 +111,12 @@ impl BvhTracer {
                 build_time: Duration::ZERO,
             };
         }
-        Self::with_params(geometry, BUILD_PARAMS)
+        Self::with_params(geometry, build_params(geometry.len()))
     }
 
     /// Always a BVH, whatever the primitive count (for measuring the crossover).
     pub fn forced(geometry: &Geometry) -> Self {
-        Self::with_params(geometry, BUILD_PARAMS)
+        Self::with_params(geometry, build_params(geometry.len()))
     }
 
     /// Whether a BVH was built (false: too few primitives to be worth it, or none at all).
@@ -178,6 +207,60 @@ impl BvhTracer {
         }
         h
     }
+
+    /// Packets `k` and `k + 1` (a leaf of five to eight slots) in one 8-lane test: lanes 0–3
+    /// are packet `k`'s. Against two 4-lane tests in a row (whose second one sees the first's
+    /// nearest hit as `t_max`) the nearest lane, first of equals, is the same hit: a lane's
+    /// result does not depend on `t_max` except through `t < t_max`. It pays with the bigger
+    /// leaves of [`BUILD_PARAMS_LARGE`] (bvh/Embree 1024² primary 0.98–1.00 against 0.92–0.95
+    /// without it); at cost 2.5, where few leaves have two packets, it was within noise.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn packets8(
+        &self,
+        avx2: super::simd::Avx2,
+        k: usize,
+        ray: &Ray,
+        sheared: &ShearedRay,
+        t_max: f32,
+    ) -> super::simd::Hit8 {
+        let (p, q) = (&self.packets[k], &self.packets[k + 1]);
+        let mut h = avx2.triangles8(&p.tris, &q.tris, sheared, t_max);
+        let mut spheres = p.sphere_lanes | q.sphere_lanes << PACKET;
+        while spheres != 0 {
+            let lane = spheres.trailing_zeros() as usize;
+            spheres &= spheres - 1;
+            if let Some(t) = self.spheres[k * PACKET + lane].intersect(ray, t_max) {
+                h.t[lane] = t;
+                h.b1[lane] = 0.0;
+                h.b2[lane] = 0.0;
+                h.mask |= 1 << lane;
+            }
+        }
+        h
+    }
+}
+
+/// [`nearest`] over the eight lanes of two packets `k`, `k + 1`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn nearest8(h: &super::simd::Hit8, k: usize) -> Hit {
+    let mut m = h.mask;
+    let mut lane = m.trailing_zeros() as usize;
+    m &= m - 1;
+    while m != 0 {
+        let l = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if h.t[l] < h.t[lane] {
+            lane = l;
+        }
+    }
+    Hit {
+        t: h.t[lane],
+        prim: (k * PACKET + lane) as u32,
+        b1: h.b1[lane],
+        b2: h.b2[lane],
+    }
 }
 
 /// The nearest lane of `h` (the first of equals, as a one-by-one test in slot order keeps the
@@ -238,7 +321,16 @@ struct Query<'a> {
 
 impl Leaves for Query<'_> {
     #[inline(always)]
-    fn closest(&self, packets: std::ops::Range<usize>, mut t_max: f32) -> Option<Hit> {
+    fn closest(&self, packets: std::ops::Range<usize>, mut t_max: f32, wide: Wide) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx2), 2) = (wide, packets.len()) {
+            let h = self
+                .tracer
+                .packets8(avx2, packets.start, self.ray, &self.sheared, t_max);
+            return (h.mask != 0).then(|| nearest8(&h, packets.start));
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = wide;
         let mut best = None;
         for k in packets {
             let h = self.tracer.packet(k, self.ray, &self.sheared, t_max);
@@ -252,7 +344,16 @@ impl Leaves for Query<'_> {
     }
 
     #[inline(always)]
-    fn any(&self, packets: std::ops::Range<usize>) -> bool {
+    fn any(&self, packets: std::ops::Range<usize>, wide: Wide) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx2), 2) = (wide, packets.len()) {
+            let h = self
+                .tracer
+                .packets8(avx2, packets.start, self.ray, &self.sheared, self.t_max);
+            return h.mask != 0;
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = wide;
         for k in packets {
             let h = self.tracer.packet(k, self.ray, &self.sheared, self.t_max);
             if h.mask != 0 {
@@ -316,9 +417,69 @@ fn linear_intersect(g: &Geometry, ray: &Ray, t_max: f32) -> Option<Hit> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Triangle;
+    use crate::geometry::{Triangle, Triangle4};
     use crate::rng::Sampler;
     use glam::Vec3;
+
+    /// The 8-lane leaf test gives, lane by lane, the bits of the 4-lane one on each half: on
+    /// triangles with vertices on a coarse grid (shared edges and vertices, rays through them:
+    /// zero edge functions and the f64 path) and off it, with empty (NaN) lanes and finite and
+    /// infinite `t_max`.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn eight_lane_leaf_test_is_bit_identical_to_two_four_lane_tests() {
+        let Some(avx2) = super::super::simd::Avx2::detect() else {
+            eprintln!("no AVX2 on this CPU: the 8-lane test never runs here");
+            return;
+        };
+        let mut s = Sampler::new(11, 0, 0);
+        let (mut hits, mut exact) = (0, 0);
+        for case in 0..6000 {
+            let grid = case % 2 == 0;
+            let mut p = || {
+                let v = Vec3::new(s.next(), s.next(), s.next()) * 2.0 - Vec3::ONE;
+                if grid {
+                    (v * 4.0).round() / 4.0
+                } else {
+                    v
+                }
+            };
+            let (mut a, mut b) = (Triangle4::default(), Triangle4::default());
+            let used = 5 + case % 4;
+            for lane in 0..used {
+                let tri = Triangle::new(p(), p(), p());
+                if lane < 4 {
+                    a.set(lane, &tri);
+                } else {
+                    b.set(lane - 4, &tri);
+                }
+            }
+            let o = p() * 3.0;
+            let d = if case % 3 == 0 { p() - o } else { p() };
+            let ray = Ray::new(o, d);
+            let sr = ShearedRay::new(&ray);
+            let t_max = [f32::INFINITY, 1.0, 0.5][case % 3];
+            let h8 = avx2.triangles8(&a, &b, &sr, t_max);
+            for (half, t4) in [a, b].iter().enumerate() {
+                let h4 = t4.intersect_sheared(&sr, t_max);
+                for lane in 0..4 {
+                    let l8 = 4 * half + lane;
+                    let bits = |t: f32, b1: f32, b2: f32| (t.to_bits(), b1.to_bits(), b2.to_bits());
+                    let four = (h4.mask >> lane & 1 == 1)
+                        .then(|| bits(h4.t[lane], h4.b1[lane], h4.b2[lane]));
+                    let eight =
+                        (h8.mask >> l8 & 1 == 1).then(|| bits(h8.t[l8], h8.b1[l8], h8.b2[l8]));
+                    assert_eq!(four, eight, "case {case} lane {l8}");
+                    hits += four.is_some() as u32;
+                    exact += (grid && four.is_some()) as u32;
+                }
+            }
+        }
+        assert!(
+            hits > 1000 && exact > 200,
+            "{hits} hits, {exact} on the grid"
+        );
+    }
 
     /// The AVX and the SSE node tests enter the same children in the same order: every hit
     /// (prim, t, barycentrics) and occlusion verdict is bit-identical, on random rays and on

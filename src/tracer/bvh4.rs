@@ -76,7 +76,19 @@ impl Node {
 pub(super) trait NodeTest {
     /// Entry distance of every child and the mask of those entered before `t_max`.
     fn hit(&self, n: &Node, t_max: f32) -> ([f32; WIDTH], u32);
+    /// The 8-lane leaf test's token where this test runs in a traversal compiled for AVX2.
+    fn wide(&self) -> Wide {
+        None
+    }
 }
+
+/// Proof that the 8-lane leaf test of [`super::simd`] may run (x86-64 with AVX2); `None`
+/// elsewhere, where leaves are tested four lanes at a time.
+#[cfg(target_arch = "x86_64")]
+pub(super) type Wide = Option<super::simd::Avx2>;
+/// No 8-lane leaf test off x86-64.
+#[cfg(not(target_arch = "x86_64"))]
+pub(super) type Wide = Option<std::convert::Infallible>;
 
 /// The traversal-side copy of a ray: origin, reciprocal direction, and per axis the plane
 /// entered first (`near`: the upper one where the direction is negative) and the one left by.
@@ -146,11 +158,12 @@ impl NodeTest for RaySlabs<Vec4> {
 /// What a traversal asks of the leaves: the caller's primitive tests on a leaf's packets
 /// (packet `k` holds slots `PACKET·k ..` of [`WideBvh::order`]). A trait rather than a closure
 /// so that `#[inline(always)]` puts the tests into the traversal loop (and into its AVX2 copy).
-pub trait Leaves {
+/// `wide` is [`NodeTest::wide`] of the traversal's node test.
+pub(super) trait Leaves {
     /// The nearest hit below `t_max` among the packets `packets`.
-    fn closest(&self, packets: Range<usize>, t_max: f32) -> Option<Hit>;
+    fn closest(&self, packets: Range<usize>, t_max: f32, wide: Wide) -> Option<Hit>;
     /// Whether a primitive of the packets `packets` blocks the ray.
-    fn any(&self, packets: Range<usize>) -> bool;
+    fn any(&self, packets: Range<usize>, wide: Wide) -> bool;
 }
 
 /// An 8-wide BVH flattened from an obvhs binary BVH; leaves index packets of
@@ -261,7 +274,7 @@ impl WideBvh {
     /// 1.05–1.07× at 256²), bvh/Embree 0.76 → 0.83 primary and 0.58 → 0.65 diffuse
     /// (`examples/tracer_ab`, quiet 2-core Intel Xeon); Cornell render 0.98× (0.93–1.01).
     #[inline(always)]
-    pub fn closest(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
+    pub(super) fn closest(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = self.avx2 {
             return avx2.closest(self, ray, t_max, leaves);
@@ -272,7 +285,7 @@ impl WideBvh {
     /// Whether anything blocks the ray below `t_max` (node test chosen as in
     /// [`Self::closest`]).
     #[inline(always)]
-    pub fn any(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
+    pub(super) fn any(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
         #[cfg(target_arch = "x86_64")]
         if let Some(avx2) = self.avx2 {
             return avx2.any(self, ray, t_max, leaves);
@@ -309,7 +322,7 @@ impl WideBvh {
             if r == EMPTY {
                 continue;
             }
-            if let Some(h) = leaves.closest(leaf_range(r), t_max) {
+            if let Some(h) = leaves.closest(leaf_range(r), t_max, slabs.wide()) {
                 t_max = h.t;
                 best = Some(h);
             }
@@ -325,7 +338,7 @@ impl WideBvh {
         stack.push((self.root, 0.0));
         while let Some((r, _)) = stack.pop() {
             if r & LEAF != 0 {
-                if leaves.any(leaf_range(r)) {
+                if leaves.any(leaf_range(r), slabs.wide()) {
                     return true;
                 }
                 continue;

@@ -1,5 +1,6 @@
 //! The tracer's one module with `unsafe`: the BVH node test on eight child boxes at once in
-//! AVX registers, and the traversal copies compiled for AVX2 that run it. They are chosen at
+//! AVX registers, the watertight triangle test on a leaf's eight slots at once, and the
+//! traversal copies compiled for AVX2 that run them. They are chosen at
 //! run time ([`Avx2::detect`], `is_x86_feature_detected!`), so the shipped build keeps the
 //! generic x86-64 target and runs anywhere; without AVX2 the SSE test of [`super::bvh4`] runs.
 //!
@@ -8,10 +9,12 @@
 //! both enter the same children in the same order and images do not depend on the CPU.
 
 use super::bvh4::{Leaves, Node, NodeTest, RaySlabs, WideBvh, FAR_SCALE, WIDTH};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{gamma, Hit, Ray, ShearedRay, Triangle4};
 use std::arch::x86_64::{
-    __m256, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
-    _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps, _CMP_LE_OQ,
+    __m256, _mm256_add_ps, _mm256_and_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps,
+    _mm256_loadu2_m128, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+    _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
+    _mm256_storeu_ps, _mm256_sub_ps, _CMP_EQ_OQ, _CMP_GT_OS, _CMP_LE_OQ, _CMP_LT_OS, _CMP_NEQ_UQ,
 };
 
 /// Proof that this CPU has AVX2 (and so AVX): only [`Avx2::detect`] makes one.
@@ -34,42 +37,205 @@ impl Avx2 {
         leaves: &impl Leaves,
     ) -> Option<Hit> {
         // SAFETY: an `Avx2` exists only where `detect` found AVX2, all `closest_avx2` needs.
-        unsafe { closest_avx2(bvh, ray, t_max, leaves) }
+        unsafe { closest_avx2(bvh, ray, t_max, leaves, self) }
+    }
+
+    /// [`Triangle4::intersect_sheared`] on two packets at once, `a` in lanes 0–3 and `b` in
+    /// lanes 4–7: every lane runs the same IEEE operations in the same order (compare
+    /// predicates as SSE's `cmpps`: `neq` unordered, so a NaN lane agrees too), so a lane's `t`,
+    /// barycentrics and verdict are bit-identical to the 4-lane test's.
+    #[inline(always)]
+    pub(super) fn triangles8(
+        self,
+        a: &Triangle4,
+        b: &Triangle4,
+        r: &ShearedRay,
+        t_max: f32,
+    ) -> Hit8 {
+        // SAFETY: the token proves AVX2 (and so AVX).
+        unsafe { triangles8(a, b, r, t_max) }
     }
 
     /// [`WideBvh::any`] with the AVX node test.
     #[inline(always)]
     pub(super) fn any(self, bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
         // SAFETY: as in `closest`: the token proves AVX2.
-        unsafe { any_avx2(bvh, ray, t_max, leaves) }
+        unsafe { any_avx2(bvh, ray, t_max, leaves, self) }
     }
 }
 
 /// The traversal and leaf tests, inlined into a copy compiled for AVX2.
 #[target_feature(enable = "avx2")]
-fn closest_avx2(bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
-    bvh.closest_with(&Slabs8::new(ray), t_max, leaves)
+fn closest_avx2(
+    bvh: &WideBvh,
+    ray: &Ray,
+    t_max: f32,
+    leaves: &impl Leaves,
+    avx2: Avx2,
+) -> Option<Hit> {
+    bvh.closest_with(&Slabs8::new(ray, avx2), t_max, leaves)
 }
 
 /// As [`closest_avx2`], for occlusion.
 #[target_feature(enable = "avx2")]
-fn any_avx2(bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
-    bvh.any_with(&Slabs8::new(ray), t_max, leaves)
+fn any_avx2(bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves, avx2: Avx2) -> bool {
+    bvh.any_with(&Slabs8::new(ray, avx2), t_max, leaves)
+}
+
+/// What [`Avx2::triangles8`] found: per lane `t` and barycentrics (meaningful where `mask`
+/// is set) and the lanes that hit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Hit8 {
+    pub(super) t: [f32; 8],
+    pub(super) b1: [f32; 8],
+    pub(super) b2: [f32; 8],
+    pub(super) mask: u32,
+}
+
+/// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`].
+#[target_feature(enable = "avx2")]
+fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 {
+    let [kx, ky, kz] = r.k;
+    let splat = |v: f32| _mm256_set1_ps(v);
+    // SAFETY (every block below): AVX is enabled in this function; each `loadu2` reads two
+    // `Vec4`s (4 f32 each, through their `[f32; 4]` view) and each store writes 8 f32 into an
+    // `[f32; 8]`.
+    let load = |i: usize, axis: usize| unsafe {
+        _mm256_loadu2_m128(
+            q.v[i][axis].as_ref().as_ptr(),
+            p.v[i][axis].as_ref().as_ptr(),
+        )
+    };
+    let o = [r.o.x, r.o.y, r.o.z].map(splat);
+    let (sx, sy, sz) = (splat(r.s.x), splat(r.s.y), splat(r.s.z));
+    let sub = |x, y| _mm256_sub_ps(x, y);
+    let mul = |x, y| _mm256_mul_ps(x, y);
+    let add = |x, y| _mm256_add_ps(x, y);
+    let max = |x, y| _mm256_max_ps(x, y);
+    let abs = |x| _mm256_and_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff)));
+    let rel = |i: usize| {
+        (
+            sub(load(i, kx), o[kx]),
+            sub(load(i, ky), o[ky]),
+            sub(load(i, kz), o[kz]),
+        )
+    };
+    let (a_x, a_y, a_z) = rel(0);
+    let (b_x, b_y, b_z) = rel(1);
+    let (c_x, c_y, c_z) = rel(2);
+    let (ax, ay) = (sub(a_x, mul(sx, a_z)), sub(a_y, mul(sy, a_z)));
+    let (bx, by) = (sub(b_x, mul(sx, b_z)), sub(b_y, mul(sy, b_z)));
+    let (cx, cy) = (sub(c_x, mul(sx, c_z)), sub(c_y, mul(sy, c_z)));
+    let mut u = sub(mul(cx, by), mul(cy, bx));
+    let mut v = sub(mul(ax, cy), mul(ay, cx));
+    let mut w = sub(mul(bx, ay), mul(by, ax));
+    let zero = _mm256_setzero_ps();
+    let eq0 = |x| _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero);
+    let exact = _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(eq0(u), eq0(v)), eq0(w)));
+    if exact != 0 {
+        let arr = |x| {
+            let mut a = [0.0f32; 8];
+            // SAFETY: see above.
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), x) };
+            a
+        };
+        let [ax_, ay_, bx_, by_, cx_, cy_] = [ax, ay, bx, by, cx, cy].map(arr);
+        let (mut ua, mut va, mut wa) = (arr(u), arr(v), arr(w));
+        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+        let mut lanes = exact as u32;
+        while lanes != 0 {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            ua[l] = f(cx_[l], by_[l], cy_[l], bx_[l]);
+            va[l] = f(ax_[l], cy_[l], ay_[l], cx_[l]);
+            wa[l] = f(bx_[l], ay_[l], by_[l], ax_[l]);
+        }
+        // SAFETY: see above (unaligned loads of 8 f32).
+        unsafe {
+            u = _mm256_loadu_ps(ua.as_ptr());
+            v = _mm256_loadu_ps(va.as_ptr());
+            w = _mm256_loadu_ps(wa.as_ptr());
+        }
+    }
+    let lt = |x, y| _mm256_cmp_ps::<_CMP_LT_OS>(x, y);
+    let gt = |x, y| _mm256_cmp_ps::<_CMP_GT_OS>(x, y);
+    let or3 = |x, y, z| _mm256_or_ps(_mm256_or_ps(x, y), z);
+    let neg = or3(lt(u, zero), lt(v, zero), lt(w, zero));
+    let pos = or3(gt(u, zero), gt(v, zero), gt(w, zero));
+    let det = add(add(u, v), w);
+    let mut ok = !_mm256_movemask_ps(_mm256_and_ps(neg, pos))
+        & _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero))
+        & _mm256_movemask_ps(lt(abs(det), splat(f32::INFINITY)));
+    ok &= 0xff;
+    let mut hit = Hit8::default();
+    if ok == 0 {
+        return hit;
+    }
+    let (az, bz, cz) = (mul(a_z, sz), mul(b_z, sz), mul(c_z, sz));
+    let t_scaled = add(add(mul(u, az), mul(v, bz)), mul(w, cz));
+    let inv_det = _mm256_div_ps(splat(1.0), det);
+    let t = mul(t_scaled, inv_det);
+    ok &= _mm256_movemask_ps(_mm256_and_ps(gt(t, zero), lt(t, splat(t_max))));
+    if ok == 0 {
+        return hit;
+    }
+    let max3 = |x, y, z| max(max(abs(x), abs(y)), abs(z));
+    let max_z = max3(az, bz, cz);
+    let max_x = max3(ax, bx, cx);
+    let max_y = max3(ay, by, cy);
+    let max_z_len = max3(a_z, b_z, c_z);
+    let delta_z = mul(splat(gamma(3)), max_z);
+    let delta_x = mul(splat(gamma(5)), add(max_x, max_z_len));
+    let delta_y = mul(splat(gamma(5)), add(max_y, max_z_len));
+    let delta_e = mul(
+        splat(2.0),
+        add(
+            add(mul(mul(splat(gamma(2)), max_x), max_y), mul(delta_y, max_x)),
+            mul(delta_x, max_y),
+        ),
+    );
+    let max_e = max3(u, v, w);
+    let delta_t = mul(
+        mul(
+            splat(3.0),
+            add(
+                add(mul(mul(splat(gamma(3)), max_e), max_z), mul(delta_e, max_z)),
+                mul(delta_z, max_e),
+            ),
+        ),
+        abs(inv_det),
+    );
+    ok &= _mm256_movemask_ps(gt(t, delta_t));
+    hit.mask = ok as u32;
+    if ok != 0 {
+        // SAFETY: see above.
+        unsafe {
+            _mm256_storeu_ps(hit.t.as_mut_ptr(), t);
+            _mm256_storeu_ps(hit.b1.as_mut_ptr(), mul(v, inv_det));
+            _mm256_storeu_ps(hit.b2.as_mut_ptr(), mul(w, inv_det));
+        }
+    }
+    hit
 }
 
 /// A ray's slabs with every coordinate broadcast to eight AVX lanes. Made only inside
 /// [`closest_avx2`] and [`any_avx2`], so its methods run only where AVX is present.
-struct Slabs8(RaySlabs<__m256>);
+struct Slabs8(RaySlabs<__m256>, Avx2);
 
 impl Slabs8 {
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
+    fn new(ray: &Ray, avx2: Avx2) -> Self {
         // SAFETY: called only from the AVX2 copies above (see the type's note).
-        Self(RaySlabs::with(ray, |v| unsafe { _mm256_set1_ps(v) }))
+        Self(RaySlabs::with(ray, |v| unsafe { _mm256_set1_ps(v) }), avx2)
     }
 }
 
 impl NodeTest for Slabs8 {
+    #[inline(always)]
+    fn wide(&self) -> super::bvh4::Wide {
+        Some(self.1)
+    }
+
     #[inline(always)]
     fn hit(&self, n: &Node, t_max: f32) -> ([f32; WIDTH], u32) {
         let s = &self.0;
