@@ -200,12 +200,17 @@ fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn Ch
         }
         let c = rule.next(w, n - next).clamp(1, n - next);
         let (mut secs, mut var) = (0.0, 0.0);
-        for &t in &item_s[next..next + c] {
-            let (busy, took) = item_time(t, speeds[w], o);
-            secs += took;
-            out.refill += took - busy;
-            var += (t * speeds[w]).powi(2);
-            times[w].add(took);
+        // Timed in groups, as the workers time them (`dls::timed_group`).
+        for group in item_s[next..next + c].chunks(dls::timed_group(c)) {
+            let mut group_s = 0.0;
+            for &t in group {
+                let (busy, took) = item_time(t, speeds[w], o);
+                group_s += took;
+                out.refill += took - busy;
+                var += (t * speeds[w]).powi(2);
+            }
+            secs += group_s;
+            times[w].add_group(group.len() as u64, group_s);
         }
         next += c;
         out.finish[w] += secs;
