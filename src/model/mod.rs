@@ -630,6 +630,41 @@ mod tests {
     }
 
     #[test]
+    fn rules_that_measure_speeds_probe_first_so_a_slow_worker_is_no_tail() {
+        // 1 000 unit items, worker 0 F× slower: ideal W/C = 1000/(1/F + 1). A first FAC2 batch
+        // at equal weights would hand the slow worker 250 items, F·250 ≥ the ideal for F ≥ 3
+        // (F = 4: 1 000 against 800).
+        use crate::sched::{Policy, WeightedFactoringParams, Weights};
+        let items = vec![1.0; 1000];
+        let w = Workload {
+            item_s: &items,
+            noise_cv: 0.0,
+            per_item_s: 0.0,
+        };
+        let measured = Policy::WeightedFactoring(WeightedFactoringParams {
+            weights: Weights::Measured,
+            ..WeightedFactoringParams::DEFAULT
+        });
+        for factor in [2.0, 3.0, 4.0, 8.0] {
+            let ideal = 1000.0 / (1.0 / factor + 1.0);
+            for policy in [
+                Policy::defaults(SchedulerKind::Awf),
+                Policy::defaults(SchedulerKind::AdaptiveFactoring),
+                measured,
+            ] {
+                let mut s = one_slowed(SchedulerKind::Awf, factor);
+                s.policy = policy;
+                let r = predict(&s, &w, &NONE);
+                assert!(
+                    r.wall_s <= ideal * 1.03,
+                    "{policy:?} F = {factor}: {} vs ideal {ideal}",
+                    r.wall_s
+                );
+            }
+        }
+    }
+
+    #[test]
     fn noise_adds_the_expected_maximum_of_p_normal_finishes() {
         // Static, P = 2, 100 items of 1 each per band, v = 0.1: σ = 0.1·√100 = 1 per band.
         let items = vec![1.0; 200];

@@ -90,7 +90,10 @@ impl ChunkCheck {
 
     /// The predicted best chunk within ×2 (in pixels per item) of the measured best.
     pub fn within_x2(&self) -> bool {
-        let (m, p) = (self.measured_px.max(1) as f64, self.predicted_px.max(1) as f64);
+        let (m, p) = (
+            self.measured_px.max(1) as f64,
+            self.predicted_px.max(1) as f64,
+        );
         (m / p).max(p / m) <= 2.0
     }
 
@@ -103,11 +106,18 @@ impl ChunkCheck {
             .map(|(px, r)| format!("{px} px {}", with_ci(r)))
             .collect();
         let verdict = if !self.clear() {
-            "no clear optimum (a neighbour is tied with it), so the ×2 check does not apply".to_string()
+            "no clear optimum (a neighbour is tied with it), so the ×2 check does not apply"
+                .to_string()
         } else if self.within_x2() {
-            format!("a clear optimum; predicted best {} px: within ×2", self.predicted_px)
+            format!(
+                "a clear optimum; predicted best {} px: within ×2",
+                self.predicted_px
+            )
         } else {
-            format!("a clear optimum; predicted best {} px: outside ×2", self.predicted_px)
+            format!(
+                "a clear optimum; predicted best {} px: outside ×2",
+                self.predicted_px
+            )
         };
         format!(
             "- `{}` over {} px per item: measured best {} px (neighbours {}): {verdict}.",
@@ -147,7 +157,8 @@ pub fn chunk_checks(with: &[&Summary]) -> Vec<ChunkCheck> {
         .filter(|(_, v)| v.len() >= 3)
         .filter_map(|(curve, mut v)| {
             v.sort_by_key(|s| s.row.chunk_px);
-            let best = (0..v.len()).min_by(|&a, &b| v[a].wall_median.total_cmp(&v[b].wall_median))?;
+            let best =
+                (0..v.len()).min_by(|&a, &b| v[a].wall_median.total_cmp(&v[b].wall_median))?;
             let pred = (0..v.len()).min_by(|&a, &b| {
                 let p = |i: usize| v[i].row.predicted_wall_s.unwrap_or(f64::INFINITY);
                 p(a).total_cmp(&p(b))
@@ -295,7 +306,10 @@ mod tests {
     }
 
     fn checks(points: &[(u64, f64, f64)]) -> Vec<ChunkCheck> {
-        let rows: Vec<RunRow> = points.iter().flat_map(|&(s, w, p)| point(s, w, p)).collect();
+        let rows: Vec<RunRow> = points
+            .iter()
+            .flat_map(|&(s, w, p)| point(s, w, p))
+            .collect();
         let sums = summarize(&rows);
         chunk_checks(&sums.iter().collect::<Vec<_>>())
     }
@@ -303,7 +317,12 @@ mod tests {
     #[test]
     fn a_clear_optimum_is_checked_against_the_predicted_best_chunk_and_a_flat_one_is_not() {
         // Measured best 4² (16 px), both neighbours 10 % slower: a clear optimum.
-        let c = checks(&[(1, 0.11, 0.12), (4, 0.10, 0.10), (16, 0.11, 0.105), (64, 0.2, 0.2)]);
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.10),
+            (16, 0.11, 0.105),
+            (64, 0.2, 0.2),
+        ]);
         assert_eq!(c.len(), 1);
         assert_eq!(c[0].curve, "self_scheduling slow=1:3");
         assert_eq!(c[0].px, [1, 16, 256, 4096]);
@@ -311,11 +330,25 @@ mod tests {
         assert!(c[0].clear() && c[0].within_x2(), "{c:?}");
         assert_eq!(c[0].neighbours.len(), 2);
         // The model prefers 16² (256 px): 16× off, outside ×2.
-        let c = checks(&[(1, 0.11, 0.12), (4, 0.10, 0.11), (16, 0.11, 0.105), (64, 0.2, 0.2)]);
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.11),
+            (16, 0.11, 0.105),
+            (64, 0.2, 0.2),
+        ]);
         assert!(c[0].clear() && !c[0].within_x2(), "{c:?}");
-        assert!(c[0].sentence().contains("outside ×2"), "{}", c[0].sentence());
+        assert!(
+            c[0].sentence().contains("outside ×2"),
+            "{}",
+            c[0].sentence()
+        );
         // 16² as fast as 4² within the noise: no clear optimum, whatever the model says.
-        let c = checks(&[(1, 0.11, 0.12), (4, 0.10, 0.11), (16, 0.1001, 0.105), (64, 0.2, 0.2)]);
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.11),
+            (16, 0.1001, 0.105),
+            (64, 0.2, 0.2),
+        ]);
         assert!(!c[0].clear(), "{c:?}");
         assert!(c[0].sentence().contains("does not apply"));
         // Two points are no curve.

@@ -280,9 +280,8 @@ fn run_dispensed(
                 });
             }
             Timing::Items => {
-                let secs = run_timed_groups(chunk, &mut times, Instant::now, |it| {
-                    l.run(job, it, probe)
-                });
+                let secs =
+                    run_timed_groups(chunk, &mut times, Instant::now, |it| l.run(job, it, probe));
                 last = Some(Report {
                     items: c,
                     secs,

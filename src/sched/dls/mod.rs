@@ -188,13 +188,18 @@ mod tests {
         g.add_group(2, 2.0);
         g.add_group(2, 6.0);
         assert_eq!((g.n, g.groups), (4, 2));
-        assert!((g.mean - 2.0).abs() < 1e-12 && (g.var() - 4.0).abs() < 1e-12, "{g:?}");
+        assert!(
+            (g.mean - 2.0).abs() < 1e-12 && (g.var() - 4.0).abs() < 1e-12,
+            "{g:?}"
+        );
         // Independent items of mean 1 and variance 1/3 (uniform on 0..2, a fixed LCG),
         // timed in 4 000 groups of 16: the estimate is within 5 % of 1/3 (its own spread
         // is √(2/3999) ≈ 2.2 %).
         let mut state = 0x2545_f491_4f6c_dd1du64;
         let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             2.0 * (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut pooled = ItemTimes::default();
