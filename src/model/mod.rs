@@ -200,12 +200,17 @@ fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn Ch
         }
         let c = rule.next(w, n - next).clamp(1, n - next);
         let (mut secs, mut var) = (0.0, 0.0);
-        for &t in &item_s[next..next + c] {
-            let (busy, took) = item_time(t, speeds[w], o);
-            secs += took;
-            out.refill += took - busy;
-            var += (t * speeds[w]).powi(2);
-            times[w].add(took);
+        // Timed in groups, as the workers time them (`dls::timed_group`).
+        for group in item_s[next..next + c].chunks(dls::timed_group(c)) {
+            let mut group_s = 0.0;
+            for &t in group {
+                let (busy, took) = item_time(t, speeds[w], o);
+                group_s += took;
+                out.refill += took - busy;
+                var += (t * speeds[w]).powi(2);
+            }
+            secs += group_s;
+            times[w].add_group(group.len() as u64, group_s);
         }
         next += c;
         out.finish[w] += secs;
@@ -622,6 +627,41 @@ mod tests {
         let mut st = s.clone();
         st.policy = Policy::Static;
         assert_eq!(predict(&st, &w, &NONE).wall_s, 180.0);
+    }
+
+    #[test]
+    fn rules_that_measure_speeds_probe_first_so_a_slow_worker_is_no_tail() {
+        // 1 000 unit items, worker 0 F× slower: ideal W/C = 1000/(1/F + 1). A first FAC2 batch
+        // at equal weights would hand the slow worker 250 items, F·250 ≥ the ideal for F ≥ 3
+        // (F = 4: 1 000 against 800).
+        use crate::sched::{Policy, WeightedFactoringParams, Weights};
+        let items = vec![1.0; 1000];
+        let w = Workload {
+            item_s: &items,
+            noise_cv: 0.0,
+            per_item_s: 0.0,
+        };
+        let measured = Policy::WeightedFactoring(WeightedFactoringParams {
+            weights: Weights::Measured,
+            ..WeightedFactoringParams::DEFAULT
+        });
+        for factor in [2.0, 3.0, 4.0, 8.0] {
+            let ideal = 1000.0 / (1.0 / factor + 1.0);
+            for policy in [
+                Policy::defaults(SchedulerKind::Awf),
+                Policy::defaults(SchedulerKind::AdaptiveFactoring),
+                measured,
+            ] {
+                let mut s = one_slowed(SchedulerKind::Awf, factor);
+                s.policy = policy;
+                let r = predict(&s, &w, &NONE);
+                assert!(
+                    r.wall_s <= ideal * 1.03,
+                    "{policy:?} F = {factor}: {} vs ideal {ideal}",
+                    r.wall_s
+                );
+            }
+        }
     }
 
     #[test]

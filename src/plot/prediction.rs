@@ -65,6 +65,120 @@ fn within<'a>(at: &[&'a Summary], best: &Summary, tol: f64) -> Vec<&'a Summary> 
         .collect()
 }
 
+/// One scheduler's chunk curve against the model: the configurations that differ only in
+/// their chunk, at least three of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChunkCheck {
+    /// The curve's label without its chunk (`self_scheduling slow=1:3`).
+    pub curve: String,
+    /// Pixels per item of each point, smallest first.
+    pub px: Vec<u64>,
+    /// Pixels per item of the fastest measured median.
+    pub measured_px: u64,
+    /// Each neighbour of the measured best (one at an end of the sweep, else two):
+    /// wall(neighbour) / wall(best) with its 95 % interval.
+    pub neighbours: Vec<(u64, crate::experiment::stats::Ratio)>,
+    /// Pixels per item of the fastest prediction on the curve.
+    pub predicted_px: u64,
+}
+
+impl ChunkCheck {
+    /// A clear optimum: every neighbour of the measured best is slower beyond its interval.
+    pub fn clear(&self) -> bool {
+        !self.neighbours.is_empty() && self.neighbours.iter().all(|(_, r)| r.lo > 1.0)
+    }
+
+    /// The predicted best chunk within ×2 (in pixels per item) of the measured best.
+    pub fn within_x2(&self) -> bool {
+        let (m, p) = (
+            self.measured_px.max(1) as f64,
+            self.predicted_px.max(1) as f64,
+        );
+        (m / p).max(p / m) <= 2.0
+    }
+
+    /// One line of the report.
+    pub fn sentence(&self) -> String {
+        let px: Vec<String> = self.px.iter().map(u64::to_string).collect();
+        let nb: Vec<String> = self
+            .neighbours
+            .iter()
+            .map(|(px, r)| format!("{px} px {}", with_ci(r)))
+            .collect();
+        let verdict = if !self.clear() {
+            "no clear optimum (a neighbour is tied with it), so the ×2 check does not apply"
+                .to_string()
+        } else if self.within_x2() {
+            format!(
+                "a clear optimum; predicted best {} px: within ×2",
+                self.predicted_px
+            )
+        } else {
+            format!(
+                "a clear optimum; predicted best {} px: outside ×2",
+                self.predicted_px
+            )
+        };
+        format!(
+            "- `{}` over {} px per item: measured best {} px (neighbours {}): {verdict}.",
+            self.curve,
+            px.join(", "),
+            self.measured_px,
+            nb.join("; ")
+        )
+    }
+}
+
+/// The label without its `chunk=…` word: what the points of one chunk curve share.
+fn curve_of(label: &str) -> String {
+    label
+        .split_whitespace()
+        .filter(|w| !w.starts_with("chunk="))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The chunk curves of `with` (configurations with a prediction) that have three points or
+/// more, each checked against the model's best chunk on the same curve.
+pub fn chunk_checks(with: &[&Summary]) -> Vec<ChunkCheck> {
+    let mut curves: Vec<(String, Vec<&Summary>)> = Vec::new();
+    for s in with {
+        let (Some(_), Some(_)) = (s.row.chunk_px, s.row.predicted_wall_s) else {
+            continue;
+        };
+        let key = curve_of(&s.row.label);
+        match curves.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(s),
+            None => curves.push((key, vec![s])),
+        }
+    }
+    curves
+        .into_iter()
+        .filter(|(_, v)| v.len() >= 3)
+        .filter_map(|(curve, mut v)| {
+            v.sort_by_key(|s| s.row.chunk_px);
+            let best =
+                (0..v.len()).min_by(|&a, &b| v[a].wall_median.total_cmp(&v[b].wall_median))?;
+            let pred = (0..v.len()).min_by(|&a, &b| {
+                let p = |i: usize| v[i].row.predicted_wall_s.unwrap_or(f64::INFINITY);
+                p(a).total_cmp(&p(b))
+            })?;
+            let neighbours = [best.checked_sub(1), Some(best + 1).filter(|&i| i < v.len())]
+                .into_iter()
+                .flatten()
+                .map(|i| (v[i].row.chunk_px.unwrap_or(0), wall_ratio(v[i], v[best])))
+                .collect();
+            Some(ChunkCheck {
+                curve,
+                px: v.iter().map(|s| s.row.chunk_px.unwrap_or(0)).collect(),
+                measured_px: v[best].row.chunk_px.unwrap_or(0),
+                neighbours,
+                predicted_px: v[pred].row.chunk_px.unwrap_or(0),
+            })
+        })
+        .collect()
+}
+
 /// The "Cost model" section of `report.md` for one group's rows at its most workers (only
 /// the configurations with a prediction), or `None` when none has one.
 pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
@@ -144,5 +258,100 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
         if flat.len() == 1 { "" } else { "s" },
         if flat.len() > 1 { " (a flat optimum)" } else { "" }
     );
+    let checks = chunk_checks(&with);
+    if !checks.is_empty() {
+        let clear: Vec<&ChunkCheck> = checks.iter().filter(|c| c.clear()).collect();
+        let _ = writeln!(
+            md,
+            "The ×2 best-chunk check (where a chunk curve has a clear optimum, its neighbours slower beyond their 95 % intervals, the predicted best chunk within ×2 of it in pixels per item): {} of {} clear optima within ×2; {} of {} curves without a clear optimum.\n",
+            clear.iter().filter(|c| c.within_x2()).count(),
+            clear.len(),
+            checks.len() - clear.len(),
+            checks.len()
+        );
+        for c in &checks {
+            let _ = writeln!(md, "{}", c.sentence());
+        }
+        let _ = writeln!(md);
+    }
     Some(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::results::RunRow;
+    use crate::experiment::summary::summarize;
+
+    /// Eight repetitions of a self-scheduling chunk of `side`² at `wall` seconds (±1 %),
+    /// predicted at `predicted`.
+    fn point(side: u64, wall: f64, predicted: f64) -> Vec<RunRow> {
+        (0..8)
+            .map(|rep| {
+                let mut r = RunRow::example();
+                r.config = format!("ss{side}");
+                r.scheduler = "self_scheduling".into();
+                r.label = format!("self_scheduling chunk={side} slow=1:3");
+                r.chunk = Some(side.to_string());
+                r.chunk_px = Some(side * side);
+                r.workers = 2;
+                r.repetition = rep;
+                // ±1 % noise, in a different pattern for each chunk (paired ratios keep it).
+                let k = (rep as u64 * 3 + side) % 5;
+                r.wall_s = wall * (1.0 + 0.005 * (k as f64 - 2.0));
+                r.predicted_wall_s = Some(predicted);
+                r
+            })
+            .collect()
+    }
+
+    fn checks(points: &[(u64, f64, f64)]) -> Vec<ChunkCheck> {
+        let rows: Vec<RunRow> = points
+            .iter()
+            .flat_map(|&(s, w, p)| point(s, w, p))
+            .collect();
+        let sums = summarize(&rows);
+        chunk_checks(&sums.iter().collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn a_clear_optimum_is_checked_against_the_predicted_best_chunk_and_a_flat_one_is_not() {
+        // Measured best 4² (16 px), both neighbours 10 % slower: a clear optimum.
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.10),
+            (16, 0.11, 0.105),
+            (64, 0.2, 0.2),
+        ]);
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].curve, "self_scheduling slow=1:3");
+        assert_eq!(c[0].px, [1, 16, 256, 4096]);
+        assert_eq!((c[0].measured_px, c[0].predicted_px), (16, 16));
+        assert!(c[0].clear() && c[0].within_x2(), "{c:?}");
+        assert_eq!(c[0].neighbours.len(), 2);
+        // The model prefers 16² (256 px): 16× off, outside ×2.
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.11),
+            (16, 0.11, 0.105),
+            (64, 0.2, 0.2),
+        ]);
+        assert!(c[0].clear() && !c[0].within_x2(), "{c:?}");
+        assert!(
+            c[0].sentence().contains("outside ×2"),
+            "{}",
+            c[0].sentence()
+        );
+        // 16² as fast as 4² within the noise: no clear optimum, whatever the model says.
+        let c = checks(&[
+            (1, 0.11, 0.12),
+            (4, 0.10, 0.11),
+            (16, 0.1001, 0.105),
+            (64, 0.2, 0.2),
+        ]);
+        assert!(!c[0].clear(), "{c:?}");
+        assert!(c[0].sentence().contains("does not apply"));
+        // Two points are no curve.
+        assert!(checks(&[(1, 0.11, 0.12), (4, 0.10, 0.11)]).is_empty());
+    }
 }

@@ -280,23 +280,39 @@ fn run_dispensed(
                 });
             }
             Timing::Items => {
-                let t0 = Instant::now();
-                let mut t = t0;
-                for it in chunk {
-                    l.run(job, it, probe);
-                    let now = Instant::now();
-                    times.add((now - t).as_secs_f64());
-                    t = now;
-                }
+                let secs =
+                    run_timed_groups(chunk, &mut times, Instant::now, |it| l.run(job, it, probe));
                 last = Some(Report {
                     items: c,
-                    secs: (t - t0).as_secs_f64(),
+                    secs,
                     grab_secs,
                     times,
                 });
             }
         }
     }
+}
+
+/// Run `chunk`, timing it in groups of [`dls::timed_group`] consecutive items into `times`;
+/// the chunk's seconds. One clock read per group instead of per item: a read and a variance
+/// update cost ~30–40 ns, 2 % of a 1.7 µs pixel of `skewed_low` at 16 spp.
+fn run_timed_groups(
+    chunk: &[WorkItem],
+    times: &mut ItemTimes,
+    mut clock: impl FnMut() -> Instant,
+    mut run: impl FnMut(&WorkItem),
+) -> f64 {
+    let t0 = clock();
+    let mut t = t0;
+    for group in chunk.chunks(dls::timed_group(chunk.len())) {
+        for it in group {
+            run(it);
+        }
+        let now = clock();
+        times.add_group(group.len() as u64, (now - t).as_secs_f64());
+        t = now;
+    }
+    (t - t0).as_secs_f64()
 }
 
 fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<u32> {
@@ -398,4 +414,36 @@ fn finish(locals: Vec<Local>, n: usize, t0: Instant, probe: Probe) -> (Results, 
     stats.wall_s = wall;
     tally.record(&mut stats);
     (results, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::Cell;
+    use std::time::Duration;
+
+    #[test]
+    fn a_chunk_is_timed_in_groups_so_the_clock_is_read_at_most_33_times() {
+        // A fake clock 1 µs further at every read; every item runs once, in order.
+        let items: Vec<WorkItem> = (0..1024).map(|i| WorkItem::rect(i, i, 0, 1, 1)).collect();
+        let (reads, base) = (Cell::new(0u32), Instant::now());
+        let clock = || {
+            reads.set(reads.get() + 1);
+            base + Duration::from_micros(reads.get() as u64)
+        };
+        let mut ran = Vec::new();
+        let mut times = ItemTimes::default();
+        let secs = run_timed_groups(&items, &mut times, clock, |it| ran.push(it.id));
+        assert_eq!(ran, (0..1024).collect::<Vec<u32>>());
+        // 32 groups of 32 items: 33 reads (one per item would be 1 025).
+        assert_eq!(reads.get(), 33);
+        assert_eq!((times.n, times.groups), (1024, 32));
+        assert!((secs - 32e-6).abs() < 1e-12, "{secs}");
+        assert!((times.mean - 1e-6 / 32.0).abs() < 1e-15, "{times:?}");
+        // A chunk of up to 32 items is timed item by item.
+        reads.set(0);
+        let mut small = ItemTimes::default();
+        run_timed_groups(&items[..5], &mut small, clock, |_| {});
+        assert_eq!((reads.get(), small.n, small.groups), (6, 5, 5));
+    }
 }

@@ -14,7 +14,13 @@
 //! the smaller the chunk. A worker that has timed fewer than two items has no σ yet: it gets a
 //! probe chunk of ⌈R/(8P)⌉ (our choice: a quarter of a FAC2 chunk, small enough that a slow
 //! worker's probe cannot dominate the run). Workers without statistics enter D and T with the
-//! mean μ and σ² of those that have them. Items are timed one by one ([`Timing::Items`]).
+//! mean μ and σ² of those that have them.
+//!
+//! μᵢ and σᵢ are those of worker i's item times (Banicescu & Liu's definition), estimated
+//! from groups of consecutive items timed together ([`Timing::Items`]: at most
+//! [`super::TIMED_GROUPS`] clock reads per chunk; [`ItemTimes::add_group`]), as LB4OMP's
+//! `AF` times sub-chunks rather than iterations. In stratified order a group's items sample
+//! the whole image, so m·(a − μ)² of a group of m items averaging a estimates σᵢ².
 
 use super::{ceil_count, ChunkRule, ItemTimes, Report, Timing};
 

@@ -13,8 +13,14 @@
 //!
 //! A worker with no finished chunk yet counts at the mean speed of those that have one (all
 //! weights are 1 before anyone has reported).
+//!
+//! A worker's first chunk is a probe of ⌈R/(8P)⌉ items outside the batches (our choice, as
+//! adaptive factoring's probe): a first FAC2 batch at equal weights hands every worker a
+//! quarter of the image on 2 workers before any speed is known, and a slow worker's blind
+//! quarter was the run's tail (Cornell box, one worker 3× slower: its first 4 096 pixels took
+//! 158 ms of a 180 ms run, adaptive factoring 151 ms; `experiments/heterogeneous.toml`).
 
-use super::factoring::{normalise, weighted, Batches};
+use super::factoring::{normalise, probe_chunk, weighted, Batches};
 use super::{ChunkRule, Report, Timing};
 
 /// AWF-C on P workers.
@@ -60,6 +66,9 @@ impl Awf {
 
 impl ChunkRule for Awf {
     fn next(&mut self, worker: usize, remaining: usize) -> usize {
+        if self.perf[worker].2 == 1 {
+            return probe_chunk(remaining, self.perf.len()).max(self.grab);
+        }
         let base = self.batches.base(remaining);
         weighted(self.weights[worker], base).max(self.grab)
     }
@@ -114,11 +123,10 @@ mod tests {
                 ..Default::default()
             })
         });
-        // Batch 1 (base 250): 250 at weight 1, then worker 1 — worker 0 has reported,
-        // worker 1 counts at its mean: still weights 1 → 250. Batch 2 (R = 500, base 125):
-        // worker 0 reports again (weights still 1: worker 1 unknown) → 125; worker 1 reports
-        // → speeds 1/3, 1 → weights 0.5, 1.5 → 188. Batch 3 (R = 187, base 47): 24, 71.
-        assert_eq!(&got[..6], [250, 250, 125, 188, 24, 71]);
+        // Probes: ⌈1000/16⌉ = 63, ⌈937/16⌉ = 59. Batch 1 (R = 878, base 220): worker 0 has
+        // reported, worker 1 counts at its mean: weights 1 → 220; worker 1 reports → speeds
+        // 1/3, 1 → weights 0.5, 1.5 → 330. Batch 2 (R = 328, base 82): 41, 123.
+        assert_eq!(&got[..6], [63, 59, 220, 330, 41, 123]);
         assert_eq!(got.iter().sum::<usize>(), 1000);
     }
 }

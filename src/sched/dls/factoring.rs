@@ -8,9 +8,9 @@
 //! wᵢ (the weights sum to P, so a batch still holds about half of R): ⌈wᵢ·⌈R/(2P)⌉⌉.
 //!
 //! WF's weights are either **known** — worker i slowed F× ([`Slow`]) has relative speed 1/F —
-//! or **measured**: every worker's first chunk runs at weight 1 and its time per item fixes
-//! its weight for the rest of the run (the online variant; a calibrated run would pass known
-//! speeds instead).
+//! or **measured**: every worker's first chunk is a probe of ⌈R/(8P)⌉ items outside the
+//! batches ([`probe_chunk`]) and its time per item fixes its weight for the rest of the run
+//! (the online variant; a calibrated run would pass known speeds instead).
 
 use super::{ceil_count, ChunkRule, Report, Timing};
 use crate::sched::param::{Slow, Weights};
@@ -43,6 +43,12 @@ impl Batches {
         self.left -= 1;
         self.base
     }
+}
+
+/// The first chunk of a worker whose speed is not measured yet: ⌈R/(8P)⌉, a quarter of a FAC2
+/// chunk, so that a slow worker's blind chunk stays a small part of the run.
+pub(crate) fn probe_chunk(remaining: usize, p: usize) -> usize {
+    remaining.div_ceil(8 * p.max(1)).max(1)
 }
 
 /// `⌈w·base⌉`, tolerant of the rounding in a weight that should be exactly 1.
@@ -101,6 +107,9 @@ impl Factoring {
 
 impl ChunkRule for Factoring {
     fn next(&mut self, worker: usize, remaining: usize) -> usize {
+        if self.measuring.as_ref().is_some_and(|m| m[worker].is_none()) {
+            return probe_chunk(remaining, self.weights.len()).max(self.grab);
+        }
         let base = self.batches.base(remaining);
         weighted(self.weights[worker], base).max(self.grab)
     }
@@ -182,10 +191,10 @@ mod tests {
                 ..Default::default()
             })
         });
-        // First batch unweighted: 250, 250. Worker 0 reports before worker 1 has, so its
-        // second chunk is still unweighted (125); worker 1's report fixes the weights at 0.5,
-        // 1.5: ⌈1.5·125⌉ = 188; then R = 187, base 47 → 24 (23.5), 71 (70.5).
-        assert_eq!(&got[..6], [250, 250, 125, 188, 24, 71]);
+        // Probes ⌈1000/16⌉ = 63 and ⌈937/16⌉ = 59. Worker 0 reports before worker 1 has, so
+        // its first batch chunk is unweighted (R = 878, base 220); worker 1's report fixes the
+        // weights at 0.5, 1.5: ⌈1.5·220⌉ = 330; then R = 328, base 82 → 41, 123.
+        assert_eq!(&got[..6], [63, 59, 220, 330, 41, 123]);
         assert_eq!(wf.timing(), Timing::None);
         assert!((wf.weights()[0] - 0.5).abs() < 1e-12);
     }

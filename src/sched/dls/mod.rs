@@ -30,38 +30,62 @@ pub enum Timing {
     None,
     /// Each chunk's wall time (two clock reads per chunk).
     Chunks,
-    /// Each item's time (one clock read per item), for per-item means and spreads.
+    /// Item times for per-item means and spreads, read per group of consecutive items
+    /// ([`timed_group`]: at most [`TIMED_GROUPS`] clock reads per chunk).
     Items,
 }
 
-/// Running mean and variance (Welford) of a worker's item times, in seconds.
+/// Running mean and variance (Welford, weighted as in West 1979) of a worker's item times, in
+/// seconds, from groups of consecutive items timed together: a group of m items averaging a
+/// adds m·(a − μ)² to the spread, so for independent items `var` estimates one item's
+/// variance (E[m·(a − μ)²] = σ²) while the clock is read once per group, not per item.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ItemTimes {
     /// Items timed.
     pub n: u64,
     /// Mean item time.
     pub mean: f64,
-    /// Sum of squared deviations from the mean.
+    /// Σ m·(a − mean)² over the groups (Σ of squared deviations for groups of one).
     pub m2: f64,
+    /// Groups timed.
+    pub groups: u64,
 }
 
 impl ItemTimes {
     /// Add one item's time.
     pub fn add(&mut self, secs: f64) {
-        self.n += 1;
-        let d = secs - self.mean;
-        self.mean += d / self.n as f64;
-        self.m2 += d * (secs - self.mean);
+        self.add_group(1, secs);
     }
 
-    /// The sample variance (0 below two items).
+    /// Add a group of `items` consecutive items that took `secs` together.
+    pub fn add_group(&mut self, items: u64, secs: f64) {
+        if items == 0 {
+            return;
+        }
+        let (m, a) = (items as f64, secs / items as f64);
+        self.n += items;
+        self.groups += 1;
+        let d = a - self.mean;
+        self.mean += d * m / self.n as f64;
+        self.m2 += m * d * (a - self.mean);
+    }
+
+    /// The estimated variance of one item's time (0 below two groups).
     pub fn var(&self) -> f64 {
-        if self.n < 2 {
+        if self.groups < 2 {
             0.0
         } else {
-            self.m2 / (self.n - 1) as f64
+            self.m2 / (self.groups - 1) as f64
         }
     }
+}
+
+/// Groups a chunk's items are timed in under [`Timing::Items`]: at most this many per chunk.
+pub const TIMED_GROUPS: usize = 32;
+
+/// Items per timed group of a `chunk`-item chunk: ⌈chunk / [`TIMED_GROUPS`]⌉, at least 1.
+pub fn timed_group(chunk: usize) -> usize {
+    chunk.div_ceil(TIMED_GROUPS).max(1)
 }
 
 /// What a worker reports of its previous chunk when it asks for the next.
@@ -74,7 +98,7 @@ pub struct Report {
     pub secs: f64,
     /// How long asking for the chunk took, lock wait included (the hand-out cost h).
     pub grab_secs: f64,
-    /// Every item this worker has timed so far ([`Timing::Items`] only).
+    /// Every item this worker has timed so far, in groups ([`Timing::Items`] only).
     pub times: ItemTimes,
 }
 
@@ -144,4 +168,49 @@ pub(crate) fn sequence(
         w = (w + 1) % p;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn groups_of_one_are_the_sample_variance_and_groups_estimate_one_items_variance() {
+        // Items 1, 2, 3, 6 one by one: mean 3, sample variance (4 + 1 + 0 + 9)/3 = 14/3.
+        let mut one = ItemTimes::default();
+        for t in [1.0, 2.0, 3.0, 6.0] {
+            one.add(t);
+        }
+        assert!((one.mean - 3.0).abs() < 1e-12 && (one.var() - 14.0 / 3.0).abs() < 1e-12);
+        // Groups (2 items averaging 1) and (2 items averaging 3): μ = 2, Σ m·(a − μ)² = 4
+        // over 2 − 1 degrees of freedom.
+        let mut g = ItemTimes::default();
+        g.add_group(2, 2.0);
+        g.add_group(2, 6.0);
+        assert_eq!((g.n, g.groups), (4, 2));
+        assert!(
+            (g.mean - 2.0).abs() < 1e-12 && (g.var() - 4.0).abs() < 1e-12,
+            "{g:?}"
+        );
+        // Independent items of mean 1 and variance 1/3 (uniform on 0..2, a fixed LCG),
+        // timed in 4 000 groups of 16: the estimate is within 5 % of 1/3 (its own spread
+        // is √(2/3999) ≈ 2.2 %).
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            2.0 * (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pooled = ItemTimes::default();
+        for _ in 0..4000 {
+            let s: f64 = (0..16).map(|_| uniform()).sum();
+            pooled.add_group(16, s);
+        }
+        assert!((pooled.mean - 1.0).abs() < 0.01, "{pooled:?}");
+        assert!((pooled.var() * 3.0 - 1.0).abs() < 0.05, "{pooled:?}");
+        assert_eq!(timed_group(1024), 32);
+        assert_eq!(timed_group(33), 2);
+        assert_eq!((timed_group(32), timed_group(0)), (1, 1));
+    }
 }
