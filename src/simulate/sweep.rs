@@ -234,6 +234,7 @@ impl Inputs {
             refill_s,
             lost: plan.lost.clone(),
             seed: plan.seed,
+            network: plan.network(spec.workers),
         })
     }
 }
@@ -251,6 +252,8 @@ pub struct SimRow {
     pub serial_s: f64,
     /// Items in the decomposition.
     pub items: usize,
+    /// The network it was simulated on.
+    pub network: super::job::Network,
     /// What the simulation reported.
     pub out: SimOutcome,
 }
@@ -305,6 +308,7 @@ impl SimRow {
         h.extend(
             [
                 "workers",
+                "network",
                 "wall_s",
                 "serial_s",
                 "speedup",
@@ -348,6 +352,7 @@ impl SimRow {
         );
         r.extend([
             s.workers.to_string(),
+            self.network.id().to_string(),
             format!("{:.9}", o.wall_s),
             format!("{:.9}", self.serial_s),
             format!("{:.4}", self.speedup()),
@@ -407,6 +412,7 @@ pub fn simulate_one(
         },
         serial_s: inputs.pixels.serial_s(),
         items: job.cost_s.len(),
+        network: job.network,
         out,
     })
 }
@@ -545,6 +551,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         figures.extend(plot::validation(&dir.join("plots"), v).map_err(anyhow::Error::msg)?);
         report += &validate::markdown(v);
     }
+    report += &plot::saturation_markdown(&rows, &inputs);
     report += &plot::summary_markdown(&rows, &inputs);
     for f in &figures {
         report += &format!("\n![{f}](plots/{f})\n");
