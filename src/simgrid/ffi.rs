@@ -51,6 +51,8 @@ crate::dl::dl_api! {
     sg_host_get_speed: fn(*const OpaqueHost) -> f64;
     sg_host_core_count: fn(*const OpaqueHost) -> c_int;
     sg_host_turn_off: fn(*mut OpaqueHost);
+    sg_host_get_route_latency: fn(*const OpaqueHost, *const OpaqueHost) -> f64;
+    sg_host_get_route_bandwidth: fn(*const OpaqueHost, *const OpaqueHost) -> f64;
     sg_actor_create_: fn(*const c_char, *mut OpaqueHost, ActorMain, c_int, *mut *mut c_char) -> *mut OpaqueActor;
     sg_actor_daemonize: fn(*mut OpaqueActor);
     sg_actor_execute: fn(f64);
@@ -63,6 +65,7 @@ crate::dl::dl_api! {
     sg_mailbox_get: fn(*mut OpaqueMailbox) -> *mut c_void;
     sg_sem_init: fn(c_int) -> *mut OpaqueSem;
     sg_sem_acquire: fn(*mut OpaqueSem);
+    sg_sem_acquire_timeout: fn(*mut OpaqueSem, f64) -> c_int;
     sg_sem_release: fn(*mut OpaqueSem);
 }
 
@@ -127,7 +130,7 @@ pub fn clock() -> f64 {
 }
 
 /// A host of the loaded platform.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Host(*mut OpaqueHost);
 
 impl Host {
@@ -166,6 +169,17 @@ impl Host {
     pub fn cores(self) -> usize {
         // SAFETY: self is a live host of the platform.
         unsafe { (api().sg_host_core_count)(self.0) }.max(0) as usize
+    }
+    /// The route to `to` as the platform file writes it: Σ of its links' latencies, seconds,
+    /// and its narrowest link's bandwidth, bytes/s (the network model's factors not applied).
+    pub fn route_to(self, to: Host) -> (f64, f64) {
+        // SAFETY: both hosts belong to the loaded platform; the calls only read its routing.
+        unsafe {
+            (
+                (api().sg_host_get_route_latency)(self.0, to.0),
+                (api().sg_host_get_route_bandwidth)(self.0, to.0),
+            )
+        }
     }
     /// Turn the host off: its actors are killed (their stacks unwound), its comms fail.
     pub fn turn_off(self) {
@@ -309,6 +323,11 @@ impl Semaphore {
     pub fn acquire(self) {
         // SAFETY: self.0 is a live semaphore (never destroyed); called from an actor.
         unsafe { (api().sg_sem_acquire)(self.0) }
+    }
+    /// Take a token, waiting at most `timeout` seconds of simulated time; false if none came.
+    pub fn acquire_timeout(self, timeout: f64) -> bool {
+        // SAFETY: as in `acquire`. SimGrid returns non-zero on a timeout.
+        unsafe { (api().sg_sem_acquire_timeout)(self.0, timeout) == 0 }
     }
     /// Give a token back, waking one waiting actor.
     pub fn release(self) {

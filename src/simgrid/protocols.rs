@@ -18,9 +18,9 @@ use crate::sched::dls::{self, ItemTimes, Report};
 use crate::sched::param::Slow;
 use crate::sched::renderers::mitsuba_grain;
 use crate::sched::{Policy, Requeue};
-use crate::simulate::job::{SimJob, SimOutcome, FAN_IN_GROUP, REFERENCE_FLOPS};
-use std::cell::RefCell;
-use std::collections::VecDeque;
+use crate::simulate::job::{Network, SimJob, SimOutcome, FAN_IN_GROUP, REFERENCE_FLOPS};
+use std::cell::{Cell, RefCell};
+use std::collections::{BinaryHeap, HashMap, VecDeque};
 use std::rc::Rc;
 
 /// Bytes of a message that carries nothing but its envelope (a steal request, an empty grab).
@@ -43,7 +43,7 @@ type Shared<T> = Rc<RefCell<T>>;
 /// or, on a core of its own, as a timer of the same length. SimGrid gives each of ≤ cores
 /// executions a whole core, so both take the same simulated time; the timer spares the engine
 /// a CPU-sharing variable per execution. (What made large runs slow was the shared mailbox,
-/// see [`FanIn`].)
+/// see [`Inbox`].)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Cpu {
     /// Shared: `sg_actor_execute`.
@@ -72,6 +72,8 @@ pub(crate) struct World {
     worker_cpu: Vec<Cpu>,
     /// How the master computes its hand-outs.
     master_cpu: Cpu,
+    /// The coarse network's links ([`Network::Coarse`]); `None` on SimGrid's network.
+    wires: Option<Rc<Wires>>,
 }
 
 /// Each worker's [`Cpu`] and the master's: a host with at least as many cores as actors
@@ -122,6 +124,7 @@ impl World {
             last_result: 0.0,
             lost: vec![false; w],
         };
+        let wires = (job.network == Network::Coarse).then(|| Rc::new(Wires::new()));
         Self {
             job,
             master_host,
@@ -129,6 +132,7 @@ impl World {
             tally: Rc::new(RefCell::new(tally)),
             worker_cpu,
             master_cpu,
+            wires,
         }
     }
 
@@ -194,59 +198,194 @@ fn item_bytes(job: &SimJob, items: &[usize]) -> u64 {
         .max(EMPTY_MESSAGE)
 }
 
-/// Many senders, one receiver: the senders are split in groups of [`FAN_IN_GROUP`], each
-/// group sending to its own mailbox `{name}{group}`, whose relay actor (on the receiver's host)
-/// moves each message, once the network has delivered it, into one FIFO counted by a
-/// semaphore. The same arrival order as one shared mailbox, without its cost: SimGrid scans a
-/// mailbox's queue when a message is taken, and a saturated master's queue holds one result per
-/// waiting worker, so with one shared mailbox a run cost items × workers (measured on the
-/// loaded 2-core dev box, a master over 100 k items: 8.6 s at 1024 workers, 37 s at 4096,
-/// 16 384 unfinished after 150 s; with the fan-in 13.5 s at 4096, the same simulated times).
-struct FanIn<T> {
+/// A message with the simulated time it reaches its receiver (ordered earliest first, then
+/// in sending order).
+struct Arrival<T> {
+    at: f64,
+    seq: u64,
+    value: T,
+}
+
+impl<T> PartialEq for Arrival<T> {
+    fn eq(&self, o: &Self) -> bool {
+        self.seq == o.seq
+    }
+}
+impl<T> Eq for Arrival<T> {}
+impl<T> PartialOrd for Arrival<T> {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl<T> Ord for Arrival<T> {
+    // Reversed: `BinaryHeap` is a max-heap and the earliest arrival must come first.
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        o.at.total_cmp(&self.at).then(o.seq.cmp(&self.seq))
+    }
+}
+
+/// The coarse network ([`Network::Coarse`]): a message from host a to host b leaves when a's
+/// outgoing link is free, occupies it for bytes / bandwidth, arrives a route latency later and
+/// is delivered when b's incoming link has passed it (each link direction a FIFO server, as
+/// `SPLITDUPLEX` gives each direction its own capacity). Latency and bandwidth are the
+/// platform's, per route. Not modelled: a backbone shared by many pairs (the shipped clusters'
+/// is 10× a node's link) and the network model's factors (the shipped files set latency's to
+/// 1; bandwidth's 0.97 changes a 45-byte message at 10 Gb/s by 1 ns).
+pub(crate) struct Wires {
+    routes: RefCell<HashMap<(Host, Host), (f64, f64)>>,
+    out_free: RefCell<HashMap<Host, f64>>,
+    in_free: RefCell<HashMap<Host, f64>>,
+}
+
+impl Wires {
+    fn new() -> Self {
+        Self {
+            routes: RefCell::new(HashMap::new()),
+            out_free: RefCell::new(HashMap::new()),
+            in_free: RefCell::new(HashMap::new()),
+        }
+    }
+
+    /// When `bytes` sent now from `from` reach `to`.
+    fn arrival(&self, from: Host, to: Host, bytes: u64) -> f64 {
+        let (lat, bw) = *self
+            .routes
+            .borrow_mut()
+            .entry((from, to))
+            .or_insert_with(|| from.route_to(to));
+        let tx = if bw > 0.0 { bytes as f64 / bw } else { 0.0 };
+        let now = clock();
+        let mut out = self.out_free.borrow_mut();
+        let leave = out.get(&from).copied().unwrap_or(0.0).max(now);
+        out.insert(from, leave + tx);
+        let mut inn = self.in_free.borrow_mut();
+        let at = (leave + lat + tx).max(inn.get(&to).copied().unwrap_or(0.0) + tx);
+        inn.insert(to, at);
+        at
+    }
+}
+
+/// One receiver's messages. On SimGrid's network ([`Network::Fine`]) a receiver with one
+/// sender at a time reads its own mailbox; one with many (the master, the counter, the sink)
+/// is a fan-in: senders are split in groups of [`FAN_IN_GROUP`], each group sending to its own
+/// mailbox `{name}{group}`, whose relay actor (on the receiver's host) moves each message, once
+/// the network has delivered it, into one queue counted by a semaphore. The same arrival order
+/// as one shared mailbox, without its cost: SimGrid scans a mailbox's queue when a message is
+/// taken, and a saturated master's queue holds one result per waiting worker, so with one
+/// shared mailbox a run cost items × workers (measured on the loaded 2-core dev box, a master
+/// over 100 k items: 8.6 s at 1024 workers, 37 s at 4096; with the fan-in 13.5 s at 4096, the
+/// same simulated times). On the coarse network every message goes straight into the
+/// receiver's queue with its arrival time from [`Wires`]; no flow, relay or mailbox.
+struct Inbox<T> {
     name: String,
-    queue: Shared<VecDeque<T>>,
+    host: Host,
+    /// Fine network, many senders: relays feed `queue`.
+    fan_in: bool,
+    /// The coarse network's links; `None` on SimGrid's.
+    wires: Option<Rc<Wires>>,
+    queue: Shared<BinaryHeap<Arrival<T>>>,
+    seq: Cell<u64>,
     ready: Semaphore,
 }
 
-impl<T: 'static> FanIn<T> {
-    /// The fan-in `name` from `senders` senders into an actor on `host`.
-    fn new(name: &str, host: Host, senders: usize) -> Rc<Self> {
-        let fan = Rc::new(Self {
+impl<T: 'static> Inbox<T> {
+    /// The inbox `name` on `host`; `senders` > 1 at a time makes it a fan-in.
+    fn new(world: &World, name: &str, host: Host, fan_in: bool) -> Rc<Self> {
+        let inbox = Rc::new(Self {
             name: name.to_string(),
-            queue: Rc::new(RefCell::new(VecDeque::new())),
+            host,
+            fan_in,
+            wires: world.wires.clone(),
+            queue: Rc::new(RefCell::new(BinaryHeap::new())),
+            seq: Cell::new(0),
             ready: Semaphore::new(0),
         });
-        for g in 0..senders.div_ceil(FAN_IN_GROUP) {
-            let f = Rc::clone(&fan);
-            ffi::spawn("relay", host, true, move || {
-                let inbox = Mailbox::<T>::by_name(&format!("{}{g}", f.name));
-                inbox.set_receiver();
-                loop {
-                    let v = inbox.get();
-                    f.push(v);
-                }
-            });
+        if fan_in && inbox.wires.is_none() {
+            for g in 0..world.job.workers.div_ceil(FAN_IN_GROUP) {
+                let f = Rc::clone(&inbox);
+                ffi::spawn("relay", host, true, move || {
+                    let mb = Mailbox::<T>::by_name(&format!("{}{g}", f.name));
+                    mb.set_receiver();
+                    loop {
+                        let v = mb.get();
+                        f.push(v);
+                    }
+                });
+            }
         }
-        fan
+        inbox
     }
 
-    /// Sender `k`'s end.
-    fn sender(&self, k: usize) -> Mailbox<T> {
-        Mailbox::by_name(&format!("{}{}", self.name, k / FAN_IN_GROUP))
+    /// A worker's own inbox (one sender at a time).
+    fn of_worker(world: &World, prefix: &str, k: usize) -> Rc<Self> {
+        Self::new(world, &format!("{prefix}{k}"), world.worker_hosts[k], false)
+    }
+
+    fn own_mailbox(&self) -> Option<Mailbox<T>> {
+        (self.wires.is_none() && !self.fan_in).then(|| Mailbox::by_name(&self.name))
+    }
+
+    /// Called by the receiving actor before its first `get`: on the fine network its mailbox
+    /// takes messages as they are sent (eager).
+    fn bind(&self) {
+        if let Some(mb) = self.own_mailbox() {
+            mb.set_receiver();
+        }
+    }
+
+    /// Send `value` (`bytes` on the wire) from `from`, the `sender`-th of the inbox's senders,
+    /// without waiting for its delivery.
+    fn send(&self, from: Host, sender: usize, value: T, bytes: u64) {
+        match &self.wires {
+            Some(wires) => {
+                let at = wires.arrival(from, self.host, bytes);
+                self.enqueue(at, value);
+            }
+            None if self.fan_in => {
+                Mailbox::by_name(&format!("{}{}", self.name, sender / FAN_IN_GROUP))
+                    .put_detached(value, bytes)
+            }
+            None => Mailbox::by_name(&self.name).put_detached(value, bytes),
+        }
     }
 
     /// Deliver `v` at once (from the receiver's own host, no network).
     fn push(&self, v: T) {
-        self.queue.borrow_mut().push_back(v);
+        self.enqueue(clock(), v);
+    }
+
+    fn enqueue(&self, at: f64, value: T) {
+        let seq = self.seq.get();
+        self.seq.set(seq + 1);
+        self.queue.borrow_mut().push(Arrival { at, seq, value });
         self.ready.release();
     }
 
-    /// The next message, waiting for one.
+    /// Is a message waiting?
+    fn has_message(&self) -> bool {
+        match self.own_mailbox() {
+            Some(mb) => mb.has_message(),
+            None => self.queue.borrow().peek().is_some_and(|a| a.at <= clock()),
+        }
+    }
+
+    /// The next message, waiting for one. Every enqueue releases a token; a token left over
+    /// from a message taken without waiting costs one extra turn of the loop.
     fn get(&self) -> T {
+        if let Some(mb) = self.own_mailbox() {
+            return mb.get();
+        }
         loop {
-            self.ready.acquire();
-            if let Some(v) = self.queue.borrow_mut().pop_front() {
-                return v;
+            let next = self.queue.borrow().peek().map(|a| a.at);
+            match next {
+                None => self.ready.acquire(),
+                Some(at) => {
+                    let wait = at - clock();
+                    // A timeout means nothing earlier came: `at` is the earliest.
+                    if wait <= 0.0 || !self.ready.acquire_timeout(wait) {
+                        return self.queue.borrow_mut().pop().expect("peeked").value;
+                    }
+                }
             }
         }
     }
@@ -256,7 +395,7 @@ impl<T: 'static> FanIn<T> {
 /// grabs from a shared counter, one arm in [`grab_rule`].
 pub(crate) fn spawn_protocol(world: Rc<World>, policy: Policy) {
     let master_inbox = matches!(policy, Policy::Master(_))
-        .then(|| FanIn::<MasterMsg>::new("master", world.master_host, world.job.workers));
+        .then(|| Inbox::<MasterMsg>::new(&world, "master", world.master_host, true));
     spawn_killers(&world, master_inbox.clone());
     match policy {
         Policy::Static => static_split(world, |n, w, k| (k * n / w..(k + 1) * n / w).collect()),
@@ -319,7 +458,7 @@ pub(crate) fn grab_rule(policy: &Policy, n: usize, w: usize) -> GrabRule {
 
 /// Turn the lost workers' hosts off at their times; the master hears of it at once (a local
 /// source's failure is seen on its next result; over MPI after a silence, not modelled).
-fn spawn_killers(world: &Rc<World>, master: Option<Rc<FanIn<MasterMsg>>>) {
+fn spawn_killers(world: &Rc<World>, master: Option<Rc<Inbox<MasterMsg>>>) {
     for lost in world.job.lost.clone() {
         let w = Rc::clone(world);
         let master = master.clone();
@@ -369,8 +508,11 @@ struct Request {
 fn counter(world: Rc<World>, mut rule: GrabRule) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     let wd = Rc::clone(&world);
-    let requests = FanIn::<Request>::new("counter", world.master_host, w);
+    let requests = Inbox::<Request>::new(&world, "counter", world.master_host, true);
+    let grants: Vec<Rc<Inbox<Vec<usize>>>> =
+        (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
     let inbox = Rc::clone(&requests);
+    let to = grants.clone();
     ffi::spawn("counter", world.master_host, true, move || {
         let mut next = 0;
         loop {
@@ -386,22 +528,21 @@ fn counter(world: Rc<World>, mut rule: GrabRule) {
             let bytes = item_bytes(&wd.job, &items);
             wd.tally.borrow_mut().out.issued += c as u64;
             count_message(&wd.tally, bytes);
-            Mailbox::<Vec<usize>>::by_name(&format!("w{}", req.worker)).put_detached(items, bytes);
+            to[req.worker].send(wd.master_host, 0, items, bytes);
         }
     });
-    for k in 0..w {
+    for (k, inbox) in grants.into_iter().enumerate() {
         let wd = Rc::clone(&world);
-        let counter = requests.sender(k);
+        let counter = Rc::clone(&requests);
         ffi::spawn("worker", world.worker_hosts[k], false, move || {
-            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
-            inbox.set_receiver();
+            inbox.bind();
             let mut last: Vec<usize> = Vec::new();
             let mut report = None;
             loop {
                 let bytes = result_bytes(&wd.job, &last);
                 count_message(&wd.tally, bytes);
                 let asked = clock();
-                counter.put_detached(Request { worker: k, report }, bytes);
+                counter.send(wd.worker_hosts[k], k, Request { worker: k, report }, bytes);
                 let items = inbox.get();
                 if items.is_empty() {
                     let mut t = wd.tally.borrow_mut();
@@ -439,16 +580,29 @@ fn chunk_report(job: &SimJob, items: &[usize], grab_secs: f64, secs: f64) -> Rep
     }
 }
 
-/// Results of stolen or own work travel to the master's host (nothing waits for them; the run
-/// ends when the last one has arrived).
-fn result_sink(world: &Rc<World>) -> Rc<FanIn<()>> {
+/// Results of stolen or own work travel to the master's host, each message with its item
+/// count; the run ends when the last item's result has arrived. (A daemon sink ended with the
+/// last worker, before results in flight arrived: on the 500 µs cluster work stealing at 4096
+/// workers came out at static's 0.1 ms, its results' 0.5 ms of latency left out.) With lost
+/// workers some results never come, so there the sink is a daemon again and the run ends
+/// with the last worker.
+fn result_sink(world: &Rc<World>) -> Rc<Inbox<usize>> {
     let wd = Rc::clone(world);
-    let sink = FanIn::<()>::new("sink", world.master_host, world.job.workers);
+    let sink = Inbox::<usize>::new(world, "sink", world.master_host, true);
     let inbox = Rc::clone(&sink);
-    ffi::spawn("sink", world.master_host, true, move || loop {
-        inbox.get();
-        wd.tally.borrow_mut().last_result = clock();
-    });
+    let n = world.job.cost_s.len();
+    ffi::spawn(
+        "sink",
+        world.master_host,
+        !world.job.lost.is_empty(),
+        move || {
+            let mut arrived = 0;
+            while arrived < n {
+                arrived += inbox.get();
+                wd.tally.borrow_mut().last_result = clock();
+            }
+        },
+    );
     sink
 }
 
@@ -466,15 +620,22 @@ fn stealing(world: Rc<World>, grab: usize) {
     let unassigned = Rc::new(RefCell::new(n));
     world.tally.borrow_mut().out.issued = n as u64;
     let sink = result_sink(&world);
-    for k in 0..w {
+    // Shared, not copied into each actor: W actors × W inboxes is W² (at 8192 workers most of
+    // the simulation's time went into copying and dropping those lists).
+    let loot_boxes: Rc<[Rc<Inbox<Vec<usize>>>]> =
+        (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
+    let steal_boxes: Rc<[Rc<Inbox<usize>>]> = (0..w)
+        .map(|k| Inbox::of_worker(&world, "steal", k))
+        .collect();
+    for (k, inbox) in steal_boxes.iter().cloned().enumerate() {
         let (wd, dq, left) = (
             Rc::clone(&world),
             Rc::clone(&deques),
             Rc::clone(&unassigned),
         );
+        let loot_boxes = Rc::clone(&loot_boxes);
         ffi::spawn("steal-server", world.worker_hosts[k], true, move || {
-            let inbox = Mailbox::<usize>::by_name(&format!("steal{k}"));
-            inbox.set_receiver();
+            inbox.bind();
             loop {
                 let thief = inbox.get();
                 sleep_for(wd.job.counter_s);
@@ -486,25 +647,25 @@ fn stealing(world: Rc<World>, grab: usize) {
                 *left.borrow_mut() -= loot.len();
                 let bytes = item_bytes(&wd.job, &loot);
                 count_message(&wd.tally, bytes);
-                Mailbox::<Vec<usize>>::by_name(&format!("w{thief}")).put_detached(loot, bytes);
+                loot_boxes[thief].send(wd.worker_hosts[k], k, loot, bytes);
             }
         });
     }
     let mut seed = world.job.seed | 1;
-    for k in 0..w {
+    for (k, inbox) in loot_boxes.iter().cloned().enumerate() {
         let (wd, dq, left) = (
             Rc::clone(&world),
             Rc::clone(&deques),
             Rc::clone(&unassigned),
         );
+        let steal_boxes = Rc::clone(&steal_boxes);
         seed = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         let mut rng = seed;
-        let sink = sink.sender(k);
+        let sink = Rc::clone(&sink);
         ffi::spawn("worker", world.worker_hosts[k], false, move || {
-            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
-            inbox.set_receiver();
+            inbox.bind();
             loop {
                 let items: Vec<usize> = {
                     let mut d = dq.borrow_mut();
@@ -516,7 +677,7 @@ fn stealing(world: Rc<World>, grab: usize) {
                     work(&wd, k, &items);
                     let bytes = result_bytes(&wd.job, &items);
                     count_message(&wd.tally, bytes);
-                    sink.put_detached((), bytes);
+                    sink.send(wd.worker_hosts[k], k, items.len(), bytes);
                     continue;
                 }
                 if *left.borrow() == 0 || w == 1 {
@@ -528,7 +689,7 @@ fn stealing(world: Rc<World>, grab: usize) {
                 rng ^= rng << 17;
                 let victim = (k + 1 + (rng % (w as u64 - 1)) as usize) % w;
                 count_message(&wd.tally, EMPTY_MESSAGE);
-                Mailbox::<usize>::by_name(&format!("steal{victim}")).put_detached(k, EMPTY_MESSAGE);
+                steal_boxes[victim].send(wd.worker_hosts[k], k, k, EMPTY_MESSAGE);
                 let loot = inbox.get();
                 *left.borrow_mut() += loot.len();
                 dq.borrow_mut()[k].extend(loot);
@@ -593,14 +754,16 @@ impl Ledger {
 
 /// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue;
 /// each worker finishes at most one item per the job's refill period.
-fn master(world: Rc<World>, inbox: Rc<FanIn<MasterMsg>>, buffer: usize, requeue: Requeue) {
+fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue: Requeue) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
-    for k in 0..w {
+    let batches: Vec<Rc<Inbox<Vec<usize>>>> =
+        (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
+    for (k, own) in batches.iter().cloned().enumerate() {
         let wd = Rc::clone(&world);
-        let master = inbox.sender(k);
+        let master = Rc::clone(&inbox);
         ffi::spawn("worker", world.worker_hosts[k], true, move || {
-            let inbox = Mailbox::<Vec<usize>>::by_name(&format!("w{k}"));
-            inbox.set_receiver();
+            let inbox = own;
+            inbox.bind();
             let mut local: VecDeque<usize> = VecDeque::new();
             loop {
                 while local.is_empty() || inbox.has_message() {
@@ -613,7 +776,12 @@ fn master(world: Rc<World>, inbox: Rc<FanIn<MasterMsg>>, buffer: usize, requeue:
                 work(&wd, k, &[item]);
                 let bytes = wd.job.result_bytes[item] as u64;
                 count_message(&wd.tally, bytes);
-                master.put_detached(MasterMsg::Result { worker: k, item }, bytes);
+                master.send(
+                    wd.worker_hosts[k],
+                    k,
+                    MasterMsg::Result { worker: k, item },
+                    bytes,
+                );
                 // The source's period per item is at least the master's measured refill
                 // period: it waits for its refill, idle.
                 let rest = wd.job.refill_s - (clock() - t0);
@@ -652,7 +820,7 @@ fn master(world: Rc<World>, inbox: Rc<FanIn<MasterMsg>>, buffer: usize, requeue:
                 t.out.reissued += reissued;
             }
             count_message(&wd.tally, bytes);
-            Mailbox::<Vec<usize>>::by_name(&format!("w{k}")).put_detached(batch, bytes);
+            batches[k].send(wd.master_host, 0, batch, bytes);
         };
         for k in 0..w {
             hand_out(&mut l, k);

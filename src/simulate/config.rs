@@ -28,6 +28,7 @@
 //! at_s = 0.01
 //!
 //! run_limit_s = 120                               # optional: a run simulating longer is cut
+//! coarse_network_from = 8192                      # optional: runs this large on the coarse network
 //!
 //! [validation]                                    # optional: against a measured runs.csv
 //! measured = "../results/runs/simvalidate/runs.csv"
@@ -63,6 +64,7 @@ struct SimFile {
     #[serde(default)]
     seed: u64,
     run_limit_s: Option<f64>,
+    coarse_network_from: Option<i64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -170,6 +172,20 @@ pub struct SimPlan {
     /// Seconds of real time one simulated run may take; a run still going then is stopped
     /// and its row says so (no wall time).
     pub run_limit_s: Option<f64>,
+    /// Runs of at least this many workers are simulated on the coarse network
+    /// ([`crate::simulate::job::Network::Coarse`]); `None`: every run on SimGrid's.
+    pub coarse_network_from: Option<usize>,
+}
+
+impl SimPlan {
+    /// The network a run of `workers` workers is simulated on.
+    pub fn network(&self, workers: usize) -> crate::simulate::job::Network {
+        use crate::simulate::job::Network;
+        match self.coarse_network_from {
+            Some(from) if workers >= from => Network::Coarse,
+            _ => Network::Fine,
+        }
+    }
 }
 
 /// The most simulated workers accepted.
@@ -411,6 +427,16 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
                 ))
             }
             t => t,
+        },
+        coarse_network_from: match file.coarse_network_from {
+            Some(w) if !(1..=MAX_SIM_WORKERS).contains(&w) => {
+                return Err(field(
+                    path,
+                    "coarse_network_from",
+                    format!("must be a worker count in 1..={MAX_SIM_WORKERS} (got {w})"),
+                ))
+            }
+            w => w.map(|w| w as usize),
         },
     })
 }

@@ -37,6 +37,31 @@ pub fn mapping_budget() -> usize {
     limit.saturating_sub(2_000)
 }
 
+/// How a simulated run's messages travel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Network {
+    /// SimGrid's network model: every message a flow sharing the links of its route.
+    #[default]
+    Fine,
+    /// Each message delivered after its route's latency plus bytes / bandwidth, each host's
+    /// link direction a FIFO server (`simgrid::protocols::Wires`): no flows. SimGrid re-shares
+    /// a link among every flow on it at each message, so ~W messages in flight at once cost
+    /// ~W² (the 5 µs cluster's self-scheduling at chunk 4: 1.8 s to simulate at 1024 workers,
+    /// 17 s at 4096).
+    Coarse,
+}
+
+impl Network {
+    /// The id in experiment files and `sim_runs.csv`.
+    pub fn id(self) -> &'static str {
+        match self {
+            Network::Fine => "fine",
+            Network::Coarse => "coarse",
+        }
+    }
+}
+
 /// A worker whose host is turned off at `at_s` seconds of simulated time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LostWorker {
@@ -81,6 +106,9 @@ pub struct SimJob {
     pub refill_s: f64,
     /// Workers lost during the run.
     pub lost: Vec<LostWorker>,
+    /// How its messages travel.
+    #[serde(default)]
+    pub network: Network,
     /// Seed of the work-stealing victim choice.
     pub seed: u64,
 }

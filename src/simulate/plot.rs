@@ -346,10 +346,55 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
     Ok(vec![f])
 }
 
+/// The masters' saturation per platform: the analytic limit 1/h against the highest simulated
+/// hand-out rate (items / wall), and the first worker count reaching 95 % of 1/h.
+pub fn saturation_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
+    let mut groups: BTreeMap<(String, String), (f64, Vec<&SimRow>)> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.out.error.is_none()) {
+        if let Policy::Master(m) = r.spec.policy {
+            if let Some(&h) = inputs.master_h_s.get(&m.buffer) {
+                groups
+                    .entry((r.platform.clone(), r.spec.label()))
+                    .or_insert((h, Vec::new()))
+                    .1
+                    .push(r);
+            }
+        }
+    }
+    if groups.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "## The master's saturation\n\nOne master hands out at most 1/h items per second; the simulated rate is items / wall.\n\n| platform | configuration | h ns | 1/h items/s | c̄/h workers | simulated peak items/s (at workers) | peak × h | first workers ≥ 95 % of 1/h |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for ((p, label), (h, mut rs)) in groups {
+        rs.sort_by_key(|r| r.spec.workers);
+        let rate = |r: &SimRow| r.items as f64 / r.out.wall_s;
+        let Some(peak) = rs.iter().max_by(|a, b| rate(a).total_cmp(&rate(b))) else {
+            continue;
+        };
+        let from = rs
+            .iter()
+            .find(|r| rate(r) * h >= 0.95)
+            .map(|r| r.spec.workers.to_string())
+            .unwrap_or_else(|| "not reached".into());
+        s += &format!(
+            "| {p} | {label} | {:.1} | {:.3e} | {:.0} | {:.3e} ({}) | {:.3} | {from} |\n",
+            h * 1e9,
+            1.0 / h,
+            analytic_master_speedup(peak.serial_s, peak.items, h),
+            rate(peak),
+            peak.spec.workers,
+            rate(peak) * h,
+        );
+    }
+    s + "\n"
+}
+
 /// The simulated rows as a markdown table, with the measured inputs.
 pub fn summary_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
     let mut s = format!(
-        "## Simulated runs\n\nInputs (measured): probe {}×{} px, serial {:.4} s; shared counter {:.1} ns per grab; master h {}.\n\n| platform | configuration | workers | wall s | speedup | efficiency | dispatch s | imbalance | messages | bytes | note |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "## Simulated runs\n\nInputs (measured): probe {}×{} px, serial {:.4} s; shared counter {:.1} ns per grab; master h {}. Network: `fine` is SimGrid's, `coarse` the FIFO links of `simgrid::protocols::Wires`.\n\n| platform | configuration | workers | network | wall s | speedup | efficiency | dispatch s | imbalance | messages | bytes | note |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         inputs.pixels.width,
         inputs.pixels.height,
         inputs.pixels.serial_s(),
@@ -358,10 +403,11 @@ pub fn summary_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
     );
     for r in rows {
         s += &format!(
-            "| {} | {} | {} | {:.5} | {:.2} | {:.3} | {:.5} | {:.3} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.5} | {:.2} | {:.3} | {:.5} | {:.3} | {} | {} | {} |\n",
             r.platform,
             r.spec.label(),
             r.spec.workers,
+            r.network.id(),
             r.out.wall_s,
             r.speedup(),
             r.efficiency(),

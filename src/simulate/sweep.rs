@@ -168,7 +168,7 @@ impl Inputs {
             return Ok(*r);
         }
         let zero = crate::model::probe::overheads(spec.policy, spec.workers, self.reps)?;
-        let r = crate::model::probe::loaded_refill_for(
+        let loaded = crate::model::probe::loaded_refill_for(
             spec.policy,
             spec.workers,
             mean_s,
@@ -176,6 +176,7 @@ impl Inputs {
             self.reps,
             inputs::ZERO_WORK_RUN_S,
         )?;
+        let r = hidden_refill(loaded, mean_s, zero.refill_s);
         self.refill.insert(key, r);
         Ok(r)
     }
@@ -234,7 +235,23 @@ impl Inputs {
             refill_s,
             lost: plan.lost.clone(),
             seed: plan.seed,
+            network: plan.network(spec.workers),
         })
+    }
+}
+
+/// The floor a source's period per item gets from a refill period `loaded` measured with
+/// spinning items of `mean_s` each. A period within 5 % of the item cost says the refill is
+/// hidden behind the item: the master's wake-up is shorter than the mean item, by how much is
+/// not measured, so the floor is the zero-work period `zero_s`. Taken as the floor, such a period
+/// raised every item cheaper than the mean to it: the master at 16² tiles (mean 2.97 ms,
+/// measured period 2.98 ms) was simulated +13 … +17 % against its measured runs, which took
+/// the serial's time (AMD dev VM, 06:45 window).
+pub fn hidden_refill(loaded: f64, mean_s: f64, zero_s: f64) -> f64 {
+    if loaded < 1.05 * mean_s {
+        zero_s
+    } else {
+        loaded
     }
 }
 
@@ -251,6 +268,8 @@ pub struct SimRow {
     pub serial_s: f64,
     /// Items in the decomposition.
     pub items: usize,
+    /// The network it was simulated on.
+    pub network: super::job::Network,
     /// What the simulation reported.
     pub out: SimOutcome,
 }
@@ -305,6 +324,7 @@ impl SimRow {
         h.extend(
             [
                 "workers",
+                "network",
                 "wall_s",
                 "serial_s",
                 "speedup",
@@ -348,6 +368,7 @@ impl SimRow {
         );
         r.extend([
             s.workers.to_string(),
+            self.network.id().to_string(),
             format!("{:.9}", o.wall_s),
             format!("{:.9}", self.serial_s),
             format!("{:.4}", self.speedup()),
@@ -407,6 +428,7 @@ pub fn simulate_one(
         },
         serial_s: inputs.pixels.serial_s(),
         items: job.cost_s.len(),
+        network: job.network,
         out,
     })
 }
@@ -545,6 +567,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         figures.extend(plot::validation(&dir.join("plots"), v).map_err(anyhow::Error::msg)?);
         report += &validate::markdown(v);
     }
+    report += &plot::saturation_markdown(&rows, &inputs);
     report += &plot::summary_markdown(&rows, &inputs);
     for f in &figures {
         report += &format!("\n![{f}](plots/{f})\n");
@@ -558,4 +581,17 @@ pub fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::hidden_refill;
+
+    #[test]
+    fn a_refill_period_at_the_item_cost_is_hidden_and_one_above_it_is_the_floor() {
+        // The 06:45 window's master at 16² tiles: 2981 µs measured over items of 2972 µs.
+        assert_eq!(hidden_refill(2981e-6, 2972e-6, 1e-6), 1e-6);
+        // The per-ray master at B = 2: 21.1 µs over items of 11.6 µs, the wake-up showing.
+        assert_eq!(hidden_refill(21.1e-6, 11.6e-6, 1e-6), 21.1e-6);
+    }
 }
