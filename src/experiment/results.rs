@@ -520,7 +520,12 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> ResultsError + '_ {
 /// Returns the rows and the byte length of the valid prefix.
 pub fn read_runs(path: &Path) -> Result<(Vec<RunRow>, u64), ResultsError> {
     let bytes = std::fs::read(path).map_err(io(path))?;
-    parse_runs(&bytes).map_err(|msg| ResultsError::Corrupt {
+    parse_runs_of(path, &bytes)
+}
+
+/// [`parse_runs`] of the bytes read from `path`, a parse failure naming the file.
+fn parse_runs_of(path: &Path, bytes: &[u8]) -> Result<(Vec<RunRow>, u64), ResultsError> {
+    parse_runs(bytes).map_err(|msg| ResultsError::Corrupt {
         path: path.display().to_string(),
         msg,
     })
@@ -624,10 +629,7 @@ impl RunsFile {
                 .split(|&c| c == b'\n')
                 .next()
                 .is_some_and(is_legacy_header);
-            let (rows, valid) = parse_runs(&bytes).map_err(|msg| ResultsError::Corrupt {
-                path: path.display().to_string(),
-                msg,
-            })?;
+            let (rows, valid) = parse_runs_of(path, &bytes)?;
             (rows, valid, legacy)
         };
         Ok(OldRuns {

@@ -79,12 +79,9 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
 /// [`redraw`], with every PNG rasterised from its SVG at `png_scale` when that is not 1:
 /// print-quality figures.
 pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
-    let rescale = |svg: &Path, staged_png: &Path| -> Result<(), String> {
-        if png_scale == raster::PngScale::ONE {
-            return Ok(());
-        }
-        raster::svg_to_png(svg, staged_png, png_scale)
-    };
+    // At scale 1 every PNG is drawn as a bitmap; otherwise it is rasterised from its SVG only.
+    let bitmap = png_scale == raster::PngScale::ONE;
+    let rescale = |svg: &Path, staged_png: &Path| raster::svg_to_png(svg, staged_png, png_scale);
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     let staging =
@@ -98,8 +95,6 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         // A convergence experiment: its plots are drawn from its CSV alone too.
         let rows = crate::converge::read_csv(&convergence)
             .map_err(|e| format!("{}: {e}", convergence.display()))?;
-        // A PNG rasterised from its SVG below is not drawn as a bitmap first.
-        let bitmap = png_scale == raster::PngScale::ONE;
         for p in convergence::PLOTS
             .iter()
             .filter(|p| bitmap || !p.ends_with(".png"))
@@ -111,7 +106,10 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
             crate::converge::plot(&staged, &rows)
                 .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
         }
-        for p in convergence::PLOTS.iter().filter(|p| p.ends_with(".png")) {
+        for p in convergence::PLOTS
+            .iter()
+            .filter(|p| !bitmap && p.ends_with(".png"))
+        {
             let png = staging.path(p);
             rescale(&png.with_extension("svg"), &png)?;
         }
@@ -143,9 +141,9 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
     let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
-    let bitmap = png_scale == raster::PngScale::ONE;
     let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
-    for f in &figs {
+    let rescaled = if bitmap { &[][..] } else { &figs[..] };
+    for f in rescaled {
         let rel = Path::new(&f.file);
         let png = plots.join(rel.strip_prefix("plots").unwrap_or(rel));
         // A Gantt chart kept from an earlier drawing (its timeline is gone) was not staged:
