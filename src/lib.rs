@@ -50,6 +50,8 @@ pub mod dl;
 pub mod embree;
 #[cfg(feature = "embree4")]
 pub mod embree4;
+#[cfg(any(feature = "embree", feature = "embree4"))]
+mod embree_common;
 pub mod experiment;
 pub mod geometry;
 #[cfg(feature = "gpu")]

@@ -1,5 +1,6 @@
 //! `embree` tracer: Intel Embree 3 (Debian's `libembree-dev` 3.13.5) through the hand-written
-//! bindings of [`ffi`], the only `unsafe` in raysched besides MPI.
+//! bindings of [`ffi`]; what it shares with `embree4` (error sink, sphere kernels, triangle
+//! upload) is in `crate::embree_common`.
 //!
 //! - Triangles are one `RTC_GEOMETRY_TYPE_TRIANGLE` mesh (geometry id 1) with unshared vertices
 //!   `v0, v0+e1, v0+e2`, so Embree's `(u, v)` are our `(b1, b2)`.
@@ -20,16 +21,15 @@
 
 pub mod ffi;
 
-use crate::geometry::{next_float_down, next_float_up, Hit, Ray, Sphere};
+use crate::embree_common::{
+    fill_triangles, on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, ErrorSink,
+    SphereData, SPHERE_GEOM, TNEAR, TRIANGLE_GEOM,
+};
+use crate::geometry::{Hit, Ray};
 use crate::scene::Geometry;
-use std::ffi::{c_char, c_int, c_void, CStr, CString};
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::ffi::CString;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
-
-const SPHERE_GEOM: u32 = 0;
-const TRIANGLE_GEOM: u32 = 1;
 
 static DEVICES_CREATED: AtomicUsize = AtomicUsize::new(0);
 
@@ -47,143 +47,57 @@ pub struct EmbreeOptions {
     pub robust: bool,
 }
 
-/// Messages from Embree's error callback, collected while building.
-#[derive(Default)]
-struct ErrorSink(Mutex<Vec<String>>);
-
-impl ErrorSink {
-    fn push(&self, msg: String) {
-        self.0.lock().unwrap_or_else(|e| e.into_inner()).push(msg);
-    }
-    fn take(&self) -> Vec<String> {
-        std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()))
-    }
-}
-
-/// Embree's error callback. It must not unwind into C: everything runs under `catch_unwind`.
-unsafe extern "C" fn on_error(user_ptr: *mut c_void, code: c_int, msg: *const c_char) {
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        let text = if msg.is_null() {
-            String::from("(no message)")
-        } else {
-            // SAFETY: Embree passes a NUL-terminated string valid for the duration of the call.
-            unsafe { CStr::from_ptr(msg) }
-                .to_string_lossy()
-                .into_owned()
-        };
-        if !user_ptr.is_null() {
-            // SAFETY: `user_ptr` is the `ErrorSink` boxed in `EmbreeTracer`, which outlives the
-            // device (the device is released first in `Drop`).
-            let sink = unsafe { &*(user_ptr as *const ErrorSink) };
-            sink.push(format!("Embree error {code}: {text}"));
-        }
-    }));
-}
-
-/// The spheres handed to the user geometry's callbacks.
-struct SphereData {
-    spheres: Vec<Sphere>,
-}
-
-/// Bounds callback for the sphere user geometry; padded one ulp outwards so the f64 hit test
-/// never finds a hit outside the box Embree traverses.
+/// Bounds callback for the sphere user geometry ([`padded_bounds`]).
 unsafe extern "C" fn sphere_bounds(args: *const ffi::RTCBoundsFunctionArguments) {
     // SAFETY: Embree passes valid arguments; `geometry_user_ptr` is the `SphereData` boxed in
     // `EmbreeTracer`, which outlives the scene; `bounds_o` is valid for writing.
     let args = unsafe { &*args };
-    let data = unsafe { &*(args.geometry_user_ptr as *const SphereData) };
-    let Some(s) = data.spheres.get(args.prim_id as usize) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
-    let (lo, hi) = s.bounds();
+    let (lo, hi) = padded_bounds(s);
     let out = ffi::RTCBounds {
-        lower_x: next_float_down(lo.x),
-        lower_y: next_float_down(lo.y),
-        lower_z: next_float_down(lo.z),
+        lower_x: lo[0],
+        lower_y: lo[1],
+        lower_z: lo[2],
         align0: 0.0,
-        upper_x: next_float_up(hi.x),
-        upper_y: next_float_up(hi.y),
-        upper_z: next_float_up(hi.z),
+        upper_x: hi[0],
+        upper_y: hi[1],
+        upper_z: hi[2],
         align1: 0.0,
     };
     // SAFETY: see above.
     unsafe { args.bounds_o.write(out) };
 }
 
-/// Read ray `i` of an SOA packet of `n` rays (`RTCRayN` layout) and its `tfar`.
-///
-/// # Safety
-/// `packet` must point to an `RTCRayN`/`RTCRayHitN` packet of `n` rays and `i < n`.
-#[inline(always)]
-unsafe fn packet_ray(packet: *const f32, n: usize, i: usize) -> (Ray, f32) {
-    // SAFETY: guaranteed by the caller: fields 0..12 of ray `i` are inside the packet.
-    let f = |k: usize| unsafe { *packet.add(k * n + i) };
-    let o = glam::Vec3::new(f(0), f(1), f(2));
-    let d = glam::Vec3::new(f(4), f(5), f(6));
-    (Ray::new(o, d), f(8))
-}
-
-/// Closest-hit callback: Embree's `t ≤ tfar` becomes our `t < next_float_up(tfar)`.
-/// Infallible (no indexing that can panic), so nothing can unwind into Embree.
+/// Closest-hit callback ([`crate::embree_common::intersect_packet`]).
 unsafe extern "C" fn sphere_intersect(args: *const ffi::RTCIntersectFunctionNArguments) {
     // SAFETY: Embree passes valid arguments: `valid` has `n` entries, `rayhit` is an
     // `RTCRayHitN` of `n` rays, `context` is the caller's context, `geometry_user_ptr` is our
     // `SphereData`.
     let args = unsafe { &*args };
-    let data = unsafe { &*(args.geometry_user_ptr as *const SphereData) };
-    let Some(s) = data.spheres.get(args.prim_id as usize) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
-    let n = args.n as usize;
-    let rh = args.rayhit as *mut f32;
-    for i in 0..n {
-        // SAFETY: `i < n` entries of `valid`.
-        if unsafe { *args.valid.add(i) } == 0 {
-            continue;
-        }
-        // SAFETY: `rh` is a packet of `n` rays and `i < n`.
-        let (ray, tfar) = unsafe { packet_ray(rh, n, i) };
-        if let Some(t) = s.intersect(&ray, next_float_up(tfar)) {
-            let ng = ray.at(t) - s.center;
-            // SAFETY: `rh` is an `RTCRayHitN`: tfar is float 8, the hit starts at float 12
-            // (Ng xyz, u, v, primID, geomID, instID[0]), each a row of `n` values.
-            unsafe {
-                *rh.add(8 * n + i) = t;
-                *rh.add(12 * n + i) = ng.x;
-                *rh.add(13 * n + i) = ng.y;
-                *rh.add(14 * n + i) = ng.z;
-                *rh.add(15 * n + i) = 0.0;
-                *rh.add(16 * n + i) = 0.0;
-                let ids = rh as *mut u32;
-                *ids.add(17 * n + i) = args.prim_id;
-                *ids.add(18 * n + i) = args.geom_id;
-                *ids.add(19 * n + i) = (*args.context).inst_id[0];
-            }
-        }
-    }
+    // SAFETY: as above.
+    let ids = [args.prim_id, args.geom_id, unsafe {
+        (*args.context).inst_id[0]
+    }];
+    let (valid, rayhit, n) = (args.valid, args.rayhit as *mut f32, args.n as usize);
+    // SAFETY: as above.
+    unsafe { crate::embree_common::intersect_packet(s, ids, valid, rayhit, n) };
 }
 
-/// Occlusion callback: a hit is reported as `tfar = −∞`.
+/// Occlusion callback ([`crate::embree_common::occluded_packet`]).
 unsafe extern "C" fn sphere_occluded(args: *const ffi::RTCOccludedFunctionNArguments) {
     // SAFETY: as in `sphere_intersect`, with `ray` an `RTCRayN` of `n` rays.
     let args = unsafe { &*args };
-    let data = unsafe { &*(args.geometry_user_ptr as *const SphereData) };
-    let Some(s) = data.spheres.get(args.prim_id as usize) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
-    let n = args.n as usize;
-    let r = args.ray as *mut f32;
-    for i in 0..n {
-        // SAFETY: `i < n` entries of `valid`; `r` is a packet of `n` rays.
-        if unsafe { *args.valid.add(i) } == 0 {
-            continue;
-        }
-        let (ray, tfar) = unsafe { packet_ray(r, n, i) };
-        if s.intersect(&ray, next_float_up(tfar)).is_some() {
-            // SAFETY: float 8 of the packet is tfar.
-            unsafe { *r.add(8 * n + i) = f32::NEG_INFINITY };
-        }
-    }
+    let (valid, ray, n) = (args.valid, args.ray as *mut f32, args.n as usize);
+    // SAFETY: as above.
+    unsafe { crate::embree_common::occluded_packet(s, valid, ray, n) };
 }
 
 /// An Embree device and committed scene over one scene's geometry; queries take `&self` and
@@ -244,11 +158,7 @@ impl EmbreeTracer {
         config: &str,
         options: EmbreeOptions,
     ) -> Result<Self, String> {
-        let n_tris = u32::try_from(geometry.triangles.len())
-            .ok()
-            .filter(|n| n.checked_mul(3).is_some())
-            .ok_or("too many triangles for Embree's 32-bit indices")?;
-        let n_spheres = u32::try_from(geometry.spheres.len()).map_err(|_| "too many spheres")?;
+        let (n_tris, n_spheres) = primitive_counts(geometry)?;
         let start = Instant::now();
         let c_config =
             CString::new(config).map_err(|_| format!("device config {config:?}: contains NUL"))?;
@@ -267,13 +177,7 @@ impl EmbreeTracer {
             spheres: geometry.spheres.clone(),
         });
         // SAFETY: `device` is valid; the sink outlives it (see `Drop`).
-        unsafe {
-            ffi::rtcSetDeviceErrorFunction(
-                device,
-                Some(on_error),
-                &*errors as *const ErrorSink as *mut c_void,
-            )
-        };
+        unsafe { ffi::rtcSetDeviceErrorFunction(device, Some(on_error), errors.as_user_ptr()) };
         // SAFETY: `device` is valid.
         let scene = unsafe { ffi::rtcNewScene(device) };
         // From here on `Drop` releases whatever exists.
@@ -318,7 +222,7 @@ impl EmbreeTracer {
             if g.is_null() {
                 return self.check("rtcNewGeometry(USER)");
             }
-            let data = &*self.spheres as *const SphereData as *mut c_void;
+            let data = self.spheres.as_user_ptr();
             ffi::rtcSetGeometryUserPrimitiveCount(g, self.n_spheres);
             ffi::rtcSetGeometryUserData(g, data);
             ffi::rtcSetGeometryBoundsFunction(g, Some(sphere_bounds), data);
@@ -363,15 +267,11 @@ impl EmbreeTracer {
                 self.check("rtcSetNewGeometryBuffer")?;
                 return Err("rtcSetNewGeometryBuffer returned NULL".into());
             }
-            let verts = std::slice::from_raw_parts_mut(vb, 3 * n);
-            let idx = std::slice::from_raw_parts_mut(ib, n);
-            for (i, tri) in geometry.triangles.iter().enumerate() {
-                for (k, v) in tri.vertices().into_iter().enumerate() {
-                    verts[3 * i + k] = v.to_array();
-                }
-                let b = 3 * i as u32;
-                idx[i] = [b, b + 1, b + 2];
-            }
+            fill_triangles(
+                geometry,
+                std::slice::from_raw_parts_mut(vb, 3 * n),
+                std::slice::from_raw_parts_mut(ib, n),
+            );
             ffi::rtcCommitGeometry(g);
             ffi::rtcAttachGeometryByID(self.scene, g, TRIANGLE_GEOM);
             ffi::rtcReleaseGeometry(g);
@@ -381,46 +281,20 @@ impl EmbreeTracer {
 
     /// Turn everything Embree reported (callback or error code) into one `Err`.
     fn check(&self, step: &str) -> Result<(), String> {
-        let mut msgs = self.errors.take();
         // SAFETY: `device` is valid.
         let code = unsafe { ffi::rtcGetDeviceError(self.device) };
-        if code != ffi::RTC_ERROR_NONE && msgs.is_empty() {
-            msgs.push(format!("Embree error {code}"));
-        }
-        if msgs.is_empty() {
-            Ok(())
-        } else {
-            Err(format!("{step}: {}", msgs.join("; ")))
-        }
+        self.errors.check(step, code, ffi::RTC_ERROR_NONE)
     }
 
     /// The options it was built with.
     pub fn options(&self) -> EmbreeOptions {
         self.options
     }
-
-    /// Map Embree's (geomID, primID) to a raysched primitive id.
-    #[inline(always)]
-    fn prim_id(&self, geom: u32, prim: u32) -> u32 {
-        if geom == TRIANGLE_GEOM {
-            self.n_spheres + prim
-        } else {
-            prim
-        }
-    }
 }
 
-/// Embree's default intersector accepts `t > tnear`, its robust one `t ≥ tnear` (measured: a ray
-/// starting on a triangle hits it at t = −0 with `RTC_SCENE_FLAG_ROBUST` and tnear = 0). The
-/// smallest normal float excludes t = 0 in both; a real hit below 1.2e-38 would need |d| ≈ 1e38.
-const TNEAR: f32 = f32::MIN_POSITIVE;
-
-/// An Embree ray for our `0 < t < t_max` contract (`None` when that interval is empty).
+/// An Embree ray for raysched's `0 < t < t_max` contract (`None` when that interval is empty).
 #[inline(always)]
 fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
-    if t_max.is_nan() || t_max <= 0.0 {
-        return None;
-    }
     Some(ffi::RTCRay {
         org_x: ray.o.x,
         org_y: ray.o.y,
@@ -430,11 +304,7 @@ fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
         dir_y: ray.d.y,
         dir_z: ray.d.z,
         time: 0.0,
-        tfar: if t_max.is_finite() {
-            next_float_down(t_max)
-        } else {
-            t_max
-        },
+        tfar: tfar_for(t_max)?,
         mask: u32::MAX,
         id: 0,
         flags: 0,
@@ -464,7 +334,7 @@ impl EmbreeTracer {
         }
         Some(Hit {
             t: rh.ray.tfar,
-            prim: self.prim_id(rh.hit.geom_id, rh.hit.prim_id),
+            prim: primitive_id(self.n_spheres, rh.hit.geom_id, rh.hit.prim_id),
             b1: rh.hit.u,
             b2: rh.hit.v,
         })

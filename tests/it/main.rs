@@ -12,6 +12,8 @@ mod bad_input;
 mod determinism;
 mod embree;
 mod embree4;
+#[cfg(any(feature = "embree", feature = "embree4"))]
+mod embree_contract;
 mod experiment;
 mod fuzz;
 mod gpu;
