@@ -7,8 +7,8 @@ and report.md.
     python3 experiments/mpi_sweep.py [experiments/mpi.toml] [--fresh] [--out results/runs]
         [--spin results/runs_spin]
 
-With --spin DIR, every launch is made once more, into DIR, with workers that spin instead of
-rendering: each pixel costs the mean pixel cost of OUT's serial renders
+With --spin DIR, every launch is made once more, right after it, into DIR, with workers that
+spin instead of rendering: each pixel costs the mean pixel cost of OUT's serial renders
 (RAYSCHED_MPI_SPIN_NS_PER_PX). Their walls are the MPI master's period per item with items of
 a known cost, the refill period `raysched simulate` reads (validation.mpi_spin); their images
 are black, so those launches report mismatches by design.
@@ -95,13 +95,19 @@ def main():
     spec = tomllib.loads(pathlib.Path(a.experiment).read_text())
     mpi = spec["mpi"]
     ranks = mpi["ranks"] if isinstance(mpi["ranks"], list) else [mpi["ranks"]]
-    failed = sweep(a.experiment, pathlib.Path(a.out), a.fresh, ranks, mpi["transports"])
-    if a.spin:
-        ns = spin_ns_per_px(pathlib.Path(a.out), a.experiment)
-        print(f"== spinning workers: {ns:.1f} ns per pixel", flush=True)
-        # Black images differ from the serial's: those launches exit 1 by design.
-        sweep(a.experiment, pathlib.Path(a.spin), True, ranks, mpi["transports"],
-              {"RAYSCHED_MPI_SPIN_NS_PER_PX": f"{ns:.3f}"})
+    out, spin = pathlib.Path(a.out), a.spin and pathlib.Path(a.spin)
+    failed, fresh = 0, a.fresh
+    for k in ranks:
+        for t in mpi["transports"]:
+            failed += sweep(a.experiment, out, fresh, [k], [t])
+            if spin:
+                # Right after its rendering launch, so both see the machine alike. Black
+                # images differ from the serial's: these launches exit 1 by design.
+                ns = spin_ns_per_px(out, a.experiment)
+                print(f"== spinning workers: {ns:.1f} ns per pixel", flush=True)
+                sweep(a.experiment, spin, fresh, [k], [t],
+                      {"RAYSCHED_MPI_SPIN_NS_PER_PX": f"{ns:.3f}"})
+            fresh = False
     sys.exit(1 if failed else 0)
 
 
