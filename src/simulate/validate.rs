@@ -634,7 +634,11 @@ mod tests {
             r
         };
         let serial = row("serial", 0.26, 0.26);
-        let rendered = [serial.clone(), mpi(0.3, "tcp_loopback", 2), mpi(0.2, "shared_memory", 2)];
+        let rendered = [
+            serial.clone(),
+            mpi(0.3, "tcp_loopback", 2),
+            mpi(0.2, "shared_memory", 2),
+        ];
         let spinning = [
             serial,
             mpi(0.32, "tcp_loopback", 2),
@@ -644,10 +648,17 @@ mod tests {
         let (mut configs, _) = configs_where(&rendered, true).unwrap();
         let (spin, _) = configs_where(&spinning, true).unwrap();
         attach_spin(&mut configs, &spin);
-        let tcp = configs.iter().find(|m| m.transport.as_deref() == Some("tcp_loopback"));
+        let tcp = configs
+            .iter()
+            .find(|m| m.transport.as_deref() == Some("tcp_loopback"));
         // 2 workers × the median wall 0.36 s / 64 items; items of the serial 0.26 s / 64.
-        assert_eq!(tcp.unwrap().spin_period, Some((2.0 * 0.36 / 64.0, 0.26 / 64.0)));
-        let shm = configs.iter().find(|m| m.transport.as_deref() == Some("shared_memory"));
+        assert_eq!(
+            tcp.unwrap().spin_period,
+            Some((2.0 * 0.36 / 64.0, 0.26 / 64.0))
+        );
+        let shm = configs
+            .iter()
+            .find(|m| m.transport.as_deref() == Some("shared_memory"));
         assert_eq!(shm.unwrap().spin_period, None);
     }
 }
