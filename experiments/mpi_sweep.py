@@ -5,6 +5,13 @@ local-thread baselines are measured by the first launch that needs them) and red
 and report.md.
 
     python3 experiments/mpi_sweep.py [experiments/mpi.toml] [--fresh] [--out results/runs]
+        [--spin results/runs_spin]
+
+With --spin DIR, every launch is made once more, right after it, into DIR, with workers that
+spin instead of rendering: each pixel costs the mean pixel cost of OUT's serial renders
+(RAYSCHED_MPI_SPIN_NS_PER_PX). Their walls are the MPI master's period per item with items of
+a known cost, the refill period `raysched simulate` reads (validation.mpi_spin); their images
+are black, so those launches report mismatches by design.
 
 Needs a binary built with `cargo build --features mpi`. Every mpirun has a deadline; past it
 its whole process group is killed. A transport this script cannot set up is skipped with a
@@ -51,12 +58,23 @@ def netem_teardown():
     subprocess.run(["ip", "netns", "del", NETEM_NS], capture_output=True)
 
 
-def launch(ranks, transport, experiment, out, fresh, prefix=()):
+def spin_ns_per_px(out, experiment):
+    """Median serial wall of OUT's runs.csv of EXPERIMENT over its pixels, in ns."""
+    import csv, statistics
+    rows = [r for r in csv.DictReader(open(out / pathlib.Path(experiment).stem / "runs.csv"))
+            if r["scheduler"] == "serial" and r["sources"] == "local"]
+    if not rows:
+        sys.exit(f"--spin: no serial rows in {out / pathlib.Path(experiment).stem / 'runs.csv'}")
+    px = int(rows[0]["width"]) * int(rows[0]["height"])
+    return statistics.median(float(r["wall_s"]) for r in rows) / px * 1e9
+
+
+def launch(ranks, transport, experiment, out, fresh, prefix=(), extra_env=None):
     cmd = [*prefix, "mpirun", "-n", str(ranks), str(BIN), "run", str(experiment), "--out", str(out), "--quiet"]
     if fresh:
         cmd.append("--fresh")
-    env = dict(ENV, **TRANSPORT_ENV[transport])
-    print(f"== {' '.join(cmd)}  ({transport}: {TRANSPORT_ENV[transport]})", flush=True)
+    env = dict(ENV, **TRANSPORT_ENV[transport], **(extra_env or {}))
+    print(f"== {' '.join(cmd)}  ({transport}: {TRANSPORT_ENV[transport]} {extra_env or ''})", flush=True)
     p = subprocess.Popen(cmd, env=env, start_new_session=True)
     try:
         return p.wait(timeout=DEADLINE_S)
@@ -72,13 +90,32 @@ def main():
     ap.add_argument("experiment", nargs="?", default=str(ROOT / "experiments" / "mpi.toml"))
     ap.add_argument("--fresh", action="store_true", help="start runs.csv over (first launch only)")
     ap.add_argument("--out", default=str(ROOT / "results" / "runs"))
+    ap.add_argument("--spin", help="launch again into this folder with spinning workers")
     a = ap.parse_args()
     spec = tomllib.loads(pathlib.Path(a.experiment).read_text())
     mpi = spec["mpi"]
     ranks = mpi["ranks"] if isinstance(mpi["ranks"], list) else [mpi["ranks"]]
-    fresh, failed = a.fresh, 0
+    out, spin = pathlib.Path(a.out), a.spin and pathlib.Path(a.spin)
+    failed, fresh = 0, a.fresh
     for k in ranks:
         for t in mpi["transports"]:
+            failed += sweep(a.experiment, out, fresh, [k], [t])
+            if spin:
+                # Right after its rendering launch, so both see the machine alike. Black
+                # images differ from the serial's: these launches exit 1 by design.
+                ns = spin_ns_per_px(out, a.experiment)
+                print(f"== spinning workers: {ns:.1f} ns per pixel", flush=True)
+                sweep(a.experiment, spin, fresh, [k], [t],
+                      {"RAYSCHED_MPI_SPIN_NS_PER_PX": f"{ns:.3f}"})
+            fresh = False
+    sys.exit(1 if failed else 0)
+
+
+def sweep(experiment, out, fresh, ranks, transports, extra_env=None):
+    """One launch per (ranks, transport); how many failed."""
+    failed = 0
+    for k in ranks:
+        for t in transports:
             if t not in TRANSPORT_ENV:
                 print(f"{t}: skipped, this driver cannot set it up (launch by hand with RAYSCHED_MPI_TRANSPORT={t})")
                 continue
@@ -89,7 +126,7 @@ def main():
                     print(f"{t}: skipped, {refusal}", flush=True)
                     continue
             try:
-                rc = launch(k, t, a.experiment, a.out, fresh, prefix)
+                rc = launch(k, t, experiment, out, fresh, prefix, extra_env)
             finally:
                 if t == "tcp_netem":
                     netem_teardown()
@@ -97,7 +134,7 @@ def main():
             if rc != 0:
                 failed += 1
                 print(f"   ranks={k} {t}: exit {rc}", flush=True)
-    sys.exit(1 if failed else 0)
+    return failed
 
 
 if __name__ == "__main__":

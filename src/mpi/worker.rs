@@ -26,6 +26,10 @@ pub const ENV_PID_DIR: &str = "RAYSCHED_MPI_PID_DIR";
 /// Measurement hook: workers return black pixels without rendering, so a run measures the
 /// pure dispatch cost over MPI (the image is then wrong, by design).
 pub const ENV_ZERO_WORK: &str = "RAYSCHED_MPI_ZERO_WORK";
+/// Measurement hook: workers spin this many nanoseconds per pixel instead of rendering
+/// (black pixels), so a launch measures a source's period per item over MPI with items of a
+/// known cost (the simulation's MPI refill period, `experiments/mpi_sweep.py --spin`).
+pub const ENV_SPIN_NS_PER_PX: &str = "RAYSCHED_MPI_SPIN_NS_PER_PX";
 
 fn build(rank: i32, bytes: &[u8]) -> anyhow::Result<(crate::scene::Scene, AnyTracer)> {
     let mut pkg = ScenePackage::decode(bytes)?;
@@ -67,6 +71,10 @@ enum Job {
 fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
     let pid_dir = std::env::var_os(ENV_PID_DIR);
     let zero_work = std::env::var_os(ENV_ZERO_WORK).is_some();
+    let spin_ns = std::env::var(ENV_SPIN_NS_PER_PX)
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|v| *v > 0.0);
     let mut built: anyhow::Result<(crate::scene::Scene, AnyTracer)> =
         Err(anyhow::anyhow!("no scene received yet"));
     let mut served = 0u64;
@@ -100,7 +108,13 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                     continue;
                 };
                 let t0 = Instant::now();
-                let r = if zero_work {
+                let r = if zero_work || spin_ns.is_some() {
+                    if let Some(ns) = spin_ns {
+                        let d = Duration::from_nanos((ns * item.pixel_count() as f64) as u64);
+                        while t0.elapsed() < d {
+                            std::hint::spin_loop();
+                        }
+                    }
                     TileResult {
                         item: item.id,
                         pixels: vec![[0.0; 3]; item.pixel_count()],

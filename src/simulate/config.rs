@@ -34,6 +34,7 @@
 //! measured = "../results/runs/simvalidate/runs.csv"
 //! platform = "../platforms/smp2.xml"
 //! mpi_measured = "../results/runs/simvalidate_mpi/runs.csv"   # optional: MPI launches
+//! mpi_spin = "../results/runs_spin/simvalidate_mpi/runs.csv"  # optional: the same, spinning
 //! [validation.mpi_platforms]                       # a platform per measured transport
 //! shared_memory = "../platforms/smp2_mpi_shared_memory.xml"
 //! ```
@@ -120,6 +121,7 @@ struct ValidationEntry {
     measured: String,
     platform: String,
     mpi_measured: Option<String>,
+    mpi_spin: Option<String>,
     #[serde(default)]
     mpi_platforms: BTreeMap<String, String>,
 }
@@ -167,6 +169,9 @@ pub struct SimPlan {
     pub validation: Option<(PathBuf, Platform)>,
     /// `(measured MPI runs.csv, platform per transport)` to validate against.
     pub mpi_validation: Option<(PathBuf, BTreeMap<String, Platform>)>,
+    /// The MPI launches again with spinning workers (`experiments/mpi_sweep.py --spin`): each
+    /// configuration's period per item over MPI.
+    pub mpi_spin: Option<PathBuf>,
     /// Seed of random choices (work-stealing victims).
     pub seed: u64,
     /// Seconds of real time one simulated run may take; a run still going then is stopped
@@ -389,6 +394,17 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         }
         _ => None,
     };
+    let mpi_spin = match file.validation.as_ref().and_then(|v| v.mpi_spin.as_ref()) {
+        Some(_) if mpi_validation.is_none() => {
+            return Err(field(
+                path,
+                "validation.mpi_spin",
+                "given without validation.mpi_measured",
+            ))
+        }
+        Some(p) => Some(existing("validation.mpi_spin", p)?),
+        None => None,
+    };
     Ok(SimPlan {
         name,
         description: file.description,
@@ -417,6 +433,7 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         lost: file.lost,
         validation,
         mpi_validation,
+        mpi_spin,
         seed: file.seed,
         run_limit_s: match file.run_limit_s {
             Some(t) if !(t > 0.0 && t <= 86_400.0) => {

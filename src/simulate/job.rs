@@ -100,8 +100,10 @@ pub struct SimJob {
     pub start_s: f64,
     /// The master's refill period per source, seconds: a source under the master finishes
     /// at most one item per `refill_s` and waits out the rest (no core used). Measured for
-    /// local threads (the sleeping master's wake-up and round trip per item); 0 where it is
-    /// not measured (a cluster's master, whose round trip is the simulated network's).
+    /// local threads (the sleeping master's wake-up and round trip per item) and for MPI
+    /// launches on this node (the launch again with spinning items: rank 0's hub, the
+    /// worker's MPI thread and their polling); 0 where it is not measured (a cluster's
+    /// master, whose round trip is the simulated network's).
     #[serde(default)]
     pub refill_s: f64,
     /// Workers lost during the run.

@@ -34,6 +34,11 @@ pub struct Inputs {
     refill: BTreeMap<(String, usize), f64>,
     /// Repetitions of each hand-out probe.
     reps: u32,
+    /// The MPI launch being simulated: its measured period per item and source with spinning
+    /// items, and those items' mean cost (`experiments/mpi_sweep.py --spin`), seconds. Over
+    /// MPI a source's round trip is rank 0's hub, the worker's MPI thread and their polling
+    /// on the node's cores, none of which the platform's ping-pong latency holds.
+    pub mpi_period: Option<(f64, f64)>,
 }
 
 impl Inputs {
@@ -120,6 +125,7 @@ impl Inputs {
             items: BTreeMap::new(),
             refill: BTreeMap::new(),
             reps,
+            mpi_period: None,
         })
     }
 
@@ -141,6 +147,7 @@ impl Inputs {
             items: BTreeMap::new(),
             refill: self.refill.clone(),
             reps: self.reps,
+            mpi_period: self.mpi_period,
         }
     }
 
@@ -181,6 +188,27 @@ impl Inputs {
         Ok(r)
     }
 
+    /// The period per item a source under `spec`'s master keeps to at least (the job's
+    /// `refill_s`), for items of costs `cost_s`: on local threads the measured refill period;
+    /// over MPI the launch's period with spinning items, unless it is hidden behind the item
+    /// ([`hidden_refill`]; the floor below is then 0, no zero-work run over MPI being
+    /// measured); else 0 (a cluster's master, whose round trip is the simulated network's).
+    /// Without the MPI period the per-ray master over 2 ranks was simulated −43 % (shared
+    /// memory) and −54 % (TCP loopback) against its measured launches, with it −4.6 % and
+    /// −1.2 % (Xeon dev VM, 16:05 window, run B).
+    pub fn source_floor(&mut self, spec: &SchedulerSpec, cost_s: &[f64]) -> anyhow::Result<f64> {
+        if cost_s.is_empty() || !matches!(spec.policy, Policy::Master(_)) {
+            return Ok(0.0);
+        }
+        if self.local_threads {
+            let mean = cost_s.iter().sum::<f64>() / cost_s.len() as f64;
+            return self.refill(spec, mean);
+        }
+        Ok(self
+            .mpi_period
+            .map_or(0.0, |(period, mean)| hidden_refill(period, mean, 0.0)))
+    }
+
     fn items(&mut self, chunk: Chunk, order: Order, workers: usize) -> Arc<ItemInputs> {
         let (threads, px) = match self.concurrent.get(&workers) {
             Some(px) => (workers, px),
@@ -215,12 +243,7 @@ impl Inputs {
             ),
             _ => (0.0, self.fixed_s.1),
         };
-        let refill_s = if self.local_threads && !items.cost_s.is_empty() {
-            let mean = items.cost_s.iter().sum::<f64>() / items.cost_s.len() as f64;
-            self.refill(spec, mean)?
-        } else {
-            0.0
-        };
+        let refill_s = self.source_floor(spec, &items.cost_s)?;
         Ok(SimJob {
             platform: platform.to_path_buf(),
             scheduler: spec.kind().id().to_string(),
@@ -454,7 +477,10 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     };
     let mpi_measured = match &plan.mpi_validation {
         Some((csv, platforms)) => {
-            let (configs, overrides) = validate::mpi_configs(csv)?;
+            let (mut configs, overrides) = validate::mpi_configs(csv)?;
+            if let Some(spin) = &plan.mpi_spin {
+                validate::attach_spin(&mut configs, &validate::mpi_configs(spin)?.0);
+            }
             if let Some(m) = configs
                 .iter()
                 .find(|m| !platforms.contains_key(m.transport.as_deref().unwrap_or_default()))
@@ -585,7 +611,46 @@ pub fn load_average() -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::hidden_refill;
+    use super::*;
+    use crate::sched::SchedulerKind;
+
+    #[test]
+    fn an_mpi_master_keeps_to_its_launchs_spinning_period_unless_the_item_hides_it() {
+        let one = 13.3e-6;
+        let mut inputs = Inputs {
+            pixels: PixelCosts {
+                width: 1,
+                height: 1,
+                cost_s: vec![one],
+                timed_s: one,
+                bulk_s: one,
+                bulk_range_s: (one, one),
+            },
+            concurrent: BTreeMap::new(),
+            master_h_s: BTreeMap::new(),
+            counter_s: 0.0,
+            fixed_s: (BTreeMap::new(), 0.0),
+            local_threads: false,
+            items: BTreeMap::new(),
+            refill: BTreeMap::new(),
+            reps: 1,
+            mpi_period: None,
+        };
+        let master = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 1);
+        let costs = [one; 4];
+        // A cluster's master: its round trip is the simulated network's.
+        assert_eq!(inputs.source_floor(&master, &costs).unwrap(), 0.0);
+        // The per-ray launch over shared memory (Xeon dev VM, 16:05): 21.5 µs per item.
+        inputs.mpi_period = Some((21.5e-6, one));
+        assert_eq!(inputs.source_floor(&master, &costs).unwrap(), 21.5e-6);
+        // 16² tiles on one rendering rank: the period is the item's, the refill hidden.
+        inputs.mpi_period = Some((3443e-6, 3415e-6));
+        assert_eq!(inputs.source_floor(&master, &costs).unwrap(), 0.0);
+        // Only the master's sources wait for a refill.
+        inputs.mpi_period = Some((21.5e-6, one));
+        let ss = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 1, h: 1 }, 1);
+        assert_eq!(inputs.source_floor(&ss, &costs).unwrap(), 0.0);
+    }
 
     #[test]
     fn a_refill_period_at_the_item_cost_is_hidden_and_one_above_it_is_the_floor() {

@@ -32,6 +32,11 @@ pub struct Measured {
     /// configurations that reached their CI target early were measured in the fast rounds
     /// only: against one level they came out 5 % fast.
     pub level_s: f64,
+    /// Items of its decomposition (the last row's `items`).
+    pub items: u64,
+    /// Over MPI: the period per item and source of the same launch with spinning items,
+    /// and those items' mean cost, seconds ([`attach_spin`]).
+    pub spin_period: Option<(f64, f64)>,
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -109,6 +114,7 @@ fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOver
                 m.rounds.push(r.repetition);
                 m.serial_s = r.serial_s;
                 m.level_s = r.serial_s;
+                m.items = r.items;
             }
             None => out.push(Measured {
                 spec,
@@ -119,6 +125,8 @@ fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOver
                 transport,
                 serial_s: r.serial_s,
                 level_s: r.serial_s,
+                items: r.items,
+                spin_period: None,
             }),
         }
     }
@@ -157,6 +165,27 @@ fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOver
     Ok((out, overrides))
 }
 
+/// Give every MPI configuration of `configs` the period per item and source of its launch
+/// with spinning items (`spin`, the same configurations measured by
+/// `experiments/mpi_sweep.py --spin`): workers × the median wall / items. The spinning items
+/// cost, per pixel, the mean pixel of `configs`' serial renders, so their mean is the serial
+/// over the items. A configuration without a spinning launch keeps none.
+pub fn attach_spin(configs: &mut [Measured], spin: &[Measured]) {
+    for m in configs.iter_mut() {
+        let Some(s) = spin
+            .iter()
+            .find(|s| s.spec == m.spec && s.transport == m.transport && s.items > 0)
+        else {
+            continue;
+        };
+        let items = s.items as f64;
+        m.spin_period = Some((
+            s.spec.workers as f64 * median(&s.walls) / items,
+            m.serial_s / items,
+        ));
+    }
+}
+
 /// One configuration, measured and simulated.
 #[derive(Clone, Debug)]
 pub struct Comparison {
@@ -190,6 +219,8 @@ pub struct Comparison {
     pub dispatch: (f64, f64),
     /// Σ idle (wall − busy) over workers: measured median, simulated.
     pub idle: (f64, f64),
+    /// Over MPI: its launch's period per item with spinning items, and their mean cost.
+    pub spin_period: Option<(f64, f64)>,
 }
 
 impl Comparison {
@@ -242,6 +273,7 @@ pub fn compare(
     let mut rows = Vec::new();
     for (m, platform) in measured {
         inputs.local_threads = m.transport.is_none();
+        inputs.mpi_period = m.spin_period;
         let sim = simulate_one(inputs, plan, exe, platform, &m.spec)?;
         // After `sim`: the scaled inputs share its measured refill period.
         let mut at_level = inputs.at_level(m.level_s);
@@ -274,6 +306,7 @@ pub fn compare(
             busy: (median(&m.busy), sim_busy),
             dispatch: (median(&m.dispatch), sim.out.dispatch_s),
             idle: (median(&measured_idle), sim.idle_s()),
+            spin_period: m.spin_period,
         };
         if !quiet {
             println!(
@@ -425,6 +458,30 @@ pub fn markdown(v: &Validation) -> String {
             )
         },
     );
+    let spun: Vec<String> = v
+        .rows
+        .iter()
+        .filter_map(|c| {
+            let (p, mean) = c.spin_period?;
+            Some(format!(
+                "{} {} on {}: {:.1} µs over items of {:.1} µs",
+                c.sources,
+                c.spec.label(),
+                c.spec.workers,
+                p * 1e6,
+                mean * 1e6
+            ))
+        })
+        .collect();
+    if !spun.is_empty() {
+        s.insert_str(
+            s.rfind("\n\n| sources").unwrap_or(s.len()),
+            &format!(
+                " Over MPI, each launch's period per item and source with spinning items (the floor of its sources unless within 5 % of the item): {}.",
+                spun.join("; ")
+            ),
+        );
+    }
     for c in &v.rows {
         s += &format!(
             "| {} | {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.4} | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
@@ -566,5 +623,42 @@ mod tests {
         assert_eq!(threads.len(), 1);
         assert_eq!(threads[0].transport, None);
         assert!(configs_where(&rows[..2], true).is_err());
+    }
+
+    #[test]
+    fn an_mpi_configuration_takes_the_period_per_item_of_its_spinning_launch() {
+        let mpi = |wall: f64, t: &str, workers: usize| {
+            let mut r = row("master", wall, 0.26);
+            (r.sources, r.ranks, r.transport) = ("mpi".into(), Some(workers + 1), Some(t.into()));
+            (r.workers, r.items) = (workers, 64);
+            r
+        };
+        let serial = row("serial", 0.26, 0.26);
+        let rendered = [
+            serial.clone(),
+            mpi(0.3, "tcp_loopback", 2),
+            mpi(0.2, "shared_memory", 2),
+        ];
+        let spinning = [
+            serial,
+            mpi(0.32, "tcp_loopback", 2),
+            mpi(0.40, "tcp_loopback", 2),
+            mpi(0.36, "tcp_loopback", 2),
+        ];
+        let (mut configs, _) = configs_where(&rendered, true).unwrap();
+        let (spin, _) = configs_where(&spinning, true).unwrap();
+        attach_spin(&mut configs, &spin);
+        let tcp = configs
+            .iter()
+            .find(|m| m.transport.as_deref() == Some("tcp_loopback"));
+        // 2 workers × the median wall 0.36 s / 64 items; items of the serial 0.26 s / 64.
+        assert_eq!(
+            tcp.unwrap().spin_period,
+            Some((2.0 * 0.36 / 64.0, 0.26 / 64.0))
+        );
+        let shm = configs
+            .iter()
+            .find(|m| m.transport.as_deref() == Some("shared_memory"));
+        assert_eq!(shm.unwrap().spin_period, None);
     }
 }

@@ -541,5 +541,20 @@ mod with_simgrid {
             &experiment(dir.path(), &p.to_string_lossy(), "[0]"),
         );
         assert!(err.contains("workers"), "{err}");
+        // MPI launches with spinning workers need the rendering launches they stand beside.
+        let measured = dir.path().join("m.csv");
+        std::fs::write(&measured, "").unwrap();
+        let exp = experiment(dir.path(), &p.to_string_lossy(), "[2]");
+        let mut text = std::fs::read_to_string(&exp).unwrap();
+        text += &format!(
+            "[validation]\nmeasured = {measured:?}\nplatform = {:?}\nmpi_spin = {measured:?}\n",
+            p.to_string_lossy()
+        );
+        std::fs::write(&exp, text).unwrap();
+        let err = refused(dir.path(), &exp);
+        assert!(
+            err.contains("validation.mpi_spin") && err.contains("mpi_measured"),
+            "{err}"
+        );
     }
 }
