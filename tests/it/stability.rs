@@ -125,11 +125,7 @@ fn render_item_matches_the_moments_path() {
             let r = render::render_item(&scene, &tracer, item);
             let m = render::render_moments(&scene, &tracer, item, 0..spp, true);
             let inv = 1.0 / spp as f64;
-            let want: Vec<[f32; 3]> = m
-                .sums
-                .iter()
-                .map(|s| s.map(|v| (v * inv) as f32))
-                .collect();
+            let want: Vec<[f32; 3]> = m.sums.iter().map(|s| s.map(|v| (v * inv) as f32)).collect();
             assert_eq!(r.item, item.id);
             assert_eq!(r.pixels, want, "{path} item {}", item.id);
             assert_eq!((r.rays, r.nonfinite), (m.rays, m.nonfinite), "{path}");
