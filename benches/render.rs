@@ -4,7 +4,9 @@
 //! `item_cost`: what one work item costs beyond its pixels. skewed_low at 1 spp (three
 //! quarters open sky, so a pixel is cheap and the per-item part shows), every pixel rendered
 //! once as a one-pixel item and once in rows of 128, one thread; c = (pixels − rows) / (16 384
-//! − 128) items.
+//! − 128) items. Two more one-pixel runs split what a run adds: `kept` holds every result in a
+//! reserved list, as a run's worker does (its allocations stay live), and `scatter_kept` also
+//! takes the pixels in stratified order (`--order scatter`, the factoring family's default).
 
 #![allow(
     missing_docs,
@@ -14,6 +16,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use raysched::render::{render_item, render_serial, WorkItem};
 use raysched::scene::{load_scene, Scene, SceneOverrides};
+use raysched::sched::decompose;
+use raysched::sched::param::{Chunk, Order};
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::hint::black_box;
 use std::path::Path;
@@ -61,6 +65,22 @@ fn item_cost(c: &mut Criterion) {
             rays
         })
     });
+    for (name, order) in [
+        ("skewed_low_1spp_pixel_items_kept", Order::Scanline),
+        ("skewed_low_1spp_pixel_items_scatter_kept", Order::Scatter),
+    ] {
+        let items = decompose(w, h, Chunk::Tile { w: 1, h: 1 }, order);
+        g.bench_function(name, |b| {
+            // Dropped outside the timing, as a run frees its results after its wall time.
+            b.iter_with_large_drop(|| {
+                let mut kept = Vec::with_capacity(items.len());
+                for item in &items {
+                    kept.push(render_item(&scene, &tracer, item));
+                }
+                kept
+            })
+        });
+    }
     g.bench_function("skewed_low_1spp_row_items", |b| {
         b.iter(|| {
             let mut rays = 0;
