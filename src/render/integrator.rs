@@ -14,7 +14,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 /// The scene features a specialised [`radiance_with`] keeps. Each flag is a constant, so a
 /// feature the scene lacks is compiled out of the per-ray loop (no branch, no match arm).
-/// [`feature_flags`] picks the set once per item (`render_sums`), never per ray.
+/// [`feature_flags`] picks the set once per item (`render_item`, `render_moments`), never per ray.
 pub trait FeatureSet {
     /// An environment light.
     const ENV: bool;

@@ -94,6 +94,70 @@ fn pruned_and_full_paths_are_bit_identical() {
     }
 }
 
+/// `render_item` (straight into the item's pixels) gives the bits of the moments path's sums
+/// over the sample count, whatever the item's shape: the frame, rows, one-pixel items, a tile
+/// and an explicit pixel list out of order.
+#[test]
+fn render_item_matches_the_moments_path() {
+    for path in [
+        "scenes/simple.toml",
+        "scenes/cornell_box.toml",
+        "scenes/glass_checker.toml",
+        "scenes/point_plane.toml",
+    ] {
+        let scene = small(path);
+        let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
+        let (w, h) = (scene.width(), scene.height());
+        let spp = scene.settings.spp;
+        let mut items = vec![
+            WorkItem::rect(0, 0, 0, w, h),
+            WorkItem::rect(1, 0, 5, w, 1),
+            WorkItem::rect(2, 3, 4, 5, 6),
+            WorkItem::rect(3, 7, 2, 1, 1),
+            WorkItem {
+                id: 4,
+                region: render::Region::Pixels(vec![143, 0, 77, 12, 5]),
+                frame: 0,
+            },
+        ];
+        items.extend((0..w).map(|x| WorkItem::rect(10 + x, x, 9, 1, 1)));
+        for item in &items {
+            let r = render::render_item(&scene, &tracer, item);
+            let m = render::render_moments(&scene, &tracer, item, 0..spp, true);
+            let inv = 1.0 / spp as f64;
+            let want: Vec<[f32; 3]> = m.sums.iter().map(|s| s.map(|v| (v * inv) as f32)).collect();
+            assert_eq!(r.item, item.id);
+            assert_eq!(r.pixels, want, "{path} item {}", item.id);
+            assert_eq!((r.rays, r.nonfinite), (m.rays, m.nonfinite), "{path}");
+            assert_eq!(r.pixels.len(), item.pixel_count());
+        }
+    }
+}
+
+/// `WorkItem::pixels`: row by row through a rectangle, its length known, nothing for an empty
+/// one, a list as given.
+#[test]
+fn item_pixels_in_render_order() {
+    let tile = WorkItem::rect(0, 2, 1, 3, 2);
+    let mut it = tile.pixels(10);
+    assert_eq!(it.len(), 6);
+    assert_eq!(it.next(), Some(12));
+    assert_eq!(it.len(), 5);
+    assert_eq!(it.collect::<Vec<_>>(), [13, 14, 22, 23, 24]);
+    for empty in [WorkItem::rect(0, 4, 4, 0, 3), WorkItem::rect(0, 4, 4, 3, 0)] {
+        assert_eq!(empty.pixels(10).len(), 0);
+        assert_eq!(empty.pixels(10).next(), None);
+    }
+    let one = WorkItem::rect(0, 9, 7, 1, 1);
+    assert_eq!(one.pixels(10).collect::<Vec<_>>(), [79]);
+    let list = WorkItem {
+        id: 0,
+        region: render::Region::Pixels(vec![5, 1, 3]),
+        frame: 0,
+    };
+    assert_eq!(list.pixels(10).collect::<Vec<_>>(), [5, 1, 3]);
+}
+
 #[test]
 fn features_report_names_what_a_scene_leaves_out() {
     let scene = small("scenes/furnace.toml");
