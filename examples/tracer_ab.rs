@@ -11,9 +11,12 @@
 //!
 //! Tracer ids are those of `--tracer`.
 //!
-//! Measured (quiet 2-core AMD EPYC KVM guest, `taskset -c 0`, 5 rounds, 1 M triangles, 3 runs,
-//! load 1.9–2.9, 8-lane leaf test): bvh/embree best rate primary 0.87–0.93 at 256², 0.99–1.01
-//! at 1024²; diffuse 0.79–0.81 and 0.75–0.79; build 0.48–0.54 s, 1.68–2.11× Embree's. Full
+//! Measured (quiet 2-core Intel Xeon KVM guest with AVX-512, `taskset -c 0`, 5 rounds, 1 M
+//! triangles, 3 runs, load 3.7–1.8, SAH collapse into wide nodes): bvh/embree best rate
+//! primary 0.70–0.73 at 256², 0.87–0.94 at 1024²; diffuse 0.61–0.64 and 0.67–0.70; build
+//! 0.72–0.78 s, 1.63–2.00× Embree's. The code before it gave 0.66–0.67, 0.85–0.89,
+//! 0.58–0.60 and 0.61–0.65 in the same runs, and 0.87–0.93, 0.99–1.01, 0.79–0.81 and
+//! 0.75–0.79 on a 2-core AMD EPYC: only ratios from one machine compare. Full
 //! table: `benches/peers/results.md`.
 //!
 //! `cargo run --release --features embree --example tracer_ab -- complex 1000000 256 9 bvh embree`

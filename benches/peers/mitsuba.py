@@ -14,6 +14,8 @@ minimum and maximum of each program, and the ratio raysched / Mitsuba pair by pa
 range). raysched's time is the render's wall time as it prints it (scene load and BVH build
 excluded, as Mitsuba's scene load is); its process wall time is printed beside it.
 
+Measured (quiet 2-core Intel Xeon with AVX-512, 2026-12-02 16:55, SAH collapse on big
+scenes, Cornell tree unchanged): raysched / llvm_ad_rgb median 1.66 (1.64-1.68), base 1.66.
 Measured (2-core AMD EPYC, 2026-12-02 07:00, 8-lane leaf test, 2 runs): raysched /
 llvm_ad_rgb medians 1.69, 1.69 (1.46-1.76); the base binary in the same runs 1.74, 1.75.
 Measured (quiet 2-core Intel Xeon with AVX-512, 2026-12-02, AVX node test): raysched /

@@ -1,11 +1,11 @@
-//! Native tracer: `obvhs` builds a binary BVH over every primitive's bounds (PLOC, reinsertion,
-//! SAH leaf collapse), [`WideBvh`] flattens it to 8 children per node and traverses it; leaves
+//! Native tracer: `obvhs` builds a binary BVH over every primitive's bounds (PLOC, reinsertion),
+//! [`WideBvh`] collapses it by SAH into 8-wide nodes and leaves and traverses it; leaves
 //! hold their triangles in packets of four ([`Triangle4`]) tested at once (a leaf of two
 //! packets in one 8-lane test where the CPU has AVX2), and analytic spheres
 //! one by one, with the shared routines of [`crate::geometry`], so hits agree bit for bit with
 //! `brute`.
 
-use super::bvh4::{Leaves, Wide, WideBvh, PACKET, PAD};
+use super::bvh4::{CollapseCosts, Leaves, Wide, WideBvh, PACKET, PAD};
 use super::Tracer;
 use crate::geometry::{Hit, Hit4, Ray, ShearedRay, Sphere, Triangle4};
 use crate::scene::Geometry;
@@ -54,23 +54,38 @@ pub const BUILD_PARAMS: BvhBuildParams = {
     p
 };
 
-/// From this many primitives on, [`BUILD_PARAMS_LARGE`]: with leaves of five to eight
-/// triangles tested in one 8-lane step, bigger leaves pay on a big mesh of small triangles but
-/// not on the Cornell box. Measured at the two ends only (36 and 998 002 triangles); a scene
-/// between them takes the large-scene setting from here on.
+/// From this many primitives on, [`BUILD_PARAMS_LARGE`]. Measured at the two ends only (36 and
+/// 998 002 triangles); a scene between them takes the large-scene setting from here on.
 pub const LARGE_SCENE_PRIMS: usize = 10_000;
 
-/// [`BUILD_PARAMS`] with the collapse cost raised from 2.5 to 4 (leaves of 4–8 triangles
-/// instead of 2–4). `examples/tracer_ab`, 1 M-triangle displaced sphere, one thread, best of 5
-/// rounds, 2 runs, quiet 2-core AMD EPYC (load 1.5–2.4): bvh/Embree primary 256² 0.85–0.86
-/// against 0.78–0.80 at 2.5, 1024² 0.98–1.00 against 0.94; diffuse 0.71–0.74 against
-/// 0.65–0.71. Without the 8-lane leaf test, cost 4 gave 0.84–0.85, 0.92–0.95 and 0.69–0.73.
-/// Cost 6 was no better (0.98–1.01 at 1024², diffuse 0.70–0.74). On the Cornell box (1 thread,
-/// 32 spp, 6 renders) cost 4 took 0.402–0.421 s against 0.376–0.387 at 2.5.
+/// [`BUILD_PARAMS`] with one primitive per binary leaf and no leaf collapse in obvhs (nor the
+/// reinsertion pass after it): the SAH collapse into wide nodes ([`COLLAPSE_COSTS`]) then forms
+/// the leaves too. `examples/tracer_ab`, 1 M-triangle displaced sphere, one thread, best of 5
+/// rounds, 3 runs of each binary alternated, quiet 2-core Intel Xeon (AVX-512), against obvhs'
+/// leaves at collapse cost 4 and the greedy collapse: bvh/Embree primary 256² 0.70–0.73
+/// against 0.66–0.67, 1024² 0.87–0.94 against 0.85–0.89; diffuse 256² 0.61–0.64 against
+/// 0.58–0.60, 1024² 0.67–0.70 against 0.61–0.65; build 1.63–2.00× Embree's against 1.21–1.79×.
+/// With obvhs' leaves kept under the SAH collapse: 0.72, 0.85–0.88, 0.60–0.62, 0.63–0.64.
 pub const BUILD_PARAMS_LARGE: BvhBuildParams = {
     let mut p = BUILD_PARAMS;
-    p.collapse_traversal_cost = 4.0;
+    p.max_prims_per_leaf = 1;
+    p.post_collapse_reinsertion_batch_ratio_multiplier = 0.0;
     p
+};
+
+/// The SAH costs of the collapse into wide nodes and leaves (per unit of half area), used
+/// where obvhs makes one-primitive leaves (the large scenes): a node test twice a leaf
+/// packet's, two packets (one 8-lane test) 1.3×. On the 1 M-triangle mesh 5 % of the wide
+/// nodes then have two children (31 % with obvhs' leaves under the same collapse, 43 % under
+/// the greedy one). Node cost swept in two earlier quiet windows (`tracer_ab`, 3 runs each,
+/// same machine): 1 gave bvh/Embree 0.82–0.86 at 1024² primary and 0.60–0.66 diffuse; 1.5
+/// 0.87–0.92, 0.66–0.67; 2 0.87–0.91, 0.64–0.70; 3 0.86–0.89, 0.65–0.67; two packets at 1.0
+/// within noise of 1.3. The small scenes keep obvhs' leaves and the greedy collapse: on the
+/// Cornell box this collapse rendered in 1.08–1.11× their time (64 spp, 5 alternated pairs).
+pub const COLLAPSE_COSTS: CollapseCosts = CollapseCosts {
+    node: 2.0,
+    packet: 1.0,
+    two_packets: 1.3,
 };
 
 /// The build parameters for a scene of `prims` primitives.
@@ -143,7 +158,8 @@ impl BvhTracer {
                 Aabb::new(lo.into(), hi.into())
             })
             .collect();
-        let bvh = WideBvh::build(&aabbs, params);
+        let costs = (params.max_prims_per_leaf == 1).then_some(COLLAPSE_COSTS);
+        let bvh = WideBvh::build(&aabbs, params, costs);
         let order = bvh.order.clone();
         let ns = geometry.spheres.len() as u32;
         let mut spheres = Vec::new();

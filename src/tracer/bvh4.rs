@@ -1,5 +1,5 @@
-//! An 8-wide BVH with uncompressed `f32` child boxes, collapsed from the binary BVH that
-//! `obvhs` builds (PLOC + reinsertion + SAH leaf collapse), traversed nearest child first.
+//! An 8-wide BVH with uncompressed `f32` child boxes, collapsed by SAH ([`Collapse`]) from the
+//! binary BVH that `obvhs` builds (PLOC + reinsertion), traversed nearest child first.
 //!
 //! Why not obvhs' own CWBVH traversal: its child boxes are 8-bit quantised, and decoding them
 //! (byte → f32 per plane) dominated a CPU ray; it also starts every node test at a fixed
@@ -181,8 +181,11 @@ pub struct WideBvh {
 }
 
 impl WideBvh {
-    /// Build over primitive boxes `aabbs` (indexed by scene primitive id).
-    pub fn build(aabbs: &[Aabb], params: BvhBuildParams) -> Self {
+    /// Build over primitive boxes `aabbs` (indexed by scene primitive id), collapsing the binary
+    /// tree into wide nodes and leaves by the SAH [`Collapse`] with `costs`, or, without
+    /// costs, greedily: obvhs' leaves kept, each node opening its largest inner child until
+    /// [`WIDTH`] children (or only leaves) remain.
+    pub fn build(aabbs: &[Aabb], params: BvhBuildParams, costs: Option<CollapseCosts>) -> Self {
         let mut params = params;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
         let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
@@ -193,21 +196,33 @@ impl WideBvh {
             #[cfg(target_arch = "x86_64")]
             avx2: super::simd::Avx2::detect(),
         };
-        let root = &bvh2.nodes[0];
-        if root.prim_count > 0 {
-            out.root = out.leaf(&bvh2, 0);
-        } else {
-            out.collapse(&bvh2, 0);
-        }
+        let plan = costs.map(|c| Collapse::plan(&bvh2, c));
+        out.root = out.child(&bvh2, plan.as_ref(), 0);
         out
     }
 
-    /// Append binary leaf `b`'s primitives to [`Self::order`] as whole packets; its reference.
-    fn leaf(&mut self, bvh2: &Bvh2, b: usize) -> u32 {
-        let n = &bvh2.nodes[b];
+    /// The reference of binary node `b` as one child of a wide node: a leaf of every primitive
+    /// below it, or a wide node (appended, with its subtree), as `plan` decided.
+    fn child(&mut self, bvh2: &Bvh2, plan: Option<&Collapse>, b: usize) -> u32 {
+        let leaf = match plan {
+            Some(plan) => plan.is_leaf(bvh2, b),
+            None => bvh2.nodes[b].prim_count > 0,
+        };
+        if !leaf {
+            return self.collapse(bvh2, plan, b);
+        }
         let first = self.order.len() / PACKET;
-        let prims = &bvh2.primitive_indices[n.first_index as usize..][..n.prim_count as usize];
-        self.order.extend_from_slice(prims);
+        let mut pending = vec![b];
+        while let Some(i) = pending.pop() {
+            let n = &bvh2.nodes[i];
+            if n.prim_count > 0 {
+                let prims =
+                    &bvh2.primitive_indices[n.first_index as usize..][..n.prim_count as usize];
+                self.order.extend_from_slice(prims);
+            } else {
+                pending.extend([n.first_index as usize + 1, n.first_index as usize]);
+            }
+        }
         while !self.order.len().is_multiple_of(PACKET) {
             self.order.push(PAD);
         }
@@ -217,32 +232,34 @@ impl WideBvh {
         LEAF | (first as u32) << LEAF_BITS | packets as u32
     }
 
-    /// Append the wide node for binary inner node `b` (and, recursively, its subtree): open
-    /// the largest inner child until [`WIDTH`] children (or only leaves) remain.
-    fn collapse(&mut self, bvh2: &Bvh2, b: usize) -> u32 {
-        let area = |i: usize| bvh2.nodes[i].aabb.half_area();
-        let first = bvh2.nodes[b].first_index as usize;
-        let mut kids = vec![first, first + 1];
-        while kids.len() < WIDTH {
-            let open = (0..kids.len())
-                .filter(|&k| bvh2.nodes[kids[k]].prim_count == 0)
-                .max_by(|&x, &y| area(kids[x]).total_cmp(&area(kids[y])));
-            let Some(k) = open else { break };
-            let f = bvh2.nodes[kids[k]].first_index as usize;
-            kids[k] = f;
-            kids.insert(k + 1, f + 1);
+    /// Append the wide node for binary inner node `b` (and, recursively, its subtree): its
+    /// children are the roots `plan` chose below `b`, or the greedy ones.
+    fn collapse(&mut self, bvh2: &Bvh2, plan: Option<&Collapse>, b: usize) -> u32 {
+        let mut kids = Vec::with_capacity(WIDTH);
+        let l = bvh2.nodes[b].first_index as usize;
+        if let Some(plan) = plan {
+            let k = plan.split[b][0] as usize;
+            plan.roots(bvh2, l, k, &mut kids);
+            plan.roots(bvh2, l + 1, WIDTH - k, &mut kids);
+        } else {
+            let area = |i: usize| bvh2.nodes[i].aabb.half_area();
+            kids.extend([l, l + 1]);
+            while kids.len() < WIDTH {
+                let open = (0..kids.len())
+                    .filter(|&k| bvh2.nodes[kids[k]].prim_count == 0)
+                    .max_by(|&x, &y| area(kids[x]).total_cmp(&area(kids[y])));
+                let Some(k) = open else { break };
+                let f = bvh2.nodes[kids[k]].first_index as usize;
+                kids[k] = f;
+                kids.insert(k + 1, f + 1);
+            }
         }
         let me = self.nodes.len();
         self.nodes.push(Node::EMPTY);
         let mut node = Node::EMPTY;
         for (lane, &k) in kids.iter().enumerate() {
-            let n = &bvh2.nodes[k];
-            node.set(lane, &n.aabb);
-            node.child[lane] = if n.prim_count > 0 {
-                self.leaf(bvh2, k)
-            } else {
-                self.collapse(bvh2, k)
-            };
+            node.set(lane, &bvh2.nodes[k].aabb);
+            node.child[lane] = self.child(bvh2, plan, k);
         }
         self.nodes[me] = node;
         me as u32
@@ -355,6 +372,109 @@ impl WideBvh {
     }
 }
 
+/// Expected costs of the collapse's SAH, per unit of a box's half area (the chance that a ray
+/// enters it).
+#[derive(Clone, Copy, Debug)]
+pub struct CollapseCosts {
+    /// Testing one wide node.
+    pub node: f32,
+    /// Testing a leaf of one packet (up to four primitives).
+    pub packet: f32,
+    /// Testing a leaf of two packets (five to eight primitives).
+    pub two_packets: f32,
+}
+
+/// How the binary tree becomes wide nodes and leaves: the SAH-optimal collapse of Ylitie et
+/// al., "Efficient incoherent ray traversal on GPUs through compressed wide BVHs" (2017), with
+/// leaf costs of our packet tests. Per binary node and per `j` = 1..=[`WIDTH`], the cheapest
+/// way to hang its subtree below a wide node as at most `j` children: one leaf (at most
+/// [`MAX_LEAF_PRIMS`] primitives), one wide node, or `j` split between its two children.
+pub(super) struct Collapse {
+    /// Per binary node, the cost with at most `j + 1` children.
+    cost: Vec<[f32; WIDTH]>,
+    /// Per binary node and `j + 1` children: 0 where one child (leaf or node) is cheapest,
+    /// else how many go to the left child. At `j = 0` (one child, a wide node): how many of
+    /// its [`WIDTH`] children come from the left child, or 0 for a leaf.
+    split: Vec<[u8; WIDTH]>,
+}
+
+impl Collapse {
+    fn plan(bvh2: &Bvh2, c: CollapseCosts) -> Self {
+        let n = bvh2.nodes.len();
+        let mut plan = Self {
+            cost: vec![[0.0; WIDTH]; n],
+            split: vec![[0; WIDTH]; n],
+        };
+        let mut prims = vec![0u32; n];
+        // Children before parents: the reverse of a pre-order walk (no recursion: a
+        // degenerate tree may be deep).
+        let mut pre = Vec::with_capacity(n);
+        let mut pending = vec![0usize];
+        while let Some(i) = pending.pop() {
+            pre.push(i);
+            let node = &bvh2.nodes[i];
+            if node.prim_count == 0 {
+                pending.extend([node.first_index as usize, node.first_index as usize + 1]);
+            }
+        }
+        let leaf_cost = |count: u32, area: f32| match count.div_ceil(PACKET as u32) {
+            0 | 1 => area * c.packet,
+            2 => area * c.two_packets,
+            _ => f32::INFINITY,
+        };
+        for &i in pre.iter().rev() {
+            let node = &bvh2.nodes[i];
+            let area = node.aabb.half_area();
+            if node.prim_count > 0 {
+                prims[i] = node.prim_count;
+                plan.cost[i] = [leaf_cost(node.prim_count, area); WIDTH];
+                continue;
+            }
+            let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+            prims[i] = prims[l].saturating_add(prims[r]);
+            let (cl, cr) = (plan.cost[l], plan.cost[r]);
+            let mut best = (leaf_cost(prims[i], area), 0u8);
+            for k in 1..WIDTH {
+                let cost = area * c.node + cl[k - 1] + cr[WIDTH - k - 1];
+                if cost < best.0 {
+                    best = (cost, k as u8);
+                }
+            }
+            (plan.cost[i][0], plan.split[i][0]) = best;
+            for j in 1..WIDTH {
+                let mut best = (plan.cost[i][j - 1], 0u8);
+                for k in 1..=j {
+                    let cost = cl[k - 1] + cr[j - k];
+                    if cost < best.0 {
+                        best = (cost, k as u8);
+                    }
+                }
+                (plan.cost[i][j], plan.split[i][j]) = best;
+            }
+        }
+        plan
+    }
+
+    /// Whether binary node `b`, as one child, is a leaf.
+    fn is_leaf(&self, bvh2: &Bvh2, b: usize) -> bool {
+        bvh2.nodes[b].prim_count > 0 || self.split[b][0] == 0
+    }
+
+    /// The children (binary nodes, in tree order) that stand for binary node `b` given room
+    /// for `room` of them.
+    fn roots(&self, bvh2: &Bvh2, b: usize, room: usize, out: &mut Vec<usize>) {
+        let node = &bvh2.nodes[b];
+        let k = self.split[b][room - 1] as usize;
+        if node.prim_count > 0 || room == 1 || k == 0 {
+            out.push(b);
+            return;
+        }
+        let l = node.first_index as usize;
+        self.roots(bvh2, l, k, out);
+        self.roots(bvh2, l + 1, room - k, out);
+    }
+}
+
 /// Entries kept on the call stack before a traversal spills into a `Vec` (allocated only by
 /// the rare query that goes deeper): no allocation per ray, no depth limit, and no
 /// thread-local lookup, whose closure kept the traversal out of its AVX2 copy (a
@@ -456,6 +576,69 @@ fn push_insertion_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tracer::bvh::{BUILD_PARAMS, BUILD_PARAMS_LARGE, COLLAPSE_COSTS};
+
+    /// Both collapses put every primitive in exactly one leaf of at most [`MAX_LEAF_PRIMS`],
+    /// each inside its node lane's box, on a grid of boxes; the SAH one, from one-primitive
+    /// binary leaves and from obvhs' leaves, leaves few two-child nodes.
+    #[test]
+    fn collapse_places_every_primitive_once_and_fills_nodes() {
+        let aabbs: Vec<Aabb> = (0..3000)
+            .map(|i| {
+                let p = glam::Vec3A::new((i % 17) as f32, (i / 17 % 13) as f32, (i / 221) as f32);
+                Aabb::new(p, p + glam::Vec3A::splat(0.5 + (i % 3) as f32 * 0.25))
+            })
+            .collect();
+        for (params, costs) in [
+            (BUILD_PARAMS, None),
+            (BUILD_PARAMS, Some(COLLAPSE_COSTS)),
+            (BUILD_PARAMS_LARGE, Some(COLLAPSE_COSTS)),
+        ] {
+            let bvh = WideBvh::build(&aabbs, params, costs);
+            let mut seen = vec![0u32; aabbs.len()];
+            for &p in bvh.order.iter().filter(|&&p| p != PAD) {
+                seen[p as usize] += 1;
+            }
+            assert!(
+                seen.iter().all(|&n| n == 1),
+                "a primitive missing or repeated"
+            );
+            let (mut two, mut leaves) = (0, 0);
+            for n in &bvh.nodes {
+                let kids: Vec<usize> = (0..WIDTH).filter(|&l| n.child[l] != EMPTY).collect();
+                assert!(kids.len() >= 2);
+                two += (kids.len() == 2) as usize;
+                for &l in &kids {
+                    let c = n.child[l];
+                    if c & LEAF == 0 {
+                        continue;
+                    }
+                    leaves += 1;
+                    let slots = leaf_range(c).start * PACKET..leaf_range(c).end * PACKET;
+                    let prims: Vec<u32> = bvh.order[slots]
+                        .iter()
+                        .copied()
+                        .filter(|&p| p != PAD)
+                        .collect();
+                    assert!(!prims.is_empty() && prims.len() <= MAX_LEAF_PRIMS as usize);
+                    for p in prims {
+                        let b = &aabbs[p as usize];
+                        for a in 0..3 {
+                            assert!(n.planes[a][l] <= b.min[a] && b.max[a] <= n.planes[3 + a][l]);
+                        }
+                    }
+                }
+            }
+            assert!(leaves * 8 >= aabbs.len(), "{leaves} leaves");
+            if costs.is_some() {
+                assert!(
+                    two * 5 < bvh.nodes.len(),
+                    "{two} of {} two-child nodes",
+                    bvh.nodes.len()
+                );
+            }
+        }
+    }
 
     /// The two-hit shortcut orders children as the insertion sort does, ties included.
     #[test]
