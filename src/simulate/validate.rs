@@ -426,8 +426,31 @@ fn count(v: &Validation, ok: impl Fn(&Comparison) -> bool) -> usize {
 /// The validation table for `report.md`.
 pub fn markdown(v: &Validation) -> String {
     let (serial, probe_sum, timed_sum) = v.serial;
+    let spun: Vec<String> = v
+        .rows
+        .iter()
+        .filter_map(|c| {
+            let (p, mean) = c.spin_period?;
+            Some(format!(
+                "{} {} on {}: {:.1} µs over items of {:.1} µs",
+                c.sources,
+                c.spec.label(),
+                c.spec.workers,
+                p * 1e6,
+                mean * 1e6
+            ))
+        })
+        .collect();
+    let spun = if spun.is_empty() {
+        String::new()
+    } else {
+        format!(
+            " Over MPI, each launch's period per item and source with spinning items (the floor of its sources unless within 5 % of the item): {}.",
+            spun.join("; ")
+        )
+    };
     let mut s = format!(
-        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {} (with the pixel costs at the level of the serial renders of each configuration's own rounds: {}); speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's pixel costs {probe_sum:.4} s ({:+.1} %), calibrated to a bulk render in rows; as timed one pixel at a time {timed_sum:.4} s ({:+.1} %).{}{}\n\n| sources | configuration | workers | measured wall s (min–max) | simulated s | wall error | serial of its rounds s | at that level | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "## Validation: simulated ({}) vs measured\n\n{} configurations; wall error ≤ 5 %: {} (with the pixel costs at the level of the serial renders of each configuration's own rounds: {}); speedup error ≤ 10 %: {}; ranking of pairs whose measured medians' 95 % CIs do not overlap: {} of {} the same. Load average after the measurements: {}.\n\nInputs against the measured serial baseline (median {serial:.4} s): Σ of the probe's pixel costs {probe_sum:.4} s ({:+.1} %), calibrated to a bulk render in rows; as timed one pixel at a time {timed_sum:.4} s ({:+.1} %).{}{}{spun}\n\n| sources | configuration | workers | measured wall s (min–max) | simulated s | wall error | serial of its rounds s | at that level | speedup measured / simulated | Σ busy s measured / simulated | dispatch s m / s | Σ idle s m / s |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         v.platform,
         v.rows.len(),
         count(v, |c| c.wall_error().abs() <= 0.05),
@@ -458,30 +481,6 @@ pub fn markdown(v: &Validation) -> String {
             )
         },
     );
-    let spun: Vec<String> = v
-        .rows
-        .iter()
-        .filter_map(|c| {
-            let (p, mean) = c.spin_period?;
-            Some(format!(
-                "{} {} on {}: {:.1} µs over items of {:.1} µs",
-                c.sources,
-                c.spec.label(),
-                c.spec.workers,
-                p * 1e6,
-                mean * 1e6
-            ))
-        })
-        .collect();
-    if !spun.is_empty() {
-        s.insert_str(
-            s.rfind("\n\n| sources").unwrap_or(s.len()),
-            &format!(
-                " Over MPI, each launch's period per item and source with spinning items (the floor of its sources unless within 5 % of the item): {}.",
-                spun.join("; ")
-            ),
-        );
-    }
     for c in &v.rows {
         s += &format!(
             "| {} | {} | {} | {:.4} ({:.4}–{:.4}) | {:.4} | {:+.1} % | {:.4} | {:+.1} % | {:.2} / {:.2} | {:.4} / {:.4} | {:.4} / {:.4} | {:.4} / {:.4} |\n",
