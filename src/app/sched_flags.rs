@@ -99,10 +99,12 @@ impl Args for SchedulerFlags {
                     .value_name("ORDER")
                     .value_parser(|s: &str| Order::from_id(s).map_err(|e| e.msg))
                     .help(format!(
-                        "Hand-out order of the items: {} [default: scatter for guided and \
-                         the factoring family, whose first chunks are a share of all items; \
-                         scanline otherwise]",
-                        ids(&orders)
+                        "Hand-out order of the items: {} [default: {} for guided and the \
+                         factoring family, whose first chunks are a share of all items; {} \
+                         otherwise]",
+                        ids(&orders),
+                        SchedulerKind::Guided.default_order().id(),
+                        SchedulerKind::SelfScheduling.default_order().id(),
                     )),
             )
             .arg(

@@ -292,6 +292,13 @@ id_enum! {
         /// left at once (the factoring family, guided): their analysis assumes item costs
         /// independent of their position in the order, which a hot spot in scanline order is not.
         Scatter = "scatter",
+        /// Stratified over small blocks: the image cut into blocks of at least
+        /// [`BLOCK_PX`](super::decompose::BLOCK_PX)² pixels, the blocks in `scatter` order and
+        /// the cells inside each block consecutive in scanline order. A run of one block's
+        /// cells (16 one-pixel items) is coherent, runs of many blocks still sample the whole
+        /// image evenly; cells of ≥ 4×4 pixels are their own blocks, so over them it is
+        /// `scatter`. The default of the rules that default to a stratified order.
+        ScatterBlocks = "scatter_blocks",
     }
 }
 
@@ -487,7 +494,7 @@ mod tests {
         }
         assert_eq!(
             Order::from_id("zigzag").unwrap_err().msg,
-            "unknown order 'zigzag' (expected scanline, morton, hilbert, spiral or scatter)"
+            "unknown order 'zigzag' (expected scanline, morton, hilbert, spiral, scatter or scatter_blocks)"
         );
         assert_eq!(
             Wait::from_id("nap").unwrap_err().msg,

@@ -67,16 +67,17 @@ impl SchedulerKind {
         matches!(self, Self::Pbrt | Self::Mitsuba)
     }
 
-    /// The order this kind takes its items in unless told otherwise: stratified
-    /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
-    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes are chosen
-    /// so that a chunk of independent items is unlikely to end after the optimum (Hummel,
-    /// Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk instead,
-    /// which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot
-    /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers).
+    /// The order this kind takes its items in unless told otherwise: stratified by small
+    /// blocks ([`Order::ScatterBlocks`]) for the rules whose first chunks are a share of all
+    /// items (the factoring family and guided), scanline for the rest. Factoring's chunk sizes
+    /// are chosen so that a chunk of independent items is unlikely to end after the optimum
+    /// (Hummel, Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk
+    /// instead, which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100×
+    /// hot spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers). Blocks
+    /// rather than single cells keep a chunk of one-pixel items coherent.
     pub fn default_order(self) -> Order {
         if self.is_dls() || self == Self::Guided {
-            Order::Scatter
+            Order::ScatterBlocks
         } else {
             Order::Scanline
         }
