@@ -5,8 +5,9 @@
 //! quarters open sky, so a pixel is cheap and the per-item part shows), every pixel rendered
 //! once as a one-pixel item and once in rows of 128, one thread; c = (pixels − rows) / (16 384
 //! − 128) items. Two more one-pixel runs split what a run adds: `kept` holds every result in a
-//! reserved list, as a run's worker does (its allocations stay live), and `scatter_kept` also
-//! takes the pixels in stratified order (`--order scatter`, the factoring family's default).
+//! reserved list, as a run's worker does (its allocations stay live), `scatter_kept` also takes
+//! the pixels in stratified order (`--order scatter`) and `scatter_blocks_kept` in stratified
+//! 4² blocks (`--order scatter_blocks`, the factoring family's default).
 
 #![allow(
     missing_docs,
@@ -68,6 +69,10 @@ fn item_cost(c: &mut Criterion) {
     for (name, order) in [
         ("skewed_low_1spp_pixel_items_kept", Order::Scanline),
         ("skewed_low_1spp_pixel_items_scatter_kept", Order::Scatter),
+        (
+            "skewed_low_1spp_pixel_items_scatter_blocks_kept",
+            Order::ScatterBlocks,
+        ),
     ] {
         let items = decompose(w, h, Chunk::Tile { w: 1, h: 1 }, order);
         g.bench_function(name, |b| {

@@ -148,6 +148,7 @@ fn check_run(spec: &SchedulerSpec) {
 #[test]
 fn every_scheduler_granularity_and_worker_count_matches_serial() {
     let mut runs = 0;
+    let mut seen = Vec::new();
     for kind in SchedulerKind::ALL
         .into_iter()
         .filter(|k| *k != SchedulerKind::Master)
@@ -159,11 +160,18 @@ fn every_scheduler_granularity_and_worker_count_matches_serial() {
                 set_grab(&mut spec, 1 + ci % 3);
                 spec.timeline = workers == 3;
                 check_run(&spec);
+                seen.push((chunk, spec.order));
                 runs += 1;
             }
         }
     }
     assert_eq!(runs, (SchedulerKind::ALL.len() - 1) * 6 * 4);
+    for order in Order::ALL {
+        assert!(seen.iter().any(|&(_, o)| o == order), "{order:?} never ran");
+    }
+    // Over one-pixel items, where its blocks differ from `scatter`'s cells (17×13: partial
+    // blocks on two edges).
+    assert!(seen.contains(&(Chunk::Tile { w: 1, h: 1 }, Order::ScatterBlocks)));
 }
 
 /// A heterogeneous run (one worker 3× slower) changes who renders what, never the image.
