@@ -4,10 +4,10 @@
 //! `item_cost`: what one work item costs beyond its pixels. skewed_low at 1 spp (three
 //! quarters open sky, so a pixel is cheap and the per-item part shows), every pixel rendered
 //! once as a one-pixel item and once in rows of 128, one thread; c = (pixels − rows) / (16 384
-//! − 128) items. Two more one-pixel runs split what a run adds: `kept` holds every result in a
-//! reserved list, as a run's worker does (its allocations stay live), `scatter_kept` also takes
-//! the pixels in stratified order (`--order scatter`) and `scatter_blocks_kept` in stratified
-//! 4² blocks (`--order scatter_blocks`, the factoring family's default).
+//! − 128) items. Three more one-pixel runs split what a run adds: `kept` holds every result in
+//! a reserved list, as a run's worker does (its allocations stay live), `scatter_kept` also
+//! takes the pixels in stratified order (`--order scatter`, the factoring family's default) and
+//! `scatter_blocks_kept` in stratified 4² blocks (`--order scatter_blocks`).
 
 #![allow(
     missing_docs,

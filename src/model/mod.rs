@@ -567,8 +567,7 @@ mod tests {
         // W = 4032 + 6400, W/2 = 5216. In scanline order the first chunk of FAC2 and guided
         // (R/(2P) = 1024 items, rows 0–15) holds the whole block, ≥ 960 + 6400 = 7360; AF's
         // probe chunk (rows 0–3) sees only sky, so it hands out half of the rest at once,
-        // block included. In stratified order (of cells or of 4² blocks) every chunk holds its
-        // share of the block.
+        // block included. In stratified order every chunk holds its share of the block.
         use crate::sched::{decompose, Order};
         let hot = |p: u32| (8..16).contains(&(p % 64)) && (8..16).contains(&(p / 64));
         let half = (4032.0 + 6400.0) / 2.0;
@@ -600,15 +599,19 @@ mod tests {
             };
             let scan = wall(Order::Scanline);
             assert!(scan >= 7360.0, "{kind:?} scanline: {scan}");
-            for order in [Order::Scatter, Order::ScatterBlocks] {
-                let shared = wall(order);
-                assert!(
-                    shared <= half * 1.03,
-                    "{kind:?} {order:?}: {shared} vs {half}"
-                );
-            }
+            let scatter = wall(Order::Scatter);
+            assert!(
+                scatter <= half * 1.03,
+                "{kind:?} scatter: {scatter} vs {half}"
+            );
+            // The hot block is four 4² blocks: shared block by block, less evenly.
+            let blocks = wall(Order::ScatterBlocks);
+            assert!(
+                blocks <= half * 1.10,
+                "{kind:?} scatter_blocks: {blocks} vs {half}"
+            );
         }
-        assert_eq!(SchedulerKind::Awf.default_order(), Order::ScatterBlocks);
+        assert_eq!(SchedulerKind::Awf.default_order(), Order::Scatter);
         assert_eq!(
             SchedulerKind::SelfScheduling.default_order(),
             Order::Scanline

@@ -297,7 +297,7 @@ id_enum! {
         /// the cells inside each block consecutive in scanline order. A run of one block's
         /// cells (16 one-pixel items) is coherent, runs of many blocks still sample the whole
         /// image evenly; cells of ≥ 4×4 pixels are their own blocks, so over them it is
-        /// `scatter`. The default of the rules that default to a stratified order.
+        /// `scatter`. A hot spot of few blocks is shared in whole blocks, so less evenly.
         ScatterBlocks = "scatter_blocks",
     }
 }
