@@ -36,7 +36,7 @@
 //! mpi_measured = "../results/runs/simvalidate_mpi/runs.csv"   # optional: MPI launches
 //! mpi_spin = "../results/runs_spin/simvalidate_mpi/runs.csv"  # optional: the same, spinning
 //! [validation.mpi_platforms]                       # a platform per measured transport
-//! shared_memory = "../platforms/smp2_mpi_shared_memory.xml"
+//! shared_memory = "../platforms/smp2_mpi_shared_memory_amd_epyc.xml"
 //! ```
 
 use super::child;
