@@ -13,6 +13,10 @@
 //! time over its stats-off time, paired round by round (on and off alternate, so machine drift
 //! between rows does not enter the ratio).
 //!
+//! A fourth table, `bookkeeping`, gives the master's own time per item from its stats (the
+//! passes of its loop, waiting excluded) with one worker and with two, as a ratio to the
+//! counter: the part of its cost that no wake-up explains.
+//!
 //! `cargo bench --bench dispatch_ratio` (~20 s on the 2-core VM). The goals it checks: the factoring family no
 //! dearer per item than `guided`; the master at B ≥ 4 within 10× the counter; the master's
 //! stats-on cost within 10 % of stats-off.
@@ -198,6 +202,46 @@ fn main() {
                 "  master floor at B = {buffer:<3} {floor:>16.1} ns/item {:>6.1}×",
                 floor / cm
             );
+        }
+    }
+    if wanted("bookkeeping") {
+        // The master's own time per item (its stats: passes not waiting) with one worker, whose
+        // core it does not share, and with two, which leave three threads on two cores: what
+        // its ledger and result cells cost, apart from waiting for results.
+        println!(
+            "\n{:<34} {:>9} {:>9} {:>7} {:>9} {:>12}",
+            "master's own time (stats on)", "dispatch", "counter", "ratio", "wait", "passes/item"
+        );
+        let opts = RunOptions {
+            stats: true,
+            ..Default::default()
+        };
+        for buffer in BUFFERS {
+            for workers in [1, 2] {
+                let spec = SchedulerSpec {
+                    workers,
+                    ..master(buffer)
+                };
+                run_items(&spec, &items, job.clone(), &opts).unwrap();
+                let (mut c, mut d, mut w, mut p) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for _ in 0..ROUNDS {
+                    c.push(counter_ns());
+                    let (_, st) = run_items(&spec, &items, job.clone(), &opts).unwrap();
+                    let m = st.master.unwrap_or_default();
+                    let per = |x: f64| x / items.len() as f64;
+                    d.push(per(m.dispatch_s * 1e9));
+                    w.push(per(m.wait_s * 1e9));
+                    p.push(per(m.iterations as f64));
+                }
+                let (cm, dm) = (median(&mut c), median(&mut d));
+                println!(
+                    "{:<34} {dm:>9.1} {cm:>9.1} {:>6.1}× {:>9.1} {:>12.3}",
+                    format!("bookkeeping_b{buffer}_w{workers}"),
+                    dm / cm,
+                    median(&mut w),
+                    median(&mut p)
+                );
+            }
         }
     }
     if wanted("stats_pair") {
