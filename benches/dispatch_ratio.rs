@@ -17,7 +17,7 @@
 //! passes of its loop, waiting excluded) with one worker and with two, as a ratio to the
 //! counter: the part of its cost that no wake-up explains.
 //!
-//! `cargo bench --bench dispatch_ratio` (~20 s on the 2-core VM). The goals it checks: the factoring family no
+//! `cargo bench --bench dispatch_ratio` (~35 s on the 2-core VM: 33 s on the EPYC). The goals it checks: the factoring family no
 //! dearer per item than `guided`; the master at B ≥ 4 within 10× the counter; the master's
 //! stats-on cost within 10 % of stats-off.
 
@@ -216,6 +216,7 @@ fn main() {
             stats: true,
             ..Default::default()
         };
+        let per = |x: f64| x / items.len() as f64;
         for buffer in BUFFERS {
             for workers in [1, 2] {
                 let spec = SchedulerSpec {
@@ -228,7 +229,6 @@ fn main() {
                     c.push(counter_ns());
                     let (_, st) = run_items(&spec, &items, job.clone(), &opts).unwrap();
                     let m = st.master.unwrap_or_default();
-                    let per = |x: f64| x / items.len() as f64;
                     d.push(per(m.dispatch_s * 1e9));
                     w.push(per(m.wait_s * 1e9));
                     p.push(per(m.iterations as f64));
