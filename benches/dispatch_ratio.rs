@@ -17,6 +17,10 @@
 //! passes of its loop, waiting excluded) with one worker and with two, as a ratio to the
 //! counter: the part of its cost that no wake-up explains.
 //!
+//! A fifth, `floor`, times a minimal master over the same channels (no ledger, no re-queue, no
+//! result cells; results back one message per item, or one per hand-out) in the same rounds as
+//! the real one: what no master built on these channels can beat on this machine.
+//!
 //! `cargo bench --bench dispatch_ratio` (~35 s on the 2-core VM: 33 s on the EPYC). The goals it checks: the factoring family no
 //! dearer per item than `guided`; the master at B ≥ 4 within 10× the counter; the master's
 //! stats-on cost within 10 % of stats-off.
@@ -109,6 +113,85 @@ fn round_trip_ns() -> f64 {
         drop(to_echo);
         ns
     })
+}
+
+/// How a [`floor_ns`] worker hands its results back.
+#[derive(Clone, Copy, PartialEq)]
+enum Returns {
+    /// One message per item.
+    PerItem,
+    /// One message per hand-out, once all its items are rendered.
+    PerHandOut,
+}
+
+/// A [`floor_ns`] worker's message: one result (no allocation) or a hand-out's.
+enum Returned {
+    One(TileResult),
+    Many(Vec<TileResult>),
+}
+
+/// A minimal master over the channels the real one uses, as a floor under it: 2 workers, each
+/// kept at `buffer` items outstanding in hand-outs of ⌈B/2⌉ (two in flight, so a worker has the
+/// next one queued while the master refills), the results back over one shared channel, every
+/// thread blocking when it has nothing to do. No ledger, no re-queue, no statistics, no
+/// result cells: what handing out and collecting cost with nothing else. ns per item.
+fn floor_ns(buffer: usize, returns: Returns, items: &[WorkItem], job: &Job) -> f64 {
+    use crossbeam::channel::unbounded;
+    let t0 = Instant::now();
+    let (to_master, results) = unbounded::<(usize, Returned)>();
+    let half = buffer.div_ceil(2);
+    let mut kept: Vec<Option<TileResult>> = vec![None; items.len()];
+    std::thread::scope(|s| {
+        let inboxes: Vec<_> = (0..2)
+            .map(|w| {
+                let (tx, rx) = unbounded::<Vec<WorkItem>>();
+                let (to_master, job) = (to_master.clone(), job.clone());
+                s.spawn(move || {
+                    for hand_out in rx {
+                        if returns == Returns::PerHandOut {
+                            let rs = hand_out.iter().map(|it| job(it)).collect();
+                            let _ = to_master.send((w, Returned::Many(rs)));
+                        } else {
+                            for it in &hand_out {
+                                let _ = to_master.send((w, Returned::One(job(it))));
+                            }
+                        }
+                    }
+                });
+                tx
+            })
+            .collect();
+        let (mut next, mut done) = (0, 0);
+        let mut outstanding = [0usize; 2];
+        while done < items.len() {
+            for (w, inbox) in inboxes.iter().enumerate() {
+                while outstanding[w] + half <= buffer.max(half) && next < items.len() {
+                    let k = half.min(items.len() - next);
+                    let _ = inbox.send(items[next..next + k].to_vec());
+                    next += k;
+                    outstanding[w] += k;
+                }
+            }
+            let mut take = |(w, rs): (usize, Returned)| {
+                let mut keep = |r: TileResult| {
+                    let i = r.item as usize;
+                    kept[i] = Some(r);
+                    outstanding[w] -= 1;
+                    done += 1;
+                };
+                match rs {
+                    Returned::One(r) => keep(r),
+                    Returned::Many(rs) => rs.into_iter().for_each(keep),
+                }
+            };
+            take(results.recv().expect("the workers outlive the run"));
+            while let Ok(m) = results.try_recv() {
+                take(m);
+            }
+        }
+    });
+    std::hint::black_box(&kept);
+    t0.elapsed().as_secs_f64() * 1e9 / items.len() as f64
 }
 
 /// One timed run of `spec`, ns per item.
@@ -242,6 +325,49 @@ fn main() {
                     median(&mut p)
                 );
             }
+        }
+    }
+    if wanted("floor") {
+        // The same rounds time the counter, the minimal master of `floor_ns` both ways and the
+        // real master (stats off), so the last column compares them without machine drift.
+        println!(
+            "\n{:<34} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>15}",
+            "master vs its floor (2 workers)",
+            "counter",
+            "per-item",
+            "ratio",
+            "per-h/o",
+            "ratio",
+            "master",
+            "ratio",
+            "master/per-item"
+        );
+        let opts = RunOptions {
+            stats: false,
+            ..Default::default()
+        };
+        for buffer in BUFFERS {
+            let spec = master(buffer);
+            floor_ns(buffer, Returns::PerItem, &items, &job);
+            let mut t: [Vec<f64>; 5] = Default::default();
+            for _ in 0..ROUNDS {
+                let c = counter_ns();
+                let f = floor_ns(buffer, Returns::PerItem, &items, &job);
+                let h = floor_ns(buffer, Returns::PerHandOut, &items, &job);
+                let m = run_ns(&spec, &items, &job, &opts);
+                for (v, x) in t.iter_mut().zip([c, f, h, m, m / f]) {
+                    v.push(x);
+                }
+            }
+            let (lo, hi) = range(&t[4]);
+            let [c, f, h, m, r] = t.map(|mut v| median(&mut v));
+            println!(
+                "{:<34} {c:>9.1} {f:>9.1} {:>6.1}× {h:>9.1} {:>6.1}× {m:>9.1} {:>6.1}× {r:>6.2} ({lo:.2}–{hi:.2})",
+                format!("floor_b{buffer}"),
+                f / c,
+                h / c,
+                m / c
+            );
         }
     }
     if wanted("stats_pair") {
