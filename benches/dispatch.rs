@@ -102,6 +102,7 @@ fn specs() -> Vec<(String, SchedulerSpec)> {
                 wait,
                 buffer,
                 requeue: Requeue::Never,
+                ..MasterParams::DEFAULT
             }),
             ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
         };

@@ -28,8 +28,8 @@
 use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::sched::{
-    decompose, run_items, Chunk, MasterParams, Order, Policy, Requeue, RunOptions, SchedulerKind,
-    SchedulerSpec, Wait,
+    decompose, run_items, Chunk, MasterParams, Order, Policy, Requeue, Returns, RunOptions,
+    SchedulerKind, SchedulerSpec, Wait,
 };
 use raysched::source::Job;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -117,7 +117,7 @@ fn round_trip_ns() -> f64 {
 
 /// How a [`floor_ns`] worker hands its results back.
 #[derive(Clone, Copy, PartialEq)]
-enum Returns {
+enum Back {
     /// One message per item.
     PerItem,
     /// One message per hand-out, once all its items are rendered.
@@ -135,7 +135,7 @@ enum Returned {
 /// next one queued while the master refills), the results back over one shared channel, every
 /// thread blocking when it has nothing to do. No ledger, no re-queue, no statistics, no
 /// result cells: what handing out and collecting cost with nothing else. ns per item.
-fn floor_ns(buffer: usize, returns: Returns, items: &[WorkItem], job: &Job) -> f64 {
+fn floor_ns(buffer: usize, returns: Back, items: &[WorkItem], job: &Job) -> f64 {
     use crossbeam::channel::unbounded;
     let t0 = Instant::now();
     let (to_master, results) = unbounded::<(usize, Returned)>();
@@ -148,7 +148,7 @@ fn floor_ns(buffer: usize, returns: Returns, items: &[WorkItem], job: &Job) -> f
                 let (to_master, job) = (to_master.clone(), job.clone());
                 s.spawn(move || {
                     for hand_out in rx {
-                        if returns == Returns::PerHandOut {
+                        if returns == Back::PerHandOut {
                             let rs = hand_out.iter().map(|it| job(it)).collect();
                             let _ = to_master.send((w, Returned::Many(rs)));
                         } else {
@@ -212,14 +212,16 @@ fn main() {
     });
     let px = Chunk::Tile { w: 1, h: 1 };
     let items = decompose(512, 512, px, Order::Scanline);
-    let master = |buffer: usize| SchedulerSpec {
+    let master_returning = |buffer: usize, returns: Returns| SchedulerSpec {
         policy: Policy::Master(MasterParams {
             wait: Wait::Block,
             buffer,
             requeue: Requeue::Never,
+            returns,
         }),
         ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
     };
+    let master = |buffer: usize| master_returning(buffer, Returns::Item);
     let mut rows: Vec<(String, SchedulerSpec, bool)> = SchedulerKind::ALL
         .into_iter()
         .filter(|k| *k != SchedulerKind::Master)
@@ -231,6 +233,16 @@ fn main() {
             rows.push((
                 format!("master_block_b{buffer}_{on_off}"),
                 master(buffer),
+                stats,
+            ));
+        }
+    }
+    for buffer in BUFFERS {
+        for stats in [true, false] {
+            let on_off = if stats { "stats_on" } else { "stats_off" };
+            rows.push((
+                format!("master_hand_out_b{buffer}_{on_off}"),
+                master_returning(buffer, Returns::HandOut),
                 stats,
             ));
         }
@@ -348,25 +360,30 @@ fn main() {
         };
         for buffer in BUFFERS {
             let spec = master(buffer);
-            floor_ns(buffer, Returns::PerItem, &items, &job);
-            let mut t: [Vec<f64>; 5] = Default::default();
+            let spec_h = master_returning(buffer, Returns::HandOut);
+            floor_ns(buffer, Back::PerItem, &items, &job);
+            let mut t: [Vec<f64>; 8] = Default::default();
             for _ in 0..ROUNDS {
                 let c = counter_ns();
-                let f = floor_ns(buffer, Returns::PerItem, &items, &job);
-                let h = floor_ns(buffer, Returns::PerHandOut, &items, &job);
+                let f = floor_ns(buffer, Back::PerItem, &items, &job);
+                let h = floor_ns(buffer, Back::PerHandOut, &items, &job);
                 let m = run_ns(&spec, &items, &job, &opts);
-                for (v, x) in t.iter_mut().zip([c, f, h, m, m / f]) {
+                let mh = run_ns(&spec_h, &items, &job, &opts);
+                for (v, x) in t.iter_mut().zip([c, f, h, m, mh, m / f, mh / h, mh / m]) {
                     v.push(x);
                 }
             }
-            let (lo, hi) = range(&t[4]);
-            let [c, f, h, m, r] = t.map(|mut v| median(&mut v));
+            let (lo, hi) = range(&t[5]);
+            let (hlo, hhi) = range(&t[6]);
+            let (plo, phi) = range(&t[7]);
+            let [c, f, h, m, mh, r, rh, p] = t.map(|mut v| median(&mut v));
             println!(
-                "{:<34} {c:>9.1} {f:>9.1} {:>6.1}× {h:>9.1} {:>6.1}× {m:>9.1} {:>6.1}× {r:>6.2} ({lo:.2}–{hi:.2})",
+                "{:<34} {c:>9.1} {f:>9.1} {:>6.1}× {h:>9.1} {:>6.1}× {m:>9.1} {:>6.1}× {mh:>9.1} {:>6.1}× {r:>6.2} ({lo:.2}–{hi:.2}) {rh:>6.2} ({hlo:.2}–{hhi:.2}) {p:>6.2} ({plo:.2}–{phi:.2})",
                 format!("floor_b{buffer}"),
                 f / c,
                 h / c,
-                m / c
+                m / c,
+                mh / c
             );
         }
     }

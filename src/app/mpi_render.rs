@@ -140,6 +140,14 @@ fn prepare(
             spec.kind().id()
         )));
     }
+    if let raysched::sched::Policy::Master(m) = spec.policy {
+        if m.returns == raysched::sched::Returns::HandOut {
+            return Err(input(
+                "--returns hand_out: MPI ranks hand their results back item by item (use item)"
+                    .to_string(),
+            ));
+        }
+    }
     if comm.size < 2 && args.local_threads == 0 {
         return Err(input(format!(
             "--sources mpi: {} rank(s) and no --local-threads: nobody to render (run under mpirun -n K, K ≥ 2)",

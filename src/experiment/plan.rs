@@ -12,8 +12,8 @@ use crate::limits::{
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
-    source_params, Chunk, Order, SchedulerKind, SchedulerSpec, Slow, SourceKind, SourceSet,
-    SourceSetup,
+    source_params, Chunk, Order, Returns, SchedulerKind, SchedulerSpec, Slow, SourceKind,
+    SourceSet, SourceSetup,
 };
 use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
@@ -946,6 +946,16 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
                         "'{}' cannot hand items to MPI ranks (use master, static or self_scheduling)",
                         k.id()
                     ),
+                ));
+            }
+            let hand_out = toml::Value::String(Returns::HandOut.id().into());
+            let returns = s.grid.get("returns");
+            if returns.is_some_and(|v| {
+                *v == hand_out || v.as_array().is_some_and(|a| a.contains(&hand_out))
+            }) {
+                return Err((
+                    format!("schedulers[{i}].returns"),
+                    "MPI ranks hand their results back item by item (use \"item\")".into(),
                 ));
             }
         }

@@ -19,7 +19,7 @@ pub mod wire;
 pub use decompose::{decompose, decompose_frames};
 pub use master::Hetero;
 pub use param::{
-    Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Slow, SpecError, Wait, Weights,
+    Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Returns, Slow, SpecError, Wait, Weights,
 };
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};

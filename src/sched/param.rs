@@ -398,6 +398,15 @@ id_enum!(impl Wait ("wait", "wait strategy") {
     Block = "block",
 });
 
+/// How sources hand the master's results back lives with the sources (`source`); its ids are
+/// here.
+pub use crate::source::Returns;
+
+id_enum!(impl Returns ("returns", "result return") {
+    Item = "item",
+    HandOut = "hand_out",
+});
+
 /// When the master may hand an outstanding item out again.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Requeue {

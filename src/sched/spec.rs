@@ -8,7 +8,7 @@
 
 use super::param::{
     err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Requeue,
-    Slow, SpecError, Wait, Weights,
+    Returns, Slow, SpecError, Wait, Weights,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
@@ -110,6 +110,10 @@ scheduler_params! {
         requeue: Requeue = Requeue::Never, label Some("requeue");
         /// How the master waits for results: spin, yield or block.
         wait: Wait = Wait::Block, label Some("wait");
+        /// How local threads hand results back: item (each as soon as it is rendered) or
+        /// hand_out (a hand-out's together, when its last item is done; the master then hands
+        /// out at most ⌈B/2⌉ items at a time, so a source has the next one queued).
+        returns: Returns = Returns::Item, label Some("returns");
     }
 }
 
@@ -456,7 +460,7 @@ impl SchedulerSpec {
         Ok(())
     }
 
-    /// A short label for plots and logs, e.g. `master chunk=16 B=2 requeue=never wait=block`.
+    /// A short label for plots and logs, e.g. `master chunk=16 B=2 requeue=never wait=block returns=item`.
     pub fn label(&self) -> String {
         let mut s = if self.kind().picks_own_layout() {
             format!("{} chunk=auto", self.kind().id())
@@ -504,7 +508,7 @@ mod tests {
         let names: Vec<&str> = param_columns().iter().map(|p| p.name).collect();
         assert_eq!(
             names,
-            ["buffer", "requeue", "wait", "grab", "guided_k", "weights", "fsc_warm"]
+            ["buffer", "requeue", "wait", "returns", "grab", "guided_k", "weights", "fsc_warm"]
         );
         let grab: Vec<SchedulerKind> = kinds_with("grab").iter().map(|(k, _)| *k).collect();
         assert_eq!(
@@ -530,7 +534,7 @@ mod tests {
         assert_eq!(m.get("buffer").as_deref(), Some("8"));
         assert_eq!(
             m.label(),
-            "master chunk=frame B=8 requeue=timeout:50 wait=block"
+            "master chunk=frame B=8 requeue=timeout:50 wait=block returns=item"
         );
         assert_eq!(m.get("grab"), None);
         let e = m.set("grab", "2").unwrap_err();

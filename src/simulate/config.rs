@@ -328,6 +328,17 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             ));
         }
     }
+    let hand_out = |s: &&SchedulerSpec| matches!(s.policy, crate::sched::Policy::Master(m) if m.returns == crate::sched::Returns::HandOut);
+    if let Some(i) = specs.iter().position(|s| hand_out(&s)) {
+        return Err(field(
+            path,
+            "schedulers",
+            format!(
+                "{}: returns = \"hand_out\" is not simulated (the master's protocol returns each result alone)",
+                specs[i].label()
+            ),
+        ));
+    }
     let most = *workers.last().unwrap_or(&1);
     let budget = super::job::mapping_budget();
     if let Some(s) = specs

@@ -75,6 +75,9 @@ pub struct DelayedResult {
     source: u32,
     /// `None` only once the cell went back to the spares (in `try_take` or `drop`).
     cell: Option<Arc<Cell>>,
+    /// Set instead of `cell` for an item of a hand-out returned as a whole: the hand-out's cell
+    /// and this item's place in it.
+    shared: Option<(Arc<HandOutCell>, usize)>,
 }
 
 /// The producing side of a [`DelayedResult`]. Dropped without [`Completer::complete`] (a worker
@@ -95,6 +98,7 @@ impl DelayedResult {
                 item,
                 source,
                 cell: Some(cell.clone()),
+                shared: None,
             },
             Completer {
                 item,
@@ -111,6 +115,7 @@ impl DelayedResult {
             item,
             source,
             cell: Some(Cell::new()),
+            shared: None,
         }
     }
 
@@ -132,9 +137,13 @@ impl DelayedResult {
 
     /// Has the outcome arrived? One atomic load; never blocks.
     pub fn is_ready(&self) -> bool {
-        self.cell
-            .as_ref()
-            .is_some_and(|c| c.ready.load(Ordering::SeqCst))
+        match &self.shared {
+            Some((h, _)) => h.ready.load(Ordering::SeqCst),
+            None => self
+                .cell
+                .as_ref()
+                .is_some_and(|c| c.ready.load(Ordering::SeqCst)),
+        }
     }
 
     /// The outcome if it is ready, else the handle back. A completer drops its handle right
@@ -147,6 +156,10 @@ impl DelayedResult {
     pub fn try_take(mut self) -> Result<Outcome, Self> {
         if !self.is_ready() {
             return Err(self);
+        }
+        if let Some((h, k)) = &self.shared {
+            let v = h.lock().values.get_mut(*k).and_then(Option::take);
+            return v.ok_or(self);
         }
         let Some(cell) = self.cell.take() else {
             return Err(self);
@@ -179,6 +192,12 @@ impl DelayedResult {
     /// Wait at most `timeout`; on time-out the handle comes back.
     pub fn wait_timeout(self, timeout: Duration) -> Result<Outcome, Self> {
         let end = Instant::now() + timeout;
+        if let Some((h, k)) = &self.shared {
+            return match h.wait(*k, end) {
+                Some(v) => Ok(v),
+                None => Err(self),
+            };
+        }
         let Some(cell) = &self.cell else {
             // Its value was taken: nothing more will arrive.
             std::thread::sleep(timeout);
@@ -253,6 +272,138 @@ impl Drop for Completer {
     }
 }
 
+/// The one cell of a hand-out whose results come back together ([`super::Returns::HandOut`]):
+/// the worker fills its own list and publishes it once, so the lot costs one lock, one flag
+/// and one ring instead of one of each per item.
+#[derive(Debug)]
+struct HandOutCell {
+    ready: AtomicBool,
+    inner: Mutex<HandOutInner>,
+}
+
+#[derive(Debug, Default)]
+struct HandOutInner {
+    /// One per item, in hand-out order, once published; each is taken once.
+    values: Vec<Option<Outcome>>,
+    waiters: Vec<Thread>,
+}
+
+impl HandOutCell {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HandOutInner> {
+        self.inner.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Wait until published (or `end`), then take result `k`.
+    fn wait(&self, k: usize, end: Instant) -> Option<Outcome> {
+        loop {
+            {
+                let mut g = self.lock();
+                if self.ready.load(Ordering::SeqCst) {
+                    return g.values.get_mut(k).and_then(Option::take);
+                }
+                let me = std::thread::current();
+                if !g.waiters.iter().any(|t| t.id() == me.id()) {
+                    g.waiters.push(me);
+                }
+            }
+            let now = Instant::now();
+            if now >= end {
+                return None;
+            }
+            // An unpark that came before this park makes it return at once: no lost wake-up.
+            std::thread::park_timeout(end - now);
+        }
+    }
+}
+
+/// The producing side of a hand-out returned as a whole: results are set one by one on the
+/// worker's side and published together. Dropped unpublished (a worker that unwound), it
+/// publishes what it has and fails the rest as lost.
+pub struct HandOutCompleter {
+    source: u32,
+    cell: Option<Arc<HandOutCell>>,
+    values: Vec<Option<Outcome>>,
+}
+
+impl HandOutCompleter {
+    /// The results of `items` (a hand-out to `source`), pushed to `out` in order, and the one
+    /// completer that fills them all.
+    pub fn pending(
+        items: impl ExactSizeIterator<Item = u32>,
+        source: u32,
+        out: &mut Vec<DelayedResult>,
+    ) -> Self {
+        let n = items.len();
+        let cell = Arc::new(HandOutCell {
+            ready: AtomicBool::new(false),
+            inner: Mutex::new(HandOutInner::default()),
+        });
+        out.extend(items.enumerate().map(|(k, item)| DelayedResult {
+            item,
+            source,
+            cell: None,
+            shared: Some((cell.clone(), k)),
+        }));
+        Self {
+            source,
+            cell: Some(cell),
+            values: (0..n).map(|_| None).collect(),
+        }
+    }
+
+    /// The outcome of the hand-out's `k`-th item (kept until [`Self::publish`]).
+    pub fn set(&mut self, k: usize, outcome: Outcome) {
+        if let Some(v) = self.values.get_mut(k) {
+            *v = Some(outcome);
+        }
+    }
+
+    /// Deliver every outcome set so far, failing the others as `failure`, and wake waiters.
+    pub fn publish_or(mut self, failure: &SourceFailure) {
+        self.deliver(failure);
+    }
+
+    /// Deliver every outcome (those never set fail as lost) and wake waiters.
+    pub fn publish(mut self) {
+        let lost = self.lost();
+        self.deliver(&lost);
+    }
+
+    fn lost(&self) -> SourceFailure {
+        SourceFailure::Lost {
+            source_id: self.source,
+            reason: "result dropped unfinished".to_string(),
+        }
+    }
+
+    fn deliver(&mut self, failure: &SourceFailure) {
+        let Some(cell) = self.cell.take() else {
+            return;
+        };
+        let mut values = std::mem::take(&mut self.values);
+        for v in values.iter_mut().filter(|v| v.is_none()) {
+            *v = Some(Err(failure.clone()));
+        }
+        let waiters = {
+            let mut g = cell.lock();
+            g.values = values;
+            // SeqCst: pairs with the master's arming in `Doorbell::wait` (see `Notifier::ring`).
+            cell.ready.store(true, Ordering::SeqCst);
+            std::mem::take(&mut g.waiters)
+        };
+        for t in waiters {
+            t.unpark();
+        }
+    }
+}
+
+impl Drop for HandOutCompleter {
+    fn drop(&mut self) {
+        let lost = self.lost();
+        self.deliver(&lost);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +424,47 @@ mod tests {
         let d = DelayedResult::ready(7, 0, Ok(result(7)));
         assert!(d.is_ready());
         assert_eq!(d.try_take().unwrap().unwrap().item, 7);
+    }
+
+    #[test]
+    fn a_hand_out_is_published_whole_in_order_and_a_dropped_one_fails_what_it_lacks() {
+        let mut out = Vec::new();
+        let mut done = HandOutCompleter::pending([5, 6, 7].into_iter(), 2, &mut out);
+        assert_eq!(out.iter().map(|d| d.item()).collect::<Vec<_>>(), [5, 6, 7]);
+        done.set(0, Ok(result(5)));
+        done.set(1, Ok(result(6)));
+        // Set but not published: nothing is ready yet.
+        assert!(out.iter().all(|d| !d.is_ready()));
+        let d7 = out.pop().unwrap();
+        let t = std::thread::spawn(move || d7.wait_timeout(Duration::from_secs(10)));
+        std::thread::sleep(Duration::from_millis(20));
+        done.set(2, Ok(result(7)));
+        done.publish();
+        assert_eq!(t.join().unwrap().unwrap().unwrap().item, 7);
+        let got: Vec<u32> = out
+            .into_iter()
+            .map(|d| d.try_take().unwrap().unwrap().item)
+            .collect();
+        assert_eq!(got, [5, 6]);
+        // Dropped with one result set: that one arrives, the other fails as lost.
+        let mut out = Vec::new();
+        let mut done = HandOutCompleter::pending([1, 2].into_iter(), 4, &mut out);
+        done.set(1, Ok(result(2)));
+        drop(done);
+        let (a, b) = (out.remove(0), out.remove(0));
+        assert!(matches!(
+            a.try_take(),
+            Ok(Err(SourceFailure::Lost { source_id: 4, .. }))
+        ));
+        assert_eq!(b.try_take().unwrap().unwrap().item, 2);
+        // Published with a given failure for the rest.
+        let mut out = Vec::new();
+        let done = HandOutCompleter::pending([9].into_iter(), 0, &mut out);
+        done.publish_or(&SourceFailure::Cancelled { item: 9 });
+        assert!(matches!(
+            out.pop().unwrap().wait_timeout(Duration::from_secs(1)),
+            Ok(Err(SourceFailure::Cancelled { item: 9 }))
+        ));
     }
 
     #[test]

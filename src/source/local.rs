@@ -3,7 +3,10 @@
 //! `Scene` make that sharing read-only by type, not by convention.
 
 use super::thread::{Flags, SourceThread};
-use super::{Completer, ComputeSource, DelayedResult, Job, Notifier, SourceFailure, SourceReport};
+use super::{
+    Completer, ComputeSource, DelayedResult, HandOutCompleter, Job, Notifier, Outcome,
+    SourceFailure, SourceReport,
+};
 use crate::metrics::{BusyClock, Probe};
 use crate::render::WorkItem;
 use crossbeam::channel::Receiver;
@@ -15,25 +18,14 @@ pub struct LocalThreadSource {
     thread: SourceThread<Batch>,
 }
 
-/// One inbox message: the items of one hand-out, each with the completer of its result. A
-/// single item travels without a `Vec`: at buffer 2 most hand-outs are one item, and a `Vec`
-/// allocated by the master and freed by the worker cost both sides glibc's arena lock.
+/// One inbox message: the items of one hand-out, each with the completer of its result, or
+/// (`HandOut`) with one completer for them all. A single item travels without a `Vec`: at
+/// buffer 2 most hand-outs are one item, and a `Vec` allocated by the master and freed by the
+/// worker cost both sides glibc's arena lock.
 enum Batch {
     One((WorkItem, Completer)),
     Many(Vec<(WorkItem, Completer)>),
-}
-
-impl IntoIterator for Batch {
-    type Item = (WorkItem, Completer);
-    type IntoIter =
-        std::iter::Chain<std::option::IntoIter<Self::Item>, std::vec::IntoIter<Self::Item>>;
-    fn into_iter(self) -> Self::IntoIter {
-        let (one, many) = match self {
-            Batch::One(x) => (Some(x), Vec::new()),
-            Batch::Many(v) => (None, v),
-        };
-        one.into_iter().chain(many)
-    }
+    HandOut(Vec<WorkItem>, HandOutCompleter),
 }
 
 impl LocalThreadSource {
@@ -46,60 +38,128 @@ impl LocalThreadSource {
     }
 }
 
+/// What the source's thread keeps over its run.
+struct Serving<'a> {
+    id: u32,
+    job: &'a Job,
+    probe: Probe,
+    fl: &'a Flags,
+    clock: BusyClock,
+    report: SourceReport,
+    /// Set once the job panicked: every later item fails with it.
+    failure: Option<SourceFailure>,
+}
+
+impl Serving<'_> {
+    /// Render `item` unless the source is lost or cancelled.
+    fn outcome(&mut self, item: &WorkItem) -> Outcome {
+        if let Some(f) = &self.failure {
+            return Err(f.clone());
+        }
+        if self.fl.cancelled() {
+            return Err(SourceFailure::Cancelled { item: item.id });
+        }
+        match catch_unwind(AssertUnwindSafe(|| (self.job)(item))) {
+            Ok(r) => {
+                let (probe, id) = (self.probe, self.id);
+                self.clock
+                    .item_done(&probe, id, item.id, &mut self.report.spans);
+                self.report.stats.count(item, r.rays);
+                Ok(r)
+            }
+            Err(panic) => {
+                self.fl.set_lost();
+                let f = SourceFailure::Lost {
+                    source_id: self.id,
+                    reason: format!("worker panicked: {}", panic_message(&panic)),
+                };
+                self.failure = Some(f.clone());
+                Err(f)
+            }
+        }
+    }
+
+    /// Run one message's items in order.
+    fn run(&mut self, batch: Batch) {
+        match batch {
+            Batch::HandOut(items, mut done) => {
+                for (k, item) in items.iter().enumerate() {
+                    let o = self.outcome(item);
+                    done.set(k, o);
+                }
+                done.publish();
+                self.fl.items_finished(items.len() as u64);
+                self.fl.ring();
+            }
+            other => {
+                for (item, done) in other.items() {
+                    let o = self.outcome(&item);
+                    done.complete(o);
+                    self.fl.items_finished(1);
+                    self.fl.ring();
+                }
+            }
+        }
+    }
+
+    /// Fail a message queued behind a panic.
+    fn fail(&self, batch: Batch, f: &SourceFailure) {
+        match batch {
+            Batch::HandOut(items, done) => {
+                done.publish_or(f);
+                self.fl.items_finished(items.len() as u64);
+            }
+            other => {
+                for (_, done) in other.items() {
+                    done.complete(Err(f.clone()));
+                    self.fl.items_finished(1);
+                }
+            }
+        }
+    }
+}
+
+impl Batch {
+    /// The items of a per-item message with their completers (empty for a hand-out).
+    fn items(self) -> impl Iterator<Item = (WorkItem, Completer)> {
+        let (one, many) = match self {
+            Batch::One(x) => (Some(x), Vec::new()),
+            Batch::Many(v) => (None, v),
+            Batch::HandOut(..) => (None, Vec::new()),
+        };
+        one.into_iter().chain(many)
+    }
+}
+
 /// The source's thread: run every message's items in order until the inbox closes or the
 /// job panics (then this item and everything still queued fail as lost).
 fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
     report.stats.source = crate::sched::SourceKind::Threads.id().into();
-    let mut clock = BusyClock::start(&probe);
-    let mut failure: Option<SourceFailure> = None;
+    let mut s = Serving {
+        id,
+        job,
+        probe,
+        fl,
+        clock: BusyClock::start(&probe),
+        report,
+        failure: None,
+    };
     while let Ok(batch) = rx.recv() {
         // Waiting for a message never counts as busy.
-        clock.restart(&probe);
-        for (item, done) in batch {
-            if let Some(f) = &failure {
-                done.complete(Err(f.clone()));
-                fl.item_finished();
-                continue;
-            }
-            if fl.cancelled() {
-                done.complete(Err(SourceFailure::Cancelled { item: item.id }));
-                fl.item_finished();
-                continue;
-            }
-            match catch_unwind(AssertUnwindSafe(|| job(&item))) {
-                Ok(r) => {
-                    clock.item_done(&probe, id, item.id, &mut report.spans);
-                    report.stats.count(&item, r.rays);
-                    done.complete(Ok(r));
-                }
-                Err(panic) => {
-                    fl.set_lost();
-                    let f = SourceFailure::Lost {
-                        source_id: id,
-                        reason: format!("worker panicked: {}", panic_message(&panic)),
-                    };
-                    done.complete(Err(f.clone()));
-                    failure = Some(f);
-                }
-            }
-            fl.item_finished();
-            fl.ring();
-        }
-        if let Some(f) = &failure {
+        s.clock.restart(&probe);
+        s.run(batch);
+        if let Some(f) = s.failure.clone() {
             // The source is lost: everything queued behind the panicking item fails too.
             while let Ok(batch) = rx.try_recv() {
-                for (_, done) in batch {
-                    done.complete(Err(f.clone()));
-                    fl.item_finished();
-                }
+                s.fail(batch, &f);
             }
             fl.ring();
             break;
         }
     }
-    report.stats.busy_s = clock.busy().as_secs_f64();
-    report
+    s.report.stats.busy_s = s.clock.busy().as_secs_f64();
+    s.report
 }
 
 /// The message of a panic payload (`&str` or `String`), or a placeholder.
@@ -136,6 +196,17 @@ impl ComputeSource for LocalThreadSource {
             })
             .collect();
         self.thread.send(Batch::Many(batch));
+    }
+    fn submit_hand_out(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        if items.is_empty() {
+            return;
+        }
+        let done = HandOutCompleter::pending(items.iter().map(|it| it.id), self.id, out);
+        self.thread
+            .send(Batch::HandOut(std::mem::take(items), done));
+    }
+    fn returns_per_hand_out(&self) -> bool {
+        true
     }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()
@@ -186,5 +257,53 @@ mod tests {
         assert!(matches!(later, Ok(Err(SourceFailure::Lost { .. }))));
         assert!(src.is_lost());
         assert_eq!(Box::new(src).finish().stats.items, 5);
+    }
+
+    #[test]
+    fn a_hand_out_comes_back_whole_and_in_order_and_a_panic_fails_the_rest() {
+        let job: Job = Arc::new(|it: &WorkItem| {
+            assert!(it.id != 13, "item 13 panics");
+            result(it.id)
+        });
+        let mut src = LocalThreadSource::spawn(1, job, Probe::new(true, false));
+        assert!(src.returns_per_hand_out());
+        let mut out = Vec::new();
+        let mut items: Vec<_> = (0..6).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+        src.submit_hand_out(&mut items, &mut out);
+        assert!(items.is_empty());
+        let first: Vec<_> = std::mem::take(&mut out)
+            .into_iter()
+            .map(|d| (d.item(), d.wait_timeout(Duration::from_secs(10))))
+            .collect();
+        for (i, (item, o)) in first.into_iter().enumerate() {
+            assert_eq!(item, i as u32);
+            assert_eq!(o.unwrap().unwrap().item, i as u32);
+        }
+        // Six items finished: counted right after the hand-out's results are out.
+        let counted = |src: &LocalThreadSource, n: u64| {
+            let t0 = std::time::Instant::now();
+            while src.finished() != Some(n) && t0.elapsed() < Duration::from_secs(10) {
+                std::thread::yield_now();
+            }
+            src.finished()
+        };
+        assert_eq!(counted(&src, 6), Some(6));
+        // A panic at the hand-out's second item: the first arrives, the rest fail, and so
+        // does a hand-out queued behind it.
+        let mut items: Vec<_> = (12..16).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+        src.submit_hand_out(&mut items, &mut out);
+        let mut items: Vec<_> = (16..18).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+        src.submit_hand_out(&mut items, &mut out);
+        let got: Vec<_> = out
+            .into_iter()
+            .map(|d| d.wait_timeout(Duration::from_secs(10)).ok())
+            .collect();
+        assert!(matches!(&got[0], Some(Ok(r)) if r.item == 12));
+        assert!(got[1..]
+            .iter()
+            .all(|o| matches!(o, Some(Err(SourceFailure::Lost { source_id: 1, .. })))));
+        assert!(src.is_lost());
+        assert_eq!(counted(&src, 12), Some(12));
+        assert_eq!(Box::new(src).finish().stats.items, 7);
     }
 }

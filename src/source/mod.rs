@@ -19,7 +19,7 @@ pub mod local;
 pub mod slow;
 pub mod thread;
 
-pub use delayed::{Completer, DelayedResult};
+pub use delayed::{Completer, DelayedResult, HandOutCompleter};
 pub use doorbell::{Doorbell, Notifier, Wait};
 pub use faulty::{FaultPlan, FaultySource};
 #[cfg(feature = "gpu")]
@@ -30,6 +30,7 @@ pub use thread::SourceThread;
 
 use crate::metrics::{Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 /// Something that renders items for a scheduler: a thread, a wrapper, a remote rank.
@@ -68,6 +69,18 @@ pub trait ComputeSource: Send {
     fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
         out.extend(items.drain(..).map(|it| self.submit(it)));
     }
+    /// Hand several items over as one hand-out whose results come back together, once its
+    /// last item is done: one cell, one publication and one ring for the lot instead of one
+    /// per item ([`Returns::HandOut`]). Same contract as `submit_batch` otherwise. A source
+    /// that cannot ([`ComputeSource::returns_per_hand_out`] false) hands them back item by
+    /// item.
+    fn submit_hand_out(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        self.submit_batch(items, out)
+    }
+    /// Does [`ComputeSource::submit_hand_out`] return a hand-out's results together?
+    fn returns_per_hand_out(&self) -> bool {
+        false
+    }
     /// The source is gone: none of its outstanding results will arrive.
     fn is_lost(&self) -> bool;
     /// How many of its items the source has taken to the end (rendered, failed or skipped),
@@ -82,6 +95,16 @@ pub trait ComputeSource: Send {
     fn set_notifier(&mut self, _notifier: Notifier) {}
     /// Stop (skipping queued work) and report what the source did.
     fn finish(self: Box<Self>) -> SourceReport;
+}
+
+/// How a source hands the master's results back (its ids are parsed in `sched::spec`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Returns {
+    /// Each result as soon as its item is rendered: the founding design.
+    Item,
+    /// All of a hand-out's results at once, when its last item is rendered.
+    HandOut,
 }
 
 /// The per-item work every source runs: `render_item` in real runs, nothing in dispatch benches.

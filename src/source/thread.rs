@@ -26,10 +26,10 @@ impl Flags {
         }
     }
 
-    /// One more item taken to the end; call after its result is completed, so that a master
+    /// `n` more items taken to the end; call after their results are completed, so that a master
     /// that sees the count also sees the result.
-    pub fn item_finished(&self) {
-        self.finished.fetch_add(1, Ordering::SeqCst);
+    pub fn items_finished(&self, n: u64) {
+        self.finished.fetch_add(n, Ordering::SeqCst);
     }
 
     /// The source is gone: none of its outstanding results will arrive.
@@ -91,7 +91,7 @@ impl<M> SourceThread<M> {
         self.flags.lost.load(Ordering::SeqCst)
     }
 
-    /// [`super::ComputeSource::finished`], for a thread that calls [`Flags::item_finished`].
+    /// [`super::ComputeSource::finished`], for a thread that calls [`Flags::items_finished`].
     pub fn finished(&self) -> u64 {
         self.flags.finished.load(Ordering::SeqCst)
     }

@@ -588,6 +588,10 @@ fn bad_mpi_experiments_are_clear_errors_naming_file_and_field() {
             "workers = 2\n[mpi]\nranks = 3\ntransports = [\"shared_memory\"]",
             "tiny_mpi.toml: workers: set by mpi.ranks",
         ),
+        (
+            "[mpi]\nranks = 3\ntransports = [\"shared_memory\"]\n[[schedulers]]\nkind = \"master\"\nchunk = \"1\"\nreturns = [\"item\", \"hand_out\"]",
+            "tiny_mpi.toml: schedulers[2].returns: MPI ranks hand their results back item by item",
+        ),
     ];
     for (mpi, want) in cases {
         let exp = mpi_experiment(dir.path(), mpi);

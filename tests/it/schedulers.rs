@@ -5,8 +5,8 @@ use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
     decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Policy,
-    Requeue, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Slow,
-    Wait, Weights,
+    Requeue, Returns, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
+    Slow, Wait, Weights,
 };
 use raysched::source::{FaultPlan, Job};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -234,6 +234,7 @@ fn master_every_granularity_buffer_and_worker_count_matches_serial() {
                     Requeue::Timeout(Duration::from_millis(5)),
                 ][(buffer + workers) % 3];
                 master(&mut spec).wait = Wait::ALL[(ci + workers) % 3];
+                master(&mut spec).returns = Returns::ALL[(ci + buffer + workers) % 2];
                 check_run(&spec);
             }
         }

@@ -541,6 +541,16 @@ mod with_simgrid {
             &experiment(dir.path(), &p.to_string_lossy(), "[0]"),
         );
         assert!(err.contains("workers"), "{err}");
+        // The simulated master returns each result alone: a hand-out return is refused.
+        let exp = experiment(dir.path(), &p.to_string_lossy(), "[2]");
+        let text = std::fs::read_to_string(&exp).unwrap()
+            + "[[schedulers]]\nkind = \"master\"\nchunk = \"1\"\nbuffer = 8\nreturns = \"hand_out\"\n";
+        std::fs::write(&exp, text).unwrap();
+        let err = refused(dir.path(), &exp);
+        assert!(
+            err.contains("schedulers") && err.contains("hand_out") && err.contains("not simulated"),
+            "{err}"
+        );
         // MPI launches with spinning workers need the rendering launches they stand beside.
         let measured = dir.path().join("m.csv");
         std::fs::write(&measured, "").unwrap();
