@@ -341,9 +341,10 @@ fn main() {
     }
     if wanted("floor") {
         // The same rounds time the counter, the minimal master of `floor_ns` both ways and the
-        // real master (stats off), so the last column compares them without machine drift.
+        // real master (stats off) both ways, so the ratio columns compare them without machine
+        // drift.
         println!(
-            "\n{:<34} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>15}",
+            "\n{:<34} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>18} {:>18} {:>18}",
             "master vs its floor (2 workers)",
             "counter",
             "per-item",
@@ -352,7 +353,11 @@ fn main() {
             "ratio",
             "master",
             "ratio",
-            "master/per-item"
+            "m. h/o",
+            "ratio",
+            "master/per-item",
+            "m. h/o / per-h/o",
+            "m. h/o / master"
         );
         let opts = RunOptions {
             stats: false,

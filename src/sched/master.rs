@@ -82,7 +82,7 @@ impl Lane {
     /// Most items per hand-out: ⌈B/2⌉ where results come back per hand-out (two hand-outs
     /// outstanding, so the source renders one while the other's results travel), else all B.
     /// Returned per hand-out, one-pixel zero-work items took the master 0.76–0.79× its
-    /// per-item time at B = 64, 0.87–0.92× at B = 16 and 1.03–1.12× at B = 4 (`dispatch_ratio
+    /// per-item time at B = 64, 0.85–0.92× at B = 16 and 1.03–1.12× at B = 4 (`dispatch_ratio
     /// -- floor`, same rounds, 2-core EPYC VM).
     fn piece(&self) -> usize {
         if self.per_hand_out {
