@@ -1,6 +1,7 @@
 //! The result cell between a source and the master: [`DelayedResult`] (the master's end,
 //! polled with one atomic load) and [`Completer`] (the source's end, which fails the result as
-//! lost if dropped unfinished).
+//! lost if dropped unfinished); for a hand-out whose results come back together, one cell and
+//! one [`HandOutCompleter`] for all its items.
 
 use super::{Outcome, SourceFailure};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -7,7 +7,8 @@
 //! (`GpuSource`, feature `gpu`: one dispatch per hand-out; its results estimate the same
 //! samples as `render_item` but are not bit-identical, see `source::gpu`).
 //!
-//! - [`delayed`]: the result cell, [`DelayedResult`] and its producing [`Completer`].
+//! - [`delayed`]: the result cell, [`DelayedResult`] and its producing [`Completer`] (or, for a
+//!   hand-out returned whole, one [`HandOutCompleter`] for all its items).
 //! - [`doorbell`]: how a source wakes a waiting master ([`Doorbell`], [`Notifier`], [`Wait`]).
 
 pub mod delayed;
