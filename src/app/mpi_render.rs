@@ -140,13 +140,11 @@ fn prepare(
             spec.kind().id()
         )));
     }
-    if let raysched::sched::Policy::Master(m) = spec.policy {
-        if m.returns == raysched::sched::Returns::HandOut {
-            return Err(input(
-                "--returns hand_out: MPI ranks hand their results back item by item (use item)"
-                    .to_string(),
-            ));
-        }
+    if spec.policy.returns_per_hand_out() {
+        return Err(input(
+            "--returns hand_out: MPI ranks hand their results back item by item (use item)"
+                .to_string(),
+        ));
     }
     if comm.size < 2 && args.local_threads == 0 {
         return Err(input(format!(

@@ -233,7 +233,8 @@ impl<'a> Ledger<'a> {
             self.issue(i, now, first);
             fresh += 1;
             if fresh == 1 || self.batch.len() >= piece {
-                // The source is idle: its first item goes at once, not after the scan.
+                // The source is idle: its first item goes at once, not after the scan; and a
+                // full piece goes as its own hand-out.
                 lane.hand_out(&mut self.batch, &mut self.handed_out, now);
             }
         }

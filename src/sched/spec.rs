@@ -231,6 +231,11 @@ pub enum Policy {
 }
 
 impl Policy {
+    /// Is this the master with its results handed back per hand-out ([`Returns::HandOut`])?
+    pub fn returns_per_hand_out(&self) -> bool {
+        matches!(self, Self::Master(m) if m.returns == Returns::HandOut)
+    }
+
     /// `kind` with every parameter at its default.
     pub const fn defaults(kind: SchedulerKind) -> Self {
         match kind {

@@ -328,14 +328,13 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             ));
         }
     }
-    let hand_out = |s: &&SchedulerSpec| matches!(s.policy, crate::sched::Policy::Master(m) if m.returns == crate::sched::Returns::HandOut);
-    if let Some(i) = specs.iter().position(|s| hand_out(&s)) {
+    if let Some(s) = specs.iter().find(|s| s.policy.returns_per_hand_out()) {
         return Err(field(
             path,
             "schedulers",
             format!(
                 "{}: returns = \"hand_out\" is not simulated (the master's protocol returns each result alone)",
-                specs[i].label()
+                s.label()
             ),
         ));
     }

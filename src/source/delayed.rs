@@ -74,11 +74,18 @@ struct CellInner {
 pub struct DelayedResult {
     item: u32,
     source: u32,
-    /// `None` only once the cell went back to the spares (in `try_take` or `drop`).
-    cell: Option<Arc<Cell>>,
-    /// Set instead of `cell` for an item of a hand-out returned as a whole: the hand-out's cell
-    /// and this item's place in it.
-    shared: Option<(Arc<HandOutCell>, usize)>,
+    link: Link,
+}
+
+/// Where a [`DelayedResult`]'s outcome arrives.
+#[derive(Debug)]
+enum Link {
+    /// A cell of its own.
+    Own(Arc<Cell>),
+    /// The cell of a hand-out returned as a whole, and this item's place in it.
+    Shared(Arc<HandOutCell>, usize),
+    /// Its own cell went back to the spares (in `try_take` or `drop`).
+    Gone,
 }
 
 /// The producing side of a [`DelayedResult`]. Dropped without [`Completer::complete`] (a worker
@@ -98,8 +105,7 @@ impl DelayedResult {
             Self {
                 item,
                 source,
-                cell: Some(cell.clone()),
-                shared: None,
+                link: Link::Own(cell.clone()),
             },
             Completer {
                 item,
@@ -115,8 +121,7 @@ impl DelayedResult {
         Self {
             item,
             source,
-            cell: Some(Cell::new()),
-            shared: None,
+            link: Link::Own(Cell::new()),
         }
     }
 
@@ -138,12 +143,10 @@ impl DelayedResult {
 
     /// Has the outcome arrived? One atomic load; never blocks.
     pub fn is_ready(&self) -> bool {
-        match &self.shared {
-            Some((h, _)) => h.ready.load(Ordering::SeqCst),
-            None => self
-                .cell
-                .as_ref()
-                .is_some_and(|c| c.ready.load(Ordering::SeqCst)),
+        match &self.link {
+            Link::Own(c) => c.ready.load(Ordering::SeqCst),
+            Link::Shared(h, _) => h.ready.load(Ordering::SeqCst),
+            Link::Gone => false,
         }
     }
 
@@ -158,12 +161,14 @@ impl DelayedResult {
         if !self.is_ready() {
             return Err(self);
         }
-        if let Some((h, k)) = &self.shared {
-            let v = h.lock().values.get_mut(*k).and_then(Option::take);
-            return v.ok_or(self);
-        }
-        let Some(cell) = self.cell.take() else {
-            return Err(self);
+        let cell = match std::mem::replace(&mut self.link, Link::Gone) {
+            Link::Own(cell) => cell,
+            Link::Shared(h, k) => {
+                let v = h.lock().values.get_mut(k).and_then(Option::take);
+                self.link = Link::Shared(h, k);
+                return v.ok_or(self);
+            }
+            Link::Gone => return Err(self),
         };
         match Cell::recycle(cell) {
             Ok(value) => value.ok_or(self),
@@ -174,7 +179,7 @@ impl DelayedResult {
                     .unwrap_or_else(|e| e.into_inner())
                     .value
                     .take();
-                self.cell = Some(cell);
+                self.link = Link::Own(cell);
                 v.ok_or(self)
             }
         }
@@ -193,16 +198,19 @@ impl DelayedResult {
     /// Wait at most `timeout`; on time-out the handle comes back.
     pub fn wait_timeout(self, timeout: Duration) -> Result<Outcome, Self> {
         let end = Instant::now() + timeout;
-        if let Some((h, k)) = &self.shared {
-            return match h.wait(*k, end) {
-                Some(v) => Ok(v),
-                None => Err(self),
-            };
-        }
-        let Some(cell) = &self.cell else {
-            // Its value was taken: nothing more will arrive.
-            std::thread::sleep(timeout);
-            return Err(self);
+        let cell = match &self.link {
+            Link::Own(cell) => cell,
+            Link::Shared(h, k) => {
+                return match h.wait(*k, end) {
+                    Some(v) => Ok(v),
+                    None => Err(self),
+                }
+            }
+            Link::Gone => {
+                // Its value was taken: nothing more will arrive.
+                std::thread::sleep(timeout);
+                return Err(self);
+            }
         };
         loop {
             {
@@ -225,7 +233,7 @@ impl DelayedResult {
 
 impl Drop for DelayedResult {
     fn drop(&mut self) {
-        if let Some(cell) = self.cell.take() {
+        if let Link::Own(cell) = std::mem::replace(&mut self.link, Link::Gone) {
             // A shared cell comes back and is dropped: its completer fills it for nobody.
             let _ = Cell::recycle(cell);
         }
@@ -342,8 +350,7 @@ impl HandOutCompleter {
         out.extend(items.enumerate().map(|(k, item)| DelayedResult {
             item,
             source,
-            cell: None,
-            shared: Some((cell.clone(), k)),
+            link: Link::Shared(cell.clone(), k),
         }));
         Self {
             source,
@@ -359,31 +366,22 @@ impl HandOutCompleter {
         }
     }
 
-    /// Deliver every outcome set so far, failing the others as `failure`, and wake waiters.
-    pub fn publish_or(mut self, failure: &SourceFailure) {
-        self.deliver(failure);
-    }
-
     /// Deliver every outcome (those never set fail as lost) and wake waiters.
     pub fn publish(mut self) {
-        let lost = self.lost();
-        self.deliver(&lost);
+        self.deliver();
     }
 
-    fn lost(&self) -> SourceFailure {
-        SourceFailure::Lost {
-            source_id: self.source,
-            reason: "result dropped unfinished".to_string(),
-        }
-    }
-
-    fn deliver(&mut self, failure: &SourceFailure) {
+    fn deliver(&mut self) {
         let Some(cell) = self.cell.take() else {
             return;
         };
+        let lost = SourceFailure::Lost {
+            source_id: self.source,
+            reason: "result dropped unfinished".to_string(),
+        };
         let mut values = std::mem::take(&mut self.values);
         for v in values.iter_mut().filter(|v| v.is_none()) {
-            *v = Some(Err(failure.clone()));
+            *v = Some(Err(lost.clone()));
         }
         let waiters = {
             let mut g = cell.lock();
@@ -400,8 +398,7 @@ impl HandOutCompleter {
 
 impl Drop for HandOutCompleter {
     fn drop(&mut self) {
-        let lost = self.lost();
-        self.deliver(&lost);
+        self.deliver();
     }
 }
 
@@ -458,14 +455,6 @@ mod tests {
             Ok(Err(SourceFailure::Lost { source_id: 4, .. }))
         ));
         assert_eq!(b.try_take().unwrap().unwrap().item, 2);
-        // Published with a given failure for the rest.
-        let mut out = Vec::new();
-        let done = HandOutCompleter::pending([9].into_iter(), 0, &mut out);
-        done.publish_or(&SourceFailure::Cancelled { item: 9 });
-        assert!(matches!(
-            out.pop().unwrap().wait_timeout(Duration::from_secs(1)),
-            Ok(Err(SourceFailure::Cancelled { item: 9 }))
-        ));
     }
 
     #[test]

@@ -79,9 +79,14 @@ impl Serving<'_> {
         }
     }
 
-    /// Run one message's items in order.
+    /// Run one message's items in order. Behind a panic (`failure` set) this fails each of
+    /// them with it, so it also drains the inbox of a lost source.
     fn run(&mut self, batch: Batch) {
         match batch {
+            Batch::One((item, done)) => self.run_one(&item, done),
+            Batch::Many(v) => v
+                .into_iter()
+                .for_each(|(item, done)| self.run_one(&item, done)),
             Batch::HandOut(items, mut done) => {
                 for (k, item) in items.iter().enumerate() {
                     let o = self.outcome(item);
@@ -91,43 +96,15 @@ impl Serving<'_> {
                 self.fl.items_finished(items.len() as u64);
                 self.fl.ring();
             }
-            other => {
-                for (item, done) in other.items() {
-                    let o = self.outcome(&item);
-                    done.complete(o);
-                    self.fl.items_finished(1);
-                    self.fl.ring();
-                }
-            }
         }
     }
 
-    /// Fail a message queued behind a panic.
-    fn fail(&self, batch: Batch, f: &SourceFailure) {
-        match batch {
-            Batch::HandOut(items, done) => {
-                done.publish_or(f);
-                self.fl.items_finished(items.len() as u64);
-            }
-            other => {
-                for (_, done) in other.items() {
-                    done.complete(Err(f.clone()));
-                    self.fl.items_finished(1);
-                }
-            }
-        }
-    }
-}
-
-impl Batch {
-    /// The items of a per-item message with their completers (empty for a hand-out).
-    fn items(self) -> impl Iterator<Item = (WorkItem, Completer)> {
-        let (one, many) = match self {
-            Batch::One(x) => (Some(x), Vec::new()),
-            Batch::Many(v) => (None, v),
-            Batch::HandOut(..) => (None, Vec::new()),
-        };
-        one.into_iter().chain(many)
+    /// One item with a result cell of its own.
+    fn run_one(&mut self, item: &WorkItem, done: Completer) {
+        let o = self.outcome(item);
+        done.complete(o);
+        self.fl.items_finished(1);
+        self.fl.ring();
     }
 }
 
@@ -149,10 +126,10 @@ fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> 
         // Waiting for a message never counts as busy.
         s.clock.restart(&probe);
         s.run(batch);
-        if let Some(f) = s.failure.clone() {
+        if s.failure.is_some() {
             // The source is lost: everything queued behind the panicking item fails too.
             while let Ok(batch) = rx.try_recv() {
-                s.fail(batch, &f);
+                s.run(batch);
             }
             fl.ring();
             break;
