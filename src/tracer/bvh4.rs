@@ -552,7 +552,9 @@ fn push_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u32) -> u32
 /// the hits to four or eight and sorting them by a branch-free network instead (5 or 19
 /// compare-exchanges) was slower: bvh/Embree best rate on 1 M triangles at 1024², one thread,
 /// primary 0.64–0.74 against 0.74–0.79, diffuse 0.62–0.68 against 0.63–0.70 (2-core EPYC,
-/// six alternated runs of each binary, `examples/tracer_ab`).
+/// six alternated runs of each binary, `examples/tracer_ab`). So was a per-octant child order
+/// stored in each node and applied with AVX2 permutes, no sort: primary 0.76–0.77 against
+/// 0.79–0.80, diffuse 0.69 against 0.68–0.69 (another EPYC guest, `benches/peers/results.md`).
 #[inline(always)]
 fn push_insertion_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u32) -> u32 {
     let mut hits = [(0u32, 0f32); WIDTH];
