@@ -150,28 +150,31 @@ impl ShearedRay {
     /// The shear of `ray` (a zero direction yields a ray that hits nothing).
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let a = ray.d.abs();
-        let kz = if a.x > a.y {
-            if a.x > a.z {
+        // Arrays, not `Vec3` indexing (a `match` per access): the axes below are known to be
+        // < 3, so the lookups compile to selects without bounds checks.
+        let d = ray.d.to_array();
+        let a = d.map(f32::abs);
+        let kz = if a[0] > a[1] {
+            if a[0] > a[2] {
                 0
             } else {
                 2
             }
-        } else if a.y > a.z {
+        } else if a[1] > a[2] {
             1
         } else {
             2
         };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        let (mut kx, mut ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
         // Keep the winding: a negative z direction mirrors, so x and y swap.
-        if ray.d[kz] < 0.0 {
+        if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let sz = 1.0 / ray.d[kz];
+        let sz = 1.0 / d[kz];
         Self {
             o: ray.o,
             k: [kx, ky, kz],
-            s: Vec3::new(ray.d[kx] * sz, ray.d[ky] * sz, sz),
+            s: Vec3::new(d[kx] * sz, d[ky] * sz, sz),
         }
     }
 }
