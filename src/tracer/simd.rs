@@ -93,7 +93,7 @@ pub(super) struct Hit8 {
 }
 
 /// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Inlined into
-/// the AVX2 traversal copies (no call, no `vzeroupper`, no spills around it): 1.7 % fewer
+/// the AVX2 traversal copies (no call and no `vzeroupper` per leaf): 1.7 % fewer
 /// instructions per primary ray (callgrind, 100 k triangles, 256²); with the array form of
 /// `ShearedRay::new` (1.0 %), bvh/Embree best rate at 1 M triangles, 1024², went from
 /// 0.75–0.79 to 0.81–0.82 on primary rays and from 0.68–0.72 to 0.71–0.72 on one diffuse
