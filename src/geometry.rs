@@ -109,15 +109,17 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     if w.dot(n) < 0.0 {
         offset = -offset;
     }
-    let mut po = p + offset;
-    for i in 0..3 {
-        if offset[i] > 0.0 {
-            po[i] = next_float_up(po[i]);
-        } else if offset[i] < 0.0 {
-            po[i] = next_float_down(po[i]);
+    // Arrays, not `Vec3` indexing (a `match` per access).
+    let (off, po) = (offset.to_array(), (p + offset).to_array());
+    Vec3::from_array(std::array::from_fn(|i| {
+        if off[i] > 0.0 {
+            next_float_up(po[i])
+        } else if off[i] < 0.0 {
+            next_float_down(po[i])
+        } else {
+            po[i]
         }
-    }
-    po
+    }))
 }
 
 /// A triangle stored as its three vertices, exactly as the scene placed them: triangles that
@@ -165,7 +167,8 @@ impl ShearedRay {
         } else {
             2
         };
-        let (mut kx, mut ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+        let next = |k: usize| if k == 2 { 0 } else { k + 1 };
+        let (mut kx, mut ky) = (next(kz), next(next(kz)));
         // Keep the winding: a negative z direction mirrors, so x and y swap.
         if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
