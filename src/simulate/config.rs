@@ -17,6 +17,7 @@
 //! dispatch_workers = 2
 //! probe_repetitions = 3                           # pixel passes: each pixel's median kept
 //! probe_level_repetitions = 15                    # bulk renders: the level (Σ) of the costs
+//! layout_repetitions = 3                          # pass pairs per item layout (0: none)
 //!
 //! [[schedulers]]                                  # as in a timing experiment
 //! kind = "master"
@@ -88,6 +89,8 @@ struct ProbeEntry {
     probe_repetitions: u32,
     #[serde(default = "fifteen")]
     probe_level_repetitions: u32,
+    #[serde(default = "three")]
+    layout_repetitions: u32,
 }
 
 fn bvh() -> String {
@@ -161,6 +164,9 @@ pub struct SimPlan {
     pub probe_repetitions: u32,
     /// Bulk renders of the probe (≥ `probe_repetitions`): the costs' level is their median.
     pub probe_level_repetitions: u32,
+    /// Pairs of passes (rows, then the layout) measuring each item layout's cost factor
+    /// ([`crate::model::probe::layout_factor`]); 0: every factor 1.
+    pub layout_repetitions: u32,
     /// Every scheduler configuration (workers set per simulated run).
     pub specs: Vec<SchedulerSpec>,
     /// Workers lost in every simulated run.
@@ -434,6 +440,7 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
         probe_level_repetitions: probe
             .probe_level_repetitions
             .max(probe.probe_repetitions.max(1)),
+        layout_repetitions: probe.layout_repetitions,
         dispatch: (
             probe.dispatch_items,
             probe.dispatch_workers,

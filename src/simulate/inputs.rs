@@ -82,7 +82,7 @@ impl PixelCosts {
 /// The per-item inputs of a simulated run at one chunk size: cost and wire sizes by item id.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ItemInputs {
-    /// Seconds per item (Σ of its pixels' costs).
+    /// Seconds per item (Σ of its pixels' costs, times the layout's factor).
     pub cost_s: Vec<f64>,
     /// ITEM message bytes per item.
     pub item_bytes: Vec<u32>,
@@ -91,12 +91,18 @@ pub struct ItemInputs {
 }
 
 impl ItemInputs {
-    /// The items of `chunk` in `order`, costed from `px`.
-    pub fn new(px: &PixelCosts, chunk: Chunk, order: Order) -> Self {
+    /// The items of `chunk` in `order`, costed from `px` and scaled by the layout's measured
+    /// factor `layout` ([`crate::model::probe::layout_factor`]; 1 leaves the pixel sums).
+    pub fn new(px: &PixelCosts, chunk: Chunk, order: Order, layout: f64) -> Self {
         let items = decompose(px.width, px.height, chunk, order);
         let cost_s = items
             .iter()
-            .map(|it| it.pixels(px.width).map(|p| px.cost_s[p as usize]).sum())
+            .map(|it| {
+                layout
+                    * it.pixels(px.width)
+                        .map(|p| px.cost_s[p as usize])
+                        .sum::<f64>()
+            })
             .collect();
         let item_bytes = items.iter().map(|it| wire::item_bytes(it) as u32).collect();
         let result_bytes = items
@@ -145,4 +151,30 @@ pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWo
         ZERO_WORK_RUN_S,
     )
     .map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn item_costs_are_their_pixels_times_the_layouts_factor() {
+        // A 4×2 image whose pixel (x, y) costs (1 + x + 4y) ms, in 2×2 tiles.
+        let px = PixelCosts {
+            width: 4,
+            height: 2,
+            cost_s: (0..8).map(|i| (1 + i) as f64 * 1e-3).collect(),
+            timed_s: 0.036,
+            bulk_s: 0.036,
+            bulk_range_s: (0.036, 0.036),
+        };
+        let tiles = Chunk::Tile { w: 2, h: 2 };
+        let plain = ItemInputs::new(&px, tiles, Order::Scanline, 1.0);
+        // Tile 0: pixels 0, 1, 4, 5 (1 + 2 + 5 + 6 ms); tile 1: 2, 3, 6, 7 (3 + 4 + 7 + 8).
+        assert_eq!(plain.cost_s, [0.014, 0.022]);
+        let scaled = ItemInputs::new(&px, tiles, Order::Scanline, 1.25);
+        assert_eq!(scaled.cost_s, [1.25 * 0.014, 1.25 * 0.022]);
+        assert_eq!(scaled.item_bytes, plain.item_bytes);
+        assert_eq!(scaled.result_bytes, plain.result_bytes);
+    }
 }

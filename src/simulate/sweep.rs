@@ -30,6 +30,13 @@ pub struct Inputs {
     pub local_threads: bool,
     /// Item inputs per (chunk, order, probe threads), computed once.
     items: BTreeMap<(String, String, usize), Arc<ItemInputs>>,
+    /// Each item layout's measured cost factor per (chunk, order, probe threads), measured on
+    /// first use ([`crate::model::probe::layout_factor`]); it does not depend on the level.
+    layouts: BTreeMap<(String, String, usize), f64>,
+    /// The probe's scene and tracer, for measuring layouts; `None`: every factor 1.
+    scene: Option<(Arc<crate::scene::Scene>, Arc<crate::tracer::AnyTracer>)>,
+    /// Pairs of passes per layout factor.
+    layout_reps: u32,
     /// The master's measured refill period per (configuration label, workers), seconds.
     refill: BTreeMap<(String, usize), f64>,
     /// Repetitions of each hand-out probe.
@@ -123,6 +130,9 @@ impl Inputs {
             fixed_s: (master_fixed_s, counter.fixed_s),
             local_threads: false,
             items: BTreeMap::new(),
+            layouts: BTreeMap::new(),
+            scene: Some((scene, tracer)),
+            layout_reps: plan.layout_repetitions,
             refill: BTreeMap::new(),
             reps,
             mpi_period: None,
@@ -145,6 +155,9 @@ impl Inputs {
             fixed_s: self.fixed_s.clone(),
             local_threads: self.local_threads,
             items: BTreeMap::new(),
+            layouts: self.layouts.clone(),
+            scene: self.scene.clone(),
+            layout_reps: self.layout_reps,
             refill: self.refill.clone(),
             reps: self.reps,
             mpi_period: self.mpi_period,
@@ -209,15 +222,54 @@ impl Inputs {
             .map_or(0.0, |(period, mean)| hidden_refill(period, mean, 0.0)))
     }
 
-    fn items(&mut self, chunk: Chunk, order: Order, workers: usize) -> Arc<ItemInputs> {
-        let (threads, px) = match self.concurrent.get(&workers) {
-            Some(px) => (workers, px),
-            None => (1, &self.pixels),
+    /// Every layout factor measured so far: (chunk, order, probe threads, factor).
+    pub fn layout_factors(&self) -> Vec<(String, String, usize, f64)> {
+        self.layouts
+            .iter()
+            .map(|((c, o, t), k)| (c.clone(), o.clone(), *t, *k))
+            .collect()
+    }
+
+    /// The cost factor of `chunk` in `order` on `threads` threads, measured once.
+    fn layout(&mut self, chunk: Chunk, order: Order, threads: usize) -> anyhow::Result<f64> {
+        let key = (chunk.to_string(), order.id().to_string(), threads);
+        if let Some(k) = self.layouts.get(&key) {
+            return Ok(*k);
+        }
+        let k = match &self.scene {
+            Some((scene, tracer)) => crate::model::probe::layout_factor(
+                scene,
+                tracer,
+                threads,
+                (chunk, order),
+                self.layout_reps,
+            )?,
+            None => 1.0,
         };
-        self.items
-            .entry((chunk.to_string(), order.id().to_string(), threads))
-            .or_insert_with(|| Arc::new(ItemInputs::new(px, chunk, order)))
-            .clone()
+        self.layouts.insert(key, k);
+        Ok(k)
+    }
+
+    fn items(
+        &mut self,
+        chunk: Chunk,
+        order: Order,
+        workers: usize,
+    ) -> anyhow::Result<Arc<ItemInputs>> {
+        let threads = if self.concurrent.contains_key(&workers) {
+            workers
+        } else {
+            1
+        };
+        let key = (chunk.to_string(), order.id().to_string(), threads);
+        if let Some(items) = self.items.get(&key) {
+            return Ok(items.clone());
+        }
+        let layout = self.layout(chunk, order, threads)?;
+        let px = self.concurrent.get(&threads).unwrap_or(&self.pixels);
+        let items = Arc::new(ItemInputs::new(px, chunk, order, layout));
+        self.items.insert(key, items.clone());
+        Ok(items)
     }
 
     /// The job simulating `spec` on `platform`.
@@ -229,7 +281,7 @@ impl Inputs {
     ) -> anyhow::Result<SimJob> {
         // pbrt and mitsuba choose their own tiles, as in a measured run.
         let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
-        let items = self.items(chunk, order, spec.workers);
+        let items = self.items(chunk, order, spec.workers)?;
         let params = spec
             .policy
             .info()
@@ -555,6 +607,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         }
         scene = Some(overrides.clone());
     }
+    let mut v_layouts = Vec::new();
     let validation = match scene {
         Some(overrides) => {
             let specs: Vec<SchedulerSpec> = pairs.iter().map(|m| m.0.spec.clone()).collect();
@@ -564,7 +617,9 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
             counts.sort_unstable();
             counts.dedup();
             let mut v_inputs = Inputs::measure(plan, &overrides, &specs, &counts, quiet)?;
-            Some(validate::compare(&pairs, &mut v_inputs, plan, exe, quiet)?)
+            let v = validate::compare(&pairs, &mut v_inputs, plan, exe, quiet)?;
+            v_layouts = v_inputs.layout_factors();
+            Some(v)
         }
         None => None,
     };
@@ -581,7 +636,8 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         inputs.pixels.serial_s(),
         inputs.counter_s,
         inputs.master_h_s.iter().map(|(b, h)| format!("B{b} = {h}\n")).collect::<String>()
-    );
+    ) + &layout_toml("layout_factor", &inputs.layout_factors())
+        + &layout_toml("validation_layout_factor", &v_layouts);
     crate::experiment::run::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
     let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(anyhow::Error::msg)?;
     let mut report = format!(
@@ -600,6 +656,18 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     }
     crate::experiment::run::write_atomic(&dir.join("report.md"), report.as_bytes())?;
     Ok(dir)
+}
+
+/// A TOML table of layout factors, keyed "chunk order threads" (nothing without any).
+fn layout_toml(table: &str, factors: &[(String, String, usize, f64)]) -> String {
+    if factors.is_empty() {
+        return String::new();
+    }
+    let rows: String = factors
+        .iter()
+        .map(|(c, o, t, k)| format!("\"{c} {o} {t}\" = {k}\n"))
+        .collect();
+    format!("# Each item layout's cost against rows (chunk, order, threads rendering).\n[{table}]\n{rows}")
 }
 
 /// `/proc/loadavg`'s first three fields (the machine is shared: measured inputs are noisy).
@@ -632,6 +700,9 @@ mod tests {
             fixed_s: (BTreeMap::new(), 0.0),
             local_threads: false,
             items: BTreeMap::new(),
+            layouts: BTreeMap::new(),
+            scene: None,
+            layout_reps: 0,
             refill: BTreeMap::new(),
             reps: 1,
             mpi_period: None,
