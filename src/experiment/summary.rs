@@ -134,11 +134,35 @@ pub fn group_of(r: &RunRow) -> String {
 }
 
 pub use super::stats::median;
-use super::stats::{mad_outliers, median_ci, paired_ratio, std_dev, Ratio};
+use super::stats::{mad_outliers, median_ci, paired_ratio, std_dev, unpaired_ratio, Ratio};
 
 /// The bootstrap seed of a configuration: fixed by its id, so a summary is reproducible.
 pub fn seed_of(config: &str) -> u64 {
     crate::hash::fnv(config.as_bytes())
+}
+
+/// Pairs fewer than this fall back to an unpaired ratio over every sample. With n pairs, one
+/// wild pair moves the median of a resample (alone, or by half in an even one) when it is
+/// drawn ⌈n/2⌉ times or more: 5.8 % of resamples at n = 5, beyond the interval's 2.5 % tail,
+/// so one preempted sample made a configuration twice as slow as the best look tied with it
+/// (a `quick` run on the 2-core Xeon beside another process: 5 pairs, ratio 1.97, interval
+/// from 0.94); 1.0–1.1 % at n = 7–8, 0.16 % at n = 10.
+pub const MIN_PAIRS: usize = 10;
+
+/// median(num) / median(den) with its 95 % interval: over samples paired by repetition (the
+/// same round, so drift shared by a round cancels) where at least [`MIN_PAIRS`] pairs exist,
+/// else over every sample of each side, unpaired. `None` where a side has no sample.
+pub fn ratio_by_round(num: &[(u32, f64)], den: &[(u32, f64)], seed: u64) -> Option<Ratio> {
+    if num.is_empty() || den.is_empty() {
+        return None;
+    }
+    let (x, y) = pair_by_rep(num, den);
+    Some(if x.len() >= MIN_PAIRS {
+        paired_ratio(&x, &y, seed)
+    } else {
+        let all = |v: &[(u32, f64)]| v.iter().map(|w| w.1).collect::<Vec<f64>>();
+        unpaired_ratio(&all(num), &all(den), seed)
+    })
 }
 
 /// Pair two (repetition, value) lists on their common repetitions: (a values, b values).
@@ -211,10 +235,7 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
             let seed = seed_of(c);
             let wall_median_ci = median_ci(&wall, seed);
             let speedup = match serial.get(&group_of(rs[0])) {
-                Some(base) if rs[0].scheduler != "serial" => {
-                    let (s, w) = pair_by_rep(base, &walls);
-                    (!s.is_empty()).then(|| paired_ratio(&s, &w, seed))
-                }
+                Some(base) if rs[0].scheduler != "serial" => ratio_by_round(base, &walls, seed),
                 _ => None,
             };
             let loads = rs
@@ -416,5 +437,48 @@ mod tests {
         assert!((lo - (2.0 - 4.303 / 3f64.sqrt())).abs() < 1e-9);
         assert!((hi - (2.0 + 4.303 / 3f64.sqrt())).abs() < 1e-9);
         assert_eq!(ci95(&[5.0]), (5.0, 5.0));
+    }
+
+    /// The `quick` run that showed the need for [`MIN_PAIRS`]: the best configuration's 30
+    /// samples (round 1 preempted, twice as long), one twice as slow stopped after 5 rounds.
+    /// Over its 5 pairs the interval reaches down to 1 (it would look tied); unpaired over
+    /// every sample it does not.
+    #[test]
+    fn few_pairs_fall_back_to_every_sample() {
+        let best: Vec<(u32, f64)> = (0..30)
+            .map(|r| {
+                (
+                    r,
+                    if r == 1 {
+                        46.6
+                    } else {
+                        21.6 + 0.05 * (r % 7) as f64
+                    },
+                )
+            })
+            .collect();
+        let slow: Vec<(u32, f64)> = [42.96, 44.19, 43.09, 43.21, 43.81]
+            .into_iter()
+            .zip(0..)
+            .map(|(w, r)| (r, w))
+            .collect();
+        let (x, y) = pair_by_rep(&slow, &best);
+        assert!(
+            paired_ratio(&x, &y, 1).lo <= 1.0,
+            "the fragile interval, shown"
+        );
+        let r = ratio_by_round(&slow, &best, 1).unwrap();
+        assert!(r.lo > 1.8 && r.value > 1.9, "{r:?}");
+        // With enough rounds the pairs are used: drift shared by a round cancels.
+        let drift = |r: u32| 1.0 + 0.3 * (r % 4) as f64;
+        let a: Vec<(u32, f64)> = (0..12).map(|r| (r, 10.0 * drift(r))).collect();
+        let b: Vec<(u32, f64)> = (0..12).map(|r| (r, 11.0 * drift(r))).collect();
+        let r = ratio_by_round(&b, &a, 1).unwrap();
+        assert!(
+            (r.lo - 1.1).abs() < 1e-9 && (r.hi - 1.1).abs() < 1e-9,
+            "{r:?}"
+        );
+        assert_eq!(r.n, 12);
+        assert!(ratio_by_round(&b, &[], 1).is_none());
     }
 }

@@ -6,6 +6,7 @@ mod charts;
 pub mod prediction;
 pub mod raster;
 pub mod report;
+pub mod self_tuning;
 
 pub use charts::{mpi_line, palette, throughput, Figure, PALETTE};
 

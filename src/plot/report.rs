@@ -3,8 +3,8 @@
 
 use super::Figure;
 use crate::experiment::meta::Meta;
-use crate::experiment::stats::{paired_ratio, unpaired_ratio, Ratio};
-use crate::experiment::summary::{pair_by_rep, seed_of, Summary};
+use crate::experiment::stats::Ratio;
+use crate::experiment::summary::{ratio_by_round, seed_of, Summary};
 use std::fmt::Write;
 
 /// How the model's inputs were measured, for the report.
@@ -14,18 +14,16 @@ fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
     v.min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
 }
 
-/// wall(a) / wall(b) as a ratio of medians over samples paired by repetition (same round), or
-/// unpaired when they share too few repetitions.
+/// wall(a) / wall(b) as a ratio of medians ([`ratio_by_round`]: paired by repetition where
+/// they share enough rounds, else unpaired).
 pub fn wall_ratio(a: &Summary, b: &Summary) -> Ratio {
-    let (x, y) = pair_by_rep(&a.walls, &b.walls);
     let seed = seed_of(&a.row.config) ^ seed_of(&b.row.config).rotate_left(1);
-    if x.len() >= 5 {
-        paired_ratio(&x, &y, seed)
-    } else {
-        let wa: Vec<f64> = a.walls.iter().map(|w| w.1).collect();
-        let wb: Vec<f64> = b.walls.iter().map(|w| w.1).collect();
-        unpaired_ratio(&wa, &wb, seed)
-    }
+    ratio_by_round(&a.walls, &b.walls, seed).unwrap_or(Ratio {
+        value: f64::NAN,
+        lo: f64::NAN,
+        hi: f64::NAN,
+        n: 0,
+    })
 }
 
 /// "1.99× (95 % CI 1.95–2.03)".
@@ -434,6 +432,21 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         let _ = writeln!(md, "## Cost model: predicted against measured\n");
         let _ = writeln!(md, "Each configuration's wall time as the cost model predicted it before the first round (`raysched::model`: work / P + hand-out cost + refill waiting + imbalance, from a {PROBE_NOTE}) beside its measured median; error = predicted / measured − 1.\n");
         md += &model;
+    }
+    let mut tuning = String::new();
+    for g in &groups {
+        let at: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && s.row.sources == "local")
+            .collect();
+        if let Some(sec) = super::self_tuning::section(g, &at) {
+            tuning += &sec;
+        }
+    }
+    if !tuning.is_empty() {
+        let _ = writeln!(md, "## Self-sizing rules against the best fixed chunk\n");
+        let _ = writeln!(md, "{}\n", super::self_tuning::PREAMBLE);
+        md += &tuning;
     }
     let _ = writeln!(md, "## Best configuration per scheduler\n");
     for g in &groups {

@@ -1,0 +1,278 @@
+//! The rules that size their own chunks against the best fixed chunk: per group, worker count
+//! and `slow` setting, each guided or dynamic-loop-scheduling configuration's wall time over
+//! that of the fastest `self_scheduling` chunk in scanline order (chunk self-scheduling with a
+//! chunk tuned by hand, here by the sweep itself), paired by round, with its 95 % interval and
+//! a verdict against a tolerance (issue goal: AF and AWF within 3 %).
+//!
+//! The best fixed chunk is the fastest of several noisy medians, so it is biased fast (the
+//! winner's curse): the check leans against the self-tuning rules, never for them.
+
+use super::report::{wall_ratio, with_ci};
+use crate::experiment::stats::Ratio;
+use crate::experiment::summary::Summary;
+use crate::sched::{Order, SchedulerKind};
+use std::fmt::Write;
+
+/// The tolerance of the check: a rule within 3 % of the best fixed chunk.
+pub const TOLERANCE: f64 = 0.03;
+
+/// Where a ratio's interval lies against `1 + tol`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// The whole interval is at or below `1 + tol`.
+    Within,
+    /// The whole interval is above `1 + tol`.
+    Beyond,
+    /// The interval straddles `1 + tol`: more rounds would decide.
+    Undecided,
+}
+
+impl Verdict {
+    /// The verdict of `r` against `1 + tol`.
+    pub fn of(r: &Ratio, tol: f64) -> Self {
+        if r.hi <= 1.0 + tol {
+            Self::Within
+        } else if r.lo > 1.0 + tol {
+            Self::Beyond
+        } else {
+            Self::Undecided
+        }
+    }
+
+    fn text(self, tol: f64) -> String {
+        let pct = tol * 100.0;
+        match self {
+            Self::Within => format!("within {pct:.0} %"),
+            Self::Beyond => format!("**beyond {pct:.0} %**"),
+            Self::Undecided => format!("undecided ({pct:.0} % inside the interval)"),
+        }
+    }
+}
+
+fn kind(s: &Summary) -> Option<SchedulerKind> {
+    SchedulerKind::from_id(&s.row.scheduler).ok()
+}
+
+/// A fixed-chunk configuration: `self_scheduling` in scanline order.
+fn is_fixed(s: &Summary) -> bool {
+    kind(s) == Some(SchedulerKind::SelfScheduling)
+        && s.row.order.as_deref() == Some(Order::Scanline.id())
+}
+
+/// A rule that sizes its own chunks from what is left (and, for some, from measured times).
+fn is_self_sizing(s: &Summary) -> bool {
+    kind(s).is_some_and(|k| k.is_dls() || k == SchedulerKind::Guided)
+}
+
+/// One rule's comparison with the best fixed chunk of its setting.
+#[derive(Clone, Debug)]
+pub struct Check<'a> {
+    /// The rule's configuration.
+    pub rule: &'a Summary,
+    /// The fastest fixed chunk of the same workers and `slow` setting.
+    pub best_fixed: &'a Summary,
+    /// wall(rule) / wall(best fixed), paired by round where they share five rounds or more.
+    pub ratio: Ratio,
+    /// `ratio` against the tolerance.
+    pub verdict: Verdict,
+}
+
+/// Every self-sizing rule of `at` (one group) against the best fixed chunk of its worker count
+/// and `slow` setting, where that setting has at least two fixed chunks to choose from.
+pub fn checks<'a>(at: &[&'a Summary], tol: f64) -> Vec<Check<'a>> {
+    let mut out = Vec::new();
+    for rule in at.iter().copied().filter(|s| is_self_sizing(s)) {
+        let fixed: Vec<&Summary> = at
+            .iter()
+            .copied()
+            .filter(|s| {
+                is_fixed(s) && s.row.workers == rule.row.workers && s.row.slow == rule.row.slow
+            })
+            .collect();
+        if fixed.len() < 2 {
+            continue;
+        }
+        let Some(best_fixed) = fixed
+            .iter()
+            .copied()
+            .min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
+        else {
+            continue;
+        };
+        let ratio = wall_ratio(rule, best_fixed);
+        out.push(Check {
+            rule,
+            best_fixed,
+            verdict: Verdict::of(&ratio, tol),
+            ratio,
+        });
+    }
+    out
+}
+
+/// The section's table for one group, or `None` where it has nothing to compare.
+pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
+    let checks = checks(at, TOLERANCE);
+    if checks.is_empty() {
+        return None;
+    }
+    let mut md = format!("### {group}\n\n");
+    md += "| rule | workers | best fixed chunk | median (ms) rule / fixed | wall ratio (95 % CI) | rounds | verdict |\n|---|---|---|---|---|---|---|\n";
+    for c in &checks {
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | `{}` | {:.3} / {:.3} | {} | {} | {} |",
+            c.rule.row.label,
+            c.rule.row.workers,
+            c.best_fixed.row.label,
+            c.rule.wall_median * 1e3,
+            c.best_fixed.wall_median * 1e3,
+            with_ci(&c.ratio),
+            c.ratio.n,
+            c.verdict.text(TOLERANCE)
+        );
+    }
+    let count = |v: Verdict| checks.iter().filter(|c| c.verdict == v).count();
+    let _ = writeln!(
+        md,
+        "\n{} of {} within {:.0} %, {} beyond, {} undecided.\n",
+        count(Verdict::Within),
+        checks.len(),
+        TOLERANCE * 100.0,
+        count(Verdict::Beyond),
+        count(Verdict::Undecided)
+    );
+    Some(md)
+}
+
+/// The section's preamble.
+pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chunks (guided and the dynamic-loop-scheduling family) against the fastest `self_scheduling` chunk in scanline order of the same workers and `slow` setting: wall(rule) / wall(best fixed chunk), a ratio of medians over samples paired by round, with its seeded bootstrap 95 % interval. Verdict against 3 %: *within* when the whole interval is at or below 1.03, *beyond* when it is all above, *undecided* otherwise. The best fixed chunk is the fastest of several noisy medians, so it is biased fast: the check leans against the rules.";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ratio(value: f64, lo: f64, hi: f64) -> Ratio {
+        Ratio {
+            value,
+            lo,
+            hi,
+            n: 20,
+        }
+    }
+
+    use crate::experiment::results::RunRow;
+    use crate::experiment::summary::summarize;
+
+    /// Twelve rounds of `label` at `wall` seconds; round r shifts every configuration by the
+    /// same machine drift (up to ±20 %) plus ±0.5 % of its own.
+    fn rows(label: &str, kind: &str, order: &str, slow: Option<&str>, wall: f64) -> Vec<RunRow> {
+        (0..12u32)
+            .map(|rep| {
+                let mut r = RunRow::example();
+                r.config = format!("{label} {slow:?}");
+                r.scheduler = kind.into();
+                r.label = label.into();
+                r.order = Some(order.into());
+                r.slow = slow.map(str::to_string);
+                r.workers = 2;
+                r.repetition = rep;
+                let drift = 1.0 + 0.2 * ((rep * 7 % 5) as f64 - 2.0) / 2.0;
+                let own = 1.0 + 0.005 * ((rep as usize + label.len()) % 3) as f64;
+                r.wall_s = wall * drift * own;
+                r
+            })
+            .collect()
+    }
+
+    #[test]
+    fn rules_are_compared_with_the_fastest_fixed_chunk_of_their_own_setting() {
+        let mut all = Vec::new();
+        for (label, wall) in [("ss 1", 0.110), ("ss 4", 0.100), ("ss 16", 0.104)] {
+            all.extend(rows(label, "self_scheduling", "scanline", None, wall));
+        }
+        // A fast self-scheduling run in another order is not a fixed chunk of the check.
+        all.extend(rows(
+            "ss 1 scatter",
+            "self_scheduling",
+            "scatter",
+            None,
+            0.090,
+        ));
+        all.extend(rows("af", "adaptive_factoring", "scatter", None, 0.101));
+        all.extend(rows("awf", "awf", "scatter", None, 0.110));
+        // Under slow=1:3 the fixed chunks are slower: AF there is compared with those.
+        for (label, wall) in [("ss 1", 0.20), ("ss 4", 0.19)] {
+            all.extend(rows(
+                label,
+                "self_scheduling",
+                "scanline",
+                Some("1:3"),
+                wall,
+            ));
+        }
+        all.extend(rows(
+            "af",
+            "adaptive_factoring",
+            "scatter",
+            Some("1:3"),
+            0.19,
+        ));
+        // With one fixed chunk only, there is nothing to tune: no check.
+        all.extend(rows(
+            "ss 4",
+            "self_scheduling",
+            "scanline",
+            Some("1:2"),
+            0.15,
+        ));
+        all.extend(rows(
+            "af",
+            "adaptive_factoring",
+            "scatter",
+            Some("1:2"),
+            0.15,
+        ));
+        let sums = summarize(&all);
+        let at: Vec<&Summary> = sums.iter().collect();
+        let c = checks(&at, TOLERANCE);
+        let find = |label: &str, slow: Option<&str>| {
+            c.iter()
+                .find(|c| c.rule.row.label == label && c.rule.row.slow.as_deref() == slow)
+                .unwrap_or_else(|| panic!("{label} {slow:?} not checked: {c:?}"))
+        };
+        assert_eq!(c.len(), 3, "{c:?}");
+        let af = find("af", None);
+        assert_eq!(af.best_fixed.row.label, "ss 4");
+        // Paired by round, the drift cancels: the interval is narrow around 1.01.
+        assert!((af.ratio.value - 1.01).abs() < 0.01, "{:?}", af.ratio);
+        assert!(af.ratio.hi - af.ratio.lo < 0.02, "{:?}", af.ratio);
+        assert_eq!(af.verdict, Verdict::Within);
+        assert_eq!(find("awf", None).verdict, Verdict::Beyond);
+        let slow = find("af", Some("1:3"));
+        assert_eq!(slow.best_fixed.row.slow.as_deref(), Some("1:3"));
+        assert_eq!(slow.verdict, Verdict::Within);
+        let md = section("g", &at).unwrap();
+        assert!(
+            md.contains("2 of 3 within 3 %, 1 beyond, 0 undecided"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn verdicts_need_the_whole_interval_on_one_side() {
+        assert_eq!(Verdict::of(&ratio(1.01, 0.99, 1.03), 0.03), Verdict::Within);
+        assert_eq!(
+            Verdict::of(&ratio(1.02, 0.99, 1.031), 0.03),
+            Verdict::Undecided
+        );
+        assert_eq!(
+            Verdict::of(&ratio(1.05, 1.031, 1.08), 0.03),
+            Verdict::Beyond
+        );
+        assert_eq!(
+            Verdict::of(&ratio(1.05, 1.03, 1.08), 0.03),
+            Verdict::Undecided
+        );
+    }
+}
