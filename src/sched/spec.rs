@@ -67,19 +67,23 @@ impl SchedulerKind {
         matches!(self, Self::Pbrt | Self::Mitsuba)
     }
 
-    /// The order this kind takes its items in unless told otherwise: stratified
-    /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
-    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes are chosen
-    /// so that a chunk of independent items is unlikely to end after the optimum (Hummel,
-    /// Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk instead,
-    /// which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot
-    /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers). Not
-    /// [`Order::ScatterBlocks`]: on two workers AF and AWF over pixels ran 0.96–1.04× their
-    /// `scatter` time (skewed sweep, 2-core EPYC VM, intervals ±10 %), while the model plays
-    /// FAC2 over a hot spot of four blocks 1.06× the ideal in it (a unit test).
+    /// The order this kind takes its items in unless told otherwise: stratified for the rules
+    /// whose first chunks are a share of all items (the factoring family and guided),
+    /// scanline for the rest. Factoring's chunk sizes are chosen so that a chunk of
+    /// independent items is unlikely to end after the optimum (Hummel, Schonberg & Flynn
+    /// 1992); in scanline order a hot spot lies in one early chunk instead, which took FAC2,
+    /// guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot spot and 1.66–1.72×
+    /// on the 1000× one (`experiments/skewed.toml`, 2 workers). Stratified in 4² blocks
+    /// ([`Order::ScatterBlocks`], the same as [`Order::Scatter`] over items of 4² pixels or
+    /// more) rather than pixel by pixel: one-pixel items scattered over the whole image took
+    /// 1.030–1.039× their scanline time on one worker (Cornell box, skewed_low, skewed_mid at
+    /// 16 spp; in blocks 1.000–1.008×), and on two workers AF and AWF over pixels ran 2–3.5 %
+    /// faster in blocks on those scenes and 0.7 % slower on the 100× hot spot (16 rounds,
+    /// ratios paired by round with intervals of ±0.5 %, 2-core Xeon VM). The model plays
+    /// FAC2 over a hot spot of four blocks at 1.10× the ideal at worst (a unit test).
     pub fn default_order(self) -> Order {
         if self.is_dls() || self == Self::Guided {
-            Order::Scatter
+            Order::ScatterBlocks
         } else {
             Order::Scanline
         }
@@ -452,6 +456,15 @@ impl SchedulerSpec {
         if self.workers == 0 {
             return Err(err("workers", "must be ≥ 1 (got 0)"));
         }
+        if self.slow.workers as usize > self.workers {
+            return Err(err(
+                "slow",
+                format!(
+                    "{} slowed workers of only {}",
+                    self.slow.workers, self.workers
+                ),
+            ));
+        }
         if let Chunk::Tile { w: 0, .. } | Chunk::Tile { h: 0, .. } | Chunk::Rows(0) = self.chunk {
             return Err(err("chunk", "sizes must be ≥ 1 (chunk 0 has no pixels)"));
         }
@@ -577,5 +590,18 @@ mod tests {
             ..base
         };
         assert_eq!(no_grab.validate().unwrap_err().field, "grab");
+    }
+
+    /// More slowed workers than workers is refused (the CLI's `--slow`, an experiment's
+    /// `slow` at each worker count), as many is not.
+    #[test]
+    fn more_slowed_workers_than_workers_is_rejected() {
+        let spec = |k: &str, workers| SchedulerSpec {
+            slow: Slow::parse(k).unwrap(),
+            ..SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Frame, workers)
+        };
+        assert!(spec("2:3", 2).validate().is_ok());
+        let e = spec("3:2", 2).validate().unwrap_err();
+        assert_eq!((e.field.as_str(), e.msg.as_str()), ("slow", "3 slowed workers of only 2"));
     }
 }
