@@ -611,7 +611,7 @@ mod tests {
                 "{kind:?} scatter_blocks: {blocks} vs {half}"
             );
         }
-        assert_eq!(SchedulerKind::Awf.default_order(), Order::ScatterBlocks);
+        assert_eq!(SchedulerKind::Awf.default_order(), Order::Scatter);
         assert_eq!(
             SchedulerKind::SelfScheduling.default_order(),
             Order::Scanline

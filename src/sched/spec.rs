@@ -67,23 +67,24 @@ impl SchedulerKind {
         matches!(self, Self::Pbrt | Self::Mitsuba)
     }
 
-    /// The order this kind takes its items in unless told otherwise: stratified for the rules
-    /// whose first chunks are a share of all items (the factoring family and guided),
-    /// scanline for the rest. Factoring's chunk sizes are chosen so that a chunk of
-    /// independent items is unlikely to end after the optimum (Hummel, Schonberg & Flynn
-    /// 1992); in scanline order a hot spot lies in one early chunk instead, which took FAC2,
-    /// guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot spot and 1.66–1.72×
-    /// on the 1000× one (`experiments/skewed.toml`, 2 workers). Stratified in 4² blocks
-    /// ([`Order::ScatterBlocks`], the same as [`Order::Scatter`] over items of 4² pixels or
-    /// more) rather than pixel by pixel: one-pixel items scattered over the whole image took
+    /// The order this kind takes its items in unless told otherwise: stratified
+    /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
+    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes are chosen
+    /// so that a chunk of independent items is unlikely to end after the optimum (Hummel,
+    /// Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk instead,
+    /// which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot
+    /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers).
+    /// Stratifying pixel by pixel has a price: one-pixel items in `scatter` order took
     /// 1.030–1.039× their scanline time on one worker (Cornell box, skewed_low, skewed_mid at
-    /// 16 spp; in blocks 1.000–1.008×), and on two workers AF and AWF over pixels ran 2–3.5 %
-    /// faster in blocks on those scenes and 0.7 % slower on the 100× hot spot (16 rounds,
-    /// ratios paired by round with intervals of ±0.5 %, 2-core Xeon VM). The model plays
-    /// FAC2 over a hot spot of four blocks at 1.10× the ideal at worst (a unit test).
+    /// 16 spp), in [`Order::ScatterBlocks`] 1.000–1.008×. Not `scatter_blocks` all the same:
+    /// on two workers it made AF and AWF over pixels 2–3.5 % faster on those scenes, but with
+    /// one worker 3× slower AWF took 1.24× the best fixed chunk on the 1000× hot spot (in
+    /// `scatter` 1.01×): one 4² block of that hot spot is up to 9 % of the image's work
+    /// (`self_tuning.toml` and diagnostics, 16–20 rounds, ratios paired by round, 2-core Xeon
+    /// VM, 2026-12-04).
     pub fn default_order(self) -> Order {
         if self.is_dls() || self == Self::Guided {
-            Order::ScatterBlocks
+            Order::Scatter
         } else {
             Order::Scanline
         }
@@ -602,6 +603,9 @@ mod tests {
         };
         assert!(spec("2:3", 2).validate().is_ok());
         let e = spec("3:2", 2).validate().unwrap_err();
-        assert_eq!((e.field.as_str(), e.msg.as_str()), ("slow", "3 slowed workers of only 2"));
+        assert_eq!(
+            (e.field.as_str(), e.msg.as_str()),
+            ("slow", "3 slowed workers of only 2")
+        );
     }
 }
