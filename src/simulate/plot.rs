@@ -399,7 +399,7 @@ pub fn summary_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
         inputs.pixels.height,
         inputs.pixels.serial_s(),
         inputs.counter_s * 1e9,
-        inputs.master_h_s.iter().map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9)).collect::<Vec<_>>().join(", ")
+        super::sweep::master_h_text(&inputs.master_h_s)
     );
     for r in rows {
         s += &format!(

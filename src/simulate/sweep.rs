@@ -48,6 +48,19 @@ pub struct Inputs {
     pub mpi_period: Option<(f64, f64)>,
 }
 
+/// The master's measured h per buffer, `B=2: 212.0 ns, …`, or that none was probed (a sweep
+/// without the master).
+pub fn master_h_text(master_h_s: &BTreeMap<usize, f64>) -> String {
+    if master_h_s.is_empty() {
+        return "not probed (no master in the sweep)".to_string();
+    }
+    master_h_s
+        .iter()
+        .map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 impl Inputs {
     /// Measure everything `specs` need: the probe render of the plan's scene (on one thread,
     /// and at each of `concurrency` threads at once), h for each buffer size, the counter's
@@ -115,11 +128,7 @@ impl Inputs {
                 pixels.height,
                 pixels.serial_s(),
                 counter_s * 1e9,
-                master_h_s
-                    .iter()
-                    .map(|(b, h)| format!("B={b}: {:.1} ns", h * 1e9))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                master_h_text(&master_h_s)
             );
         }
         Ok(Self {
@@ -681,6 +690,18 @@ pub fn load_average() -> String {
 mod tests {
     use super::*;
     use crate::sched::SchedulerKind;
+
+    /// The inputs line names each buffer's h, and says so where no master was probed (the
+    /// report read "master h ." there).
+    #[test]
+    fn the_master_h_line_is_never_empty() {
+        assert_eq!(
+            master_h_text(&BTreeMap::new()),
+            "not probed (no master in the sweep)"
+        );
+        let h = BTreeMap::from([(2, 212e-9), (64, 20.5e-9)]);
+        assert_eq!(master_h_text(&h), "B=2: 212.0 ns, B=64: 20.5 ns");
+    }
 
     #[test]
     fn an_mpi_master_keeps_to_its_launchs_spinning_period_unless_the_item_hides_it() {
