@@ -92,12 +92,14 @@ pub(super) struct Hit8 {
     pub(super) mask: u32,
 }
 
-/// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Inlined into
-/// the AVX2 traversal copies (no call and no `vzeroupper` per leaf): 1.7 % fewer
-/// instructions per primary ray (callgrind, 100 k triangles, 256²); with the array form of
-/// `ShearedRay::new` (1.0 %), bvh/Embree best rate at 1 M triangles, 1024², went from
-/// 0.75–0.79 to 0.81–0.82 on primary rays and from 0.68–0.72 to 0.71–0.72 on one diffuse
-/// bounce (three alternations of each binary, 2-core EPYC, `examples/tracer_ab`).
+/// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Once inlined
+/// into the AVX2 traversal copies (no call and no `vzeroupper` per leaf: 1.7 % fewer
+/// instructions per primary ray, callgrind, 100 k triangles, 256²), it is a call behind a
+/// `vzeroupper` again in today's build (the optimiser's choice: `#[inline]` is a hint, and
+/// `#[inline(always)]` does not combine with `#[target_feature]`). Forcing it, as an
+/// `#[inline(always)] unsafe fn` without the attribute, cost more: its closures and array
+/// maps were then compiled without AVX and called out of line, 907 → 1 075 instructions per
+/// primary ray and 2 270 → 2 840 per diffuse one (callgrind, 2026-12-04).
 #[inline]
 #[target_feature(enable = "avx2")]
 fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 {
