@@ -73,7 +73,7 @@ const SIDE: u32 = 512;
 fn nothing() -> Job {
     Arc::new(|it: &WorkItem| TileResult {
         item: it.id,
-        pixels: Vec::new(),
+        pixels: Default::default(),
         rays: 0,
         nonfinite: 0,
     })

@@ -206,7 +206,7 @@ fn main() {
     let filter: Option<String> = std::env::args().skip(1).find(|a| !a.starts_with('-'));
     let job: Job = Arc::new(|it: &WorkItem| TileResult {
         item: it.id,
-        pixels: Vec::new(),
+        pixels: Default::default(),
         rays: 0,
         nonfinite: 0,
     });

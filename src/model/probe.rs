@@ -303,7 +303,7 @@ pub fn relative_spread(a: &[f64], b: &[f64]) -> f64 {
 fn nothing() -> Job {
     Arc::new(|it: &WorkItem| TileResult {
         item: it.id,
-        pixels: Vec::new(),
+        pixels: Default::default(),
         rays: 0,
         nonfinite: 0,
     })
@@ -441,7 +441,7 @@ fn spinning(secs: f64) -> Job {
         }
         TileResult {
             item: it.id,
-            pixels: Vec::new(),
+            pixels: Default::default(),
             rays: 0,
             nonfinite: 0,
         }

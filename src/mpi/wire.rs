@@ -149,7 +149,7 @@ pub fn decode_result(bytes: &[u8]) -> Result<(TileResult, &[u8]), WireError> {
             msg: format!("{n} pixels announced, fewer sent"),
         });
     }
-    let mut pixels = Vec::with_capacity(n);
+    let mut pixels = crate::render::PixelValues::with_capacity(n);
     for _ in 0..n {
         pixels.push([r.f32()?, r.f32()?, r.f32()?]);
     }
@@ -289,7 +289,7 @@ mod tests {
         }
         let r = TileResult {
             item: 3,
-            pixels: vec![[1.0, -2.5, f32::MAX]; 5],
+            pixels: smallvec::smallvec![[1.0, -2.5, f32::MAX]; 5],
             rays: 7,
             nonfinite: 2,
         };
@@ -322,7 +322,7 @@ mod tests {
         let results: Vec<_> = (0..3u32)
             .map(|i| TileResult {
                 item: i,
-                pixels: vec![[i as f32, 0.5, -1.0]; i as usize],
+                pixels: smallvec::smallvec![[i as f32, 0.5, -1.0]; i as usize],
                 rays: 10 + i as u64,
                 nonfinite: i as u64,
             })

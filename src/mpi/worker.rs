@@ -117,7 +117,7 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                     }
                     TileResult {
                         item: item.id,
-                        pixels: vec![[0.0; 3]; item.pixel_count()],
+                        pixels: crate::render::PixelValues::from_elem([0.0; 3], item.pixel_count()),
                         rays: 0,
                         nonfinite: 0,
                     }

@@ -183,13 +183,23 @@ impl Iterator for Pixels<'_> {
 
 impl ExactSizeIterator for Pixels<'_> {}
 
+/// An item's pixel values: one pixel inline, more on the heap. A one-pixel item's result then
+/// needs no allocation of its own, kept live until the frame is assembled: skewed_low at 1 spp
+/// in one-pixel items, results kept as a run keeps them, took 2.16–2.22 ms against 2.48–2.53
+/// with a `Vec` (`cargo bench --bench render -- item_cost`, `kept` rows, three alternations of
+/// both binaries, 2-core Xeon VM, 2026-12-04): about 40 → 23 ns per item beyond its pixel
+/// (rows: 1.77–1.82 against 1.76–1.91 ms). In runs at 16 spp (skewed_low, Cornell box, two
+/// workers, two alternated runs of 16 paired rounds each) AF, AWF and self-scheduling over
+/// pixels moved less than the ±3–5 % intervals against 8² tiles: the saving there is ~1 %.
+pub type PixelValues = smallvec::SmallVec<[[f32; 3]; 1]>;
+
 /// The result of rendering one item: pixels in the item's order plus counters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TileResult {
     /// [`WorkItem::id`] of the item rendered.
     pub item: u32,
     /// Linear RGB value of each pixel (its sample mean), in [`WorkItem::pixels`] order.
-    pub pixels: Vec<[f32; 3]>,
+    pub pixels: PixelValues,
     /// Tracer queries (closest-hit and occlusion).
     pub rays: u64,
     /// Samples whose radiance came out NaN or infinite; they are dropped, never averaged in.
@@ -365,8 +375,9 @@ fn render_item_pure<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkIt
     with_features!(scene, tile_with::<T, _>(scene, tracer, item))
 }
 
-/// Each pixel's sample mean straight into the item's result, one allocation per item (its
-/// pixels). The sums are [`moments_with`]'s, in the same order, so the bits are the same.
+/// Each pixel's sample mean straight into the item's result, at most one allocation per item
+/// (its pixels; none for one pixel). The sums are [`moments_with`]'s, in the same order, so the
+/// bits are the same.
 // What a one-pixel item costs beyond its pixel (`cargo bench --bench render -- item_cost`,
 // skewed_low at 1 spp, one thread) fell to 0.11–0.21× of the path through three moment Vecs
 // and a boxed pixel iterator (13–18 ns against 63–167 ns, 2-core Xeon VM, binaries alternated).
@@ -381,7 +392,7 @@ fn tile_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
     let seed = frame_seed(scene.settings.seed, item.frame);
     let mut r = TileResult {
         item: item.id,
-        pixels: Vec::with_capacity(item.pixel_count()),
+        pixels: PixelValues::with_capacity(item.pixel_count()),
         rays: 0,
         nonfinite: 0,
     };

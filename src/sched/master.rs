@@ -806,7 +806,7 @@ mod staleness_tests {
             }
             TileResult {
                 item: it.id,
-                pixels: vec![],
+                pixels: Default::default(),
                 rays: 0,
                 nonfinite: 0,
             }

@@ -180,7 +180,7 @@ mod tests {
     fn result(item: u32, rays: u64) -> TileResult {
         TileResult {
             item,
-            pixels: vec![[item as f32; 3]],
+            pixels: smallvec::smallvec![[item as f32; 3]],
             rays,
             nonfinite: 0,
         }

@@ -80,7 +80,7 @@ mod tests {
         assert_eq!(item_bytes(&WorkItem::rect(0, 0, 0, 1, 1)), 25);
         let r = TileResult {
             item: 3,
-            pixels: vec![[1.0, 2.0, 3.0]; 256],
+            pixels: smallvec::smallvec![[1.0, 2.0, 3.0]; 256],
             rays: 7,
             nonfinite: 0,
         };

@@ -110,7 +110,7 @@ impl ItemInputs {
             .map(|it| {
                 let r = TileResult {
                     item: it.id,
-                    pixels: vec![[0.0; 3]; it.pixel_count()],
+                    pixels: crate::render::PixelValues::from_elem([0.0; 3], it.pixel_count()),
                     rays: 0,
                     nonfinite: 0,
                 };

@@ -158,7 +158,7 @@ pub fn submit_one<S: ComputeSource + ?Sized>(src: &mut S, item: WorkItem) -> Del
 fn empty_result(item: u32) -> TileResult {
     TileResult {
         item,
-        pixels: vec![],
+        pixels: Default::default(),
         rays: 0,
         nonfinite: 0,
     }

@@ -36,7 +36,7 @@ mod tests {
             std::thread::sleep(Duration::from_millis(2));
             TileResult {
                 item: it.id,
-                pixels: vec![],
+                pixels: Default::default(),
                 rays: 7,
                 nonfinite: 0,
             }

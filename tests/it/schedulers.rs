@@ -303,7 +303,7 @@ fn every_item_rendered_and_kept_once_even_with_duplicates() {
         r2[it.id as usize].fetch_add(1, Ordering::Relaxed);
         TileResult {
             item: it.id,
-            pixels: vec![[it.id as f32; 3]],
+            pixels: smallvec::smallvec![[it.id as f32; 3]],
             rays: 1,
             nonfinite: 0,
         }
@@ -633,7 +633,7 @@ fn sleeping_job(d: Duration) -> Job {
         std::thread::sleep(d);
         TileResult {
             item: it.id,
-            pixels: vec![[0.0; 3]; it.pixel_count()],
+            pixels: smallvec::smallvec![[0.0; 3]; it.pixel_count()],
             rays: 1,
             nonfinite: 0,
         }

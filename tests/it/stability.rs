@@ -127,7 +127,12 @@ fn render_item_matches_the_moments_path() {
             let inv = 1.0 / spp as f64;
             let want: Vec<[f32; 3]> = m.sums.iter().map(|s| s.map(|v| (v * inv) as f32)).collect();
             assert_eq!(r.item, item.id);
-            assert_eq!(r.pixels, want, "{path} item {}", item.id);
+            assert_eq!(
+                r.pixels.as_slice(),
+                want.as_slice(),
+                "{path} item {}",
+                item.id
+            );
             assert_eq!((r.rays, r.nonfinite), (m.rays, m.nonfinite), "{path}");
             assert_eq!(r.pixels.len(), item.pixel_count());
         }
