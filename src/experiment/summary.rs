@@ -32,9 +32,10 @@ pub struct Summary {
     pub ci_half_rel: f64,
     /// Samples with a modified z-score above 3.5 (median/MAD rule).
     pub outliers: usize,
-    /// Speedup as median(serial) / median(this) over samples paired by repetition (measured in
-    /// the same round), with its bootstrap interval; `None` for the baseline itself or without
-    /// pairs.
+    /// Speedup as median(serial) / median(this) with its bootstrap interval, over samples
+    /// paired by repetition (measured in the same round) where they share [`MIN_PAIRS`]
+    /// rounds, else unpaired ([`ratio_by_round`]); `None` for the baseline itself or without
+    /// samples.
     pub speedup: Option<Ratio>,
     /// Renders per timed sample (the largest of the configuration's rows).
     pub inner: u32,
