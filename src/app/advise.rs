@@ -103,11 +103,13 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
             args.tolerance_pct
         )));
     }
-    if args.slow.workers as usize > args.workers {
-        return Err(CliError::message(format!(
-            "--slow: {} slowed workers of only {}",
-            args.slow.workers, args.workers
-        )));
+    // Every candidate checked as a run would check it (e.g. more slowed workers than workers),
+    // before the scene is loaded.
+    let specs = specs(&args);
+    for s in &specs {
+        s.validate().map_err(|e| {
+            CliError::message(format!("--{}: {}", e.field.replace('_', "-"), e.msg))
+        })?;
     }
     let kind = args.tracer.available().map_err(CliError::input)?;
     let full = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
@@ -126,7 +128,6 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
     };
     let scene = Arc::new(load_scene(&args.scene, &over).map_err(CliError::input)?);
     let tracer = Arc::new(AnyTracer::build(kind, &scene, args.workers).map_err(CliError::input)?);
-    let specs = specs(&args);
     let policies: Vec<Policy> = specs.iter().map(|s| s.policy).collect();
     let probed =
         Probed::measure(&scene, &tracer, args.workers, &policies).map_err(CliError::runtime)?;

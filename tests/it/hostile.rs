@@ -162,6 +162,10 @@ fn flags_beyond_the_stated_limits_name_the_flag() {
         (&["--chunk", "4000000000x4000000000"], &["--chunk", "65536"]),
         (&["--chunk", "-5"], &["--chunk"]),
         (&["--local-threads", "99999999"], &["--local-threads"]),
+        (
+            &["--slow", "3:2", "--threads", "2"],
+            &["--slow", "3 slowed workers of only 2"],
+        ),
     ];
     for (flags, needles) in cases {
         let mut args = vec!["render", "s.toml", "-o", "o.exr"];
