@@ -71,7 +71,8 @@ pub struct Check<'a> {
     pub rule: &'a Summary,
     /// The fastest fixed chunk of the same workers and `slow` setting.
     pub best_fixed: &'a Summary,
-    /// wall(rule) / wall(best fixed), paired by round where they share five rounds or more.
+    /// wall(rule) / wall(best fixed) ([`wall_ratio`]: paired by round from
+    /// [`MIN_PAIRS`](crate::experiment::summary::MIN_PAIRS) shared rounds, else unpaired).
     pub ratio: Ratio,
     /// `ratio` against the tolerance.
     pub verdict: Verdict,
@@ -151,6 +152,8 @@ pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chun
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::experiment::results::RunRow;
+    use crate::experiment::summary::summarize;
 
     fn ratio(value: f64, lo: f64, hi: f64) -> Ratio {
         Ratio {
@@ -160,9 +163,6 @@ mod tests {
             n: 20,
         }
     }
-
-    use crate::experiment::results::RunRow;
-    use crate::experiment::summary::summarize;
 
     /// Twelve rounds of `label` at `wall` seconds; round r shifts every configuration by the
     /// same machine drift (up to ±20 %) plus ±0.5 % of its own.
