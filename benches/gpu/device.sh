@@ -1,59 +1,111 @@
 #!/usr/bin/env bash
 # Run ON THE DEVICE MACHINE (one NVIDIA H200, 16 cores), through the device tool, after
 # benches/gpu/prepare.sh ran here:  carry [".gl", ".gpubin"], command `bash benches/gpu/device.sh`,
-# timeout_s 400 (every step has its own timeout, 330 s in all; a normal run takes 2-3 minutes,
-# leaving device time to rerun once).
-# Writes under $OUT: machine.txt (metadata), gpu_dispatch_*.csv, render_*.txt, summary.txt.
+# timeout_s 600. Two jobs, each step under its own timeout (GPU 4 min, CPU 5 min at most; a
+# normal run takes 5-6 minutes in all):
+#   1. issue 20: the GPU source on the H200 (dispatch cost, batch curve, primary rays on 1 M
+#      triangles, Cornell paths/s against the 16 CPU cores, both under the balancer);
+#   2. issue 21: the SimGrid validation on 16 cores (measured runs at 1-16 local workers, then
+#      the simulation of the same configurations from a probe taken there).
+# Everything lands in a work folder that is packed into $OUT/results.tar.gz after every step,
+# so a step cut by its timeout still returns what came before it. `SMALL=1` shrinks every size
+# for a dry run on lavapipe (not a measurement).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 OUT=${OUT:-/tmp/gpu-out}
-mkdir -p "$OUT"
-log() { echo "== $*" | tee -a "$OUT/summary.txt"; }
+W=/tmp/raysched-device
+rm -rf "$W" && mkdir -p "$OUT" "$W/gpu" "$W/validation16"
+log() { echo "== $(date -u +%T) $*" | tee -a "$W/summary.txt"; }
+snap() { cp "$W/summary.txt" "$OUT/" 2>/dev/null; tar -C "$W" -czf "$OUT/results.tar.gz" .; }
+small=${SMALL:-0}
+size() { if [ "$small" = 1 ]; then echo "$2"; else echo "$1"; fi; }
 # The Vulkan loader (README of the device tool): unpack the carried .debs at /.
-for f in .gl/*.deb; do dpkg -x "$f" /; done
-ldconfig
+if [ "$small" != 1 ]; then
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
 if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
   export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
 B=.gpubin
 # The binaries were linked here against Debian 12's glibc 2.36: an older glibc there fails now,
 # with the loader's message, rather than halfway.
-if ! $B/raysched --version >"$OUT/version.txt" 2>&1; then
-  cat "$OUT/version.txt"; echo "the carried binaries do not run on this machine"; exit 1
+if ! $B/raysched --version >"$W/version.txt" 2>&1; then
+  cat "$W/version.txt"; echo "the carried binaries do not run on this machine"; snap; exit 1
 fi
 {
   date -u
   uname -a
   ldd --version | head -1
-  lscpu | grep -E 'Model name|^CPU\(s\)'
+  lscpu | grep -E 'Model name|^CPU\(s\)|MHz'
+  free -g | head -2
   nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv
-  git log -1 --format='commit %H %s' 2>/dev/null || true
+  cat .gpubin/commit.txt 2>/dev/null
   ldconfig -p | grep libvulkan || echo "no libvulkan"
-} >"$OUT/machine.txt" 2>&1
-cat "$OUT/machine.txt"
-# 1. Dispatch cost and batch-size curve on the Cornell box (1 spp, full paths, 512²).
-log "gpu_dispatch cornell 512² 1 spp"
-timeout 60 $B/gpu_dispatch --scene scenes/cornell_box.toml --width 512 --spp 1 --min-s 0.5 \
-  --depth-batch 65536 --out "$OUT/gpu_dispatch_cornell.csv" | tail -20 | tee -a "$OUT/summary.txt"
-# 2. Primary rays on the 1 M-triangle scene: max_depth 1, 1024², 4 spp (4 M rays a dispatch).
-log "gpu_dispatch complex (1 M triangles) primary rays 1024² 4 spp"
-timeout 90 $B/gpu_dispatch --scene scenes/complex.toml --width 1024 --spp 4 --max-depth 1 \
-  --min-s 0.5 --depth-batch 262144 --out "$OUT/gpu_dispatch_complex_primary.csv" \
-  | grep -E '^(upload|rays|knee|overhead)' | tee -a "$OUT/summary.txt"
-# 3. Paths/s on the Cornell box at 1024² (128² is far too few threads to fill an H200):
-#    16 CPU threads vs the GPU vs 16 threads + the GPU under the balancer.
-sed 's/^width = 128/width = 1024/; s/^height = 128/height = 1024/' scenes/cornell_box.toml >/tmp/cornell_1024.toml
-R="$B/raysched render /tmp/cornell_1024.toml --scheduler master --chunk 32"
-log "cpu 16 threads, 128 spp"
-timeout 60 $R --spp 128 --threads 16 --buffer 4 -o /tmp/cpu.exr 2>&1 | tee "$OUT/render_cpu.txt" | grep -E '^wall'
-log "gpu alone, 512 spp (gpu buffer 256 tiles = 262 144 pixels a dispatch)"
-timeout 60 $R --spp 512 --sources gpu --buffer 4 --gpu-buffer 256 -o /tmp/gpu.exr 2>&1 | tee "$OUT/render_gpu.txt" | grep -E '^(wall|scene|sched|  worker)'
-log "16 threads + gpu, balancer on, 512 spp"
-timeout 60 $R --spp 512 --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 --balance -o /tmp/both.exr 2>&1 \
-  | tee "$OUT/render_both.txt" | grep -E '^(wall|  worker|  master)'
+  uptime
+} >"$W/machine.txt" 2>&1
+cat "$W/machine.txt"
+snap
+
+# ---- 1. The GPU source (issue 20) ----
+# Dispatch cost and batch-size curve on the Cornell box (1 spp, full paths, 512²).
+log "gpu_dispatch cornell $(size 512 32)² 1 spp"
+timeout 50 $B/gpu_dispatch --scene scenes/cornell_box.toml --width "$(size 512 32)" --spp 1 \
+  --min-s "$(size 0.5 0.05)" --depth-batch "$(size 65536 256)" --out "$W/gpu/dispatch_cornell.csv" \
+  | tail -20 | tee -a "$W/summary.txt"
+snap
+# Primary rays on the 1 M-triangle scene: max_depth 1, 1024², 4 spp (4 M rays a dispatch).
+log "gpu_dispatch complex (1 M triangles) primary rays $(size 1024 32)² $(size 4 1) spp"
+timeout 80 $B/gpu_dispatch --scene scenes/complex.toml --width "$(size 1024 32)" --spp "$(size 4 1)" \
+  --max-depth 1 --min-s "$(size 0.5 0.05)" --depth-batch "$(size 262144 256)" \
+  --out "$W/gpu/dispatch_complex_primary.csv" \
+  | grep -E '^(upload|rays|knee|overhead)' | tee -a "$W/summary.txt"
+snap
+# Paths/s on the Cornell box at 1024² (128² is far too few threads to fill an H200):
+# 16 CPU threads vs the GPU vs 16 threads + the GPU under the balancer.
+px=$(size 1024 32)
+sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_box.toml >/tmp/cornell_big.toml
+R="$B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 32"
+log "cpu 16 threads, $(size 128 2) spp"
+timeout 40 $R --spp "$(size 128 2)" --threads 16 --buffer 4 -o /tmp/cpu.exr >"$W/gpu/render_cpu.txt" 2>&1
+grep -E '^wall' "$W/gpu/render_cpu.txt" | tee -a "$W/summary.txt"
+log "gpu alone, $(size 512 2) spp (gpu buffer 256 tiles = 262 144 pixels a dispatch)"
+timeout 40 $R --spp "$(size 512 2)" --sources gpu --buffer 4 --gpu-buffer 256 -o /tmp/gpu.exr >"$W/gpu/render_gpu.txt" 2>&1
+grep -E '^(wall|scene|sched|  worker)' "$W/gpu/render_gpu.txt" | tee -a "$W/summary.txt"
+log "16 threads + gpu, balancer on, $(size 512 2) spp"
+timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 --balance \
+  -o /tmp/both.exr >"$W/gpu/render_both.txt" 2>&1
+grep -E '^(wall|  worker|  master)' "$W/gpu/render_both.txt" | tee -a "$W/summary.txt"
 # Paths/s = pixels × spp / wall for each render; the balanced run against the sum of the two.
-paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2}' "$1"; }
-c=$(paths "$OUT/render_cpu.txt"); g=$(paths "$OUT/render_gpu.txt"); b=$(paths "$OUT/render_both.txt")
+paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$1"; }
+c=$(paths "$W/gpu/render_cpu.txt"); g=$(paths "$W/gpu/render_gpu.txt"); b=$(paths "$W/gpu/render_both.txt")
 log "paths/s: cpu16 $c, gpu $g, threads+gpu $b; (threads+gpu)/(cpu+gpu) = $(awk -v c="$c" -v g="$g" -v b="$b" 'BEGIN{if (c+g>0) print b/(c+g); else print "n/a"}')"
-log "done"
+snap
+
+# ---- 2. The SimGrid validation on 16 cores (issue 21) ----
+# SimGrid is opened at run time (dlopen): its library and dependencies travel packed.
+mkdir -p /tmp/sg && tar -C /tmp/sg -xJf $B/sglib.tar.xz
+V=experiments/simvalidate16.toml
+S=experiments/simulation_validation16.toml
+if [ "$small" = 1 ]; then
+  sed 's/^repetitions = 7/repetitions = 1/; s/^spp = 16/spp = 1/; s/^workers = .*/workers = [1, 2]/' $V >/tmp/simvalidate16.toml
+  sed 's|\.\./|'"$PWD"'/|g; s/^spp = 16/spp = 1/; s/^workers = .*/workers = [1, 2]/' $S >/tmp/simulation_validation16.toml
+  sed -i 's|^path = "\.\./|path = "'"$PWD"'/|' /tmp/simvalidate16.toml
+  V=/tmp/simvalidate16.toml S=/tmp/simulation_validation16.toml
+fi
+log "measured: $V  ($(uptime))"
+timeout 160 $B/raysched run $V --fresh --quiet --out results/runs >"$W/validation16/measured_log.txt" 2>&1
+echo "rc=$?" >>"$W/validation16/measured_log.txt"
+tail -3 "$W/validation16/measured_log.txt" | tee -a "$W/summary.txt"
+cp results/runs/simvalidate16/runs.csv results/runs/simvalidate16/meta.toml "$W/validation16/" 2>/dev/null
+snap
+log "simulated: $S  ($(uptime))"
+LD_LIBRARY_PATH=/tmp/sg/sglib timeout 140 $B/raysched simulate $S --out results/runs \
+  >"$W/validation16/simulate_log.txt" 2>&1
+echo "rc=$?" >>"$W/validation16/simulate_log.txt"
+grep -E '^(probe|validation)' "$W/validation16/simulate_log.txt" | tail -70 >>"$W/summary.txt"
+tail -3 "$W/validation16/simulate_log.txt"
+cp -r results/runs/simulation_validation16 "$W/validation16/simulated" 2>/dev/null
+log "done ($(uptime))"
+snap
 ls -la "$OUT"

@@ -2,14 +2,26 @@
 # Run HERE (the dev machine), before a session that has the H200 calls the device tool.
 # The device machine has no Rust toolchain and no Vulkan loader: build the release binaries
 # here and fetch the loader packages as .debs (the procedure of .library/device/README.md).
+# SimGrid (opened at run time by `simulate`) travels as its library and dependencies, packed.
 # Both land in ignored folders that the device call carries: `.gpubin` and `.gl`.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 # .gitignore ignores both folders, which is what lets the device call carry them.
-cargo build --release --features gpu --bin raysched --example gpu_dispatch
+cargo build --release --features gpu,simgrid --bin raysched --example gpu_dispatch
 mkdir -p .gpubin
 cp target/release/raysched target/release/examples/gpu_dispatch .gpubin/
 strip .gpubin/raysched .gpubin/gpu_dispatch
+git log -1 --format='binaries of commit %H %s' >.gpubin/commit.txt
+git status --short | sed 's/^/  uncommitted: /' >>.gpubin/commit.txt
+# libsimgrid and what it links, but not the C and C++ runtimes the device machine has itself.
+sg=/usr/lib/x86_64-linux-gnu/libsimgrid.so.3.32
+rm -rf /tmp/sglib && mkdir -p /tmp/sglib
+cp -L "$sg" /tmp/sglib/
+ldd "$sg" | awk '$3 ~ /^\// {print $3}' | grep -v -E 'libc\.so|libm\.so|ld-linux|libgcc_s|libstdc\+\+' \
+  | while read -r f; do cp -L "$f" /tmp/sglib/; done
+strip --strip-unneeded /tmp/sglib/*
+ln -s libsimgrid.so.3.32 /tmp/sglib/libsimgrid.so
+tar -C /tmp -cJf .gpubin/sglib.tar.xz sglib
 mkdir -p .gl /tmp/amd64/partial
 o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
 # shellcheck disable=SC2086
