@@ -27,7 +27,9 @@ fi
 if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
   export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
-B=.gpubin
+B=/tmp/raysched-bin
+mkdir -p $B
+for b in raysched gpu_dispatch; do xz -dc .gpubin/$b.xz >$B/$b && chmod +x $B/$b; done
 # The binaries were linked here against Debian 12's glibc 2.36: an older glibc there fails now,
 # with the loader's message, rather than halfway.
 if ! $B/raysched --version >"$W/version.txt" 2>&1; then
@@ -84,7 +86,7 @@ snap
 
 # ---- 2. The SimGrid validation on 16 cores (issue 21) ----
 # SimGrid is opened at run time (dlopen): its library and dependencies travel packed.
-mkdir -p /tmp/sg && tar -C /tmp/sg -xJf $B/sglib.tar.xz
+mkdir -p /tmp/sg && tar -C /tmp/sg -xJf .gpubin/sglib.tar.xz
 V=experiments/simvalidate16.toml
 S=experiments/simulation_validation16.toml
 if [ "$small" = 1 ]; then

@@ -9,8 +9,12 @@ cd "$(dirname "$0")/../.."
 # .gitignore ignores both folders, which is what lets the device call carry them.
 cargo build --release --features gpu,simgrid --bin raysched --example gpu_dispatch
 mkdir -p .gpubin
-cp target/release/raysched target/release/examples/gpu_dispatch .gpubin/
-strip .gpubin/raysched .gpubin/gpu_dispatch
+# Packed with xz: the device call carries the tracked tree (about 50 MB) and these within 64 MiB.
+rm -f .gpubin/*
+for b in target/release/raysched target/release/examples/gpu_dispatch; do
+  strip -o "/tmp/$(basename $b)" "$b"
+  xz -9e -T2 -c "/tmp/$(basename $b)" >".gpubin/$(basename $b).xz"
+done
 git log -1 --format='binaries of commit %H %s' >.gpubin/commit.txt
 git status --short | sed 's/^/  uncommitted: /' >>.gpubin/commit.txt
 # libsimgrid and what it links, but not the C and C++ runtimes the device machine has itself.
@@ -21,7 +25,7 @@ ldd "$sg" | awk '$3 ~ /^\// {print $3}' | grep -v -E 'libc\.so|libm\.so|ld-linux
   | while read -r f; do cp -L "$f" /tmp/sglib/; done
 strip --strip-unneeded /tmp/sglib/*
 ln -s libsimgrid.so.3.32 /tmp/sglib/libsimgrid.so
-tar -C /tmp -cJf .gpubin/sglib.tar.xz sglib
+tar -C /tmp -cf - sglib | xz -9e -T2 >.gpubin/sglib.tar.xz
 mkdir -p .gl /tmp/amd64/partial
 o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
 # shellcheck disable=SC2086
