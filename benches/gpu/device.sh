@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Run ON THE DEVICE MACHINE (one NVIDIA H200, 16 cores), through the device tool, after
-# benches/gpu/prepare.sh ran here:  carry [".gl", ".gpubin"], command `bash benches/gpu/device.sh`,
-# timeout_s 600. Two jobs, each step under its own timeout (GPU 4 min, CPU 5 min at most; a
-# normal run takes 5-6 minutes in all):
-#   1. issue 20: the GPU source on the H200 (dispatch cost, batch curve, primary rays on 1 M
+# benches/gpu/prepare.sh ran here. Two calls, one right after the other (the tracked tree and
+# all the packed binaries together pass the call's 64 MiB):
+#   1. carry [".gl", ".gpubin"], command `bash benches/gpu/device.sh gpu`, timeout_s 300:
+#      issue 20, the GPU source on the H200 (dispatch cost, batch curve, primary rays on 1 M
 #      triangles, Cornell paths/s against the 16 CPU cores, both under the balancer);
-#   2. issue 21: the SimGrid validation on 16 cores (measured runs at 1-16 local workers, then
+#   2. carry [".gpusim"], command `bash benches/gpu/device.sh validation`, timeout_s 330:
+#      issue 21, the SimGrid validation on 16 cores (measured runs at 1-16 local workers, then
 #      the simulation of the same configurations from a probe taken there).
+# Each step runs under its own timeout (GPU 4 min, validation 5 min at most; 1-3 min normally).
 # Everything lands in a work folder that is packed into $OUT/results.tar.gz after every step,
 # so a step cut by its timeout still returns what came before it. `SMALL=1` shrinks every size
 # for a dry run on lavapipe (not a measurement).
@@ -17,10 +19,13 @@ W=/tmp/raysched-device
 rm -rf "$W" && mkdir -p "$OUT" "$W/gpu" "$W/validation16"
 log() { echo "== $(date -u +%T) $*" | tee -a "$W/summary.txt"; }
 snap() { cp "$W/summary.txt" "$OUT/" 2>/dev/null; tar -C "$W" -czf "$OUT/results.tar.gz" .; }
+part=${1:-all}
 small=${SMALL:-0}
+PKG=.gpubin
+if [ "$part" = validation ]; then PKG=.gpusim; fi
 size() { if [ "$small" = 1 ]; then echo "$2"; else echo "$1"; fi; }
 # The Vulkan loader (README of the device tool): unpack the carried .debs at /.
-if [ "$small" != 1 ]; then
+if [ "$small" != 1 ] && [ -d .gl ]; then
   for f in .gl/*.deb; do dpkg -x "$f" /; done
   ldconfig
 fi
@@ -29,7 +34,9 @@ if [ -f /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json ]; then
 fi
 B=/tmp/raysched-bin
 mkdir -p $B
-for b in raysched gpu_dispatch; do xz -dc .gpubin/$b.xz >$B/$b && chmod +x $B/$b; done
+for f in $PKG/*.xz; do
+  case $f in *.tar.xz) ;; *) b=$(basename "$f" .xz); xz -dc "$f" >"$B/$b" && chmod +x "$B/$b" ;; esac
+done
 # The binaries were linked here against Debian 12's glibc 2.36: an older glibc there fails now,
 # with the loader's message, rather than halfway.
 if ! $B/raysched --version >"$W/version.txt" 2>&1; then
@@ -42,7 +49,7 @@ fi
   lscpu | grep -E 'Model name|^CPU\(s\)|MHz'
   free -g | head -2
   nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv
-  cat .gpubin/commit.txt 2>/dev/null
+  cat $PKG/commit.txt 2>/dev/null
   ldconfig -p | grep libvulkan || echo "no libvulkan"
   uptime
 } >"$W/machine.txt" 2>&1
@@ -50,6 +57,7 @@ cat "$W/machine.txt"
 snap
 
 # ---- 1. The GPU source (issue 20) ----
+if [ "$part" != validation ]; then
 # Dispatch cost and batch-size curve on the Cornell box (1 spp, full paths, 512²).
 log "gpu_dispatch cornell $(size 512 32)² 1 spp"
 timeout 50 $B/gpu_dispatch --scene scenes/cornell_box.toml --width "$(size 512 32)" --spp 1 \
@@ -83,10 +91,12 @@ paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=
 c=$(paths "$W/gpu/render_cpu.txt"); g=$(paths "$W/gpu/render_gpu.txt"); b=$(paths "$W/gpu/render_both.txt")
 log "paths/s: cpu16 $c, gpu $g, threads+gpu $b; (threads+gpu)/(cpu+gpu) = $(awk -v c="$c" -v g="$g" -v b="$b" 'BEGIN{if (c+g>0) print b/(c+g); else print "n/a"}')"
 snap
+fi
 
 # ---- 2. The SimGrid validation on 16 cores (issue 21) ----
+if [ "$part" != gpu ]; then
 # SimGrid is opened at run time (dlopen): its library and dependencies travel packed.
-mkdir -p /tmp/sg && tar -C /tmp/sg -xJf .gpubin/sglib.tar.xz
+mkdir -p /tmp/sg && tar -C /tmp/sg -xJf .gpusim/sglib.tar.xz
 V=experiments/simvalidate16.toml
 S=experiments/simulation_validation16.toml
 if [ "$small" = 1 ]; then
@@ -108,6 +118,7 @@ echo "rc=$?" >>"$W/validation16/simulate_log.txt"
 grep -E '^(probe|validation)' "$W/validation16/simulate_log.txt" | tail -70 >>"$W/summary.txt"
 tail -3 "$W/validation16/simulate_log.txt"
 cp -r results/runs/simulation_validation16 "$W/validation16/simulated" 2>/dev/null
+fi
 log "done ($(uptime))"
 snap
 ls -la "$OUT"
