@@ -76,21 +76,23 @@ snap
 px=$(size 1024 32)
 sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_box.toml >/tmp/cornell_big.toml
 R="$B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 32"
-log "cpu 16 threads, $(size 128 2) spp"
-timeout 40 $R --spp "$(size 128 2)" --threads 16 --buffer 4 -o /tmp/cpu.exr >"$W/gpu/render_cpu.txt" 2>&1
-grep -E '^wall' "$W/gpu/render_cpu.txt" | tee -a "$W/summary.txt"
-log "gpu alone, $(size 512 2) spp (gpu buffer 256 tiles = 262 144 pixels a dispatch)"
-timeout 40 $R --spp "$(size 512 2)" --sources gpu --buffer 4 --gpu-buffer 256 -o /tmp/gpu.exr >"$W/gpu/render_gpu.txt" 2>&1
-grep -E '^(wall|scene|sched|  worker)' "$W/gpu/render_gpu.txt" | tee -a "$W/summary.txt"
-log "16 threads + gpu, balancer on, $(size 512 2) spp"
-timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 --balance \
-  -o /tmp/both.exr >"$W/gpu/render_both.txt" 2>&1
-grep -E '^(wall|  worker|  master)' "$W/gpu/render_both.txt" | tee -a "$W/summary.txt"
-# Paths/s = pixels × spp / wall for each render; the balanced run against the sum of the two.
+# Three interleaved passes of: 16 threads alone; the GPU alone (buffer 256 tiles = 262 144
+# pixels a dispatch); both under the balancer; both without it (every source its plain B).
 paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$1"; }
-c=$(paths "$W/gpu/render_cpu.txt"); g=$(paths "$W/gpu/render_gpu.txt"); b=$(paths "$W/gpu/render_both.txt")
-log "paths/s: cpu16 $c, gpu $g, threads+gpu $b; (threads+gpu)/(cpu+gpu) = $(awk -v c="$c" -v g="$g" -v b="$b" 'BEGIN{if (c+g>0) print b/(c+g); else print "n/a"}')"
-snap
+for pass in 1 2 3; do
+  log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $(size 512 2) spp"
+  timeout 40 $R --spp "$(size 128 2)" --threads 16 --buffer 4 -o /tmp/cpu.exr >"$W/gpu/render_cpu_$pass.txt" 2>&1
+  timeout 40 $R --spp "$(size 512 2)" --sources gpu --buffer 4 --gpu-buffer 256 -o /tmp/gpu.exr >"$W/gpu/render_gpu_$pass.txt" 2>&1
+  timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 --balance \
+    -o /tmp/both.exr >"$W/gpu/render_both_$pass.txt" 2>&1
+  timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 \
+    -o /tmp/both.exr >"$W/gpu/render_unbalanced_$pass.txt" 2>&1
+  grep -E '^(wall|  worker 0 |  worker 16|  master)' "$W/gpu/render_both_$pass.txt" | tee -a "$W/summary.txt"
+  c=$(paths "$W/gpu/render_cpu_$pass.txt"); g=$(paths "$W/gpu/render_gpu_$pass.txt")
+  b=$(paths "$W/gpu/render_both_$pass.txt"); u=$(paths "$W/gpu/render_unbalanced_$pass.txt")
+  log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g); else print "n/a"}')"
+  snap
+done
 fi
 
 # ---- 2. The SimGrid validation on 16 cores (issue 21) ----

@@ -6,7 +6,9 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::{wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError};
+use super::{
+    tail, wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError,
+};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::{ComputeSource, DelayedResult, Doorbell};
@@ -76,9 +78,37 @@ struct Lane {
     submitted: u64,
     /// Its results come back per hand-out ([`Returns::HandOut`], where the source can).
     per_hand_out: bool,
+    /// Pixels of its results taken so far, and the busy seconds they took (from its previous
+    /// result or the item's hand-out, whichever is later): its measured rate.
+    done_px: u64,
+    busy_s: f64,
+    last_done: Option<Instant>,
 }
 
 impl Lane {
+    /// What the tail guard needs of this source.
+    fn load(&self, items: &[WorkItem]) -> tail::Load {
+        let held: usize = self
+            .slots
+            .iter()
+            .map(|sl| items[sl.item as usize].pixel_count())
+            .sum();
+        tail::Load {
+            rate: (self.done_px > 0 && self.busy_s > 0.0)
+                .then(|| self.done_px as f64 / self.busy_s),
+            held_px: held as f64,
+            alive: self.alive,
+        }
+    }
+
+    /// Book a result of `px` pixels taken at `now` for an item handed out at `at`.
+    fn record_done(&mut self, px: u64, at: Instant, now: Instant) {
+        let start = self.last_done.map_or(at, |d| d.max(at));
+        self.busy_s += now.saturating_duration_since(start).as_secs_f64();
+        self.done_px += px;
+        self.last_done = Some(now);
+    }
+
     /// Most items per hand-out: ⌈B/2⌉ where results come back per hand-out (two hand-outs
     /// outstanding, so the source renders one while the other's results travel), else all B.
     /// Returned per hand-out, one-pixel zero-work items took the master 0.76–0.79× its
@@ -139,6 +169,8 @@ struct Ledger<'a> {
     issued: u64,
     reissued: u64,
     item_bytes: u64,
+    /// Pixels of the items never handed out.
+    unissued_px: u64,
     /// Scratch of one hand-out: the items going to one source, then their results.
     batch: Vec<WorkItem>,
     handed_out: Vec<DelayedResult>,
@@ -159,6 +191,7 @@ impl<'a> Ledger<'a> {
             issued: 0,
             reissued: 0,
             item_bytes: 0,
+            unissued_px: items.iter().map(|i| i.pixel_count() as u64).sum(),
             batch: Vec::new(),
             handed_out: Vec::new(),
         }
@@ -185,7 +218,9 @@ impl<'a> Ledger<'a> {
             match slot.result.try_take() {
                 Ok(Ok(r)) => {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
-                    lane.pixels_since += self.items[slot.item as usize].pixel_count() as u64;
+                    let px = self.items[slot.item as usize].pixel_count() as u64;
+                    lane.pixels_since += px;
+                    lane.record_done(px, slot.at, now);
                     self.collector.accept(r)
                 }
                 Ok(Err(_)) => {
@@ -210,22 +245,33 @@ impl<'a> Ledger<'a> {
     }
 
     /// Top `lane` up to B fresh outstanding items from the queue (B hand-outs of its grain
-    /// for a lane with one, [`Self::top_up_grouped`]); `first` gets the first item handed out
-    /// in this pass.
-    fn top_up(&mut self, lane: &mut Lane, now: Instant, after: Duration, first: &mut Option<u32>) {
+    /// for a lane with one, [`Self::top_up_grouped`]), holding at most `allow` pixels when
+    /// the tail guard bounds it; `first` gets the first item handed out in this pass.
+    fn top_up(
+        &mut self,
+        lane: &mut Lane,
+        now: Instant,
+        after: Duration,
+        allow: Option<f64>,
+        first: &mut Option<u32>,
+    ) {
         let stale = Staleness {
             now,
             after,
             finished: lane.src.finished(),
         };
+        let mut held = self.held_px(lane);
         if lane.grain > 0 {
-            return self.top_up_grouped(lane, stale, first);
+            return self.top_up_grouped(lane, stale, allow, held, first);
         }
         let mut scanned = 0;
         let len = self.queue.len();
         let piece = lane.piece();
         let mut fresh = lane.slots.iter().filter(|sl| stale.fresh(sl)).count();
         while fresh < lane.buffer && scanned < len {
+            if !self.next_fits(allow, &mut held) {
+                break;
+            }
             scanned += 1;
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
@@ -244,7 +290,14 @@ impl<'a> Ledger<'a> {
     /// [`Self::top_up`] for a lane with its own grain: consecutive items go out together
     /// once their pixels reach the grain (one message, one GPU dispatch), up to B such
     /// hand-outs' pixels outstanding; only the queue's last items go out as a smaller one.
-    fn top_up_grouped(&mut self, lane: &mut Lane, stale: Staleness, first: &mut Option<u32>) {
+    fn top_up_grouped(
+        &mut self,
+        lane: &mut Lane,
+        stale: Staleness,
+        allow: Option<f64>,
+        mut held: u64,
+        first: &mut Option<u32>,
+    ) {
         let now = stale.now;
         let items = self.items;
         let px = |i: u32| items[i as usize].pixel_count() as u64;
@@ -260,6 +313,9 @@ impl<'a> Ledger<'a> {
         let len = self.queue.len();
         // A group once started is completed, so every hand-out but the last is whole.
         while (fresh < cap || grouped > 0) && scanned < len {
+            if grouped == 0 && !self.next_fits(allow, &mut held) {
+                break;
+            }
             scanned += 1;
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
@@ -273,6 +329,33 @@ impl<'a> Ledger<'a> {
             }
         }
         lane.hand_out(&mut self.batch, &mut self.handed_out, now);
+    }
+
+    /// Pixels `lane` holds (as the tail guard counts them).
+    fn held_px(&self, lane: &Lane) -> u64 {
+        let items = self.items;
+        lane.slots
+            .iter()
+            .map(|sl| items[sl.item as usize].pixel_count() as u64)
+            .sum()
+    }
+
+    /// Whether the queue's next unfinished item still fits under `allow` beside `held`
+    /// pixels; if so it is counted into `held`. Finished items at the front leave the queue.
+    fn next_fits(&mut self, allow: Option<f64>, held: &mut u64) -> bool {
+        let Some(allow) = allow else { return true };
+        while let Some(&i) = self.queue.front() {
+            if !self.collector.is_done(i) {
+                let px = self.items[i as usize].pixel_count() as u64;
+                if (*held + px) as f64 > allow {
+                    return false;
+                }
+                *held += px;
+                return true;
+            }
+            self.queue.pop_front();
+        }
+        true
     }
 
     /// The queue's next item if it may be handed out now to the source holding `slots`;
@@ -300,6 +383,9 @@ impl<'a> Ledger<'a> {
         self.batch.push(item);
         first.get_or_insert(i);
         self.issued += 1;
+        if !self.handed[i as usize] {
+            self.unissued_px -= self.items[i as usize].pixel_count() as u64;
+        }
         self.handed[i as usize] = true;
         self.issued_at[i as usize] = Some(now);
         if self.requeue != Requeue::Never {
@@ -349,7 +435,8 @@ pub struct Hetero {
     /// Resize every source's buffer so that each holds the same time's worth of work, at most
     /// once per [`REBALANCE_EVERY`] and only when that time differs by more than
     /// [`REBALANCE_IMBALANCE`] between sources (the rule of Blender Cycles' multi-device
-    /// balancer).
+    /// balancer); and bound what each source holds by the run's measured end
+    /// ([`super::tail`]), so a slow source never takes the tail.
     pub balance: bool,
 }
 
@@ -543,6 +630,9 @@ impl<'a> Master<'a> {
                 pixels_since: 0,
                 grain: 0,
                 submitted: 0,
+                done_px: 0,
+                busy_s: 0.0,
+                last_done: None,
                 per_hand_out: params.returns == Returns::HandOut && src.returns_per_hand_out(),
                 src,
             })
@@ -608,14 +698,39 @@ impl<'a> Master<'a> {
         }))
     }
 
-    /// Top every live source up; the first item handed out in this pass, if any.
+    /// Top every live source up; the first item handed out in this pass, if any. Under the
+    /// balancer a source holds one item (or one hand-out of its grain) until its rate is
+    /// measured, then what the tail guard ([`tail::allowance`]) allows.
     fn hand_out(&mut self, now: Instant) -> Option<u32> {
         let stale = stale_after(self.params.requeue, self.ledger.slowest);
+        let allow = self.allowances();
         let mut first = None;
-        for lane in self.lanes.iter_mut().filter(|l| l.alive) {
-            self.ledger.top_up(lane, now, stale, &mut first);
+        for (k, lane) in self.lanes.iter_mut().enumerate().filter(|(_, l)| l.alive) {
+            let a = allow.as_ref().and_then(|a| a[k]);
+            self.ledger.top_up(lane, now, stale, a, &mut first);
         }
         first
+    }
+
+    /// Per source, the most pixels it may hold; `None` without a balancer. A measured source
+    /// is unbounded while no source holds anything: then nothing could return and the run
+    /// would stall.
+    fn allowances(&self) -> Option<Vec<Option<f64>>> {
+        let b = self.balancer.as_ref()?;
+        let items = self.ledger.items;
+        let loads: Vec<tail::Load> = self.lanes.iter().map(|l| l.load(items)).collect();
+        let idle = self.lanes.iter().all(|l| l.slots.is_empty());
+        let unissued = self.ledger.unissued_px as f64;
+        Some(
+            (0..loads.len())
+                .map(|k| match loads[k].rate {
+                    // One item: the first item of a group lets the whole group go.
+                    None => Some(b.pixels_per_item),
+                    Some(_) if idle => None,
+                    Some(_) => tail::allowance(&loads, k, unissued, b.pixels_per_item),
+                })
+                .collect(),
+        )
     }
 
     /// Wait for a ring or the tick; with stats on, the pass since `now` counts as dispatch

@@ -14,6 +14,7 @@ mod results;
 mod shared;
 pub mod sources;
 pub mod spec;
+pub mod tail;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
