@@ -574,7 +574,10 @@ pub fn run_master_hetero(
             last: master.t0,
             base: params.buffer,
             pixels_per_item,
-            cap: (items.len() / master.lanes.len()).max(params.buffer),
+            // No share of the queue per source: the tail guard bounds what a fast source
+            // holds near the end. A cap of items / sources held the H200 to one dispatch in
+            // flight (35 M px/s there against 44-51 M at two, `gpu_dispatch` depth rows).
+            cap: items.len().max(params.buffer),
             units: master
                 .lanes
                 .iter()
@@ -727,7 +730,7 @@ impl<'a> Master<'a> {
                     // One item: the first item of a group lets the whole group go.
                     None => Some(b.pixels_per_item),
                     Some(_) if idle => None,
-                    Some(_) => tail::allowance(&loads, k, unissued, b.pixels_per_item),
+                    Some(_) => tail::allowance(&loads, k, unissued),
                 })
                 .collect(),
         )
