@@ -58,7 +58,9 @@ snap
 
 # ---- 1. The GPU source (issue 20) ----
 if [ "$part" != validation ]; then
-# Dispatch cost and batch-size curve on the Cornell box (1 spp, full paths, 512²).
+# Dispatch cost and batch-size curve on the Cornell box (1 spp, full paths, 512²); NO_DISPATCH=1
+# skips both gpu_dispatch steps (a rerun of the renders alone).
+if [ "${NO_DISPATCH:-0}" != 1 ]; then
 log "gpu_dispatch cornell $(size 512 32)² 1 spp"
 timeout 50 $B/gpu_dispatch --scene scenes/cornell_box.toml --width "$(size 512 32)" --spp 1 \
   --min-s "$(size 0.5 0.05)" --depth-batch "$(size 65536 256)" --out "$W/gpu/dispatch_cornell.csv" \
@@ -71,6 +73,7 @@ timeout 80 $B/gpu_dispatch --scene scenes/complex.toml --width "$(size 1024 32)"
   --out "$W/gpu/dispatch_complex_primary.csv" \
   | grep -E '^(upload|rays|knee|overhead)' | tee -a "$W/summary.txt"
 snap
+fi
 # Paths/s on the Cornell box at 1024² (128² is far too few threads to fill an H200):
 # 16 CPU threads vs the GPU vs 16 threads + the GPU under the balancer.
 px=$(size 1024 32)

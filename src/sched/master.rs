@@ -83,6 +83,9 @@ struct Lane {
     done_px: u64,
     busy_s: f64,
     last_done: Option<Instant>,
+    /// The lowest rate of one collection of its results (pixels/s): what its dearest items
+    /// cost it so far.
+    floor_rate: f64,
 }
 
 impl Lane {
@@ -96,15 +99,21 @@ impl Lane {
         tail::Load {
             rate: (self.done_px > 0 && self.busy_s > 0.0)
                 .then(|| self.done_px as f64 / self.busy_s),
+            floor_rate: self.floor_rate,
             held_px: held as f64,
             alive: self.alive,
         }
     }
 
-    /// Book a result of `px` pixels taken at `now` for an item handed out at `at`.
+    /// Book the results of `px` pixels taken at `now`, the earliest of them handed out at
+    /// `at`: one collection, so a GPU dispatch's items count as one interval.
     fn record_done(&mut self, px: u64, at: Instant, now: Instant) {
         let start = self.last_done.map_or(at, |d| d.max(at));
-        self.busy_s += now.saturating_duration_since(start).as_secs_f64();
+        let dt = now.saturating_duration_since(start).as_secs_f64();
+        if dt > 0.0 {
+            self.floor_rate = self.floor_rate.min(px as f64 / dt);
+        }
+        self.busy_s += dt;
         self.done_px += px;
         self.last_done = Some(now);
     }
@@ -204,6 +213,7 @@ impl<'a> Ledger<'a> {
     /// Take whatever `lane` has ready; a failure means the source is gone.
     fn collect(&mut self, lane: &mut Lane, now: Instant) {
         let mut k = 0;
+        let (mut px_done, mut first_at) = (0u64, None::<Instant>);
         while k < lane.slots.len() {
             if !lane.slots[k].result.is_ready() {
                 // Only a re-issued item can be finished by another source.
@@ -220,7 +230,8 @@ impl<'a> Ledger<'a> {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
                     let px = self.items[slot.item as usize].pixel_count() as u64;
                     lane.pixels_since += px;
-                    lane.record_done(px, slot.at, now);
+                    px_done += px;
+                    first_at = Some(first_at.map_or(slot.at, |a: Instant| a.min(slot.at)));
                     self.collector.accept(r)
                 }
                 Ok(Err(_)) => {
@@ -229,6 +240,9 @@ impl<'a> Ledger<'a> {
                 }
                 Err(d) => lane.slots.push(Slot { result: d, ..slot }),
             }
+        }
+        if let Some(at) = first_at {
+            lane.record_done(px_done, at, now);
         }
     }
 
@@ -636,6 +650,7 @@ impl<'a> Master<'a> {
                 done_px: 0,
                 busy_s: 0.0,
                 last_done: None,
+                floor_rate: f64::INFINITY,
                 per_hand_out: params.returns == Returns::HandOut && src.returns_per_hand_out(),
                 src,
             })
