@@ -78,13 +78,15 @@ struct Lane {
     submitted: u64,
     /// Its results come back per hand-out ([`Returns::HandOut`], where the source can).
     per_hand_out: bool,
-    /// Pixels of its results taken so far, and the busy seconds they took (from its previous
-    /// result or the item's hand-out, whichever is later): its measured rate.
-    done_px: u64,
+    /// Rays of its results taken so far, and the busy seconds they took (from its previous
+    /// result or the item's hand-out, whichever is later): its measured rate. Rays, not
+    /// pixels: a pixel's cost varies across the image (the Cornell box's ceiling rows cost a
+    /// thread a third of its later tiles), so rates in pixels compare sources by the parts of
+    /// the image they happened to render first.
+    done_rays: u64,
     busy_s: f64,
     last_done: Option<Instant>,
-    /// The lowest rate of one collection of its results (pixels/s): what its dearest items
-    /// cost it so far.
+    /// The lowest rate of one collection of its results (rays/s).
     floor_rate: f64,
 }
 
@@ -97,24 +99,24 @@ impl Lane {
             .map(|sl| items[sl.item as usize].pixel_count())
             .sum();
         tail::Load {
-            rate: (self.done_px > 0 && self.busy_s > 0.0)
-                .then(|| self.done_px as f64 / self.busy_s),
+            rate: (self.done_rays > 0 && self.busy_s > 0.0)
+                .then(|| self.done_rays as f64 / self.busy_s),
             floor_rate: self.floor_rate,
             held_px: held as f64,
             alive: self.alive,
         }
     }
 
-    /// Book the results of `px` pixels taken at `now`, the earliest of them handed out at
-    /// `at`: one collection, so a GPU dispatch's items count as one interval.
-    fn record_done(&mut self, px: u64, at: Instant, now: Instant) {
+    /// Book results of `rays` rays taken at `now`, the earliest of them handed out at `at`:
+    /// one collection, so a GPU dispatch's items count as one interval.
+    fn record_done(&mut self, rays: u64, at: Instant, now: Instant) {
         let start = self.last_done.map_or(at, |d| d.max(at));
         let dt = now.saturating_duration_since(start).as_secs_f64();
         if dt > 0.0 {
-            self.floor_rate = self.floor_rate.min(px as f64 / dt);
+            self.floor_rate = self.floor_rate.min(rays as f64 / dt);
         }
         self.busy_s += dt;
-        self.done_px += px;
+        self.done_rays += rays;
         self.last_done = Some(now);
     }
 
@@ -213,7 +215,7 @@ impl<'a> Ledger<'a> {
     /// Take whatever `lane` has ready; a failure means the source is gone.
     fn collect(&mut self, lane: &mut Lane, now: Instant) {
         let mut k = 0;
-        let (mut px_done, mut first_at) = (0u64, None::<Instant>);
+        let (mut rays, mut first_at) = (0u64, None::<Instant>);
         while k < lane.slots.len() {
             if !lane.slots[k].result.is_ready() {
                 // Only a re-issued item can be finished by another source.
@@ -230,7 +232,7 @@ impl<'a> Ledger<'a> {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
                     let px = self.items[slot.item as usize].pixel_count() as u64;
                     lane.pixels_since += px;
-                    px_done += px;
+                    rays += r.rays;
                     first_at = Some(first_at.map_or(slot.at, |a: Instant| a.min(slot.at)));
                     self.collector.accept(r)
                 }
@@ -242,7 +244,7 @@ impl<'a> Ledger<'a> {
             }
         }
         if let Some(at) = first_at {
-            lane.record_done(px_done, at, now);
+            lane.record_done(rays, at, now);
         }
     }
 
@@ -647,7 +649,7 @@ impl<'a> Master<'a> {
                 pixels_since: 0,
                 grain: 0,
                 submitted: 0,
-                done_px: 0,
+                done_rays: 0,
                 busy_s: 0.0,
                 last_done: None,
                 floor_rate: f64::INFINITY,

@@ -18,7 +18,8 @@
 /// One source as the guard sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Load {
-    /// Pixels per second of its busy time; `None` until it has returned a result.
+    /// Work per second of its busy time (any unit all sources share; the master counts rays);
+    /// `None` until it has returned a result.
     pub rate: Option<f64>,
     /// The lowest rate of one collection of its results (infinite before the first).
     pub floor_rate: f64,
@@ -44,9 +45,11 @@ pub fn allowance(loads: &[Load], s: usize, unissued_px: f64) -> Option<f64> {
     if rates.len() < 2 || rates.iter().all(|&r| r <= rate) {
         return None;
     }
+    // Its share of the sources' speed, of the pixels not yet returned; the projected end's
+    // seconds cancel, so the unit of the rates does not matter.
     let held: f64 = loads.iter().filter(|l| l.alive).map(|l| l.held_px).sum();
-    let end_s = (unissued_px + held) / rates.iter().sum::<f64>();
-    Some(COMMIT * end_s * rate.min(loads[s].floor_rate))
+    let share = rate.min(loads[s].floor_rate) / rates.iter().sum::<f64>();
+    Some(COMMIT * share * (unissued_px + held))
 }
 
 /// The share of the time to the projected end a bounded source may commit, at the lowest rate
