@@ -6,9 +6,7 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::{
-    tail, wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError,
-};
+use super::{wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::{ComputeSource, DelayedResult, Doorbell};
@@ -78,48 +76,9 @@ struct Lane {
     submitted: u64,
     /// Its results come back per hand-out ([`Returns::HandOut`], where the source can).
     per_hand_out: bool,
-    /// Rays of its results taken so far, and the busy seconds they took (from its previous
-    /// result or the item's hand-out, whichever is later): its measured rate. Rays, not
-    /// pixels: a pixel's cost varies across the image (the Cornell box's ceiling rows cost a
-    /// thread a third of its later tiles), so rates in pixels compare sources by the parts of
-    /// the image they happened to render first.
-    done_rays: u64,
-    busy_s: f64,
-    last_done: Option<Instant>,
-    /// The lowest rate of one collection of its results (rays/s).
-    floor_rate: f64,
 }
 
 impl Lane {
-    /// What the tail guard needs of this source.
-    fn load(&self, items: &[WorkItem]) -> tail::Load {
-        let held: usize = self
-            .slots
-            .iter()
-            .map(|sl| items[sl.item as usize].pixel_count())
-            .sum();
-        tail::Load {
-            rate: (self.done_rays > 0 && self.busy_s > 0.0)
-                .then(|| self.done_rays as f64 / self.busy_s),
-            floor_rate: self.floor_rate,
-            held_px: held as f64,
-            alive: self.alive,
-        }
-    }
-
-    /// Book results of `rays` rays taken at `now`, the earliest of them handed out at `at`:
-    /// one collection, so a GPU dispatch's items count as one interval.
-    fn record_done(&mut self, rays: u64, at: Instant, now: Instant) {
-        let start = self.last_done.map_or(at, |d| d.max(at));
-        let dt = now.saturating_duration_since(start).as_secs_f64();
-        if dt > 0.0 {
-            self.floor_rate = self.floor_rate.min(rays as f64 / dt);
-        }
-        self.busy_s += dt;
-        self.done_rays += rays;
-        self.last_done = Some(now);
-    }
-
     /// Most items per hand-out: ⌈B/2⌉ where results come back per hand-out (two hand-outs
     /// outstanding, so the source renders one while the other's results travel), else all B.
     /// Returned per hand-out, one-pixel zero-work items took the master 0.76–0.79× its
@@ -180,8 +139,6 @@ struct Ledger<'a> {
     issued: u64,
     reissued: u64,
     item_bytes: u64,
-    /// Pixels of the items never handed out.
-    unissued_px: u64,
     /// Scratch of one hand-out: the items going to one source, then their results.
     batch: Vec<WorkItem>,
     handed_out: Vec<DelayedResult>,
@@ -202,7 +159,6 @@ impl<'a> Ledger<'a> {
             issued: 0,
             reissued: 0,
             item_bytes: 0,
-            unissued_px: items.iter().map(|i| i.pixel_count() as u64).sum(),
             batch: Vec::new(),
             handed_out: Vec::new(),
         }
@@ -215,7 +171,6 @@ impl<'a> Ledger<'a> {
     /// Take whatever `lane` has ready; a failure means the source is gone.
     fn collect(&mut self, lane: &mut Lane, now: Instant) {
         let mut k = 0;
-        let (mut rays, mut first_at) = (0u64, None::<Instant>);
         while k < lane.slots.len() {
             if !lane.slots[k].result.is_ready() {
                 // Only a re-issued item can be finished by another source.
@@ -230,10 +185,7 @@ impl<'a> Ledger<'a> {
             match slot.result.try_take() {
                 Ok(Ok(r)) => {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
-                    let px = self.items[slot.item as usize].pixel_count() as u64;
-                    lane.pixels_since += px;
-                    rays += r.rays;
-                    first_at = Some(first_at.map_or(slot.at, |a: Instant| a.min(slot.at)));
+                    lane.pixels_since += self.items[slot.item as usize].pixel_count() as u64;
                     self.collector.accept(r)
                 }
                 Ok(Err(_)) => {
@@ -242,9 +194,6 @@ impl<'a> Ledger<'a> {
                 }
                 Err(d) => lane.slots.push(Slot { result: d, ..slot }),
             }
-        }
-        if let Some(at) = first_at {
-            lane.record_done(rays, at, now);
         }
     }
 
@@ -261,33 +210,22 @@ impl<'a> Ledger<'a> {
     }
 
     /// Top `lane` up to B fresh outstanding items from the queue (B hand-outs of its grain
-    /// for a lane with one, [`Self::top_up_grouped`]), holding at most `allow` pixels when
-    /// the tail guard bounds it; `first` gets the first item handed out in this pass.
-    fn top_up(
-        &mut self,
-        lane: &mut Lane,
-        now: Instant,
-        after: Duration,
-        allow: Option<f64>,
-        first: &mut Option<u32>,
-    ) {
+    /// for a lane with one, [`Self::top_up_grouped`]); `first` gets the first item handed out
+    /// in this pass.
+    fn top_up(&mut self, lane: &mut Lane, now: Instant, after: Duration, first: &mut Option<u32>) {
         let stale = Staleness {
             now,
             after,
             finished: lane.src.finished(),
         };
-        let mut held = self.held_px(lane);
         if lane.grain > 0 {
-            return self.top_up_grouped(lane, stale, allow, held, first);
+            return self.top_up_grouped(lane, stale, first);
         }
         let mut scanned = 0;
         let len = self.queue.len();
         let piece = lane.piece();
         let mut fresh = lane.slots.iter().filter(|sl| stale.fresh(sl)).count();
         while fresh < lane.buffer && scanned < len {
-            if !self.next_fits(allow, &mut held) {
-                break;
-            }
             scanned += 1;
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
@@ -306,14 +244,7 @@ impl<'a> Ledger<'a> {
     /// [`Self::top_up`] for a lane with its own grain: consecutive items go out together
     /// once their pixels reach the grain (one message, one GPU dispatch), up to B such
     /// hand-outs' pixels outstanding; only the queue's last items go out as a smaller one.
-    fn top_up_grouped(
-        &mut self,
-        lane: &mut Lane,
-        stale: Staleness,
-        allow: Option<f64>,
-        mut held: u64,
-        first: &mut Option<u32>,
-    ) {
+    fn top_up_grouped(&mut self, lane: &mut Lane, stale: Staleness, first: &mut Option<u32>) {
         let now = stale.now;
         let items = self.items;
         let px = |i: u32| items[i as usize].pixel_count() as u64;
@@ -329,9 +260,6 @@ impl<'a> Ledger<'a> {
         let len = self.queue.len();
         // A group once started is completed, so every hand-out but the last is whole.
         while (fresh < cap || grouped > 0) && scanned < len {
-            if grouped == 0 && !self.next_fits(allow, &mut held) {
-                break;
-            }
             scanned += 1;
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
@@ -345,33 +273,6 @@ impl<'a> Ledger<'a> {
             }
         }
         lane.hand_out(&mut self.batch, &mut self.handed_out, now);
-    }
-
-    /// Pixels `lane` holds (as the tail guard counts them).
-    fn held_px(&self, lane: &Lane) -> u64 {
-        let items = self.items;
-        lane.slots
-            .iter()
-            .map(|sl| items[sl.item as usize].pixel_count() as u64)
-            .sum()
-    }
-
-    /// Whether the queue's next unfinished item still fits under `allow` beside `held`
-    /// pixels; if so it is counted into `held`. Finished items at the front leave the queue.
-    fn next_fits(&mut self, allow: Option<f64>, held: &mut u64) -> bool {
-        let Some(allow) = allow else { return true };
-        while let Some(&i) = self.queue.front() {
-            if !self.collector.is_done(i) {
-                let px = self.items[i as usize].pixel_count() as u64;
-                if (*held + px) as f64 > allow {
-                    return false;
-                }
-                *held += px;
-                return true;
-            }
-            self.queue.pop_front();
-        }
-        true
     }
 
     /// The queue's next item if it may be handed out now to the source holding `slots`;
@@ -399,9 +300,6 @@ impl<'a> Ledger<'a> {
         self.batch.push(item);
         first.get_or_insert(i);
         self.issued += 1;
-        if !self.handed[i as usize] {
-            self.unissued_px -= self.items[i as usize].pixel_count() as u64;
-        }
         self.handed[i as usize] = true;
         self.issued_at[i as usize] = Some(now);
         if self.requeue != Requeue::Never {
@@ -451,8 +349,7 @@ pub struct Hetero {
     /// Resize every source's buffer so that each holds the same time's worth of work, at most
     /// once per [`REBALANCE_EVERY`] and only when that time differs by more than
     /// [`REBALANCE_IMBALANCE`] between sources (the rule of Blender Cycles' multi-device
-    /// balancer); and bound what each source holds by the run's measured end
-    /// ([`super::tail`]), so a slow source never takes the tail.
+    /// balancer).
     pub balance: bool,
 }
 
@@ -590,10 +487,7 @@ pub fn run_master_hetero(
             last: master.t0,
             base: params.buffer,
             pixels_per_item,
-            // No share of the queue per source: the tail guard bounds what a fast source
-            // holds near the end. A cap of items / sources held the H200 to one dispatch in
-            // flight (35 M px/s there against 44-51 M at two, `gpu_dispatch` depth rows).
-            cap: items.len().max(params.buffer),
+            cap: (items.len() / master.lanes.len()).max(params.buffer),
             units: master
                 .lanes
                 .iter()
@@ -649,10 +543,6 @@ impl<'a> Master<'a> {
                 pixels_since: 0,
                 grain: 0,
                 submitted: 0,
-                done_rays: 0,
-                busy_s: 0.0,
-                last_done: None,
-                floor_rate: f64::INFINITY,
                 per_hand_out: params.returns == Returns::HandOut && src.returns_per_hand_out(),
                 src,
             })
@@ -718,39 +608,14 @@ impl<'a> Master<'a> {
         }))
     }
 
-    /// Top every live source up; the first item handed out in this pass, if any. Under the
-    /// balancer a source holds one item (or one hand-out of its grain) until its rate is
-    /// measured, then what the tail guard ([`tail::allowance`]) allows.
+    /// Top every live source up; the first item handed out in this pass, if any.
     fn hand_out(&mut self, now: Instant) -> Option<u32> {
         let stale = stale_after(self.params.requeue, self.ledger.slowest);
-        let allow = self.allowances();
         let mut first = None;
-        for (k, lane) in self.lanes.iter_mut().enumerate().filter(|(_, l)| l.alive) {
-            let a = allow.as_ref().and_then(|a| a[k]);
-            self.ledger.top_up(lane, now, stale, a, &mut first);
+        for lane in self.lanes.iter_mut().filter(|l| l.alive) {
+            self.ledger.top_up(lane, now, stale, &mut first);
         }
         first
-    }
-
-    /// Per source, the most pixels it may hold; `None` without a balancer. A measured source
-    /// is unbounded while no source holds anything: then nothing could return and the run
-    /// would stall.
-    fn allowances(&self) -> Option<Vec<Option<f64>>> {
-        let b = self.balancer.as_ref()?;
-        let items = self.ledger.items;
-        let loads: Vec<tail::Load> = self.lanes.iter().map(|l| l.load(items)).collect();
-        let idle = self.lanes.iter().all(|l| l.slots.is_empty());
-        let unissued = self.ledger.unissued_px as f64;
-        Some(
-            (0..loads.len())
-                .map(|k| match loads[k].rate {
-                    // One item: the first item of a group lets the whole group go.
-                    None => Some(b.pixels_per_item),
-                    Some(_) if idle => None,
-                    Some(_) => tail::allowance(&loads, k, unissued),
-                })
-                .collect(),
-        )
     }
 
     /// Wait for a ring or the tick; with stats on, the pass since `now` counts as dispatch

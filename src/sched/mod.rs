@@ -14,7 +14,6 @@ mod results;
 mod shared;
 pub mod sources;
 pub mod spec;
-pub mod tail;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
