@@ -81,7 +81,9 @@ sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_
 R="$B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 32"
 # Three interleaved passes of: 16 threads alone; the GPU alone (buffer 256 tiles = 262 144
 # pixels a dispatch); both under the balancer; both without it (every source its plain B);
-# 15 threads and the GPU under the balancer (a core left to the GPU's feeding thread).
+# 15 threads and the GPU under the balancer (a core left to the GPU's feeding thread); threads
+# and GPU each with its own grain. On the H200 (results/published/gpu/2026-12-04-h200/) the
+# first four reached 0.55-0.68 of the sum of the separate rates; the last is not measured yet.
 paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$1"; }
 for pass in 1 2 3; do
   log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $(size 512 2) spp"
@@ -93,11 +95,17 @@ for pass in 1 2 3; do
     -o /tmp/both.exr >"$W/gpu/render_unbalanced_$pass.txt" 2>&1
   timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 15 --buffer 4 --gpu-buffer 256 --balance \
     -o /tmp/both.exr >"$W/gpu/render_both15_$pass.txt" 2>&1
+  # Each source its own granularity: threads 8² tiles (about 50 ms each at 512 spp here, where
+  # a 32² tile took a thread 0.3-0.9 s), the GPU one 512² dispatch at a time, two in flight.
+  timeout 40 $B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 8 --spp "$(size 512 2)" \
+    --sources threads,gpu --threads 16 --buffer 2 --gpu-chunk "$(size 512 16)" --gpu-buffer 2 \
+    -o /tmp/both.exr >"$W/gpu/render_grain_$pass.txt" 2>&1
   grep -E '^(wall|  worker 0 |  worker 16|  master)' "$W/gpu/render_both_$pass.txt" | tee -a "$W/summary.txt"
   c=$(paths "$W/gpu/render_cpu_$pass.txt"); g=$(paths "$W/gpu/render_gpu_$pass.txt")
   b=$(paths "$W/gpu/render_both_$pass.txt"); u=$(paths "$W/gpu/render_unbalanced_$pass.txt")
   b15=$(paths "$W/gpu/render_both15_$pass.txt")
-  log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u, balanced with 15 threads $b15; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" -v f="$b15" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g), f/(c+g); else print "n/a"}')"
+  gr=$(paths "$W/gpu/render_grain_$pass.txt")
+  log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u, balanced with 15 threads $b15, own grains $gr; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" -v f="$b15" -v r="$gr" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g), f/(c+g), r/(c+g); else print "n/a"}')"
   snap
 done
 fi
