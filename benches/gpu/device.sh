@@ -82,8 +82,9 @@ R="$B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 32"
 # Three interleaved passes of: 16 threads alone; the GPU alone (buffer 256 tiles = 262 144
 # pixels a dispatch); both under the balancer; both without it (every source its plain B);
 # 15 threads and the GPU under the balancer (a core left to the GPU's feeding thread); threads
-# and GPU each with its own grain. On the H200 (results/published/gpu/2026-12-04-h200/) the
-# first four reached 0.55-0.68 of the sum of the separate rates; the last is not measured yet.
+# and GPU each with its own grain. On the H200 (results/published/gpu/2026-12-04-h200/), with
+# the master of 5f8255d, threads + GPU reached 0.61 of the sum of the separate rates under the
+# balancer (one run) and 0.55-0.68 without it; the last two rows are not measured with it yet.
 paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$1"; }
 for pass in 1 2 3; do
   log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $(size 512 2) spp"
