@@ -1,0 +1,264 @@
+//! The H200 run of threads + GPU under the master, re-enacted with sources that sleep instead
+//! of rendering, so the hand-out policy can be studied on any machine in a second.
+//!
+//! Sixteen thread-like sources take a 32² tile in `--thread-ms` (the first two tile rows, the
+//! Cornell box's ceiling, in a third of that), one at a time. One GPU-like source runs a
+//! dispatch of n tiles in `overhead + max(serial, n × per_tile)`: a small dispatch costs about
+//! as much as a large one, as on the H200 at 512 spp (one tile alone ~0.2 s, 1024 tiles
+//! 1.6 s). The defaults are those measurements divided by ten
+//! (`results/published/gpu/2026-12-04-h200/`). Prints the wall of the GPU alone, the threads
+//! alone, both without and with the balancer, and both against the sum of the separate rates.
+//!
+//! ```sh
+//! cargo run --release --example hetero_tail -- [--thread-ms 80] [--gpu-tile-ms 0.156]
+//!     [--gpu-serial-ms 20] [--threads 16] [--thread-buffer 4] [--gpu-buffer 256] [--runs 3]
+//! ```
+
+use crossbeam::channel::Receiver;
+use raysched::metrics::{Probe, WorkerStats};
+use raysched::render::{TileResult, WorkItem};
+use raysched::sched::{master::run_master_hetero, Hetero, MasterParams, RunOptions};
+use raysched::source::{
+    thread::Flags, Completer, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier,
+    SourceReport, SourceThread,
+};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+const GRID: u32 = 32;
+const TILE: u32 = 32;
+
+struct Args {
+    thread_ms: f64,
+    gpu_tile_ms: f64,
+    gpu_serial_ms: f64,
+    gpu_overhead_ms: f64,
+    threads: usize,
+    thread_buffer: usize,
+    gpu_buffer: usize,
+    runs: usize,
+}
+
+fn parse() -> Result<Args, String> {
+    let mut a = Args {
+        thread_ms: 80.0,
+        gpu_tile_ms: 0.156,
+        gpu_serial_ms: 20.0,
+        gpu_overhead_ms: 0.0105,
+        threads: 16,
+        thread_buffer: 4,
+        gpu_buffer: 256,
+        runs: 3,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(flag) = it.next() {
+        let mut val = || it.next().ok_or(format!("{flag}: needs a value"));
+        let f = |v: String| v.parse::<f64>().map_err(|e| format!("{flag}: {e}"));
+        let u = |v: String| v.parse::<usize>().map_err(|e| format!("{flag}: {e}"));
+        match flag.as_str() {
+            "--thread-ms" => a.thread_ms = f(val()?)?,
+            "--gpu-tile-ms" => a.gpu_tile_ms = f(val()?)?,
+            "--gpu-serial-ms" => a.gpu_serial_ms = f(val()?)?,
+            "--gpu-overhead-ms" => a.gpu_overhead_ms = f(val()?)?,
+            "--threads" => a.threads = u(val()?)?,
+            "--thread-buffer" => a.thread_buffer = u(val()?)?,
+            "--gpu-buffer" => a.gpu_buffer = u(val()?)?,
+            "--runs" => a.runs = u(val()?)?,
+            _ => return Err(format!("unknown flag {flag}")),
+        }
+    }
+    if a.threads == 0 || a.thread_buffer == 0 || a.gpu_buffer == 0 || a.runs == 0 {
+        return Err(
+            "--threads, --thread-buffer, --gpu-buffer and --runs must be at least 1".into(),
+        );
+    }
+    Ok(a)
+}
+
+/// A tile's cost to a thread: the first two tile rows cost a third.
+fn thread_cost(item: &WorkItem, thread_ms: f64) -> Duration {
+    let row = item.id / GRID;
+    Duration::from_secs_f64(thread_ms * if row < 2 { 1.0 / 3.0 } else { 1.0 } / 1e3)
+}
+
+/// A finished tile: black pixels, rays in proportion to its cost (1 000 per thread-ms).
+fn tile(item: &WorkItem, thread_ms: f64) -> TileResult {
+    TileResult {
+        item: item.id,
+        pixels: smallvec::smallvec![[0.0; 3]; item.pixel_count()],
+        rays: (thread_cost(item, thread_ms).as_secs_f64() * 1e6) as u64,
+        nonfinite: 0,
+    }
+}
+
+/// A source that runs each hand-out as one dispatch of `overhead + max(serial, n × per_tile)`.
+struct GpuLike {
+    id: u32,
+    thread: SourceThread<Vec<(WorkItem, Completer)>>,
+}
+
+impl GpuLike {
+    fn spawn(id: u32, a: &Args) -> Self {
+        let (tile_s, serial_s, overhead_s, thread_ms) = (
+            a.gpu_tile_ms / 1e3,
+            a.gpu_serial_ms / 1e3,
+            a.gpu_overhead_ms / 1e3,
+            a.thread_ms,
+        );
+        let serve = move |fl: &Flags, rx: &Receiver<Vec<(WorkItem, Completer)>>| {
+            let mut stats = WorkerStats {
+                source: "gpu".into(),
+                ..Default::default()
+            };
+            for batch in rx.iter() {
+                if fl.cancelled() {
+                    break;
+                }
+                let t = Instant::now();
+                let n = batch.len() as f64;
+                std::thread::sleep(Duration::from_secs_f64(
+                    overhead_s + serial_s.max(n * tile_s),
+                ));
+                for (item, done) in batch {
+                    let r = tile(&item, thread_ms);
+                    stats.count(&item, r.rays);
+                    done.complete(Ok(r));
+                }
+                stats.busy_s += t.elapsed().as_secs_f64();
+                fl.items_finished(n as u64);
+                fl.ring();
+            }
+            SourceReport {
+                stats,
+                ..Default::default()
+            }
+        };
+        Self {
+            id,
+            thread: SourceThread::spawn(format!("gpu-like-{id}"), serve),
+        }
+    }
+}
+
+impl ComputeSource for GpuLike {
+    fn id(&self) -> u32 {
+        self.id
+    }
+    fn label(&self) -> String {
+        format!("gpu-like-{}", self.id)
+    }
+    fn submit(&mut self, item: WorkItem) -> DelayedResult {
+        let mut out = Vec::with_capacity(1);
+        self.submit_batch(&mut vec![item], &mut out);
+        out.pop().expect("one result per item")
+    }
+    fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
+        let batch = items
+            .drain(..)
+            .map(|item| {
+                let (result, done) = DelayedResult::pending(item.id, self.id);
+                out.push(result);
+                (item, done)
+            })
+            .collect();
+        self.thread.send(batch);
+    }
+    fn is_lost(&self) -> bool {
+        self.thread.is_lost()
+    }
+    fn finished(&self) -> Option<u64> {
+        Some(self.thread.finished())
+    }
+    fn set_notifier(&mut self, notifier: Notifier) {
+        self.thread.set_notifier(notifier);
+    }
+    fn finish(mut self: Box<Self>) -> SourceReport {
+        self.thread.finish()
+    }
+}
+
+/// One run: wall seconds and, per source kind, (items, busy seconds).
+fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String, u64, f64)>) {
+    let items: Vec<WorkItem> = (0..GRID * GRID)
+        .map(|i| WorkItem::rect(i, (i % GRID) * TILE, (i / GRID) * TILE, TILE, TILE))
+        .collect();
+    let probe = Probe::new(true, false);
+    let thread_ms = a.thread_ms;
+    let job: Job = Arc::new(move |it: &WorkItem| {
+        std::thread::sleep(thread_cost(it, thread_ms));
+        tile(it, thread_ms)
+    });
+    let mut sources: Vec<Box<dyn ComputeSource>> = (0..threads)
+        .map(|k| {
+            Box::new(LocalThreadSource::spawn(k as u32, job.clone(), probe))
+                as Box<dyn ComputeSource>
+        })
+        .collect();
+    let mut buffers = vec![a.thread_buffer; threads];
+    if gpu {
+        sources.push(Box::new(GpuLike::spawn(threads as u32, a)));
+        buffers.push(a.gpu_buffer);
+    }
+    let hetero = Hetero {
+        buffers,
+        balance,
+        ..Default::default()
+    };
+    let params = MasterParams {
+        buffer: a.thread_buffer,
+        ..Default::default()
+    };
+    let t = Instant::now();
+    let (_, stats) = run_master_hetero(
+        &params,
+        &hetero,
+        &items,
+        sources,
+        &RunOptions::default(),
+        probe,
+    )
+    .unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        std::process::exit(1)
+    });
+    let wall = t.elapsed().as_secs_f64();
+    let mut kinds: Vec<(String, u64, f64)> = Vec::new();
+    for w in &stats.workers {
+        let kind = if w.source.is_empty() {
+            "threads"
+        } else {
+            &w.source
+        };
+        match kinds.iter_mut().find(|k| k.0 == kind) {
+            Some(k) => {
+                k.1 += w.items;
+                k.2 = k.2.max(w.busy_s);
+            }
+            None => kinds.push((kind.to_string(), w.items, w.busy_s)),
+        }
+    }
+    (wall, kinds)
+}
+
+fn main() {
+    let a = parse().unwrap_or_else(|e| {
+        eprintln!("error: {e}");
+        std::process::exit(2)
+    });
+    println!("pass,gpu_s,threads_s,unbalanced_s,balanced_s,unbalanced_of_sum,balanced_of_sum");
+    for pass in 1..=a.runs {
+        let (g, _) = run(&a, 0, true, false);
+        let (c, _) = run(&a, a.threads, false, false);
+        let (u, uk) = run(&a, a.threads, true, false);
+        let (b, bk) = run(&a, a.threads, true, true);
+        // Against the sum of the rates: 1/wall each, the same work.
+        let sum = 1.0 / g + 1.0 / c;
+        println!(
+            "{pass},{g:.4},{c:.4},{u:.4},{b:.4},{:.3},{:.3}",
+            (1.0 / u) / sum,
+            (1.0 / b) / sum
+        );
+        eprintln!("  unbalanced (kind, items, longest busy s): {uk:?}");
+        eprintln!("  balanced: {bk:?}");
+    }
+}
