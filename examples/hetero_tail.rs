@@ -163,6 +163,9 @@ impl ComputeSource for GpuLike {
             .collect();
         self.thread.send(batch);
     }
+    fn runs_hand_outs_whole(&self) -> bool {
+        true
+    }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()
     }

@@ -76,6 +76,8 @@ struct Lane {
     submitted: u64,
     /// Its results come back per hand-out ([`Returns::HandOut`], where the source can).
     per_hand_out: bool,
+    /// Its hand-outs go whole ([`ComputeSource::runs_hand_outs_whole`]).
+    whole: bool,
 }
 
 impl Lane {
@@ -232,9 +234,12 @@ impl<'a> Ledger<'a> {
             };
             self.issue(i, now, first);
             fresh += 1;
-            if fresh == 1 || self.batch.len() >= piece {
+            if (fresh == 1 && !lane.whole) || self.batch.len() >= piece {
                 // The source is idle: its first item goes at once, not after the scan; and a
-                // full piece goes as its own hand-out.
+                // full piece goes as its own hand-out. Not for a source whose hand-out costs
+                // about the same at any size: with a dispatch of max(20 ms, 0.156 ms per tile),
+                // sending the first tile alone took a GPU-like source's 1024 tiles from
+                // 0.165-0.21 s to 0.245-0.25 s (`examples/hetero_tail`, GPU alone, B = 256).
                 lane.hand_out(&mut self.batch, &mut self.handed_out, now);
             }
         }
@@ -544,6 +549,7 @@ impl<'a> Master<'a> {
                 grain: 0,
                 submitted: 0,
                 per_hand_out: params.returns == Returns::HandOut && src.returns_per_hand_out(),
+                whole: src.runs_hand_outs_whole(),
                 src,
             })
             .collect();

@@ -236,6 +236,13 @@ impl ComputeSource for GpuSource {
             .collect();
         self.thread.send(batch);
     }
+    /// Each GPU thread renders its pixel's samples in turn, so a dispatch takes at least one
+    /// pixel's samples however few pixels it holds: a tile sent alone ahead of the rest costs
+    /// nearly a whole dispatch (reasoned from the kernel and re-enacted in
+    /// `examples/hetero_tail`, not timed on a GPU).
+    fn runs_hand_outs_whole(&self) -> bool {
+        true
+    }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()
     }

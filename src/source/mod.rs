@@ -82,6 +82,12 @@ pub trait ComputeSource: Send {
     fn returns_per_hand_out(&self) -> bool {
         false
     }
+    /// Does one hand-out cost about as much whatever its size (a GPU dispatch), so that it
+    /// should go whole rather than split? The master then does not send an idle source's
+    /// first item ahead of the rest.
+    fn runs_hand_outs_whole(&self) -> bool {
+        false
+    }
     /// The source is gone: none of its outstanding results will arrive.
     fn is_lost(&self) -> bool;
     /// How many of its items the source has taken to the end (rendered, failed or skipped),

@@ -677,10 +677,12 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     assert_eq!(stats.workers[0].source, "threads");
 }
 
-/// A local thread source that records the size of every hand-out it is given.
+/// A local thread source that records the size of every hand-out it is given; `whole`: it
+/// says its hand-outs go whole, as a GPU does.
 struct Recording {
     inner: raysched::source::LocalThreadSource,
     sizes: Arc<std::sync::Mutex<Vec<usize>>>,
+    whole: bool,
 }
 
 impl raysched::source::ComputeSource for Recording {
@@ -701,6 +703,9 @@ impl raysched::source::ComputeSource for Recording {
     ) {
         self.sizes.lock().unwrap().push(items.len());
         self.inner.submit_batch(items, out)
+    }
+    fn runs_hand_outs_whole(&self) -> bool {
+        self.whole
     }
     fn is_lost(&self) -> bool {
         self.inner.is_lost()
@@ -728,6 +733,7 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
             Box::new(Recording {
                 inner: LocalThreadSource::spawn(i as u32, job.clone(), probe),
                 sizes: log.clone(),
+                whole: false,
             }) as Box<dyn ComputeSource>
         })
         .collect();
@@ -757,4 +763,42 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
     let single = logs[0].lock().unwrap().clone();
     assert!(single.iter().all(|&n| n <= 2), "{single:?}");
     assert_eq!(stats.workers[0].items + stats.workers[1].items, 1001);
+}
+
+#[test]
+fn an_idle_source_gets_its_first_item_ahead_of_the_rest_unless_its_hand_outs_go_whole() {
+    use raysched::metrics::Probe;
+    use raysched::sched::master::run_master_hetero;
+    use raysched::source::{ComputeSource, LocalThreadSource};
+    let job = sleeping_job(Duration::from_micros(50));
+    let probe = Probe::new(true, false);
+    let items: Vec<WorkItem> = (0..64).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+    let first_hand_outs = |whole: bool| {
+        let log: Arc<std::sync::Mutex<Vec<usize>>> = Arc::default();
+        let source = Box::new(Recording {
+            inner: LocalThreadSource::spawn(0, job.clone(), probe),
+            sizes: log.clone(),
+            whole,
+        }) as Box<dyn ComputeSource>;
+        let params = MasterParams {
+            buffer: 16,
+            ..Default::default()
+        };
+        let (results, _) = run_master_hetero(
+            &params,
+            &Default::default(),
+            &items,
+            vec![source],
+            &RunOptions::default(),
+            probe,
+        )
+        .unwrap();
+        assert!((0..64).all(|i| results.get(i).is_some()));
+        let sizes = log.lock().unwrap().clone();
+        sizes[..2].to_vec()
+    };
+    // B = 16: a thread gets its first item alone so it starts while the master scans on.
+    assert_eq!(first_hand_outs(false), [1, 15]);
+    // A source whose hand-out costs the same at any size gets the 16 in one.
+    assert_eq!(first_hand_outs(true)[0], 16);
 }
