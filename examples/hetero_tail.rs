@@ -20,8 +20,10 @@ use raysched::metrics::{Probe, WorkerStats};
 use raysched::render::{TileResult, WorkItem};
 use raysched::sched::{master::run_master_hetero, Hetero, MasterParams, RunOptions};
 use raysched::source::{
-    thread::Flags, Completer, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier,
-    SourceReport, SourceThread,
+    submit_one,
+    thread::{pending_batch, Flags},
+    Completer, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, SourceReport,
+    SourceThread,
 };
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -149,32 +151,19 @@ impl ComputeSource for GpuLike {
         format!("gpu-like-{}", self.id)
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
-        let mut out = Vec::with_capacity(1);
-        self.submit_batch(&mut vec![item], &mut out);
-        out.pop().expect("one result per item")
+        submit_one(self, item)
     }
     fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
-        let batch = items
-            .drain(..)
-            .map(|item| {
-                let (result, done) = DelayedResult::pending(item.id, self.id);
-                out.push(result);
-                (item, done)
-            })
-            .collect();
-        self.thread.send(batch);
+        self.thread.send(pending_batch(items, self.id, out));
     }
     fn runs_hand_outs_whole(&self) -> bool {
         true
     }
-    fn is_lost(&self) -> bool {
-        self.thread.is_lost()
-    }
-    fn finished(&self) -> Option<u64> {
-        Some(self.thread.finished())
-    }
     fn set_notifier(&mut self, notifier: Notifier) {
         self.thread.set_notifier(notifier);
+    }
+    fn is_lost(&self) -> bool {
+        self.thread.is_lost()
     }
     fn finish(mut self: Box<Self>) -> SourceReport {
         self.thread.finish()

@@ -226,15 +226,8 @@ impl ComputeSource for GpuSource {
         super::submit_one(self, item)
     }
     fn submit_batch(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
-        let batch: Vec<_> = items
-            .drain(..)
-            .map(|item| {
-                let (d, c) = DelayedResult::pending(item.id, self.id);
-                out.push(d);
-                (item, c)
-            })
-            .collect();
-        self.thread.send(batch);
+        self.thread
+            .send(super::thread::pending_batch(items, self.id, out));
     }
     /// Each GPU thread renders its pixel's samples in turn, so a dispatch takes at least one
     /// pixel's samples however few pixels it holds: a tile sent alone ahead of the rest costs

@@ -43,6 +43,23 @@ impl Flags {
     }
 }
 
+/// One pending result per item of `items` (drained), pushed to `out` in order, each with its
+/// completer: the message a source that serves hand-outs from its own thread sends it.
+pub fn pending_batch(
+    items: &mut Vec<crate::render::WorkItem>,
+    source: u32,
+    out: &mut Vec<super::DelayedResult>,
+) -> Vec<(crate::render::WorkItem, super::Completer)> {
+    items
+        .drain(..)
+        .map(|item| {
+            let (result, done) = super::DelayedResult::pending(item.id, source);
+            out.push(result);
+            (item, done)
+        })
+        .collect()
+}
+
 /// The handle of a source's thread, which takes messages `M` from its inbox and returns the
 /// source's report when the inbox closes.
 pub struct SourceThread<M> {
