@@ -13,6 +13,16 @@
 //! ```sh
 //! cargo run --release --example hetero_tail -- [--thread-ms 80] [--gpu-tile-ms 0.156]
 //!     [--gpu-serial-ms 20] [--threads 16] [--thread-buffer 4] [--gpu-buffer 256] [--runs 3]
+//!     [--tile 32] [--gpu-grain PIXELS]
+//! ```
+//!
+//! `--tile` sets the items' side (costs scale with their pixels); `--gpu-grain` gives the GPU
+//! its own hand-out of that many pixels (`--gpu-buffer` then counts such hand-outs), as
+//! `render --gpu-chunk` does.
+//!
+//! ```sh
+//! cargo run --release --example hetero_tail -- --tile 8 --thread-buffer 2 --gpu-grain 262144 \
+//!     --gpu-buffer 2
 //! ```
 
 use crossbeam::channel::Receiver;
@@ -28,11 +38,13 @@ use raysched::source::{
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-const GRID: u32 = 32;
-const TILE: u32 = 32;
+/// The image's side in pixels; the costs are per 32² tile of it.
+const IMAGE: u32 = 1024;
 
 struct Args {
     thread_ms: f64,
+    tile: u32,
+    gpu_grain: u64,
     gpu_tile_ms: f64,
     gpu_serial_ms: f64,
     gpu_overhead_ms: f64,
@@ -45,6 +57,8 @@ struct Args {
 fn parse() -> Result<Args, String> {
     let mut a = Args {
         thread_ms: 80.0,
+        tile: 32,
+        gpu_grain: 0,
         gpu_tile_ms: 0.156,
         gpu_serial_ms: 20.0,
         gpu_overhead_ms: 0.0105,
@@ -60,6 +74,8 @@ fn parse() -> Result<Args, String> {
         let u = |v: String| v.parse::<usize>().map_err(|e| format!("{flag}: {e}"));
         match flag.as_str() {
             "--thread-ms" => a.thread_ms = f(val()?)?,
+            "--tile" => a.tile = u(val()?)? as u32,
+            "--gpu-grain" => a.gpu_grain = u(val()?)? as u64,
             "--gpu-tile-ms" => a.gpu_tile_ms = f(val()?)?,
             "--gpu-serial-ms" => a.gpu_serial_ms = f(val()?)?,
             "--gpu-overhead-ms" => a.gpu_overhead_ms = f(val()?)?,
@@ -75,38 +91,53 @@ fn parse() -> Result<Args, String> {
             "--threads, --thread-buffer, --gpu-buffer and --runs must be at least 1".into(),
         );
     }
+    if a.tile == 0 || IMAGE % a.tile != 0 {
+        return Err(format!("--tile: must divide {IMAGE}"));
+    }
     Ok(a)
 }
 
-/// A tile's cost to a thread: the first two tile rows cost a third.
-fn thread_cost(item: &WorkItem, thread_ms: f64) -> Duration {
-    let row = item.id / GRID;
-    Duration::from_secs_f64(thread_ms * if row < 2 { 1.0 / 3.0 } else { 1.0 } / 1e3)
+/// What an item costs, from its place in the image: `thread_ms` per 32² tile, a third of that
+/// in the top 64 rows (the ceiling).
+#[derive(Clone, Copy)]
+struct Costs {
+    thread_ms: f64,
+    tile: u32,
 }
 
-/// A finished tile: black pixels, rays in proportion to its cost (1 000 per thread-ms).
-fn tile(item: &WorkItem, thread_ms: f64) -> TileResult {
-    TileResult {
-        item: item.id,
-        pixels: smallvec::smallvec![[0.0; 3]; item.pixel_count()],
-        rays: (thread_cost(item, thread_ms).as_secs_f64() * 1e6) as u64,
-        nonfinite: 0,
+impl Costs {
+    /// The item's cost to a thread.
+    fn thread(self, item: &WorkItem) -> Duration {
+        let y = (item.id / (IMAGE / self.tile)) * self.tile;
+        let share = item.pixel_count() as f64 / 1024.0;
+        let ceiling = if y < 64 { 1.0 / 3.0 } else { 1.0 };
+        Duration::from_secs_f64(self.thread_ms * share * ceiling / 1e3)
+    }
+
+    /// The item's result: black pixels, rays in proportion to its cost (1 000 per thread-ms).
+    fn result(self, item: &WorkItem) -> TileResult {
+        TileResult {
+            item: item.id,
+            pixels: smallvec::smallvec![[0.0; 3]; item.pixel_count()],
+            rays: (self.thread(item).as_secs_f64() * 1e6) as u64,
+            nonfinite: 0,
+        }
     }
 }
 
-/// A source that runs each hand-out as one dispatch of `overhead + max(serial, n × per_tile)`.
+/// A source that runs each hand-out as one dispatch of `overhead + max(serial, n × per_tile)`,
+/// n in 32² tiles' worth of pixels.
 struct GpuLike {
     id: u32,
     thread: SourceThread<Vec<(WorkItem, Completer)>>,
 }
 
 impl GpuLike {
-    fn spawn(id: u32, a: &Args) -> Self {
-        let (tile_s, serial_s, overhead_s, thread_ms) = (
+    fn spawn(id: u32, a: &Args, costs: Costs) -> Self {
+        let (tile_s, serial_s, overhead_s) = (
             a.gpu_tile_ms / 1e3,
             a.gpu_serial_ms / 1e3,
             a.gpu_overhead_ms / 1e3,
-            a.thread_ms,
         );
         let serve = move |fl: &Flags, rx: &Receiver<Vec<(WorkItem, Completer)>>| {
             let mut stats = WorkerStats {
@@ -118,17 +149,19 @@ impl GpuLike {
                     break;
                 }
                 let t = Instant::now();
-                let n = batch.len() as f64;
+                let n = batch.len() as u64;
+                let tiles =
+                    batch.iter().map(|(it, _)| it.pixel_count()).sum::<usize>() as f64 / 1024.0;
                 std::thread::sleep(Duration::from_secs_f64(
-                    overhead_s + serial_s.max(n * tile_s),
+                    overhead_s + serial_s.max(tiles * tile_s),
                 ));
                 for (item, done) in batch {
-                    let r = tile(&item, thread_ms);
+                    let r = costs.result(&item);
                     stats.count(&item, r.rays);
                     done.complete(Ok(r));
                 }
                 stats.busy_s += t.elapsed().as_secs_f64();
-                fl.items_finished(n as u64);
+                fl.items_finished(n);
                 fl.ring();
             }
             SourceReport {
@@ -172,14 +205,18 @@ impl ComputeSource for GpuLike {
 
 /// One run: wall seconds and, per source kind, (items, busy seconds).
 fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String, u64, f64)>) {
-    let items: Vec<WorkItem> = (0..GRID * GRID)
-        .map(|i| WorkItem::rect(i, (i % GRID) * TILE, (i / GRID) * TILE, TILE, TILE))
+    let (t, grid) = (a.tile, IMAGE / a.tile);
+    let items: Vec<WorkItem> = (0..grid * grid)
+        .map(|i| WorkItem::rect(i, (i % grid) * t, (i / grid) * t, t, t))
         .collect();
     let probe = Probe::new(true, false);
-    let thread_ms = a.thread_ms;
+    let costs = Costs {
+        thread_ms: a.thread_ms,
+        tile: a.tile,
+    };
     let job: Job = Arc::new(move |it: &WorkItem| {
-        std::thread::sleep(thread_cost(it, thread_ms));
-        tile(it, thread_ms)
+        std::thread::sleep(costs.thread(it));
+        costs.result(it)
     });
     let mut sources: Vec<Box<dyn ComputeSource>> = (0..threads)
         .map(|k| {
@@ -189,13 +226,15 @@ fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String,
         .collect();
     let mut buffers = vec![a.thread_buffer; threads];
     if gpu {
-        sources.push(Box::new(GpuLike::spawn(threads as u32, a)));
+        sources.push(Box::new(GpuLike::spawn(threads as u32, a, costs)));
         buffers.push(a.gpu_buffer);
     }
+    let mut grains = vec![0; threads];
+    grains.push(a.gpu_grain);
     let hetero = Hetero {
         buffers,
+        grains,
         balance,
-        ..Default::default()
     };
     let params = MasterParams {
         buffer: a.thread_buffer,
