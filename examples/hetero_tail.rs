@@ -91,7 +91,7 @@ fn parse() -> Result<Args, String> {
             "--threads, --thread-buffer, --gpu-buffer and --runs must be at least 1".into(),
         );
     }
-    if a.tile == 0 || IMAGE % a.tile != 0 {
+    if a.tile == 0 || !IMAGE.is_multiple_of(a.tile) {
         return Err(format!("--tile: must divide {IMAGE}"));
     }
     Ok(a)
