@@ -203,7 +203,8 @@ impl ComputeSource for GpuLike {
     }
 }
 
-/// One run: wall seconds and, per source kind, (items, busy seconds).
+/// One run: wall seconds and, per source kind, (kind, items, the longest busy seconds of one
+/// source of that kind).
 fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String, u64, f64)>) {
     let (t, grid) = (a.tile, IMAGE / a.tile);
     let items: Vec<WorkItem> = (0..grid * grid)

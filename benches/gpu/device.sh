@@ -78,34 +78,41 @@ fi
 # 16 CPU threads vs the GPU vs 16 threads + the GPU under the balancer.
 px=$(size 1024 32)
 sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_box.toml >/tmp/cornell_big.toml
-R="$B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 32"
 # Three interleaved passes of: 16 threads alone; the GPU alone (buffer 256 tiles = 262 144
 # pixels a dispatch); both under the balancer; both without it (every source its plain B);
 # 15 threads and the GPU under the balancer (a core left to the GPU's feeding thread); threads
 # and GPU each with its own grain. On the H200 (results/published/gpu/2026-12-04-h200/), with
 # the master of 5f8255d, threads + GPU reached 0.61 of the sum of the separate rates under the
 # balancer (one run) and 0.55-0.68 without it; the last two rows are not measured with it yet.
-paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$1"; }
+# Paths/s of render NAME of this pass: pixels × spp / wall.
+paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$W/gpu/render_$1_$pass.txt"; }
+# render NAME SPP FLAGS...: one render of the 1024² Cornell box under the master, its output
+# in render_NAME_<pass>.txt.
+render() {
+  local name=$1 spp=$2
+  shift 2
+  timeout 40 $B/raysched render /tmp/cornell_big.toml --scheduler master --spp "$spp" "$@" \
+    -o /tmp/render.exr >"$W/gpu/render_${name}_$pass.txt" 2>&1
+}
+big=$(size 512 2)
+both="--chunk 32 --sources threads,gpu --buffer 4 --gpu-buffer 256"
 for pass in 1 2 3; do
-  log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $(size 512 2) spp"
-  timeout 40 $R --spp "$(size 128 2)" --threads 16 --buffer 4 -o /tmp/cpu.exr >"$W/gpu/render_cpu_$pass.txt" 2>&1
-  timeout 40 $R --spp "$(size 512 2)" --sources gpu --buffer 4 --gpu-buffer 256 -o /tmp/gpu.exr >"$W/gpu/render_gpu_$pass.txt" 2>&1
-  timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 --balance \
-    -o /tmp/both.exr >"$W/gpu/render_both_$pass.txt" 2>&1
-  timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 16 --buffer 4 --gpu-buffer 256 \
-    -o /tmp/both.exr >"$W/gpu/render_unbalanced_$pass.txt" 2>&1
-  timeout 40 $R --spp "$(size 512 2)" --sources threads,gpu --threads 15 --buffer 4 --gpu-buffer 256 --balance \
-    -o /tmp/both.exr >"$W/gpu/render_both15_$pass.txt" 2>&1
+  log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $big spp"
+  render cpu "$(size 128 2)" --chunk 32 --threads 16 --buffer 4
+  render gpu "$big" --chunk 32 --sources gpu --buffer 4 --gpu-buffer 256
+  # shellcheck disable=SC2086
+  render both "$big" $both --threads 16 --balance
+  # shellcheck disable=SC2086
+  render unbalanced "$big" $both --threads 16
+  # shellcheck disable=SC2086
+  render both15 "$big" $both --threads 15 --balance
   # Each source its own granularity: threads 8² tiles (about 50 ms each at 512 spp here, where
-  # a 32² tile took a thread 0.3-0.9 s), the GPU one 512² dispatch at a time, two in flight.
-  timeout 40 $B/raysched render /tmp/cornell_big.toml --scheduler master --chunk 8 --spp "$(size 512 2)" \
-    --sources threads,gpu --threads 16 --buffer 2 --gpu-chunk "$(size 512 16)" --gpu-buffer 2 \
-    -o /tmp/both.exr >"$W/gpu/render_grain_$pass.txt" 2>&1
+  # a 32² tile took a thread 0.3-0.9 s), the GPU 512² per hand-out (one dispatch), two in flight.
+  render grain "$big" --chunk 8 --sources threads,gpu --threads 16 --buffer 2 \
+    --gpu-chunk "$(size 512 16)" --gpu-buffer 2
   grep -E '^(wall|  worker 0 |  worker 16|  master)' "$W/gpu/render_both_$pass.txt" | tee -a "$W/summary.txt"
-  c=$(paths "$W/gpu/render_cpu_$pass.txt"); g=$(paths "$W/gpu/render_gpu_$pass.txt")
-  b=$(paths "$W/gpu/render_both_$pass.txt"); u=$(paths "$W/gpu/render_unbalanced_$pass.txt")
-  b15=$(paths "$W/gpu/render_both15_$pass.txt")
-  gr=$(paths "$W/gpu/render_grain_$pass.txt")
+  c=$(paths cpu); g=$(paths gpu); b=$(paths both); u=$(paths unbalanced)
+  b15=$(paths both15); gr=$(paths grain)
   log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u, balanced with 15 threads $b15, own grains $gr; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" -v f="$b15" -v r="$gr" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g), f/(c+g), r/(c+g); else print "n/a"}')"
   snap
 done

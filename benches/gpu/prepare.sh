@@ -7,7 +7,7 @@
 # `.gpusim` (the validation call).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-# .gitignore ignores both folders, which is what lets the device call carry them.
+# .gitignore ignores these folders, which is what lets the device calls carry them.
 cargo build --release --features gpu,simgrid --bin raysched --example gpu_dispatch
 
 # Packed with xz: the device call carries the tracked tree (about 50 MB) and these within 64 MiB.

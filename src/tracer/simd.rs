@@ -92,11 +92,13 @@ pub(super) struct Hit8 {
     pub(super) mask: u32,
 }
 
-/// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Once inlined
-/// into the AVX2 traversal copies (no call and no `vzeroupper` per leaf: 1.7 % fewer
-/// instructions per primary ray, callgrind, 100 k triangles, 256²), it is a call behind a
-/// `vzeroupper` again in today's build (the optimiser's choice: `#[inline]` is a hint, and
-/// `#[inline(always)]` does not combine with `#[target_feature]`). Forcing it, as an
+/// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Inlined into
+/// the AVX2 traversal copies (no call and no `vzeroupper` per leaf) it took 1.7 % fewer
+/// instructions per primary ray (callgrind, 100 k triangles, 256²). Whether it is inlined is
+/// the optimiser's choice (`#[inline]` is a hint, and `#[inline(always)]` does not combine
+/// with `#[target_feature]`): one build of 2026-12-04 called it out of line, the `tracer_ab`
+/// build of the same evening inlines it into `closest_avx2` and `any_avx2` (their disassembly
+/// has no call to it; the packet test's array map calls an out-of-line copy). Forcing it, as an
 /// `#[inline(always)] unsafe fn` without the attribute, cost more: its closures and array
 /// maps were then compiled without AVX and called out of line, 907 → 1 075 instructions per
 /// primary ray and 2 270 → 2 840 per diffuse one (callgrind, 2026-12-04). Written with local
