@@ -18,6 +18,9 @@ OUT=${OUT:-/tmp/gpu-out}
 W=/tmp/raysched-device
 rm -rf "$W" && mkdir -p "$OUT" "$W/gpu" "$W/validation16"
 log() { echo "== $(date -u +%T) $*" | tee -a "$W/summary.txt"; }
+# The kernel's CPU accounting (user … steal) at each step: steal time is what other guests of
+# the host took from this one, the likeliest cause of a speed that swings between rounds.
+cpustat() { echo "$(date -u +%T) $1 $(head -1 /proc/stat)" >>"$W/cpustat.txt"; }
 snap() { cp "$W/summary.txt" "$OUT/" 2>/dev/null; tar -C "$W" -czf "$OUT/results.tar.gz" .; }
 part=${1:-all}
 small=${SMALL:-0}
@@ -78,12 +81,13 @@ fi
 # 16 CPU threads vs the GPU vs 16 threads + the GPU under the balancer.
 px=$(size 1024 32)
 sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_box.toml >/tmp/cornell_big.toml
-# Three interleaved passes of: 16 threads alone; the GPU alone (buffer 256 tiles = 262 144
-# pixels a dispatch); both under the balancer; both without it (every source its plain B);
-# 15 threads and the GPU under the balancer (a core left to the GPU's feeding thread); threads
-# and GPU each with its own grain. On the H200 (results/published/gpu/2026-12-04-h200/), with
-# the master of 5f8255d, threads + GPU reached 0.61 of the sum of the separate rates under the
-# balancer (one run) and 0.55-0.68 without it; the last two rows are not measured with it yet.
+# Three interleaved passes of: 16 threads alone (64 spp: paths/s do not depend on spp); the
+# GPU alone (buffer 256 tiles = 262 144 pixels a dispatch); both under the balancer; both
+# without it (every source its plain B); threads and GPU each with its own grain. On the H200
+# (results/published/gpu/2026-12-04-h200/) threads + GPU reached 0.61 of the sum of the
+# separate rates under the balancer (one run) and 0.55-0.68 without it (15 threads instead of
+# 16 changed nothing); examples/hetero_tail.rs, replaying those runs with sleeping sources,
+# puts the own grains at 0.98-1.00 of the sum.
 # Paths/s of render NAME of this pass: pixels × spp / wall.
 paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$W/gpu/render_$1_$pass.txt"; }
 # render NAME SPP FLAGS...: one render of the 1024² Cornell box under the master, its output
@@ -97,23 +101,22 @@ render() {
 big=$(size 512 2)
 both="--chunk 32 --sources threads,gpu --buffer 4 --gpu-buffer 256"
 for pass in 1 2 3; do
-  log "pass $pass: cpu 16 threads $(size 128 2) spp; gpu alone, both balanced, both unbalanced $big spp"
-  render cpu "$(size 128 2)" --chunk 32 --threads 16 --buffer 4
+  log "pass $pass: cpu 16 threads $(size 64 2) spp; gpu alone, both balanced, both unbalanced $big spp"
+  render cpu "$(size 64 2)" --chunk 32 --threads 16 --buffer 4
   render gpu "$big" --chunk 32 --sources gpu --buffer 4 --gpu-buffer 256
   # shellcheck disable=SC2086
   render both "$big" $both --threads 16 --balance
   # shellcheck disable=SC2086
   render unbalanced "$big" $both --threads 16
-  # shellcheck disable=SC2086
-  render both15 "$big" $both --threads 15 --balance
   # Each source its own granularity: threads 8² tiles (about 50 ms each at 512 spp here, where
   # a 32² tile took a thread 0.3-0.9 s), the GPU 512² per hand-out (one dispatch), two in flight.
   render grain "$big" --chunk 8 --sources threads,gpu --threads 16 --buffer 2 \
     --gpu-chunk "$(size 512 16)" --gpu-buffer 2
-  grep -E '^(wall|  worker 0 |  worker 16|  master)' "$W/gpu/render_both_$pass.txt" | tee -a "$W/summary.txt"
+  grep -E "^(wall|  worker 0 |  worker 16|  master)" "$W/gpu/render_grain_$pass.txt" | tee -a "$W/summary.txt"
   c=$(paths cpu); g=$(paths gpu); b=$(paths both); u=$(paths unbalanced)
-  b15=$(paths both15); gr=$(paths grain)
-  log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u, balanced with 15 threads $b15, own grains $gr; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" -v f="$b15" -v r="$gr" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g), f/(c+g), r/(c+g); else print "n/a"}')"
+  gr=$(paths grain)
+  cpustat "gpu pass $pass"
+  log "paths/s: cpu16 $c, gpu $g, balanced $b, unbalanced $u, own grains $gr; of cpu+gpu: $(awk -v c="$c" -v g="$g" -v b="$b" -v u="$u" -v r="$gr" 'BEGIN{if (c+g>0) print b/(c+g), u/(c+g), r/(c+g); else print "n/a"}')"
   snap
 done
 fi
@@ -130,12 +133,14 @@ if [ "$small" = 1 ]; then
   sed -i 's|^path = "\.\./|path = "'"$PWD"'/|' /tmp/simvalidate16.toml
   V=/tmp/simvalidate16.toml S=/tmp/simulation_validation16.toml
 fi
+cpustat "before measured"
 log "measured: $V  ($(uptime))"
 timeout 160 $B/raysched run $V --fresh --quiet --out results/runs >"$W/validation16/measured_log.txt" 2>&1
 echo "rc=$?" >>"$W/validation16/measured_log.txt"
 tail -3 "$W/validation16/measured_log.txt" | tee -a "$W/summary.txt"
 cp results/runs/simvalidate16/runs.csv results/runs/simvalidate16/meta.toml "$W/validation16/" 2>/dev/null
 snap
+cpustat "after measured"
 log "simulated: $S  ($(uptime))"
 LD_LIBRARY_PATH=/tmp/sg/sglib timeout 140 $B/raysched simulate $S --out results/runs \
   >"$W/validation16/simulate_log.txt" 2>&1
@@ -144,6 +149,7 @@ grep -E '^(probe|validation)' "$W/validation16/simulate_log.txt" | tail -70 >>"$
 tail -3 "$W/validation16/simulate_log.txt"
 cp -r results/runs/simulation_validation16 "$W/validation16/simulated" 2>/dev/null
 fi
+cpustat done
 log "done ($(uptime))"
 snap
 ls -la "$OUT"
