@@ -11,6 +11,7 @@ pub mod master;
 pub mod param;
 pub mod renderers;
 mod results;
+mod scanline;
 mod shared;
 pub mod sources;
 pub mod spec;

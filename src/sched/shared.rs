@@ -3,6 +3,7 @@
 
 use super::dls::{self, ItemTimes, Report, Timing};
 use super::renderers::mitsuba_grain;
+use super::scanline::ScanlineScratch;
 use super::{wire, Policy, Results, SchedError, SchedulerSpec, Tally};
 use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
@@ -10,6 +11,7 @@ use crate::source::local::panic_message;
 use crate::source::Job;
 use crossbeam::deque::{Steal, Stealer, Worker};
 use crossbeam::utils::CachePadded;
+use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
@@ -25,6 +27,9 @@ struct Local {
     /// The item of each result, apart (see `Results::from_lists`).
     ids: Vec<u32>,
     tally: Tally,
+    /// [`Local::chunk_order`]'s reused order and buffers.
+    order: Vec<u32>,
+    scratch: ScanlineScratch,
 }
 
 impl Local {
@@ -43,6 +48,8 @@ impl Local {
             results: Vec::with_capacity(expect),
             ids: Vec::with_capacity(expect),
             tally: Tally::default(),
+            order: Vec::new(),
+            scratch: ScanlineScratch::default(),
         }
     }
 
@@ -62,6 +69,36 @@ impl Local {
         self.tally.add(&r);
         self.ids.push(item.id);
         self.results.push(r);
+    }
+
+    /// Run the items `range` of `items`, one hand-out, in [`Local::chunk_order`].
+    #[inline]
+    fn run_chunk(
+        &mut self,
+        job: &Job,
+        (items, range): (&[WorkItem], Range<usize>),
+        scanline: bool,
+        probe: &Probe,
+    ) {
+        let order = self.chunk_order(items, range, scanline);
+        for &i in &order {
+            self.run(job, &items[i as usize], probe);
+        }
+        self.order = order;
+    }
+
+    /// The items of one hand-out in the order to run them: in scanline order where `scanline`
+    /// ([`ScanlineScratch::order`]), else as handed out. In the worker's reused buffer: give
+    /// it back to `self.order` when done.
+    fn chunk_order(&mut self, items: &[WorkItem], range: Range<usize>, scanline: bool) -> Vec<u32> {
+        let mut order = std::mem::take(&mut self.order);
+        if scanline {
+            self.scratch.order(items, range, &mut order);
+        } else {
+            order.clear();
+            order.extend(range.map(|i| i as u32));
+        }
+        order
     }
 
     /// The worker has run its last item.
@@ -117,6 +154,8 @@ pub(super) fn run_shared(
         _ => 1,
     };
     let units = vec![(); w];
+    // Hand-outs of the kinds that ask for it run in scanline order (`super::scanline`).
+    let scanline = spec.kind().runs_hand_outs_in_scanline();
     // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
     let expect = n / w + n / (4 * w) + grab;
     let locals = match spec.policy {
@@ -162,9 +201,7 @@ pub(super) fn run_shared(
                         Ordering::Relaxed,
                     ) {
                         Ok(_) => {
-                            for it in &items[cur..cur + c] {
-                                l.run(job, it, &probe);
-                            }
+                            l.run_chunk(job, (items, cur..cur + c), scanline, &probe);
                             cur = next.load(Ordering::Relaxed);
                         }
                         Err(now) => cur = now,
@@ -213,7 +250,7 @@ pub(super) fn run_shared(
                 run_dispensed(
                     id as usize,
                     &dispenser,
-                    items,
+                    (items, scanline),
                     &jobs[id as usize],
                     l,
                     &probe,
@@ -227,11 +264,12 @@ pub(super) fn run_shared(
 }
 
 /// One worker of a dynamic-loop-scheduling rule: ask the dispenser for a chunk (reporting the
-/// previous one), run it, timing what the rule asks for, until no item is left.
+/// previous one), run it (in scanline order where `scanline`), timing what the rule asks for,
+/// until no item is left.
 fn run_dispensed(
     id: usize,
     dispenser: &Mutex<(usize, Box<dyn dls::ChunkRule>)>,
-    items: &[WorkItem],
+    (items, scanline): (&[WorkItem], bool),
     job: &Job,
     l: &mut Local,
     probe: &Probe,
@@ -260,18 +298,11 @@ fn run_dispensed(
             (s, c)
         };
         let grab_secs = asked.map_or(0.0, |t| t.elapsed().as_secs_f64());
-        let chunk = &items[s..s + c];
         match timing {
-            Timing::None => {
-                for it in chunk {
-                    l.run(job, it, probe);
-                }
-            }
+            Timing::None => l.run_chunk(job, (items, s..s + c), scanline, probe),
             Timing::Chunks => {
                 let t0 = Instant::now();
-                for it in chunk {
-                    l.run(job, it, probe);
-                }
+                l.run_chunk(job, (items, s..s + c), scanline, probe);
                 last = Some(Report {
                     items: c,
                     secs: t0.elapsed().as_secs_f64(),
@@ -280,8 +311,11 @@ fn run_dispensed(
                 });
             }
             Timing::Items => {
-                let secs =
-                    run_timed_groups(chunk, &mut times, Instant::now, |it| l.run(job, it, probe));
+                let order = l.chunk_order(items, s..s + c, scanline);
+                let secs = run_timed_groups(order.len(), &mut times, Instant::now, |k| {
+                    l.run(job, &items[order[k] as usize], probe)
+                });
+                l.order = order;
                 last = Some(Report {
                     items: c,
                     secs,
@@ -293,23 +327,25 @@ fn run_dispensed(
     }
 }
 
-/// Run `chunk`, timing it in groups of [`dls::timed_group`] consecutive items into `times`;
-/// the chunk's seconds. One clock read per group instead of per item: a read and a variance
-/// update cost ~30–40 ns, 2 % of a 1.7 µs pixel of `skewed_low` at 16 spp.
+/// Run items `0..n` (by `run`), timing them in groups of [`dls::timed_group`] consecutive
+/// ones into `times`; their seconds. One clock read per group instead of per item: a read and
+/// a variance update cost ~30–40 ns, 2 % of a 1.7 µs pixel of `skewed_low` at 16 spp.
 fn run_timed_groups(
-    chunk: &[WorkItem],
+    n: usize,
     times: &mut ItemTimes,
     mut clock: impl FnMut() -> Instant,
-    mut run: impl FnMut(&WorkItem),
+    mut run: impl FnMut(usize),
 ) -> f64 {
     let t0 = clock();
     let mut t = t0;
-    for group in chunk.chunks(dls::timed_group(chunk.len())) {
-        for it in group {
-            run(it);
+    let g = dls::timed_group(n);
+    for start in (0..n).step_by(g) {
+        let end = (start + g).min(n);
+        for k in start..end {
+            run(k);
         }
         let now = clock();
-        times.add_group(group.len() as u64, (now - t).as_secs_f64());
+        times.add_group((end - start) as u64, (now - t).as_secs_f64());
         t = now;
     }
     (t - t0).as_secs_f64()
@@ -433,7 +469,7 @@ mod tests {
         };
         let mut ran = Vec::new();
         let mut times = ItemTimes::default();
-        let secs = run_timed_groups(&items, &mut times, clock, |it| ran.push(it.id));
+        let secs = run_timed_groups(items.len(), &mut times, clock, |k| ran.push(items[k].id));
         assert_eq!(ran, (0..1024).collect::<Vec<u32>>());
         // 32 groups of 32 items: 33 reads (one per item would be 1 025).
         assert_eq!(reads.get(), 33);
@@ -443,7 +479,7 @@ mod tests {
         // A chunk of up to 32 items is timed item by item.
         reads.set(0);
         let mut small = ItemTimes::default();
-        run_timed_groups(&items[..5], &mut small, clock, |_| {});
+        run_timed_groups(5, &mut small, clock, |_| {});
         assert_eq!((reads.get(), small.n, small.groups), (6, 5, 5));
     }
 }

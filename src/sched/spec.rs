@@ -76,8 +76,10 @@ impl SchedulerKind {
     /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers).
     /// Stratifying pixel by pixel has a price: one-pixel items in `scatter` order took
     /// 1.030–1.039× their scanline time on one worker (Cornell box, skewed_low, skewed_mid at
-    /// 16 spp), in [`Order::ScatterBlocks`] 1.000–1.008×. Not `scatter_blocks` all the same:
-    /// on two workers it made AF and AWF over pixels 2–3.5 % faster on those scenes, but with
+    /// 16 spp), in [`Order::ScatterBlocks`] 1.000–1.008×; these kinds run each hand-out in
+    /// scanline order ([`Self::runs_hand_outs_in_scanline`]), which leaves ~1.003×. Not
+    /// `scatter_blocks` all the same: on two workers (hand-outs run as handed out) it made AF
+    /// and AWF over pixels 2–3.5 % faster on those scenes, but with
     /// one worker 3× slower AWF took 1.24× the best fixed chunk on the 1000× hot spot (in
     /// `scatter` 1.01×): one 4² block of that hot spot is up to 9 % of the image's work
     /// (`self_tuning.toml` and diagnostics, 16–20 rounds, ratios paired by round, 2-core Xeon
@@ -88,6 +90,14 @@ impl SchedulerKind {
         } else {
             Order::Scanline
         }
+    }
+
+    /// Does a worker of this kind run the items of each hand-out in scanline order rather than
+    /// as handed out (`sched::scanline`)? The kinds whose hand-outs are shares of items in
+    /// [`Self::default_order`]'s `scatter`: over one-pixel items on one worker factoring then
+    /// took 1.003× its scanline time instead of 1.04×.
+    pub fn runs_hand_outs_in_scanline(self) -> bool {
+        self.is_dls() || self == Self::Guided
     }
 
     /// Is this one of the dynamic-loop-scheduling rules of `sched::dls` (a chunk size per

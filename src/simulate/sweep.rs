@@ -29,7 +29,8 @@ pub struct Inputs {
     /// measured refill period ([`Inputs::refill`]). A simulated cluster has neither measured.
     pub local_threads: bool,
     /// Item inputs per (chunk, order, probe threads), computed once.
-    items: BTreeMap<(String, String, usize), Arc<ItemInputs>>,
+    /// Per (chunk, order, threads, the order its cost factor was measured in).
+    items: BTreeMap<(String, String, usize, String), Arc<ItemInputs>>,
     /// Each item layout's measured cost factor per (chunk, order, probe threads), measured on
     /// first use ([`crate::model::probe::layout_factor`]); it does not depend on the level.
     layouts: BTreeMap<(String, String, usize), f64>,
@@ -259,22 +260,29 @@ impl Inputs {
         Ok(k)
     }
 
+    /// The items of `chunk` in `order` for `workers` workers, costed at the layout factor of
+    /// `chunk` in `cost_order`: the order the workers run them in.
     fn items(
         &mut self,
-        chunk: Chunk,
-        order: Order,
+        (chunk, order): (Chunk, Order),
         workers: usize,
+        cost_order: Order,
     ) -> anyhow::Result<Arc<ItemInputs>> {
         let threads = if self.concurrent.contains_key(&workers) {
             workers
         } else {
             1
         };
-        let key = (chunk.to_string(), order.id().to_string(), threads);
+        let key = (
+            chunk.to_string(),
+            order.id().to_string(),
+            threads,
+            cost_order.id().to_string(),
+        );
         if let Some(items) = self.items.get(&key) {
             return Ok(items.clone());
         }
-        let layout = self.layout(chunk, order, threads)?;
+        let layout = self.layout(chunk, cost_order, threads)?;
         let px = self.concurrent.get(&threads).unwrap_or(&self.pixels);
         let items = Arc::new(ItemInputs::new(px, chunk, order, layout));
         self.items.insert(key, items.clone());
@@ -290,7 +298,15 @@ impl Inputs {
     ) -> anyhow::Result<SimJob> {
         // pbrt and mitsuba choose their own tiles, as in a measured run.
         let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
-        let items = self.items(chunk, order, spec.workers)?;
+        // Workers that run each hand-out in scanline order pay the layout's scanline cost (an
+        // approximation: a hand-out is a sparse share of the image; on one worker factoring
+        // over scattered pixels, so run, took 1.003× its scanline time, 1.04× as handed out).
+        let cost_order = if spec.kind().runs_hand_outs_in_scanline() {
+            Order::Scanline
+        } else {
+            order
+        };
+        let items = self.items((chunk, order), spec.workers, cost_order)?;
         let params = spec
             .policy
             .info()
