@@ -292,6 +292,54 @@ fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
     }
 }
 
+/// Guided and the factoring family hand out scattered pixels but run each hand-out in scanline
+/// order; self-scheduling runs them as handed out. One worker, 64² one-pixel items in `scatter`
+/// order: the first hand-out of factoring (half the items), AF and AWF (an eighth, their
+/// probe) and guided (a half) is run top row first, left to right.
+#[test]
+fn shares_of_scattered_pixels_run_in_scanline_order() {
+    use std::sync::Mutex;
+    let items = decompose(64, 64, Chunk::Tile { w: 1, h: 1 }, Order::Scatter);
+    let run_order = |kind: SchedulerKind| -> Vec<(u32, u32)> {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let s2 = seen.clone();
+        let job: Job = Arc::new(move |it: &WorkItem| {
+            let p = it.pixels(64).next().unwrap();
+            s2.lock().unwrap().push((p / 64, p % 64));
+            TileResult {
+                item: it.id,
+                pixels: smallvec::smallvec![[0.0; 3]],
+                rays: 1,
+                nonfinite: 0,
+            }
+        });
+        let mut spec = SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, 1);
+        spec.order = Order::Scatter;
+        run_items(&spec, &items, job, &RunOptions::default()).unwrap();
+        let v = seen.lock().unwrap().clone();
+        v
+    };
+    let n = items.len();
+    for (kind, first) in [
+        (SchedulerKind::Factoring, n / 2),
+        (SchedulerKind::Guided, n / 2),
+        (SchedulerKind::AdaptiveFactoring, n / 8),
+        (SchedulerKind::Awf, n / 8),
+    ] {
+        assert!(kind.runs_hand_outs_in_scanline());
+        let ran = run_order(kind);
+        assert_eq!(ran.len(), n, "{kind:?}");
+        assert!(
+            ran[..first].windows(2).all(|w| w[0] < w[1]),
+            "{kind:?}: its first {first} pixels not in scanline order"
+        );
+    }
+    let ss = SchedulerKind::SelfScheduling;
+    assert!(!ss.runs_hand_outs_in_scanline());
+    let ran = run_order(ss);
+    assert!(ran[..64].windows(2).any(|w| w[0] > w[1]), "as handed out");
+}
+
 /// Every pixel is rendered by someone, and each item's first result is the one kept.
 #[test]
 fn every_item_rendered_and_kept_once_even_with_duplicates() {
