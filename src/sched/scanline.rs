@@ -28,6 +28,12 @@ pub(super) const SORT_FROM: usize = 4;
 /// `SPARSE`/64 = 4 words per item of such a hand-out.
 pub(super) const SPARSE: usize = 256;
 
+/// The indices `range` into `order` as handed out.
+pub(super) fn as_handed_out(range: Range<usize>, order: &mut Vec<u32>) {
+    order.clear();
+    order.extend(range.map(|i| i as u32));
+}
+
 /// A worker's reusable buffers for ordering its hand-outs.
 #[derive(Default)]
 pub(super) struct ScanlineScratch {
@@ -43,6 +49,14 @@ impl ScanlineScratch {
     /// which ranks the cells of any grid [`super::decompose`] cuts in scanline order.
     pub(super) fn order(&mut self, items: &[WorkItem], range: Range<usize>, order: &mut Vec<u32>) {
         order.clear();
+        if !self.sort_into(items, range.clone(), order) {
+            as_handed_out(range, order);
+        }
+    }
+
+    /// [`Self::order`]'s scanline order into `order` (empty on entry); false, `order` left
+    /// empty, where the hand-out runs as handed out.
+    fn sort_into(&mut self, items: &[WorkItem], range: Range<usize>, order: &mut Vec<u32>) -> bool {
         let start = range.start;
         let chunk = &items[range.clone()];
         let ranked = if chunk.len() < SORT_FROM || chunk.len() * SPARSE < items.len() {
@@ -57,14 +71,12 @@ impl ScanlineScratch {
             sorted: false,
         }) = ranked
         else {
-            order.extend(range.map(|i| i as u32));
-            return;
+            return false;
         };
         let span = (hi - lo) as usize + 1;
         // A hand-out of clipped edge items alone can rank far apart: keep the walk bounded.
         if span > 4 * items.len() + 64 {
-            order.extend(range.map(|i| i as u32));
-            return;
+            return false;
         }
         self.marks.clear();
         self.marks.resize(span.div_ceil(64), 0);
@@ -76,8 +88,7 @@ impl ScanlineScratch {
             let bit = 1u64 << (r % 64);
             if self.marks[r / 64] & bit != 0 {
                 // Two items on one cell: not one grid.
-                order.extend(range.map(|i| i as u32));
-                return;
+                return false;
             }
             self.marks[r / 64] |= bit;
             self.slot[r] = (start + k) as u32;
@@ -89,6 +100,7 @@ impl ScanlineScratch {
                 bits &= bits - 1;
             }
         }
+        true
     }
 
     /// Each item's cell index on the hand-out's grid into `self.ranks`: (frame · rows + y / ch)

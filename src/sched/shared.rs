@@ -3,7 +3,7 @@
 
 use super::dls::{self, ItemTimes, Report, Timing};
 use super::renderers::mitsuba_grain;
-use super::scanline::ScanlineScratch;
+use super::scanline::{as_handed_out, ScanlineScratch};
 use super::{wire, Policy, Results, SchedError, SchedulerSpec, Tally};
 use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
@@ -95,8 +95,7 @@ impl Local {
         if scanline {
             self.scratch.order(items, range, &mut order);
         } else {
-            order.clear();
-            order.extend(range.map(|i| i as u32));
+            as_handed_out(range, &mut order);
         }
         order
     }

@@ -28,8 +28,8 @@ pub struct Inputs {
     /// each simulated wall gets the measured launch cost, and a master's sources their
     /// measured refill period ([`Inputs::refill`]). A simulated cluster has neither measured.
     pub local_threads: bool,
-    /// Item inputs per (chunk, order, probe threads), computed once.
-    /// Per (chunk, order, threads, the order its cost factor was measured in).
+    /// Item inputs per (chunk, order, probe threads, the order their cost factor was measured
+    /// in), computed once.
     items: BTreeMap<(String, String, usize, String), Arc<ItemInputs>>,
     /// Each item layout's measured cost factor per (chunk, order, probe threads), measured on
     /// first use ([`crate::model::probe::layout_factor`]); it does not depend on the level.

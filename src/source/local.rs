@@ -164,14 +164,7 @@ impl ComputeSource for LocalThreadSource {
             out.extend(items.pop().map(|it| self.submit(it)));
             return;
         }
-        let batch = items
-            .drain(..)
-            .map(|item| {
-                let (d, c) = DelayedResult::pending(item.id, self.id);
-                out.push(d);
-                (item, c)
-            })
-            .collect();
+        let batch = super::thread::pending_batch(items, self.id, out);
         self.thread.send(Batch::Many(batch));
     }
     fn submit_hand_out(&mut self, items: &mut Vec<WorkItem>, out: &mut Vec<DelayedResult>) {
