@@ -1,6 +1,6 @@
 //! The tracer's one module with `unsafe`: the BVH node test on eight child boxes at once in
-//! AVX registers, the watertight triangle test on a leaf's eight slots at once, and the
-//! traversal copies compiled for AVX2 that run them. They are chosen at
+//! AVX registers, the watertight triangle test on a leaf's eight slots at once, the
+//! traversal copies compiled for AVX2 that run them, and a cache hint ([`prefetch`]). They are chosen at
 //! run time ([`Avx2::detect`], `is_x86_feature_detected!`), so the shipped build keeps the
 //! generic x86-64 target and runs anywhere; without AVX2 the SSE test of [`super::bvh4`] runs.
 //!
@@ -14,7 +14,8 @@ use std::arch::x86_64::{
     __m256, _mm256_add_ps, _mm256_and_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps,
     _mm256_loadu2_m128, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
     _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setzero_ps,
-    _mm256_storeu_ps, _mm256_sub_ps, _CMP_EQ_OQ, _CMP_GT_OS, _CMP_LE_OQ, _CMP_LT_OS, _CMP_NEQ_UQ,
+    _mm256_storeu_ps, _mm256_sub_ps, _mm_prefetch, _CMP_EQ_OQ, _CMP_GT_OS, _CMP_LE_OQ, _CMP_LT_OS,
+    _CMP_NEQ_UQ, _MM_HINT_T0,
 };
 
 /// Proof that this CPU has AVX2 (and so AVX): only [`Avx2::detect`] makes one.
@@ -272,5 +273,16 @@ impl NodeTest for Slabs8 {
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, far)) as u32
         };
         (entry, mask)
+    }
+}
+
+/// Ask for every cache line of `x` ahead of its use: a hint, which reads nothing, cannot
+/// fault and changes no value (SSE, so every x86-64 CPU has it).
+#[inline(always)]
+pub(super) fn prefetch<T>(x: &T) {
+    let p = (x as *const T).cast::<i8>();
+    for line in 0..size_of::<T>().div_ceil(64) {
+        // SAFETY: a prefetch dereferences nothing; the address lies within `x`.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
     }
 }
