@@ -8,6 +8,9 @@
 //! - `diffuse`: from every primary hit, one cosine-distributed bounce about the surface normal
 //!   (facing the camera), leaving from the offset origin the renderer uses (incoherent: the
 //!   rays of one screen tile scatter over the whole scene).
+//! - `shadow`: from every primary hit, an occlusion query (`occluded`) towards the scene's
+//!   first point light, as the renderer's next-event estimation makes it (offset origin, the
+//!   segment to the light, stopped `SHADOW_EPSILON` short); its "hits" are the blocked rays.
 //!
 //! Tracer ids are those of `--tracer`.
 //!
@@ -25,7 +28,7 @@
 use glam::Vec3;
 use raysched::geometry::{basis, Ray};
 use raysched::render::integrator::interaction;
-use raysched::scene::{load_scene, Scene, SceneOverrides};
+use raysched::scene::{load_scene, Light, Scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
 use std::time::Instant;
@@ -41,9 +44,9 @@ fn main() {
         sets = v.split(',').map(str::to_string).collect();
         if let Some(bad) = sets
             .iter()
-            .find(|s| !matches!(s.as_str(), "primary" | "diffuse"))
+            .find(|s| !matches!(s.as_str(), "primary" | "diffuse" | "shadow"))
         {
-            eprintln!("--rays: unknown ray set '{bad}' (expected primary or diffuse)");
+            eprintln!("--rays: unknown ray set '{bad}' (expected primary, diffuse or shadow)");
             std::process::exit(2);
         }
         args.drain(k..k + 2);
@@ -101,11 +104,32 @@ fn main() {
         .map(|i| scene.camera.pixel_ray(i % side, i / side, 0.5, 0.5))
         .collect();
     for set in &sets {
-        let rays = match set.as_str() {
-            "primary" => primary.clone(),
-            _ => diffuse_bounces(&scene, &tracers[0], &primary),
+        let (rays, t_max, occlusion) = match set.as_str() {
+            "primary" => (primary.clone(), f32::INFINITY, false),
+            "diffuse" => (
+                diffuse_bounces(&scene, &tracers[0], &primary),
+                f32::INFINITY,
+                false,
+            ),
+            _ => {
+                let Some(light) = scene.lights.iter().find_map(|l| match l {
+                    Light::Point { position, .. } => Some(*position),
+                    _ => None,
+                }) else {
+                    eprintln!("--rays shadow: scene '{name}' has no point light");
+                    std::process::exit(2);
+                };
+                let rays = shadow_rays(&scene, &tracers[0], &primary, light);
+                (rays, 1.0 - SHADOW_EPSILON, true)
+            }
         };
-        let best = time_rounds(&tracers, &rays, rounds);
+        let best = time_rounds(&tracers, &rays, rounds, |t, r| {
+            if occlusion {
+                t.occluded(r, t_max)
+            } else {
+                t.intersect(r, t_max).is_some()
+            }
+        });
         let rate = |s: f64| rays.len() as f64 / s / 1e6;
         for (k, id) in ids.iter().enumerate() {
             println!(
@@ -122,17 +146,20 @@ fn main() {
     }
 }
 
-/// Every tracer traces `rays` once per round, in turn; per tracer (best s, median s, hits).
-fn time_rounds(tracers: &[AnyTracer], rays: &[Ray], rounds: usize) -> Vec<(f64, f64, usize)> {
+/// Every tracer traces `rays` once per round by `trace` (true: a hit), in turn; per tracer
+/// (best s, median s, hits).
+fn time_rounds(
+    tracers: &[AnyTracer],
+    rays: &[Ray],
+    rounds: usize,
+    trace: impl Fn(&AnyTracer, &Ray) -> bool,
+) -> Vec<(f64, f64, usize)> {
     let mut times = vec![Vec::new(); tracers.len()];
     let mut hits = vec![0usize; tracers.len()];
     for _ in 0..rounds {
         for (k, t) in tracers.iter().enumerate() {
             let t0 = Instant::now();
-            hits[k] = rays
-                .iter()
-                .filter(|r| t.intersect(r, f32::INFINITY).is_some())
-                .count();
+            hits[k] = rays.iter().filter(|r| trace(t, r)).count();
             times[k].push(t0.elapsed().as_secs_f64());
         }
     }
@@ -142,6 +169,23 @@ fn time_rounds(tracers: &[AnyTracer], rays: &[Ray], rounds: usize) -> Vec<(f64, 
         .map(|(mut v, h)| {
             v.sort_by(f64::total_cmp);
             (v[0], v[v.len() / 2], h)
+        })
+        .collect()
+}
+
+/// The integrator's shadow rays stop this fraction short of their target.
+const SHADOW_EPSILON: f32 = 1e-4;
+
+/// From each primary hit that `tracer` finds, the shadow ray towards `light`: from the offset
+/// origin on the side facing the light, direction the segment to it (`t_max` 1 − ε).
+fn shadow_rays(scene: &Scene, tracer: &AnyTracer, primary: &[Ray], light: Vec3) -> Vec<Ray> {
+    primary
+        .iter()
+        .filter_map(|ray| {
+            let hit = tracer.intersect(ray, f32::INFINITY)?;
+            let it = interaction(scene, ray, &hit);
+            let wi = (light - it.p).normalize_or_zero();
+            Some(it.spawn(wi, |o| light - o))
         })
         .collect()
 }
