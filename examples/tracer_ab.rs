@@ -27,7 +27,7 @@
 
 use glam::Vec3;
 use raysched::geometry::{basis, Ray};
-use raysched::render::integrator::interaction;
+use raysched::render::integrator::{interaction, SHADOW_EPSILON};
 use raysched::scene::{load_scene, Light, Scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::Path;
@@ -172,9 +172,6 @@ fn time_rounds(
         })
         .collect()
 }
-
-/// The integrator's shadow rays stop this fraction short of their target.
-const SHADOW_EPSILON: f32 = 1e-4;
 
 /// From each primary hit that `tracer` finds, the shadow ray towards `light`: from the offset
 /// origin on the side facing the light, direction the segment to it (`t_max` 1 − ε).

@@ -53,7 +53,7 @@ pub fn feature_flags(scene: &Scene) -> [bool; 4] {
 /// Segments before Russian roulette may end a path.
 const RR_START: u32 = 5;
 /// Shadow rays stop this fraction short of the (offset) light point, as pbrt's ShadowEpsilon.
-const SHADOW_EPSILON: f32 = 1e-4;
+pub const SHADOW_EPSILON: f32 = 1e-4;
 
 /// Where a ray hit, in the form shading needs.
 pub struct Interaction {

@@ -1,8 +1,9 @@
 //! The tracer's one module with `unsafe`: the BVH node test on eight child boxes at once in
 //! AVX registers, the watertight triangle test on a leaf's eight slots at once, the
-//! traversal copies compiled for AVX2 that run them, and a cache hint ([`prefetch`]). They are chosen at
-//! run time ([`Avx2::detect`], `is_x86_feature_detected!`), so the shipped build keeps the
-//! generic x86-64 target and runs anywhere; without AVX2 the SSE test of [`super::bvh4`] runs.
+//! traversal copies compiled for AVX2 that run them, and a cache hint ([`prefetch`], SSE:
+//! every x86-64 CPU has it). The AVX2 code is chosen at run time ([`Avx2::detect`],
+//! `is_x86_feature_detected!`), so the shipped build keeps the generic x86-64 target and runs
+//! anywhere; without AVX2 the SSE test of [`super::bvh4`] runs.
 //!
 //! The AVX test performs, lane by lane, the IEEE operations of the SSE one in the same order
 //! (subtract, multiply, `max`/`min` with the same operand order, no fused multiply-add), so
