@@ -28,7 +28,7 @@
 use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::sched::{
-    decompose, run_items, Chunk, MasterParams, Order, Policy, Requeue, Returns, RunOptions,
+    decompose, run_items, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns, RunOptions,
     SchedulerKind, SchedulerSpec, Wait,
 };
 use raysched::source::Job;
@@ -212,16 +212,21 @@ fn main() {
     });
     let px = Chunk::Tile { w: 1, h: 1 };
     let items = decompose(512, 512, px, Order::Scanline);
-    let master_returning = |buffer: usize, returns: Returns| SchedulerSpec {
+    let master_by = |buffer: usize, returns: Returns, passes: Passes| SchedulerSpec {
         policy: Policy::Master(MasterParams {
             wait: Wait::Block,
             buffer,
             requeue: Requeue::Never,
             returns,
+            passes,
         }),
         ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
     };
+    let master_returning =
+        |buffer: usize, returns: Returns| master_by(buffer, returns, Passes::Thread);
     let master = |buffer: usize| master_returning(buffer, Returns::Item);
+    // The master without a thread of its own, results reported item by item or per hand-out.
+    let by_workers = [("item", Returns::Item), ("hand_out", Returns::HandOut)];
     let mut rows: Vec<(String, SchedulerSpec, bool)> = SchedulerKind::ALL
         .into_iter()
         .filter(|k| *k != SchedulerKind::Master)
@@ -245,6 +250,18 @@ fn main() {
                 master_returning(buffer, Returns::HandOut),
                 stats,
             ));
+        }
+    }
+    for (word, returns) in by_workers {
+        for buffer in BUFFERS {
+            for stats in [true, false] {
+                let on_off = if stats { "stats_on" } else { "stats_off" };
+                rows.push((
+                    format!("master_workers_{word}_b{buffer}_{on_off}"),
+                    master_by(buffer, returns, Passes::Workers),
+                    stats,
+                ));
+            }
         }
     }
     let wanted = |name: &str| filter.as_deref().is_none_or(|f| name.contains(f));
@@ -404,8 +421,20 @@ fn main() {
             "95 % CI",
             "range"
         );
-        for buffer in BUFFERS {
-            let spec = master(buffer);
+        let pairs = BUFFERS.iter().flat_map(|&b| {
+            [
+                (format!("stats_pair_b{b}"), master(b)),
+                (
+                    format!("stats_pair_workers_item_b{b}"),
+                    master_by(b, Returns::Item, Passes::Workers),
+                ),
+                (
+                    format!("stats_pair_workers_hand_out_b{b}"),
+                    master_by(b, Returns::HandOut, Passes::Workers),
+                ),
+            ]
+        });
+        for (name, spec) in pairs {
             let mut r = Vec::new();
             for round in 0..PAIRS {
                 let time = |stats| {
@@ -429,9 +458,7 @@ fn main() {
             let m = median(&mut r); // sorts r
             println!(
                 "{:<34} {m:>8.3}× {:>7.3}–{:.3}× {lo:>7.3}–{hi:.3}×",
-                format!("stats_pair_b{buffer}"),
-                r[lo_rank],
-                r[hi_rank]
+                name, r[lo_rank], r[hi_rank]
             );
         }
     }

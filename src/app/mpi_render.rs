@@ -146,6 +146,11 @@ fn prepare(
                 .to_string(),
         ));
     }
+    if spec.policy.passes_by_workers() {
+        return Err(input(
+            "--passes workers: MPI ranks need the master's own thread (use thread)".to_string(),
+        ));
+    }
     if comm.size < 2 && args.local_threads == 0 {
         return Err(input(format!(
             "--sources mpi: {} rank(s) and no --local-threads: nobody to render (run under mpirun -n K, K ≥ 2)",

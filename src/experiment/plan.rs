@@ -12,7 +12,7 @@ use crate::limits::{
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
-    source_params, Chunk, Order, Returns, SchedulerKind, SchedulerSpec, Slow, SourceKind,
+    source_params, Chunk, Order, Passes, Returns, SchedulerKind, SchedulerSpec, Slow, SourceKind,
     SourceSet, SourceSetup,
 };
 use crate::tracer::{AnyTracer, TracerKind};
@@ -651,6 +651,16 @@ fn expand_grids(file: &ExperimentFile, settings: &Settings) -> Result<Vec<Grid>,
             let mut grid = Vec::with_capacity(specs.len() * setups.len());
             for setup in &setups {
                 for spec in &specs {
+                    if spec.policy.passes_by_workers() && setup.set.kinds() != [SourceKind::Threads]
+                    {
+                        return Err(at((
+                            "passes".into(),
+                            format!(
+                                "workers: sources = \"{}\" need the master's own thread (use \"thread\")",
+                                setup.set.id()
+                            ),
+                        )));
+                    }
                     let mut spec = spec.clone();
                     if !setup.set.has(SourceKind::Threads) {
                         // A GPU alone is one source whatever the thread count: one
@@ -948,14 +958,22 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
                     ),
                 ));
             }
-            let hand_out = toml::Value::String(Returns::HandOut.id().into());
-            let returns = s.grid.get("returns");
-            if returns.is_some_and(|v| {
-                *v == hand_out || v.as_array().is_some_and(|a| a.contains(&hand_out))
-            }) {
+            let lists = |key: &str, id: &str| {
+                let id = toml::Value::String(id.into());
+                s.grid
+                    .get(key)
+                    .is_some_and(|v| *v == id || v.as_array().is_some_and(|a| a.contains(&id)))
+            };
+            if lists("returns", Returns::HandOut.id()) {
                 return Err((
                     format!("schedulers[{i}].returns"),
                     "MPI ranks hand their results back item by item (use \"item\")".into(),
+                ));
+            }
+            if lists("passes", Passes::Workers.id()) {
+                return Err((
+                    format!("schedulers[{i}].passes"),
+                    "MPI ranks need the master's own thread (use \"thread\")".into(),
                 ));
             }
         }

@@ -7,6 +7,7 @@
 
 pub mod decompose;
 pub mod dls;
+mod locked_master;
 pub mod master;
 pub mod param;
 pub mod renderers;
@@ -20,7 +21,8 @@ pub mod wire;
 pub use decompose::{decompose, decompose_frames};
 pub use master::Hetero;
 pub use param::{
-    Chunk, Order, ParamInfo, ParamValue, Params, Requeue, Returns, Slow, SpecError, Wait, Weights,
+    Chunk, Order, ParamInfo, ParamValue, Params, Passes, Requeue, Returns, Slow, SpecError, Wait,
+    Weights,
 };
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
@@ -214,6 +216,13 @@ pub fn run_with_sources<T: Tracer + 'static>(
         }
         .into());
     };
+    if m.passes == Passes::Workers {
+        return Err(SpecError {
+            field: "passes".into(),
+            msg: "workers: a GPU source needs the master's own thread (use thread)".into(),
+        }
+        .into());
+    }
     let gpu = if setup.set.has(SourceKind::Gpu) {
         Some(gpu.ok_or_else(|| SpecError {
             field: "sources".into(),
@@ -265,6 +274,16 @@ pub fn run_items(
     let probe = Probe::new(opts.stats, spec.timeline);
     let jobs = worker_jobs(&job, spec.workers, spec.slow);
     match spec.policy {
+        Policy::Master(m) if m.passes == Passes::Workers => {
+            if opts.faults.is_some() {
+                return Err(SpecError {
+                    field: "passes".into(),
+                    msg: "workers: the fault injector wraps sources that a master thread drives (use thread)".into(),
+                }
+                .into());
+            }
+            locked_master::run_locked_master(&m, items, &jobs, opts.deadline, probe)
+        }
         Policy::Master(m) => {
             let sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
             master::run_master(&m, items, sources, opts, probe)

@@ -313,6 +313,18 @@ id_enum! {
     }
 }
 
+id_enum! {
+    /// Who runs the master's passes (results in, sources topped up to B).
+    pub enum Passes("passes", "master pass runner") {
+        /// A thread of its own that renders nothing: the founding design, for every kind of
+        /// compute source.
+        Thread = "thread",
+        /// The local worker threads, each for itself under one lock whenever it reports
+        /// (`sched::locked_master`): no hand-out crosses threads. Local threads only.
+        Workers = "workers",
+    }
+}
+
 /// A heterogeneous run on one machine: the first `workers` workers run every item `factor`×
 /// as long (they render it, then spin for `factor − 1` times its render time), so they are
 /// a known factor slower than the others. Text form `none` or `K:F` (`1:4`: one worker at a

@@ -7,8 +7,8 @@
 //! variant (with a parameter struct if it has any) and the scheduler's own file.
 
 use super::param::{
-    err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Requeue,
-    Returns, Slow, SpecError, Wait, Weights,
+    err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Passes,
+    Requeue, Returns, Slow, SpecError, Wait, Weights,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
@@ -129,6 +129,10 @@ scheduler_params! {
         /// hand_out (a hand-out's together, when its last item is done; the master then hands
         /// out at most ⌈B/2⌉ items at a time, so a source has the next one queued).
         returns: Returns = Returns::Item, label Some("returns");
+        /// Who runs the master's passes: thread (a thread of its own that renders nothing; any
+        /// source) or workers (each local thread for itself under one lock when it reports,
+        /// the queue and re-queue rules unchanged; local threads only, no fault injection).
+        passes: Passes = Passes::Thread, label Some("passes");
     }
 }
 
@@ -249,6 +253,12 @@ impl Policy {
     /// Is this the master with its results handed back per hand-out ([`Returns::HandOut`])?
     pub fn returns_per_hand_out(&self) -> bool {
         matches!(self, Self::Master(m) if m.returns == Returns::HandOut)
+    }
+
+    /// Is this the master with its passes run by the workers ([`Passes::Workers`]), which
+    /// drives local threads only?
+    pub fn passes_by_workers(&self) -> bool {
+        matches!(self, Self::Master(m) if m.passes == Passes::Workers)
     }
 
     /// `kind` with every parameter at its default.
@@ -489,7 +499,8 @@ impl SchedulerSpec {
         Ok(())
     }
 
-    /// A short label for plots and logs, e.g. `master chunk=16 B=2 requeue=never wait=block returns=item`.
+    /// A short label for plots and logs, e.g.
+    /// `master chunk=16 B=2 requeue=never wait=block returns=item passes=thread`.
     pub fn label(&self) -> String {
         let mut s = if self.kind().picks_own_layout() {
             format!("{} chunk=auto", self.kind().id())
@@ -537,7 +548,10 @@ mod tests {
         let names: Vec<&str> = param_columns().iter().map(|p| p.name).collect();
         assert_eq!(
             names,
-            ["buffer", "requeue", "wait", "returns", "grab", "guided_k", "weights", "fsc_warm"]
+            [
+                "buffer", "requeue", "wait", "returns", "passes", "grab", "guided_k", "weights",
+                "fsc_warm"
+            ]
         );
         let grab: Vec<SchedulerKind> = kinds_with("grab").iter().map(|(k, _)| *k).collect();
         assert_eq!(
@@ -563,7 +577,7 @@ mod tests {
         assert_eq!(m.get("buffer").as_deref(), Some("8"));
         assert_eq!(
             m.label(),
-            "master chunk=frame B=8 requeue=timeout:50 wait=block returns=item"
+            "master chunk=frame B=8 requeue=timeout:50 wait=block returns=item passes=thread"
         );
         assert_eq!(m.get("grab"), None);
         let e = m.set("grab", "2").unwrap_err();

@@ -296,6 +296,16 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
     let mut platforms = Vec::new();
     for (i, p) in file.platforms.iter().enumerate() {
         let pf = load_platform(&format!("platforms[{i}]"), p)?;
+        if let Some(s) = specs.iter().find(|s| s.policy.passes_by_workers()) {
+            return Err(field(
+            path,
+            "schedulers",
+            format!(
+                "{}: passes = \"workers\" is not simulated (the simulated master is a thread of its own)",
+                s.label()
+            ),
+        ));
+        }
         let most = *workers.last().unwrap_or(&1);
         if most > pf.info.worker_slots() {
             return Err(field(

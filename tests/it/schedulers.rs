@@ -4,9 +4,9 @@
 use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
-    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Policy,
-    Requeue, Returns, RunOptions, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
-    Slow, Wait, Weights,
+    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Passes,
+    Policy, Requeue, Returns, RunOptions, SchedError, SchedulerKind, SchedulerSpec,
+    SelfSchedulingParams, Slow, Wait, Weights,
 };
 use raysched::source::{FaultPlan, Job};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -235,7 +235,10 @@ fn master_every_granularity_buffer_and_worker_count_matches_serial() {
                 ][(buffer + workers) % 3];
                 master(&mut spec).wait = Wait::ALL[(ci + workers) % 3];
                 master(&mut spec).returns = Returns::ALL[(ci + buffer + workers) % 2];
-                check_run(&spec);
+                for passes in Passes::ALL {
+                    master(&mut spec).passes = passes;
+                    check_run(&spec);
+                }
             }
         }
     }
@@ -244,8 +247,19 @@ fn master_every_granularity_buffer_and_worker_count_matches_serial() {
 #[test]
 fn timeline_has_one_span_per_rendered_item() {
     let f = fixture();
-    for kind in SchedulerKind::ALL {
-        let mut spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, 2);
+    let by_workers = SchedulerSpec {
+        policy: Policy::Master(MasterParams {
+            passes: Passes::Workers,
+            ..MasterParams::DEFAULT
+        }),
+        ..SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2)
+    };
+    let specs = SchedulerKind::ALL
+        .into_iter()
+        .map(|k| SchedulerSpec::new(k, Chunk::Tile { w: 4, h: 4 }, 2))
+        .chain([by_workers]);
+    for mut spec in specs {
+        let kind = spec.kind();
         spec.timeline = true;
         let (_, stats) = run_scheduler(&spec, &f.scene, &f.tracer).unwrap();
         let spans = stats.timeline.expect("timeline requested");
@@ -463,17 +477,40 @@ fn master_never_requeue_reports_lost_items_within_the_deadline() {
     assert!(t.elapsed() < Duration::from_secs(10));
 }
 
+/// The fault injector wraps sources that a master thread drives: with the passes run by the
+/// workers a fault plan is a spec error naming `passes`, not a run without the faults.
+#[test]
+fn a_fault_plan_needs_the_masters_own_thread() {
+    let f = fixture();
+    let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2);
+    master(&mut spec).passes = Passes::Workers;
+    let opts = RunOptions {
+        faults: Some(faults()),
+        ..Default::default()
+    };
+    match run_scheduler_with(&spec, &f.scene, &f.tracer, &opts) {
+        Err(SchedError::Spec(e)) => {
+            assert_eq!(e.field, "passes");
+            assert!(e.msg.contains("fault injector"), "{}", e.msg);
+        }
+        other => panic!("expected a spec error, got {:?}", other.map(|_| ())),
+    }
+}
+
 #[test]
 fn all_sources_lost_is_an_error_not_a_hang() {
     let job: Job = Arc::new(|_: &WorkItem| panic!("every worker dies"));
     let items = decompose(17, 13, Chunk::Tile { w: 4, h: 4 }, Order::Scanline);
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 2);
     master(&mut spec).requeue = Requeue::Revisit;
-    let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
-    assert!(
-        matches!(err, SchedError::AllSourcesLost { sources: 2, .. }),
-        "{err}"
-    );
+    for passes in Passes::ALL {
+        master(&mut spec).passes = passes;
+        let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
+        assert!(
+            matches!(err, SchedError::AllSourcesLost { sources: 2, .. }),
+            "{passes:?}: {err}"
+        );
+    }
     // Without a master a worker panic is an error too, never a crash of the caller.
     for kind in SchedulerKind::ALL
         .into_iter()

@@ -1,0 +1,702 @@
+//! The master without a thread of its own (`passes = workers`). Its ledger is the master
+//! thread's — a FIFO queue, at most B items outstanding per source, a handed-out item
+//! re-queued at the back under the re-queue policy, the first result winning, a lost source's
+//! items handed out again — kept behind one lock, and its pass is run by each local worker for
+//! itself whenever it reports: results in, its own buffer topped up to B. No item and no result
+//! crosses threads as a message, so no wake-up stands between a worker and its next item; a
+//! master thread cannot hand out faster than one cross-thread round trip per B items per
+//! source (`dispatch_ratio`'s floor table).
+//!
+//! Local threads only: an MPI rank or a GPU needs a thread that talks to it, and the fault
+//! injector wraps sources that a master thread drives. A worker whose job panics is a lost
+//! source: its unfinished items are re-queued (under `never`, lost).
+
+use super::{wire, MasterParams, Requeue, Results, Returns, SchedError, Tally};
+use crate::metrics::{BusyClock, MasterStats, Probe, RunStats, Span, WorkerStats, MASTER_LANE};
+use crate::render::{TileResult, WorkItem};
+use crate::source::local::panic_message;
+use crate::source::{Job, Wait};
+use std::collections::VecDeque;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Condvar, Mutex, MutexGuard, PoisonError, TryLockError};
+use std::time::{Duration, Instant};
+
+/// How long an idle worker waits before it runs a pass again (nothing may be handed out to it
+/// yet: items outstanding elsewhere under `timeout:<ms>`).
+const TICK: Duration = Duration::from_millis(2);
+
+/// What a worker does after its pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// Render what it holds.
+    Render,
+    /// Nothing it may take now: wait, then pass again.
+    Idle,
+    /// The run is over, or nothing is left that could come to it.
+    Stop,
+}
+
+/// The ledger behind the lock: the items' side of the master (results stay with the workers
+/// that made them, as in the shared schedulers: see `Results`).
+struct Ledger {
+    n: usize,
+    buffer: usize,
+    requeue: Requeue,
+    deadline: Option<Duration>,
+    t0: quanta::Instant,
+    queue: VecDeque<u32>,
+    handed: Vec<bool>,
+    /// When each item was last handed out, or `None`: it may go out again at once (its copy
+    /// was lost). Only the timeout policy reads the time; the others store the start.
+    issued_at: Vec<Option<quanta::Instant>>,
+    alive: Vec<bool>,
+    /// First results reported so far.
+    done: usize,
+    /// Items whose only copy was lost under `never`.
+    known_lost: u64,
+    issued: u64,
+    reissued: u64,
+    passes: u64,
+    /// How the run ended, once it has.
+    end: Option<Result<(), SchedError>>,
+}
+
+impl Ledger {
+    fn new(n: usize, workers: usize, params: &MasterParams, deadline: Option<Duration>) -> Self {
+        let t0 = quanta::Instant::now();
+        Self {
+            n,
+            buffer: params.buffer,
+            requeue: params.requeue,
+            deadline,
+            t0,
+            queue: (0..n as u32).collect(),
+            handed: vec![false; n],
+            issued_at: vec![Some(t0); n],
+            alive: vec![true; workers],
+            done: 0,
+            known_lost: 0,
+            issued: 0,
+            reissued: 0,
+            passes: 0,
+            end: None,
+        }
+    }
+
+    /// Worker `w`'s pass: count the `reported` first results it made since its last pass,
+    /// decide whether the run is over, then top `held` (its items not yet run) up to B from
+    /// the queue. `done[i]`: item i has a result (set by whoever rendered it first).
+    fn pass(&mut self, reported: usize, held: &mut VecDeque<u32>, done: &[AtomicBool]) -> Step {
+        self.passes += 1;
+        self.done += reported;
+        if self.end.is_none() {
+            self.end = self.verdict();
+        }
+        if self.end.is_some() {
+            return Step::Stop;
+        }
+        let timed = matches!(self.requeue, Requeue::Timeout(_));
+        let now = if timed {
+            quanta::Instant::now()
+        } else {
+            self.t0
+        };
+        let len = self.queue.len();
+        let mut scanned = 0;
+        while held.len() < self.buffer && scanned < len {
+            scanned += 1;
+            let Some(i) = self.queue.pop_front() else {
+                break;
+            };
+            if done[i as usize].load(Ordering::Acquire) {
+                continue; // finished: leaves the queue for good
+            }
+            if self.handed[i as usize] {
+                if !self.may_reissue(i, held, now) {
+                    self.queue.push_back(i);
+                    continue;
+                }
+                self.reissued += 1;
+            }
+            self.handed[i as usize] = true;
+            self.issued_at[i as usize] = Some(now);
+            self.issued += 1;
+            if self.requeue != Requeue::Never {
+                self.queue.push_back(i);
+            }
+            held.push_back(i);
+        }
+        match (held.is_empty(), self.queue.is_empty()) {
+            (false, _) => Step::Render,
+            // Under `never` an item leaves the queue when handed out, under the other policies
+            // once it is found done: an empty queue has nothing more for this worker.
+            (true, true) => Step::Stop,
+            (true, false) => Step::Idle,
+        }
+    }
+
+    /// May item `i`, already handed out, go out again to the worker holding `held`? As the
+    /// master thread's rule: the re-queue policy says when, never to a worker holding it.
+    fn may_reissue(&self, i: u32, held: &VecDeque<u32>, now: quanta::Instant) -> bool {
+        let again = match (self.requeue, self.issued_at[i as usize]) {
+            (Requeue::Revisit, _) | (_, None) => true,
+            (Requeue::Timeout(d), Some(at)) => now - at >= d,
+            (Requeue::Never, _) => false,
+        };
+        again && !held.contains(&i)
+    }
+
+    /// Worker `w` is lost with `unfinished` (its items not run, and the one that failed): hand
+    /// them out again at once, or (`never`) count them lost for good.
+    fn lose(&mut self, w: usize, unfinished: impl Iterator<Item = u32>, done: &[AtomicBool]) {
+        self.alive[w] = false;
+        for i in unfinished {
+            if done[i as usize].load(Ordering::Acquire) {
+                continue;
+            }
+            match self.requeue {
+                Requeue::Never => self.known_lost += 1,
+                _ => self.issued_at[i as usize] = None,
+            }
+        }
+        if self.end.is_none() {
+            self.end = self.verdict();
+        }
+    }
+
+    /// How the run ends, if it ends now (the master thread's verdict): every item done, every
+    /// worker lost, every item done or lost for good (`never`), or the deadline passed.
+    fn verdict(&self) -> Option<Result<(), SchedError>> {
+        let (n, done) = (self.n as u64, self.done as u64);
+        if done == n {
+            return Some(Ok(()));
+        }
+        if !self.alive.iter().any(|&a| a) {
+            return Some(Err(SchedError::AllSourcesLost {
+                sources: self.alive.len() as u64,
+                remaining: n - done,
+                total: n,
+            }));
+        }
+        let never = self.requeue == Requeue::Never;
+        if never && done + self.known_lost == n {
+            return Some(Err(SchedError::LostItems {
+                lost: self.known_lost,
+                total: n,
+            }));
+        }
+        let deadline = self.deadline.filter(|dl| self.t0.elapsed() >= *dl)?;
+        Some(Err(if never {
+            SchedError::LostItems {
+                lost: n - done,
+                total: n,
+            }
+        } else {
+            SchedError::Deadline {
+                deadline,
+                done,
+                total: n,
+            }
+        }))
+    }
+}
+
+/// The lock, and the bell idle workers wait on.
+struct Shared<'a> {
+    ledger: Mutex<Ledger>,
+    bell: Condvar,
+    /// Per item: it has a result.
+    done: Vec<AtomicBool>,
+    items: &'a [WorkItem],
+    params: MasterParams,
+    probe: Probe,
+}
+
+impl Shared<'_> {
+    fn lock(&self) -> MutexGuard<'_, Ledger> {
+        self.ledger.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+/// With stats on and no timeline, one pass in this many is timed and the master's dispatch
+/// time is their sum scaled up. Timing every pass (two clock reads around it) made a run of
+/// one-pixel zero-work items 1.43× as long at B = 2 per hand-out and 1.47–1.55× item by
+/// item (`dispatch_ratio`, stats on/off pairs, 2-core Xeon VM).
+const TIME_EVERY: u64 = 16;
+
+/// What one worker accumulates; merged once at the end.
+struct Worker {
+    id: u32,
+    clock: BusyClock,
+    stats: WorkerStats,
+    master: MasterStats,
+    /// Seconds of the timed passes, and how many were timed.
+    timed_s: f64,
+    timed: u64,
+    item_bytes: u64,
+    spans: Vec<Span>,
+    results: Vec<TileResult>,
+    ids: Vec<u32>,
+    tally: Tally,
+}
+
+impl Worker {
+    fn new(id: u32, probe: &Probe) -> Self {
+        Self {
+            id,
+            clock: BusyClock::start(probe),
+            stats: WorkerStats {
+                source: "threads".into(),
+                ..Default::default()
+            },
+            master: MasterStats::default(),
+            timed_s: 0.0,
+            timed: 0,
+            item_bytes: 0,
+            spans: Vec::new(),
+            results: Vec::new(),
+            ids: Vec::new(),
+            tally: Tally::default(),
+        }
+    }
+
+    /// Run passes and items until the run ends for this worker, or its job panics (it is then
+    /// lost, and the ledger knows).
+    fn run(&mut self, sh: &Shared<'_>, job: &Job) {
+        let per_item = sh.params.returns == Returns::Item;
+        let mut held: VecDeque<u32> = VecDeque::with_capacity(sh.params.buffer);
+        let mut reported = 0;
+        loop {
+            // `item`: a pass after every item, but one that finds the lock taken is left to
+            // the next item while the worker still holds some (as a master thread busy with
+            // another source leaves a result in its cell); `hand_out`: a pass once all it
+            // holds is run, waiting for the lock.
+            let step = if per_item && !held.is_empty() {
+                self.pass(sh, reported, &mut held, false)
+            } else {
+                self.pass(sh, reported, &mut held, true)
+            };
+            let step = match step {
+                Some(step) => {
+                    reported = 0;
+                    step
+                }
+                None => Step::Render,
+            };
+            match step {
+                Step::Stop => break,
+                Step::Idle => {
+                    self.idle(sh);
+                    continue;
+                }
+                Step::Render => {}
+            }
+            let run = if per_item { 1 } else { held.len() };
+            for _ in 0..run {
+                let Some(i) = held.pop_front() else { break };
+                match self.render(sh, job, i) {
+                    Some(first) => reported += usize::from(first),
+                    None => {
+                        let mut l = sh.lock();
+                        // The results made since the last pass count before the loss.
+                        l.done += reported;
+                        l.lose(
+                            self.id as usize,
+                            std::iter::once(i).chain(held.drain(..)),
+                            &sh.done,
+                        );
+                        drop(l);
+                        sh.bell.notify_all();
+                        return;
+                    }
+                }
+            }
+        }
+        self.clock.mark(&sh.probe);
+    }
+
+    /// Render item `i` unless it is done already: whether its result is the first (a later
+    /// one is a duplicate, counted and dropped), or `None` when the job panicked.
+    fn render(&mut self, sh: &Shared<'_>, job: &Job, i: u32) -> Option<bool> {
+        let item = &sh.items[i as usize];
+        self.item_bytes += wire::item_bytes(item);
+        if sh.done[i as usize].load(Ordering::Acquire) {
+            return Some(false); // a copy handed out again was done elsewhere
+        }
+        let r = catch_unwind(AssertUnwindSafe(|| job(item))).ok()?;
+        let probe = &sh.probe;
+        if probe.timeline {
+            self.clock.item_done(probe, self.id, i, &mut self.spans);
+        }
+        self.stats.count(item, r.rays);
+        if sh.done[i as usize].swap(true, Ordering::AcqRel) {
+            self.tally.bytes += wire::result_bytes(&r);
+            self.tally.duplicates += 1;
+            return Some(false);
+        }
+        self.tally.add(&r);
+        self.ids.push(i);
+        self.results.push(r);
+        Some(true)
+    }
+
+    /// One pass under the lock, waiting for it if `wait`, else `None` when it is taken.
+    /// Timed as [`TIME_EVERY`] says; with a timeline every pass is timed, and one that handed
+    /// something out goes into the master's lane.
+    fn pass(
+        &mut self,
+        sh: &Shared<'_>,
+        reported: usize,
+        held: &mut VecDeque<u32>,
+        wait: bool,
+    ) -> Option<Step> {
+        let probe = &sh.probe;
+        let before = held.len();
+        let timed = probe.timeline || (probe.stats && self.master.iterations % TIME_EVERY == 0);
+        let a = timed.then(quanta::Instant::now);
+        let mut ledger = if wait {
+            sh.lock()
+        } else {
+            match sh.ledger.try_lock() {
+                Ok(l) => l,
+                Err(TryLockError::Poisoned(p)) => p.into_inner(),
+                Err(TryLockError::WouldBlock) => return None,
+            }
+        };
+        let step = ledger.pass(reported, held, &sh.done);
+        drop(ledger);
+        if step == Step::Stop {
+            sh.bell.notify_all();
+        }
+        self.master.iterations += 1;
+        if let Some(a) = a {
+            let b = quanta::Instant::now();
+            self.timed_s += (b - a).as_secs_f64();
+            self.timed += 1;
+            if probe.timeline {
+                self.clock.mark(probe); // the next item's span starts after the pass
+                if held.len() > before {
+                    let e = probe.tsc_epoch;
+                    self.spans.push(Span {
+                        worker: MASTER_LANE,
+                        item: held[before],
+                        start_ns: (a - e).as_nanos() as u64,
+                        end_ns: (b - e).as_nanos() as u64,
+                    });
+                }
+            }
+        }
+        Some(step)
+    }
+
+    /// The master's dispatch time of this worker's passes: the timed ones scaled to all.
+    fn dispatch_s(&self) -> f64 {
+        if self.timed == 0 {
+            return 0.0;
+        }
+        self.timed_s * self.master.iterations as f64 / self.timed as f64
+    }
+
+    /// Nothing to take now: wait as the master's `wait` says, at most a tick.
+    fn idle(&mut self, sh: &Shared<'_>) {
+        let probe = &sh.probe;
+        if probe.stats {
+            self.clock.mark(probe); // busy until now
+        }
+        let t = probe.stats.then(Instant::now);
+        match sh.params.wait {
+            Wait::Block => {
+                let l = sh.lock();
+                if l.end.is_none() {
+                    let _ = sh.bell.wait_timeout(l, TICK);
+                }
+            }
+            Wait::Spin | Wait::Yield => {
+                let end = Instant::now() + TICK;
+                while Instant::now() < end {
+                    if sh.params.wait == Wait::Spin {
+                        std::hint::spin_loop();
+                    } else {
+                        std::thread::yield_now();
+                    }
+                }
+            }
+        }
+        if let Some(t) = t {
+            self.master.wait_s += t.elapsed().as_secs_f64();
+            self.clock.restart(probe);
+        }
+    }
+}
+
+/// Run `items` under the master with `params`, its passes run by `jobs.len()` local workers
+/// (worker i runs `jobs[i]`).
+pub(super) fn run_locked_master(
+    params: &MasterParams,
+    items: &[WorkItem],
+    jobs: &[Job],
+    deadline: Option<Duration>,
+    probe: Probe,
+) -> Result<(Results, RunStats), SchedError> {
+    let t0 = Instant::now();
+    let n = items.len();
+    let sh = Shared {
+        ledger: Mutex::new(Ledger::new(n, jobs.len(), params, deadline)),
+        bell: Condvar::new(),
+        done: (0..n).map(|_| AtomicBool::new(false)).collect(),
+        items,
+        params: *params,
+        probe,
+    };
+    let workers: Vec<Worker> = std::thread::scope(|s| {
+        let handles: Vec<_> = jobs
+            .iter()
+            .enumerate()
+            .map(|(id, job)| {
+                let sh = &sh;
+                s.spawn(move || {
+                    let mut w = Worker::new(id as u32, &sh.probe);
+                    w.run(sh, job);
+                    w
+                })
+            })
+            .collect();
+        // A worker's job runs under `catch_unwind`: a join fails only on a bug of its own.
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .map_err(|p| SchedError::WorkerPanic(panic_message(&p)))
+            })
+            .collect::<Result<_, _>>()
+    })?;
+    let ledger = sh
+        .ledger
+        .into_inner()
+        .unwrap_or_else(PoisonError::into_inner);
+    let wall = t0.elapsed().as_secs_f64();
+    let mut stats = RunStats {
+        items: n as u64,
+        issued: ledger.issued,
+        reissued: ledger.reissued,
+        lost_sources: ledger.alive.iter().filter(|a| !**a).count() as u64,
+        ..Default::default()
+    };
+    match ledger.end {
+        Some(Err(e)) => return Err(e),
+        Some(Ok(())) => {}
+        // Every worker stopped on an empty queue: every item was reported.
+        None if ledger.done == n => {}
+        None => {
+            return Err(SchedError::LostItems {
+                lost: (n - ledger.done) as u64,
+                total: n as u64,
+            })
+        }
+    }
+    let mut master = MasterStats::default();
+    let (mut spans, mut lists, mut ids) = (Vec::new(), Vec::new(), Vec::new());
+    let mut tally = Tally::default();
+    for w in workers {
+        master.dispatch_s += w.dispatch_s();
+        let mut ws = w.stats;
+        ws.busy_s = w.clock.busy().as_secs_f64();
+        ws.idle_s = (wall - ws.busy_s).max(0.0);
+        stats.workers.push(ws);
+        stats.bytes += w.item_bytes;
+        master.wait_s += w.master.wait_s;
+        master.iterations += w.master.iterations;
+        spans.extend(w.spans);
+        tally.merge(&w.tally);
+        lists.push(w.results);
+        ids.push(w.ids);
+    }
+    // Duplicates were dropped as they were made (the `done` flags): none reach the lists.
+    let (results, _) = Results::from_lists(n, lists, &ids);
+    if probe.timeline {
+        spans.sort_by_key(|s| (s.start_ns, s.worker));
+        stats.timeline = Some(spans);
+    }
+    stats.wall_s = wall;
+    tally.record(&mut stats);
+    stats.master = Some(master);
+    Ok((results, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sched::Passes;
+    use std::sync::atomic::AtomicU32;
+    use std::sync::Arc;
+
+    fn items(n: u32) -> Vec<WorkItem> {
+        (0..n).map(|i| WorkItem::rect(i, i, 0, 1, 1)).collect()
+    }
+
+    fn result(it: &WorkItem) -> TileResult {
+        TileResult {
+            item: it.id,
+            pixels: Default::default(),
+            rays: 1,
+            nonfinite: 0,
+        }
+    }
+
+    fn params(buffer: usize, requeue: Requeue, returns: Returns) -> MasterParams {
+        MasterParams {
+            buffer,
+            requeue,
+            returns,
+            passes: Passes::Workers,
+            ..MasterParams::DEFAULT
+        }
+    }
+
+    /// Wait (at most 5 s) until `ok`.
+    fn wait_until(ok: impl Fn() -> bool) {
+        let t0 = Instant::now();
+        while !ok() && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// Worker 0's job: it says it has started, then waits until `count` reaches `until`.
+    /// Worker 1's: it waits until worker 0 has started (so worker 0 has taken its first
+    /// hand-out), then counts its items in `count`.
+    fn stuck_and_counting(until: u32) -> [Job; 2] {
+        let count = Arc::new(AtomicU32::new(0));
+        let started = Arc::new(AtomicBool::new(false));
+        let (c, s) = (count.clone(), started.clone());
+        let stuck: Job = Arc::new(move |it: &WorkItem| {
+            s.store(true, Ordering::SeqCst);
+            wait_until(|| c.load(Ordering::SeqCst) >= until);
+            result(it)
+        });
+        let counting: Job = Arc::new(move |it: &WorkItem| {
+            wait_until(|| started.load(Ordering::SeqCst));
+            count.fetch_add(1, Ordering::SeqCst);
+            result(it)
+        });
+        [stuck, counting]
+    }
+
+    /// Worker 0 is stuck on its first hand-out until worker 1 has run every other item: it
+    /// holds B items and is given no more, whichever way results come back.
+    #[test]
+    fn a_stuck_worker_holds_its_b_items_and_no_more() {
+        const N: u32 = 40;
+        for returns in Returns::ALL {
+            for b in [1, 2, 5] {
+                let jobs = stuck_and_counting(N - b);
+                let p = params(b as usize, Requeue::Never, returns);
+                let (res, stats) =
+                    run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap();
+                let per: Vec<u64> = stats.workers.iter().map(|w| w.items).collect();
+                assert_eq!(
+                    per,
+                    vec![u64::from(b), u64::from(N - b)],
+                    "{returns:?} B={b}"
+                );
+                assert!((0..N).all(|i| res.has(i)));
+                assert_eq!((stats.issued, stats.reissued, stats.duplicates), (40, 0, 0));
+            }
+        }
+    }
+
+    /// Under `seed` a handed-out item goes to the back of the queue: the idle worker meets
+    /// worker 0's stuck item there and runs it, and worker 0's late copy is a duplicate.
+    #[test]
+    fn seed_hands_a_stuck_item_to_the_idle_worker() {
+        const N: u32 = 30;
+        for returns in Returns::ALL {
+            // Worker 0 waits until worker 1 has run all N items, its stuck one included.
+            let jobs = stuck_and_counting(N);
+            let p = params(1, Requeue::Revisit, returns);
+            let (res, stats) =
+                run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap();
+            assert!((0..N).all(|i| res.has(i)));
+            let per: Vec<u64> = stats.workers.iter().map(|w| w.items).collect();
+            assert_eq!(per, vec![1, u64::from(N)], "{returns:?}");
+            assert_eq!((stats.reissued, stats.duplicates), (1, 1), "{returns:?}");
+            assert_eq!(stats.rays, u64::from(N), "a duplicate's rays do not count");
+        }
+    }
+
+    /// A worker whose job panics is a lost source: under `seed` and `timeout` its items are
+    /// run by the other; under `never` they are lost, counted at once (no deadline needed).
+    #[test]
+    fn a_panicking_worker_is_a_lost_source() {
+        const N: u32 = 50;
+        let dies: Job = Arc::new(|_: &WorkItem| panic!("worker 0 dies"));
+        let fine: Job = Arc::new(|it: &WorkItem| {
+            std::thread::sleep(Duration::from_micros(50));
+            result(it)
+        });
+        let jobs = [dies, fine];
+        for requeue in [Requeue::Revisit, Requeue::Timeout(Duration::from_secs(60))] {
+            for returns in Returns::ALL {
+                let p = params(3, requeue, returns);
+                let (res, stats) =
+                    run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap();
+                assert!((0..N).all(|i| res.has(i)), "{requeue:?} {returns:?}");
+                assert_eq!(stats.lost_sources, 1);
+                // Worker 0 took 3 items at most and finished none: each is handed out again.
+                assert!((1..=3).contains(&stats.reissued), "{}", stats.reissued);
+            }
+        }
+        let p = params(3, Requeue::Never, Returns::Item);
+        let t0 = Instant::now();
+        let err =
+            run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap_err();
+        assert!(
+            matches!(err, SchedError::LostItems { lost: 3, total: 50 }),
+            "{err}"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(5));
+    }
+
+    /// A deadline ends a run that would take far longer, as the master thread's does.
+    #[test]
+    fn the_deadline_ends_the_run() {
+        let slow: Job = Arc::new(|it: &WorkItem| {
+            std::thread::sleep(Duration::from_millis(2));
+            result(it)
+        });
+        let jobs = [slow.clone(), slow];
+        let p = params(2, Requeue::Revisit, Returns::Item);
+        let t0 = Instant::now();
+        let err = run_locked_master(
+            &p,
+            &items(10_000),
+            &jobs,
+            Some(Duration::from_millis(50)),
+            Probe::new(false, false),
+        )
+        .unwrap_err();
+        assert!(
+            matches!(err, SchedError::Deadline { done, total: 10_000, .. } if done < 10_000),
+            "{err}"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+    }
+
+    /// The master's statistics: one pass per item at least (item returns), every pass counted
+    /// and, with stats on, a dispatch time; without stats none.
+    #[test]
+    fn passes_are_counted_and_timed_only_with_stats() {
+        let job: Job = Arc::new(result);
+        let jobs = [job.clone(), job];
+        let p = params(4, Requeue::Never, Returns::HandOut);
+        for stats_on in [true, false] {
+            let (_, stats) =
+                run_locked_master(&p, &items(4000), &jobs, None, Probe::new(stats_on, false))
+                    .unwrap();
+            let m = stats.master.unwrap();
+            // A pass per hand-out of at most 4 items, one more per worker at the end.
+            assert!(m.iterations >= 1000, "{}", m.iterations);
+            assert_eq!(m.dispatch_s > 0.0, stats_on);
+        }
+    }
+}
