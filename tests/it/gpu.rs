@@ -675,6 +675,11 @@ chunk = "rows:4"
             "schedulers[0].gpu_buffer: must be between 1",
         ),
         (
+            "gpu_buffer = 2",
+            "gpu_buffer = 2\npasses = [\"thread\", \"workers\"]",
+            "schedulers[0].passes: workers: sources = \"threads+gpu\" need the master's own thread",
+        ),
+        (
             "workers = [1]",
             "workers = [1]\ngpu_adapter = \"no-such-adapter\"",
             "gpu_adapter: --gpu-adapter no-such-adapter: no Vulkan adapter matches",

@@ -551,6 +551,16 @@ mod with_simgrid {
             err.contains("schedulers") && err.contains("hand_out") && err.contains("not simulated"),
             "{err}"
         );
+        // The simulated master is a thread of its own: passes run by the workers are refused.
+        let exp = experiment(dir.path(), &p.to_string_lossy(), "[2]");
+        let text = std::fs::read_to_string(&exp).unwrap()
+            + "[[schedulers]]\nkind = \"master\"\nchunk = \"1\"\npasses = \"workers\"\n";
+        std::fs::write(&exp, text).unwrap();
+        let err = refused(dir.path(), &exp);
+        assert!(
+            err.contains("schedulers") && err.contains("passes") && err.contains("not simulated"),
+            "{err}"
+        );
         // MPI launches with spinning workers need the rendering launches they stand beside.
         let measured = dir.path().join("m.csv");
         std::fs::write(&measured, "").unwrap();
