@@ -6,7 +6,7 @@ use super::error::CliError;
 use raysched::model::advise::{advise, Probed};
 use raysched::model::probe;
 use raysched::scene::{load_scene, SceneOverrides};
-use raysched::sched::{Chunk, MasterParams, Policy, SchedulerKind, SchedulerSpec, Slow};
+use raysched::sched::{Chunk, MasterParams, Passes, Policy, SchedulerKind, SchedulerSpec, Slow};
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -42,6 +42,9 @@ pub(crate) struct AdviseArgs {
     #[arg(long, default_value_t = MasterParams::DEFAULT.buffer,
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=65536))]
     buffer: usize,
+    /// Who runs the master's passes: thread (its own) or workers (each for itself, under a lock).
+    #[arg(long, default_value = "thread", value_parser = |s: &str| Passes::from_id(s).map_err(|e| e.msg))]
+    passes: Passes,
     /// Compute sources (only local threads are modelled).
     #[arg(long, value_enum, default_value_t = AdviseSources::Local)]
     sources: AdviseSources,
@@ -71,6 +74,7 @@ fn specs(args: &AdviseArgs) -> Vec<SchedulerSpec> {
             s.slow = args.slow;
             if let Policy::Master(m) = &mut s.policy {
                 m.buffer = args.buffer;
+                m.passes = args.passes;
             }
             out.push(s);
         }

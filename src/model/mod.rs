@@ -66,7 +66,7 @@ pub mod probe;
 
 use crate::sched::dls::{self, ChunkRule, ItemTimes, Report};
 use crate::sched::renderers::mitsuba_grain;
-use crate::sched::{Policy, SchedulerSpec};
+use crate::sched::{Passes, Policy, SchedulerSpec};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 
@@ -288,7 +288,7 @@ pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Pred
     let item_s = &with_c[..];
     let n = item_s.len();
     let o_run = match spec.policy {
-        Policy::Master(_) => *o,
+        Policy::Master(m) if m.passes == Passes::Thread => *o,
         _ => Overheads {
             refill_s: 0.0,
             ..*o
@@ -301,6 +301,12 @@ pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Pred
             (0..p).rev().find(|w| w * n / p <= i).unwrap_or(0)
         }),
         Policy::StaticCyclic => play_fixed(item_s, &speeds, &o_run, |i| i % p),
+        // Without a master thread nothing waits for a refill: each worker takes its next items
+        // under the lock as it needs them, B at a time (`hand_out`; `item` keeps a window of B
+        // ahead, which commits the same B items at the tail), at h per item.
+        Policy::Master(m) if m.passes == Passes::Workers => {
+            play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(m.buffer))
+        }
         Policy::Master(m) => play_master(item_s, &speeds, &o_run, m.buffer),
         Policy::SelfScheduling(s) => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(s.grab)),
         Policy::WorkStealing(_) | Policy::WorkStealingDeque | Policy::Pbrt => {

@@ -499,7 +499,7 @@ pub fn loaded_refill_for(
     target_s: f64,
 ) -> Result<f64, SchedError> {
     let n = match loaded_items(item_s, zero.refill_s, workers, target_s) {
-        Some(n) if matches!(policy, Policy::Master(_)) => n,
+        Some(n) if matches!(policy, Policy::Master(_)) && !policy.passes_by_workers() => n,
         _ => return Ok(zero.refill_s),
     };
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
@@ -541,7 +541,7 @@ pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads,
     let z = zero_work(policy, PROBE_ITEMS, workers, reps)?;
     let (fixed_s, slope) = (z.fixed_s, z.per_item_s);
     Ok(match policy {
-        Policy::Master(_) => {
+        Policy::Master(_) if !policy.passes_by_workers() => {
             let ss = Policy::defaults(SchedulerKind::SelfScheduling);
             let worker_slope = zero_work(ss, PROBE_ITEMS, workers, reps)?.per_item_s;
             Overheads {
