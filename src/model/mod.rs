@@ -550,6 +550,44 @@ mod tests {
         assert_eq!(master_wall(2, &items), 9.0);
     }
 
+    #[test]
+    fn the_master_without_a_thread_waits_for_no_refill_and_takes_b_at_a_time() {
+        // The refill period that makes the master thread's sources wait (see above) does not
+        // enter: the workers run the passes themselves, at h per item.
+        let items = vec![1e-6; 100];
+        let o = Overheads {
+            per_item_s: 1e-7,
+            fixed_s: 0.0,
+            refill_s: 3e-6,
+        };
+        let by_workers = |buffer: usize| SchedulerSpec {
+            policy: Policy::Master(MasterParams {
+                buffer,
+                passes: Passes::Workers,
+                ..MasterParams::DEFAULT
+            }),
+            ..spec(SchedulerKind::Master, 2)
+        };
+        let w = Workload {
+            item_s: &items,
+            noise_cv: 0.0,
+            per_item_s: 0.0,
+        };
+        let r = predict(&by_workers(2), &w, &o);
+        assert_eq!(r.refill_s, 0.0, "{r:?}");
+        assert!(close(r.wall_s, 50.0 * 1.1e-6), "{r:?}");
+        // B items at a time, as self-scheduling's grabs: the dear first item's worker holds
+        // three cheap ones behind it at B = 4 (wall 7), as the master thread's source does.
+        let hot = [4.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+        let w = Workload {
+            item_s: &hot,
+            noise_cv: 0.0,
+            per_item_s: 0.0,
+        };
+        assert_eq!(predict(&by_workers(4), &w, &NONE).wall_s, 7.0);
+        assert_eq!(predict(&by_workers(1), &w, &NONE).wall_s, 6.0);
+    }
+
     /// The master's predicted wall at `buffer` on 2 workers, no overheads or noise.
     fn master_wall(buffer: usize, items: &[f64]) -> f64 {
         let s = SchedulerSpec {

@@ -353,7 +353,8 @@ impl Worker {
     ) -> Option<Step> {
         let probe = &sh.probe;
         let before = held.len();
-        let timed = probe.timeline || (probe.stats && self.master.iterations % TIME_EVERY == 0);
+        let timed =
+            probe.timeline || (probe.stats && self.master.iterations.is_multiple_of(TIME_EVERY));
         let a = timed.then(quanta::Instant::now);
         let mut ledger = if wait {
             sh.lock()
