@@ -57,8 +57,8 @@ use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, MasterParams, Order, Policy, Requeue, RunOptions,
-    SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
+    decompose, render_job, run_items, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns,
+    RunOptions, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
 };
 use raysched::source::Job;
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -107,6 +107,24 @@ fn specs() -> Vec<(String, SchedulerSpec)> {
             ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
         };
         specs.push((format!("master_{}_b{buffer}", wait.id()), s));
+    }
+    // The master without a thread of its own (its passes run by the workers).
+    for (returns, buffer) in [
+        (Returns::Item, 4),
+        (Returns::HandOut, 4),
+        (Returns::Item, 64),
+    ] {
+        let s = SchedulerSpec {
+            policy: Policy::Master(MasterParams {
+                buffer,
+                requeue: Requeue::Never,
+                returns,
+                passes: Passes::Workers,
+                ..MasterParams::DEFAULT
+            }),
+            ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
+        };
+        specs.push((format!("master_workers_{}_b{buffer}", returns.id()), s));
     }
     specs
 }
@@ -213,6 +231,9 @@ fn dispatch_fixed(c: &mut Criterion) {
 /// busy spans telescope, see `BusyClock`): self_scheduling 1 px 15.31/15.34 ms (−0.2 %),
 /// master B=8 1 px 31.36/31.58 ms (−0.7 %), 16² −3.8 % (noise). In the VM's slow state the
 /// same group swings ±10 % between two runs; those runs are not quoted.
+/// 2026-12-05 (2-core Xeon VM), the master with its passes run by the workers, B = 8, 1 px
+/// (one pass in 16 timed): 15.44/15.37 ms (+0.4 %) and 15.38/15.35 ms (+0.2 %), in the same
+/// runs self_scheduling 1 px −0.2 % and master B=8 1 px −5.4 % (noise).
 fn instrumentation(c: &mut Criterion) {
     let over = SceneOverrides {
         width: Some(128),
@@ -244,6 +265,18 @@ fn instrumentation(c: &mut Criterion) {
             SchedulerSpec::new(SchedulerKind::SelfScheduling, px, 2),
         ),
         ("master_block_b8_1px", master),
+        (
+            "master_workers_b8_1px",
+            SchedulerSpec {
+                policy: Policy::Master(MasterParams {
+                    buffer: 8,
+                    requeue: Requeue::Never,
+                    passes: Passes::Workers,
+                    ..MasterParams::DEFAULT
+                }),
+                ..SchedulerSpec::new(SchedulerKind::Master, px, 2)
+            },
+        ),
         (
             "self_scheduling_16x16",
             SchedulerSpec::new(SchedulerKind::SelfScheduling, tile, 2),
