@@ -44,6 +44,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
             spec.kind().id()
         )));
     };
+    if spec.policy.passes_by_workers() {
+        return Err(CliError::message(
+            "--passes workers: a GPU source needs the master's own thread (use thread)",
+        ));
+    }
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     if let Some(w) = scene.depth_warning() {

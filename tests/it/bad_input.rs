@@ -175,6 +175,11 @@ fn bad_flags_exit_2_without_output() {
     for (flags, needle) in [
         (vec!["--spp", "0"], "--spp"),
         (vec!["--tracer", "optix"], "unknown tracer"),
+        (
+            vec!["--scheduler", "master", "--passes", "everyone"],
+            "unknown master pass runner 'everyone'",
+        ),
+        (vec!["--passes", "workers"], "only master takes it"),
     ] {
         let (code, stderr, written) = run(dir.path(), GOOD, &flags);
         assert_eq!(code, 2, "{flags:?}: {stderr}");
@@ -218,6 +223,7 @@ fn advise_bad_flags_are_one_line_errors_with_exit_2() {
         (vec!["--scheduler", "fastest"], "unknown scheduler"),
         (vec!["--chunks", "0"], "chunk"),
         (vec!["--buffer", "0"], "--buffer"),
+        (vec!["--passes", "all"], "unknown master pass runner 'all'"),
         (vec!["--sources", "mpi"], "--sources mpi"),
         (vec!["--slow", "3:2", "--workers", "2"], "--slow"),
         (vec!["--slow", "1:0.5"], "slow"),

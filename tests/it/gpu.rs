@@ -696,3 +696,34 @@ chunk = "rows:4"
         );
     }
 }
+
+/// A GPU source needs the master's own thread: `--passes workers` is refused by its flag before
+/// any adapter is opened, and nothing is written.
+#[test]
+fn a_gpu_source_refuses_the_masters_passes_on_the_workers() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crate::support::scene_path("cornell_box.toml");
+    let scene = scene.to_string_lossy();
+    let (code, err) = run_cmd(
+        dir.path(),
+        &[
+            "render",
+            &scene,
+            "--scheduler",
+            "master",
+            "--sources",
+            "threads+gpu",
+            "--passes",
+            "workers",
+            "-o",
+            "out.exr",
+        ],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--passes workers: a GPU source needs the master's own thread"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out.exr").exists());
+}
