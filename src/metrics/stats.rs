@@ -21,6 +21,14 @@ pub struct WorkerStats {
 }
 
 impl WorkerStats {
+    /// A local thread's statistics, nothing counted yet.
+    pub fn local_thread() -> Self {
+        Self {
+            source: "threads".into(),
+            ..Default::default()
+        }
+    }
+
     /// One finished item of this worker.
     pub fn count(&mut self, item: &crate::render::WorkItem, rays: u64) {
         self.items += 1;

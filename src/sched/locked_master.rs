@@ -11,6 +11,7 @@
 //! injector wraps sources that a master thread drives. A worker whose job panics is a lost
 //! source: its unfinished items are re-queued (under `never`, lost).
 
+use super::master::Progress;
 use super::{wire, MasterParams, Requeue, Results, Returns, SchedError, Tally};
 use crate::metrics::{BusyClock, MasterStats, Probe, RunStats, Span, WorkerStats, MASTER_LANE};
 use crate::render::{TileResult, WorkItem};
@@ -165,40 +166,18 @@ impl Ledger {
         }
     }
 
-    /// How the run ends, if it ends now (the master thread's verdict): every item done, every
-    /// worker lost, every item done or lost for good (`never`), or the deadline passed.
+    /// How the run ends, if it ends now (the master thread's verdict).
     fn verdict(&self) -> Option<Result<(), SchedError>> {
-        let (n, done) = (self.n as u64, self.done as u64);
-        if done == n {
-            return Some(Ok(()));
+        Progress {
+            total: self.n as u64,
+            done: self.done as u64,
+            known_lost: self.known_lost,
+            sources: self.alive.len() as u64,
+            alive: self.alive.iter().filter(|&&a| a).count() as u64,
+            requeue: self.requeue,
+            deadline_passed: self.deadline.filter(|dl| self.t0.elapsed() >= *dl),
         }
-        if !self.alive.iter().any(|&a| a) {
-            return Some(Err(SchedError::AllSourcesLost {
-                sources: self.alive.len() as u64,
-                remaining: n - done,
-                total: n,
-            }));
-        }
-        let never = self.requeue == Requeue::Never;
-        if never && done + self.known_lost == n {
-            return Some(Err(SchedError::LostItems {
-                lost: self.known_lost,
-                total: n,
-            }));
-        }
-        let deadline = self.deadline.filter(|dl| self.t0.elapsed() >= *dl)?;
-        Some(Err(if never {
-            SchedError::LostItems {
-                lost: n - done,
-                total: n,
-            }
-        } else {
-            SchedError::Deadline {
-                deadline,
-                done,
-                total: n,
-            }
-        }))
+        .verdict()
     }
 }
 
@@ -246,10 +225,7 @@ impl Worker {
         Self {
             id,
             clock: BusyClock::start(probe),
-            stats: WorkerStats {
-                source: "threads".into(),
-                ..Default::default()
-            },
+            stats: WorkerStats::local_thread(),
             master: MasterStats::default(),
             timed_s: 0.0,
             timed: 0,

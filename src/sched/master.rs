@@ -457,6 +457,58 @@ impl Sizing {
     }
 }
 
+/// Where a master's run stands, for its verdict (the master thread's and `locked_master`'s).
+pub(super) struct Progress {
+    pub total: u64,
+    pub done: u64,
+    /// Items whose only copy was lost under `never`.
+    pub known_lost: u64,
+    pub sources: u64,
+    /// Sources not lost.
+    pub alive: u64,
+    pub requeue: Requeue,
+    /// The run's deadline, once it has passed.
+    pub deadline_passed: Option<Duration>,
+}
+
+impl Progress {
+    /// How the run ends, if it ends now: every item done, every source lost, every item done
+    /// or lost for good (`never`), or the deadline passed.
+    pub(super) fn verdict(&self) -> Option<Result<(), SchedError>> {
+        let (n, done) = (self.total, self.done);
+        if done == n {
+            return Some(Ok(()));
+        }
+        if self.alive == 0 {
+            return Some(Err(SchedError::AllSourcesLost {
+                sources: self.sources,
+                remaining: n - done,
+                total: n,
+            }));
+        }
+        let never = self.requeue == Requeue::Never;
+        if never && done + self.known_lost == n {
+            return Some(Err(SchedError::LostItems {
+                lost: self.known_lost,
+                total: n,
+            }));
+        }
+        let deadline = self.deadline_passed?;
+        Some(Err(if never {
+            SchedError::LostItems {
+                lost: n - done,
+                total: n,
+            }
+        } else {
+            SchedError::Deadline {
+                deadline,
+                done,
+                total: n,
+            }
+        }))
+    }
+}
+
 /// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait).
 pub fn run_master(
     params: &MasterParams,
@@ -578,40 +630,18 @@ impl<'a> Master<'a> {
         }
     }
 
-    /// How the run ends, if it ends now: every item done, every source lost, every item done
-    /// or lost for good (`never`), or the deadline passed.
+    /// How the run ends, if it ends now ([`Progress::verdict`]).
     fn verdict(&self) -> Option<Result<(), SchedError>> {
-        let (n, done) = (self.ledger.items.len() as u64, self.ledger.done() as u64);
-        if done == n {
-            return Some(Ok(()));
+        Progress {
+            total: self.ledger.items.len() as u64,
+            done: self.ledger.done() as u64,
+            known_lost: self.ledger.known_lost,
+            sources: self.lanes.len() as u64,
+            alive: self.lanes.iter().filter(|l| l.alive).count() as u64,
+            requeue: self.params.requeue,
+            deadline_passed: self.deadline.filter(|dl| self.t0.elapsed() >= *dl),
         }
-        if !self.lanes.iter().any(|l| l.alive) {
-            return Some(Err(SchedError::AllSourcesLost {
-                sources: self.lanes.len() as u64,
-                remaining: n - done,
-                total: n,
-            }));
-        }
-        let never = self.params.requeue == Requeue::Never;
-        if never && done + self.ledger.known_lost == n {
-            return Some(Err(SchedError::LostItems {
-                lost: self.ledger.known_lost,
-                total: n,
-            }));
-        }
-        let deadline = self.deadline.filter(|dl| self.t0.elapsed() >= *dl)?;
-        Some(Err(if never {
-            SchedError::LostItems {
-                lost: n - done,
-                total: n,
-            }
-        } else {
-            SchedError::Deadline {
-                deadline,
-                done,
-                total: n,
-            }
-        }))
+        .verdict()
     }
 
     /// Top every live source up; the first item handed out in this pass, if any.

@@ -39,10 +39,7 @@ impl Local {
         Self {
             id,
             clock: BusyClock::start(probe),
-            stats: WorkerStats {
-                source: "threads".into(),
-                ..Default::default()
-            },
+            stats: WorkerStats::local_thread(),
             item_bytes: 0,
             spans: Vec::new(),
             results: Vec::with_capacity(expect),
