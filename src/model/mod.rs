@@ -506,15 +506,18 @@ mod tests {
         assert_eq!(ss.wall_s, 8.0);
     }
 
+    /// h = 0.1 µs per item, a master refill every 3 µs.
+    const H_AND_REFILL: Overheads = Overheads {
+        per_item_s: 1e-7,
+        fixed_s: 0.0,
+        refill_s: 3e-6,
+    };
+
     #[test]
     fn master_sources_wait_for_refills_when_items_are_cheaper_than_the_period() {
         // 100 items of 1 µs, h = 0.1 µs, a refill every 3 µs: each item waits 1.9 µs.
         let items = vec![1e-6; 100];
-        let o = Overheads {
-            per_item_s: 1e-7,
-            fixed_s: 0.0,
-            refill_s: 3e-6,
-        };
+        let o = H_AND_REFILL;
         let r = run(SchedulerKind::Master, 2, &items, o);
         assert!(close(r.refill_s, 100.0 * 1.9e-6 / 2.0), "{r:?}");
         assert!(close(r.wall_s, 50.0 * 3e-6), "{r:?}");
@@ -555,11 +558,7 @@ mod tests {
         // The refill period that makes the master thread's sources wait (see above) does not
         // enter: the workers run the passes themselves, at h per item.
         let items = vec![1e-6; 100];
-        let o = Overheads {
-            per_item_s: 1e-7,
-            fixed_s: 0.0,
-            refill_s: 3e-6,
-        };
+        let o = H_AND_REFILL;
         let by_workers = |buffer: usize| SchedulerSpec {
             policy: Policy::Master(MasterParams {
                 buffer,
