@@ -58,7 +58,6 @@ struct Ledger {
     known_lost: u64,
     issued: u64,
     reissued: u64,
-    passes: u64,
     /// How the run ended, once it has.
     end: Option<Result<(), SchedError>>,
 }
@@ -80,16 +79,14 @@ impl Ledger {
             known_lost: 0,
             issued: 0,
             reissued: 0,
-            passes: 0,
             end: None,
         }
     }
 
-    /// Worker `w`'s pass: count the `reported` first results it made since its last pass,
+    /// A worker's pass: count the `reported` first results it made since its last pass,
     /// decide whether the run is over, then top `held` (its items not yet run) up to B from
     /// the queue. `done[i]`: item i has a result (set by whoever rendered it first).
     fn pass(&mut self, reported: usize, held: &mut VecDeque<u32>, done: &[AtomicBool]) -> Step {
-        self.passes += 1;
         self.done += reported;
         if self.end.is_none() {
             self.end = self.verdict();
