@@ -85,12 +85,6 @@ impl Probed {
             let r = probe::loaded_refill(spec.policy, spec.workers, typical, &o, 3);
             o.refill_s = r.unwrap_or(o.refill_s);
         }
-        if spec.policy.passes_by_workers() && !items.is_empty() {
-            // Its hand-out cost as the workers meet at the lock between items of this cost.
-            let typical = probe::median(&mut items.clone());
-            let h = probe::loaded_handout(spec.policy, spec.workers, typical, &o, 3);
-            o.per_item_s = h.unwrap_or(o.per_item_s);
-        }
         predict(spec, &work, &o)
     }
 }

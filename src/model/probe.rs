@@ -502,40 +502,6 @@ pub fn loaded_refill_for(
         Some(n) if matches!(policy, Policy::Master(_)) && !policy.passes_by_workers() => n,
         _ => return Ok(zero.refill_s),
     };
-    Ok(loaded_period(policy, workers, item_s, n, reps)?.max(zero.refill_s))
-}
-
-/// The hand-out cost h per item of the master whose passes its workers run, with items that
-/// each cost `item_s`: a worker's time per item over spinning items (P × the slope between
-/// runs of n and 2n items) less the item. With zero-work items both workers want the lock at
-/// every pass; with work between passes they seldom meet there, and the zero-work h put the
-/// per-pixel master on the sphere scene's 0.4 µs pixels 14–44 % too slow
-/// (`results/published/master_passes`). `zero`'s h where the probe is skipped (no cost to
-/// spin, or items above [`LOADED_MAX_S`], where h is lost in the item's own spread).
-pub fn loaded_handout(
-    policy: Policy,
-    workers: usize,
-    item_s: f64,
-    zero: &Overheads,
-    reps: u32,
-) -> Result<f64, SchedError> {
-    let n = match loaded_items(item_s, zero.per_item_s, workers, RUN_S) {
-        Some(n) if policy.passes_by_workers() => n,
-        _ => return Ok(zero.per_item_s),
-    };
-    Ok((loaded_period(policy, workers, item_s, n, reps)? - item_s).max(0.0))
-}
-
-/// A source's time per item under `policy` over items spinning `item_s` each: P × the slope of
-/// the wall between runs of `n` and 2`n` items (the runs' fixed cost cancels), the median of
-/// `reps` pairs.
-fn loaded_period(
-    policy: Policy,
-    workers: usize,
-    item_s: f64,
-    n: u32,
-    reps: u32,
-) -> Result<f64, SchedError> {
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
     let lists: Vec<Vec<WorkItem>> = [n, 2 * n]
@@ -554,7 +520,7 @@ fn loaded_period(
         let b = wall(&lists[1])?;
         per.push(workers as f64 * (b - a).max(0.0) / n as f64);
     }
-    Ok(median(&mut per))
+    Ok(median(&mut per).max(zero.refill_s))
 }
 
 /// Items of the pilot run that sizes the zero-work runs.
@@ -745,28 +711,6 @@ mod tests {
         assert_eq!(loaded_items(1e-9, 1e-9, 2, RUN_S), Some(4096));
         assert_eq!(loaded_items(f64::NAN, 1e-6, 2, RUN_S), None);
         assert_eq!(loaded_items(0.0, 1e-6, 2, RUN_S), None);
-    }
-
-    /// The loaded hand-out probe runs only for the master whose workers run its passes, and
-    /// only for items it can spin: otherwise the zero-work h stands, with no run made.
-    #[test]
-    fn the_loaded_hand_out_cost_keeps_the_zero_work_h_where_it_is_not_probed() {
-        use crate::sched::{MasterParams, Passes};
-        let zero = Overheads {
-            per_item_s: 123e-9,
-            fixed_s: 0.0,
-            refill_s: 4e-6,
-        };
-        let thread = Policy::Master(MasterParams::DEFAULT);
-        let workers = Policy::Master(MasterParams {
-            passes: Passes::Workers,
-            ..MasterParams::DEFAULT
-        });
-        let ss = Policy::defaults(SchedulerKind::SelfScheduling);
-        for (policy, item_s) in [(thread, 1e-6), (ss, 1e-6), (workers, 10e-3), (workers, 0.0)] {
-            let h = loaded_handout(policy, 2, item_s, &zero, 3).unwrap();
-            assert_eq!(h, 123e-9, "{policy:?} at {item_s} s");
-        }
     }
 
     #[test]
