@@ -43,7 +43,7 @@ pub(crate) struct AdviseArgs {
           value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=65536))]
     buffer: usize,
     /// Who runs the master's passes: thread (its own) or workers (each for itself, under a lock).
-    #[arg(long, default_value = "thread", value_parser = |s: &str| Passes::from_id(s).map_err(|e| e.msg))]
+    #[arg(long, default_value = MasterParams::DEFAULT.passes.id(), value_parser = |s: &str| Passes::from_id(s).map_err(|e| e.msg))]
     passes: Passes,
     /// Compute sources (only local threads are modelled).
     #[arg(long, value_enum, default_value_t = AdviseSources::Local)]

@@ -12,9 +12,10 @@
 //! source: its unfinished items are re-queued (under `never`, lost).
 
 use super::master::Progress;
-use super::{wire, MasterParams, Requeue, Results, Returns, SchedError, Tally};
-use crate::metrics::{BusyClock, MasterStats, Probe, RunStats, Span, WorkerStats, MASTER_LANE};
-use crate::render::{TileResult, WorkItem};
+use super::shared::{finish, Local};
+use super::{wire, MasterParams, Requeue, Results, Returns, SchedError};
+use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
+use crate::render::WorkItem;
 use crate::source::local::panic_message;
 use crate::source::{Job, Wait};
 use std::collections::VecDeque;
@@ -201,36 +202,23 @@ impl Shared<'_> {
 /// item (`dispatch_ratio`, stats on/off pairs, 2-core Xeon VM).
 const TIME_EVERY: u64 = 16;
 
-/// What one worker accumulates; merged once at the end.
+/// What one worker accumulates (as a shared scheduler's worker does, plus its passes as the
+/// master's); merged once at the end.
 struct Worker {
-    id: u32,
-    clock: BusyClock,
-    stats: WorkerStats,
+    local: Local,
     master: MasterStats,
     /// Seconds of the timed passes, and how many were timed.
     timed_s: f64,
     timed: u64,
-    item_bytes: u64,
-    spans: Vec<Span>,
-    results: Vec<TileResult>,
-    ids: Vec<u32>,
-    tally: Tally,
 }
 
 impl Worker {
-    fn new(id: u32, probe: &Probe) -> Self {
+    fn new(id: u32, probe: &Probe, expect: usize) -> Self {
         Self {
-            id,
-            clock: BusyClock::start(probe),
-            stats: WorkerStats::local_thread(),
+            local: Local::new(id, probe, expect),
             master: MasterStats::default(),
             timed_s: 0.0,
             timed: 0,
-            item_bytes: 0,
-            spans: Vec::new(),
-            results: Vec::new(),
-            ids: Vec::new(),
-            tally: Tally::default(),
         }
     }
 
@@ -245,12 +233,8 @@ impl Worker {
             // the next item while the worker still holds some (as a master thread busy with
             // another source leaves a result in its cell); `hand_out`: a pass once all it
             // holds is run, waiting for the lock.
-            let step = if per_item && !held.is_empty() {
-                self.pass(sh, reported, &mut held, false)
-            } else {
-                self.pass(sh, reported, &mut held, true)
-            };
-            let step = match step {
+            let wait = !per_item || held.is_empty();
+            let step = match self.pass(sh, reported, &mut held, wait) {
                 Some(step) => {
                     reported = 0;
                     step
@@ -275,7 +259,7 @@ impl Worker {
                         // The results made since the last pass count before the loss.
                         l.done += reported;
                         l.lose(
-                            self.id as usize,
+                            self.local.id as usize,
                             std::iter::once(i).chain(held.drain(..)),
                             &sh.done,
                         );
@@ -286,31 +270,32 @@ impl Worker {
                 }
             }
         }
-        self.clock.mark(&sh.probe);
     }
 
     /// Render item `i` unless it is done already: whether its result is the first (a later
     /// one is a duplicate, counted and dropped), or `None` when the job panicked.
     fn render(&mut self, sh: &Shared<'_>, job: &Job, i: u32) -> Option<bool> {
         let item = &sh.items[i as usize];
-        self.item_bytes += wire::item_bytes(item);
+        self.local.item_bytes += wire::item_bytes(item);
         if sh.done[i as usize].load(Ordering::Acquire) {
             return Some(false); // a copy handed out again was done elsewhere
         }
         let r = catch_unwind(AssertUnwindSafe(|| job(item))).ok()?;
         let probe = &sh.probe;
         if probe.timeline {
-            self.clock.item_done(probe, self.id, i, &mut self.spans);
+            self.local
+                .clock
+                .item_done(probe, self.local.id, i, &mut self.local.spans);
         }
-        self.stats.count(item, r.rays);
+        self.local.stats.count(item, r.rays);
         if sh.done[i as usize].swap(true, Ordering::AcqRel) {
-            self.tally.bytes += wire::result_bytes(&r);
-            self.tally.duplicates += 1;
+            self.local.tally.bytes += wire::result_bytes(&r);
+            self.local.tally.duplicates += 1;
             return Some(false);
         }
-        self.tally.add(&r);
-        self.ids.push(i);
-        self.results.push(r);
+        self.local.tally.add(&r);
+        self.local.ids.push(i);
+        self.local.results.push(r);
         Some(true)
     }
 
@@ -349,10 +334,10 @@ impl Worker {
             self.timed_s += (b - a).as_secs_f64();
             self.timed += 1;
             if probe.timeline {
-                self.clock.mark(probe); // the next item's span starts after the pass
+                self.local.clock.mark(probe); // the next item's span starts after the pass
                 if held.len() > before {
                     let e = probe.tsc_epoch;
-                    self.spans.push(Span {
+                    self.local.spans.push(Span {
                         worker: MASTER_LANE,
                         item: held[before],
                         start_ns: (a - e).as_nanos() as u64,
@@ -376,7 +361,7 @@ impl Worker {
     fn idle(&mut self, sh: &Shared<'_>) {
         let probe = &sh.probe;
         if probe.stats {
-            self.clock.mark(probe); // busy until now
+            self.local.clock.mark(probe); // busy until now
         }
         let t = probe.stats.then(Instant::now);
         match sh.params.wait {
@@ -386,20 +371,12 @@ impl Worker {
                     let _ = sh.bell.wait_timeout(l, TICK);
                 }
             }
-            Wait::Spin | Wait::Yield => {
-                let end = Instant::now() + TICK;
-                while Instant::now() < end {
-                    if sh.params.wait == Wait::Spin {
-                        std::hint::spin_loop();
-                    } else {
-                        std::thread::yield_now();
-                    }
-                }
-            }
+            // Nothing signals new work but the tick (or the run's end, which the next pass sees).
+            Wait::Spin | Wait::Yield => sh.params.wait.poll(TICK, || false),
         }
         if let Some(t) = t {
             self.master.wait_s += t.elapsed().as_secs_f64();
-            self.clock.restart(probe);
+            self.local.clock.restart(probe);
         }
     }
 }
@@ -415,6 +392,8 @@ pub(super) fn run_locked_master(
 ) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
     let n = items.len();
+    // A fair share plus a quarter, as the shared schedulers reserve.
+    let expect = n / jobs.len().max(1) + n / (4 * jobs.len().max(1));
     let sh = Shared {
         ledger: Mutex::new(Ledger::new(n, jobs.len(), params, deadline)),
         bell: Condvar::new(),
@@ -430,8 +409,9 @@ pub(super) fn run_locked_master(
             .map(|(id, job)| {
                 let sh = &sh;
                 s.spawn(move || {
-                    let mut w = Worker::new(id as u32, &sh.probe);
+                    let mut w = Worker::new(id as u32, &sh.probe, expect);
                     w.run(sh, job);
+                    w.local.clock.mark(&sh.probe); // its last item or pass ended now
                     w
                 })
             })
@@ -449,14 +429,6 @@ pub(super) fn run_locked_master(
         .ledger
         .into_inner()
         .unwrap_or_else(PoisonError::into_inner);
-    let wall = t0.elapsed().as_secs_f64();
-    let mut stats = RunStats {
-        items: n as u64,
-        issued: ledger.issued,
-        reissued: ledger.reissued,
-        lost_sources: ledger.alive.iter().filter(|a| !**a).count() as u64,
-        ..Default::default()
-    };
     match ledger.end {
         Some(Err(e)) => return Err(e),
         Some(Ok(())) => {}
@@ -470,30 +442,20 @@ pub(super) fn run_locked_master(
         }
     }
     let mut master = MasterStats::default();
-    let (mut spans, mut lists, mut ids) = (Vec::new(), Vec::new(), Vec::new());
-    let mut tally = Tally::default();
-    for w in workers {
-        master.dispatch_s += w.dispatch_s();
-        let mut ws = w.stats;
-        ws.busy_s = w.clock.busy().as_secs_f64();
-        ws.idle_s = (wall - ws.busy_s).max(0.0);
-        stats.workers.push(ws);
-        stats.bytes += w.item_bytes;
-        master.wait_s += w.master.wait_s;
-        master.iterations += w.master.iterations;
-        spans.extend(w.spans);
-        tally.merge(&w.tally);
-        lists.push(w.results);
-        ids.push(w.ids);
-    }
-    // Duplicates were dropped as they were made (the `done` flags): none reach the lists.
-    let (results, _) = Results::from_lists(n, lists, &ids);
-    if probe.timeline {
-        spans.sort_by_key(|s| (s.start_ns, s.worker));
-        stats.timeline = Some(spans);
-    }
-    stats.wall_s = wall;
-    tally.record(&mut stats);
+    let locals = workers
+        .into_iter()
+        .map(|w| {
+            master.dispatch_s += w.dispatch_s();
+            master.wait_s += w.master.wait_s;
+            master.iterations += w.master.iterations;
+            w.local
+        })
+        .collect();
+    // Duplicates were dropped as they were made (the `done` flags) and are in the tallies.
+    let (results, mut stats) = finish(locals, n, t0, probe);
+    stats.issued = ledger.issued;
+    stats.reissued = ledger.reissued;
+    stats.lost_sources = ledger.alive.iter().filter(|a| !**a).count() as u64;
     stats.master = Some(master);
     Ok((results, stats))
 }
@@ -501,6 +463,7 @@ pub(super) fn run_locked_master(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::TileResult;
     use crate::sched::Passes;
     use std::sync::atomic::AtomicU32;
     use std::sync::Arc;

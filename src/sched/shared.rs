@@ -17,16 +17,16 @@ use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 /// What one worker thread accumulates; merged once at the end (no shared counters).
-struct Local {
-    id: u32,
-    clock: BusyClock,
-    stats: WorkerStats,
-    item_bytes: u64,
-    spans: Vec<Span>,
-    results: Vec<TileResult>,
+pub(super) struct Local {
+    pub(super) id: u32,
+    pub(super) clock: BusyClock,
+    pub(super) stats: WorkerStats,
+    pub(super) item_bytes: u64,
+    pub(super) spans: Vec<Span>,
+    pub(super) results: Vec<TileResult>,
     /// The item of each result, apart (see `Results::from_lists`).
-    ids: Vec<u32>,
-    tally: Tally,
+    pub(super) ids: Vec<u32>,
+    pub(super) tally: Tally,
     /// [`Local::chunk_order`]'s reused order and buffers.
     order: Vec<u32>,
     scratch: ScanlineScratch,
@@ -35,7 +35,7 @@ struct Local {
 impl Local {
     /// A worker's run of items starts now; `expect` items reserves the result list (no
     /// re-allocation on the hot path for a fair share).
-    fn new(id: u32, probe: &Probe, expect: usize) -> Self {
+    pub(super) fn new(id: u32, probe: &Probe, expect: usize) -> Self {
         Self {
             id,
             clock: BusyClock::start(probe),
@@ -98,7 +98,7 @@ impl Local {
     }
 
     /// The worker has run its last item.
-    fn stop(mut self, probe: &Probe) -> Self {
+    pub(super) fn stop(mut self, probe: &Probe) -> Self {
         self.clock.mark(probe);
         self
     }
@@ -413,7 +413,14 @@ fn rayon_locals(
     Ok(locals)
 }
 
-fn finish(locals: Vec<Local>, n: usize, t0: Instant, probe: Probe) -> (Results, RunStats) {
+/// The run's results and statistics from its workers' accumulations (also the lock-held
+/// master's, which then adds its own hand-out counts).
+pub(super) fn finish(
+    locals: Vec<Local>,
+    n: usize,
+    t0: Instant,
+    probe: Probe,
+) -> (Results, RunStats) {
     let wall = t0.elapsed().as_secs_f64();
     let mut stats = RunStats {
         items: n as u64,
@@ -434,11 +441,11 @@ fn finish(locals: Vec<Local>, n: usize, t0: Instant, probe: Probe) -> (Results, 
         lists.push(l.results);
         ids.push(l.ids);
     }
-    // The results stay in the workers' lists (no per-item move): see `Results`. Each item is
-    // run once here, so the workers' tallies hold no duplicate (were there one, its rays would
-    // count).
+    // The results stay in the workers' lists (no per-item move): see `Results`. A duplicate
+    // is either dropped by its worker and counted in its tally (the lock-held master), or
+    // found here (a second result of an item in the lists; its rays would count).
     let (results, duplicates) = Results::from_lists(n, lists, &ids);
-    tally.duplicates = duplicates;
+    tally.duplicates += duplicates;
     if probe.timeline {
         spans.sort_by_key(|s| (s.start_ns, s.worker));
         stats.timeline = Some(spans);

@@ -57,6 +57,21 @@ impl Default for Doorbell {
     }
 }
 
+impl Wait {
+    /// Poll `ready` until it holds or `timeout` has passed, spinning or yielding the core
+    /// between polls (`Block` spins: a blocking wait sleeps on what it waits for instead).
+    pub(crate) fn poll(self, timeout: Duration, mut ready: impl FnMut() -> bool) {
+        let end = Instant::now() + timeout;
+        while !ready() && Instant::now() < end {
+            if self == Wait::Yield {
+                std::thread::yield_now();
+            } else {
+                std::hint::spin_loop();
+            }
+        }
+    }
+}
+
 impl Doorbell {
     /// A notifier for one source; any number may ring this doorbell.
     pub fn notifier(&self) -> Notifier {
@@ -81,16 +96,7 @@ impl Doorbell {
                 Wait::Block => {
                     let _ = self.rx.recv_timeout(timeout);
                 }
-                Wait::Spin | Wait::Yield => {
-                    let end = Instant::now() + timeout;
-                    while self.rx.try_recv().is_err() && Instant::now() < end {
-                        if wait == Wait::Spin {
-                            std::hint::spin_loop();
-                        } else {
-                            std::thread::yield_now();
-                        }
-                    }
-                }
+                Wait::Spin | Wait::Yield => wait.poll(timeout, || self.rx.try_recv().is_ok()),
             }
         }
         while self.rx.try_recv().is_ok() {}
