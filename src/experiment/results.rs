@@ -378,10 +378,22 @@ impl RunRow {
             o(&self.order),
         ]
         .into_iter()
-        .chain(self.params.iter().map(o))
+        .chain(
+            KEYED_BY_POSITION
+                .iter()
+                .map(|name| o(&self.param(name).map(str::to_string))),
+        )
         .chain([self.workers.to_string()])
         .collect::<Vec<_>>()
         .join("|");
+        key += &named_params_key(
+            param_columns()
+                .iter()
+                .map(|p| p.name)
+                .zip(&self.params)
+                .map(|(name, v)| (name, v.as_deref())),
+            |name| default_of(&self.scheduler, name),
+        );
         // Only rows of an MPI experiment carry these, so every older id stays what it was.
         if self.ranks.is_some() {
             key += &format!("|{}|{}|{}", self.sources, n(self.ranks), o(&self.transport));
@@ -485,6 +497,35 @@ pub fn assign_ids(plan: &mut ExperimentPlan) {
 /// The stable id of a configuration: FNV-1a of its config columns.
 pub fn config_id(plan: &ExperimentPlan, c: &RunConfig) -> String {
     hex(fnv(RunRow::for_config(plan, c).config_key().as_bytes()))
+}
+
+/// The scheduler parameters whose values the config id joins by position, as the columns
+/// stood when this scheme was fixed (2026-12-05). A parameter added since enters the key by
+/// name and only off its kind's default ([`named_params_key`]), so adding one to a scheduler
+/// leaves every id of an earlier `runs.csv` as it was: `resume` and `compare` still pair them.
+const KEYED_BY_POSITION: [&str; 9] = [
+    "buffer", "requeue", "wait", "returns", "passes", "grab", "guided_k", "weights", "fsc_warm",
+];
+
+/// `|name=value` for each parameter outside [`KEYED_BY_POSITION`] that has a value other
+/// than `default(name)`; empty for a configuration at every newer parameter's default.
+fn named_params_key<'a>(
+    params: impl Iterator<Item = (&'a str, Option<&'a str>)>,
+    default: impl Fn(&str) -> Option<String>,
+) -> String {
+    params
+        .filter(|(name, _)| !KEYED_BY_POSITION.contains(name))
+        .filter_map(|(name, v)| {
+            let v = v?;
+            (default(name).as_deref() != Some(v)).then(|| format!("|{name}={v}"))
+        })
+        .collect()
+}
+
+/// Parameter `name`'s default text for scheduler `scheduler` (its id), if the kind has it.
+fn default_of(scheduler: &str, name: &str) -> Option<String> {
+    let kind = crate::sched::SchedulerKind::from_id(scheduler).ok()?;
+    crate::sched::Policy::defaults(kind).params()?.get(name)
 }
 
 /// Reading or writing `runs.csv` failed.
@@ -930,5 +971,43 @@ mod tests {
         let (_, rows) = RunsFile::open(&p, true).unwrap();
         assert!(rows.is_empty());
         assert_eq!(read_runs(&p).unwrap().0, vec![]);
+    }
+
+    /// Every row of a published run recomputes its own config id: the key is a function of
+    /// the row's columns alone, and the scheme has not moved since that run (master rows with
+    /// `returns` and `passes`, shared-scheduler rows without).
+    #[test]
+    fn published_ids_recompute_from_their_rows() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("results/published/master_passes/runs.csv");
+        let rows = read_runs(&path).unwrap().0;
+        assert!(rows.len() > 50, "{} rows", rows.len());
+        assert!(rows.iter().any(|r| r.param("passes") == Some("workers")));
+        for r in &rows {
+            assert_eq!(hex(fnv(r.config_key().as_bytes())), r.config, "{}", r.label);
+        }
+    }
+
+    /// A parameter newer than [`KEYED_BY_POSITION`] adds nothing to the key at its default or
+    /// where the kind lacks it, and `|name=value` off its default.
+    #[test]
+    fn a_newer_parameter_keys_only_off_its_default() {
+        let default = |name: &str| (name == "new_knob").then(|| "4".to_string());
+        let key = |v: Option<&'static str>| {
+            named_params_key(
+                [("buffer", Some("2")), ("new_knob", v), ("grab", None)].into_iter(),
+                default,
+            )
+        };
+        assert_eq!(key(None), "");
+        assert_eq!(key(Some("4")), "");
+        assert_eq!(key(Some("8")), "|new_knob=8");
+        // Every name keyed by position is a parameter column still.
+        for name in KEYED_BY_POSITION {
+            assert!(param_columns().iter().any(|p| p.name == name), "{name}");
+        }
+        // And a kind's default reads back through its id.
+        assert_eq!(default_of("master", "buffer").as_deref(), Some("2"));
+        assert_eq!(default_of("no_such_kind", "buffer"), None);
     }
 }
