@@ -25,7 +25,7 @@ pub(crate) fn render(_args: RenderArgs) -> Result<(), CliError> {
 pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     use raysched::gpu::{GpuContext, GpuRenderer};
     use raysched::scene::load_scene;
-    use raysched::sched::{run_with_sources, Policy, SchedError, SourceKind};
+    use raysched::sched::{run_with_sources, Policy, Runner, SchedError, SourceKind};
     use raysched::tracer::{AnyTracer, Tracer};
     use std::sync::Arc;
     use std::time::Instant;
@@ -44,10 +44,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
             spec.kind().id()
         )));
     };
-    if spec.policy.passes_by_workers() {
-        return Err(CliError::message(
-            "--passes workers: a GPU source needs the master's own thread (use thread)",
-        ));
+    if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
+        return Err(CliError::message(r.as_flag()));
     }
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);

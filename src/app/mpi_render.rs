@@ -9,8 +9,8 @@ use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
 use raysched::mpi::wire::Ready;
 use raysched::mpi::wire::ScenePackage;
 use raysched::scene::Scene;
-use raysched::sched::SchedulerSpec;
 use raysched::sched::{assemble, decompose_frames, render_job};
+use raysched::sched::{Runner, SchedulerSpec};
 use raysched::source::{ComputeSource, LocalThreadSource};
 use raysched::tracer::AnyTracer;
 use std::sync::Arc;
@@ -140,16 +140,8 @@ fn prepare(
             spec.kind().id()
         )));
     }
-    if spec.policy.returns_per_hand_out() {
-        return Err(input(
-            "--returns hand_out: MPI ranks hand their results back item by item (use item)"
-                .to_string(),
-        ));
-    }
-    if spec.policy.passes_by_workers() {
-        return Err(input(
-            "--passes workers: MPI ranks need the master's own thread (use thread)".to_string(),
-        ));
+    if let Some(r) = Runner::Mpi.refuses(&spec.policy) {
+        return Err(input(r.as_flag()));
     }
     if comm.size < 2 && args.local_threads == 0 {
         return Err(input(format!(

@@ -12,8 +12,8 @@ use crate::limits::{
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
-    source_params, Chunk, Order, Passes, Returns, SchedulerKind, SchedulerSpec, Slow, SourceKind,
-    SourceSet, SourceSetup,
+    source_params, Chunk, Order, Runner, SchedulerKind, SchedulerSpec, Slow, SourceKind, SourceSet,
+    SourceSetup,
 };
 use crate::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
@@ -651,14 +651,11 @@ fn expand_grids(file: &ExperimentFile, settings: &Settings) -> Result<Vec<Grid>,
             let mut grid = Vec::with_capacity(specs.len() * setups.len());
             for setup in &setups {
                 for spec in &specs {
-                    if spec.policy.passes_by_workers() && setup.set.kinds() != [SourceKind::Threads]
-                    {
+                    let gpu = setup.set.has(SourceKind::Gpu);
+                    if let Some(r) = gpu.then(|| Runner::Gpu.refuses(&spec.policy)).flatten() {
                         return Err(at((
-                            "passes".into(),
-                            format!(
-                                "workers: sources = \"{}\" need the master's own thread (use \"thread\")",
-                                setup.set.id()
-                            ),
+                            r.param.into(),
+                            format!("{} (sources = \"{}\")", r.as_value(), setup.set.id()),
                         )));
                     }
                     let mut spec = spec.clone();
@@ -964,17 +961,12 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
                     .get(key)
                     .is_some_and(|v| *v == id || v.as_array().is_some_and(|a| a.contains(&id)))
             };
-            if lists("returns", Returns::HandOut.id()) {
-                return Err((
-                    format!("schedulers[{i}].returns"),
-                    "MPI ranks hand their results back item by item (use \"item\")".into(),
-                ));
-            }
-            if lists("passes", Passes::Workers.id()) {
-                return Err((
-                    format!("schedulers[{i}].passes"),
-                    "MPI ranks need the master's own thread (use \"thread\")".into(),
-                ));
+            if let Some(r) = Runner::Mpi
+                .refusals()
+                .iter()
+                .find(|r| lists(r.param, r.value))
+            {
+                return Err((format!("schedulers[{i}].{}", r.param), r.as_value()));
             }
         }
     }

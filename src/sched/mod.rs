@@ -10,6 +10,7 @@ pub mod dls;
 mod locked_master;
 pub mod master;
 pub mod param;
+pub mod refusal;
 pub mod renderers;
 mod results;
 mod scanline;
@@ -24,6 +25,7 @@ pub use param::{
     Chunk, Order, ParamInfo, ParamValue, Params, Passes, Requeue, Returns, Slow, SpecError, Wait,
     Weights,
 };
+pub use refusal::{Refusal, Runner};
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
 pub use sources::{
@@ -216,10 +218,10 @@ pub fn run_with_sources<T: Tracer + 'static>(
         }
         .into());
     };
-    if m.passes == Passes::Workers {
+    if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
         return Err(SpecError {
-            field: "passes".into(),
-            msg: "workers: a GPU source needs the master's own thread (use thread)".into(),
+            field: r.param.into(),
+            msg: r.as_value(),
         }
         .into());
     }
@@ -275,10 +277,14 @@ pub fn run_items(
     let jobs = worker_jobs(&job, spec.workers, spec.slow);
     match spec.policy {
         Policy::Master(m) if m.passes == Passes::Workers => {
-            if opts.faults.is_some() {
+            if let Some(r) = opts
+                .faults
+                .as_ref()
+                .and(Runner::Faults.refuses(&spec.policy))
+            {
                 return Err(SpecError {
-                    field: "passes".into(),
-                    msg: "workers: the fault injector wraps sources that a master thread drives (use thread)".into(),
+                    field: r.param.into(),
+                    msg: r.as_value(),
                 }
                 .into());
             }

@@ -232,7 +232,7 @@ macro_rules! id_enum {
             /// Every value, in the order help texts list them.
             pub const ALL: [$name; [$(stringify!($variant)),*].len()] = [$(Self::$variant,)*];
             /// The stable snake_case id (CLI, TOML, CSV).
-            pub fn id(self) -> &'static str {
+            pub const fn id(self) -> &'static str {
                 match self {
                     $( Self::$variant => $id, )*
                 }

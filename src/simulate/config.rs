@@ -43,7 +43,7 @@
 use super::child;
 use super::job::{LostWorker, PlatformInfo};
 use crate::scene::SceneOverrides;
-use crate::sched::{Chunk, SchedulerKind, SchedulerSpec};
+use crate::sched::{Chunk, Runner, SchedulerKind, SchedulerSpec};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -296,16 +296,6 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
     let mut platforms = Vec::new();
     for (i, p) in file.platforms.iter().enumerate() {
         let pf = load_platform(&format!("platforms[{i}]"), p)?;
-        if let Some(s) = specs.iter().find(|s| s.policy.passes_by_workers()) {
-            return Err(field(
-            path,
-            "schedulers",
-            format!(
-                "{}: passes = \"workers\" is not simulated (the simulated master is a thread of its own)",
-                s.label()
-            ),
-        ));
-        }
         let most = *workers.last().unwrap_or(&1);
         if most > pf.info.worker_slots() {
             return Err(field(
@@ -344,14 +334,14 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             ));
         }
     }
-    if let Some(s) = specs.iter().find(|s| s.policy.returns_per_hand_out()) {
+    if let Some((s, r)) = specs
+        .iter()
+        .find_map(|s| Some((s, Runner::Simulation.refuses(&s.policy)?)))
+    {
         return Err(field(
             path,
             "schedulers",
-            format!(
-                "{}: returns = \"hand_out\" is not simulated (the master's protocol returns each result alone)",
-                s.label()
-            ),
+            format!("{}: {} = {}", s.label(), r.param, r.as_value()),
         ));
     }
     let most = *workers.last().unwrap_or(&1);

@@ -677,7 +677,7 @@ chunk = "rows:4"
         (
             "gpu_buffer = 2",
             "gpu_buffer = 2\npasses = [\"thread\", \"workers\"]",
-            "schedulers[0].passes: workers: sources = \"threads+gpu\" need the master's own thread",
+            "schedulers[0].passes: workers: a GPU source needs the master's own thread (use thread) (sources = \"threads+gpu\")",
         ),
         (
             "workers = [1]",

@@ -590,11 +590,11 @@ fn bad_mpi_experiments_are_clear_errors_naming_file_and_field() {
         ),
         (
             "[mpi]\nranks = 3\ntransports = [\"shared_memory\"]\n[[schedulers]]\nkind = \"master\"\nchunk = \"1\"\nreturns = [\"item\", \"hand_out\"]",
-            "tiny_mpi.toml: schedulers[2].returns: MPI ranks hand their results back item by item",
+            "tiny_mpi.toml: schedulers[2].returns: hand_out: MPI ranks hand their results back item by item",
         ),
         (
             "[mpi]\nranks = 3\ntransports = [\"shared_memory\"]\n[[schedulers]]\nkind = \"master\"\nchunk = \"1\"\npasses = \"workers\"",
-            "tiny_mpi.toml: schedulers[2].passes: MPI ranks need the master's own thread",
+            "tiny_mpi.toml: schedulers[2].passes: workers: MPI ranks need the master's own thread",
         ),
     ];
     for (mpi, want) in cases {
