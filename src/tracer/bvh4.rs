@@ -449,31 +449,57 @@ pub struct CollapseCosts {
 /// way to hang its subtree below a wide node as at most `j` children: one leaf (at most
 /// [`MAX_LEAF_PRIMS`] primitives), one wide node, or `j` split between its two children.
 pub(super) struct Collapse {
-    /// Per binary node, the cost with at most `j + 1` children.
-    cost: Vec<[f32; WIDTH]>,
     /// Per binary node and `j + 1` children: 0 where one child (leaf or node) is cheapest,
     /// else how many go to the left child. At `j = 0` (one child, a wide node): how many of
     /// its [`WIDTH`] children come from the left child, or 0 for a leaf.
     split: Vec<[u8; WIDTH]>,
 }
 
+/// One binary node as [`Collapse::plan`]'s walk met it.
+#[derive(Clone, Copy)]
+struct Step {
+    /// Its index in the binary tree.
+    node: u32,
+    /// Its box's half area.
+    area: f32,
+    /// Primitives below it (its own count until the costs pass sums an inner node's).
+    prims: u32,
+    /// The walk position of its right child (its left is the next one); 0 for a leaf.
+    right: u32,
+}
+
 impl Collapse {
     fn plan(bvh2: &Bvh2, c: CollapseCosts) -> Self {
         let n = bvh2.nodes.len();
-        let mut plan = Self {
-            cost: vec![[0.0; WIDTH]; n],
-            split: vec![[0; WIDTH]; n],
-        };
-        let mut prims = vec![0u32; n];
-        // Children before parents: the reverse of a pre-order walk (no recursion: a
-        // degenerate tree may be deep).
-        let mut pre = Vec::with_capacity(n);
-        let mut pending = vec![0usize];
-        while let Some(i) = pending.pop() {
-            pre.push(i);
-            let node = &bvh2.nodes[i];
+        let mut split = vec![[0u8; WIDTH]; n];
+        // One pre-order walk (no recursion: a degenerate tree may be deep) reads each binary
+        // node once and records what the costs need; they are then computed children before
+        // parents over the records, in reverse. A node's left child is the next record and
+        // its costs sit beside its own, so the second pass reads memory in order where the
+        // nodes themselves lie scattered (on 1 M triangles the two random passes over the
+        // nodes were 46 % of this function's samples in `perf`). Build of the 1 M-triangle
+        // sphere 0.67–0.72 s against 0.72–0.74 s with two passes over the nodes, 1.71–1.80×
+        // Embree's against 1.81–1.88× (`examples/tracer_ab`, 4 alternated runs, 2-core Xeon
+        // VM, 2026-12-05); the same tree.
+        let mut walk: Vec<Step> = Vec::with_capacity(n);
+        // (binary node, the walk position of the parent whose right child it is, or NONE)
+        const NONE: u32 = u32::MAX;
+        let mut pending: Vec<(u32, u32)> = vec![(0, NONE)];
+        while let Some((i, right_of)) = pending.pop() {
+            let node = &bvh2.nodes[i as usize];
+            let at = walk.len() as u32;
+            if right_of != NONE {
+                walk[right_of as usize].right = at;
+            }
+            walk.push(Step {
+                node: i,
+                area: node.aabb.half_area(),
+                prims: node.prim_count,
+                right: 0,
+            });
             if node.prim_count == 0 {
-                pending.extend([node.first_index as usize, node.first_index as usize + 1]);
+                // The left child is popped next: its position is `at + 1`.
+                pending.extend([(node.first_index + 1, at), (node.first_index, NONE)]);
             }
         }
         let leaf_cost = |count: u32, area: f32| match count.div_ceil(PACKET as u32) {
@@ -481,37 +507,41 @@ impl Collapse {
             2 => area * c.two_packets,
             _ => f32::INFINITY,
         };
-        for &i in pre.iter().rev() {
-            let node = &bvh2.nodes[i];
-            let area = node.aabb.half_area();
-            if node.prim_count > 0 {
-                prims[i] = node.prim_count;
-                plan.cost[i] = [leaf_cost(node.prim_count, area); WIDTH];
+        let mut cost = vec![[0.0f32; WIDTH]; walk.len()];
+        for at in (0..walk.len()).rev() {
+            let step = walk[at];
+            if step.prims > 0 {
+                cost[at] = [leaf_cost(step.prims, step.area); WIDTH];
                 continue;
             }
-            let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
-            prims[i] = prims[l].saturating_add(prims[r]);
-            let (cl, cr) = (plan.cost[l], plan.cost[r]);
-            let mut best = (leaf_cost(prims[i], area), 0u8);
+            let (l, r) = (at + 1, step.right as usize);
+            let prims = walk[l].prims.saturating_add(walk[r].prims);
+            walk[at].prims = prims;
+            let (cl, cr) = (cost[l], cost[r]);
+            let (mut row, mut ks) = ([0.0f32; WIDTH], [0u8; WIDTH]);
+            let mut best = (leaf_cost(prims, step.area), 0u8);
             for k in 1..WIDTH {
-                let cost = area * c.node + cl[k - 1] + cr[WIDTH - k - 1];
-                if cost < best.0 {
-                    best = (cost, k as u8);
+                let c = step.area * c.node + cl[k - 1] + cr[WIDTH - k - 1];
+                if c < best.0 {
+                    best = (c, k as u8);
                 }
             }
-            (plan.cost[i][0], plan.split[i][0]) = best;
+            (row[0], ks[0]) = best;
             for j in 1..WIDTH {
-                let mut best = (plan.cost[i][j - 1], 0u8);
+                let mut best = (row[j - 1], 0u8);
                 for k in 1..=j {
-                    let cost = cl[k - 1] + cr[j - k];
-                    if cost < best.0 {
-                        best = (cost, k as u8);
+                    let c = cl[k - 1] + cr[j - k];
+                    if c < best.0 {
+                        best = (c, k as u8);
                     }
                 }
-                (plan.cost[i][j], plan.split[i][j]) = best;
+                (row[j], ks[j]) = best;
             }
+            cost[at] = row;
+            split[step.node as usize] = ks;
         }
-        plan
+        // Leaves keep an all-zero row of splits: `is_leaf` and `roots` read `prim_count` first.
+        Self { split }
     }
 
     /// Whether binary node `b`, as one child, is a leaf.
