@@ -462,10 +462,8 @@ struct Step {
     node: u32,
     /// Its box's half area.
     area: f32,
-    /// Primitives below it (its own count until the costs pass sums an inner node's).
+    /// Its primitives if a leaf, else 0.
     prims: u32,
-    /// The walk position of its right child (its left is the next one); 0 for a leaf.
-    right: u32,
 }
 
 impl Collapse {
@@ -473,33 +471,26 @@ impl Collapse {
         let n = bvh2.nodes.len();
         let mut split = vec![[0u8; WIDTH]; n];
         // One pre-order walk (no recursion: a degenerate tree may be deep) reads each binary
-        // node once and records what the costs need; they are then computed children before
-        // parents over the records, in reverse. A node's left child is the next record and
-        // its costs sit beside its own, so the second pass reads memory in order where the
-        // nodes themselves lie scattered (on 1 M triangles the two random passes over the
-        // nodes were 46 % of this function's samples in `perf`). Build of the 1 M-triangle
-        // sphere 0.67–0.72 s against 0.72–0.74 s with two passes over the nodes, 1.71–1.80×
-        // Embree's against 1.81–1.88× (`examples/tracer_ab`, 4 alternated runs, 2-core Xeon
-        // VM, 2026-12-05); the same tree.
+        // node once and records what the costs need. Read backwards, the records are a
+        // post-order (right subtree, left subtree, node), so the costs are computed over them
+        // with a stack of the finished subtrees' rows, no per-node array: the second pass
+        // reads memory in order where the nodes lie scattered (on 1 M triangles the two
+        // random passes over the nodes were 46 % of this function's samples in `perf`). Build
+        // of the 1 M-triangle sphere 0.63–0.70 s against 0.70–0.77 s with two passes over
+        // the nodes and a cost row per node (pairs 0.88–0.94), 1.56–1.67× Embree's against
+        // 1.77–1.93× (`examples/tracer_ab`, 4 alternated runs, 2-core Xeon VM, 2026-12-05);
+        // the same tree (hit counts unchanged).
         let mut walk: Vec<Step> = Vec::with_capacity(n);
-        // (binary node, the walk position of the parent whose right child it is, or NONE)
-        const NONE: u32 = u32::MAX;
-        let mut pending: Vec<(u32, u32)> = vec![(0, NONE)];
-        while let Some((i, right_of)) = pending.pop() {
+        let mut pending = vec![0u32];
+        while let Some(i) = pending.pop() {
             let node = &bvh2.nodes[i as usize];
-            let at = walk.len() as u32;
-            if right_of != NONE {
-                walk[right_of as usize].right = at;
-            }
             walk.push(Step {
                 node: i,
                 area: node.aabb.half_area(),
                 prims: node.prim_count,
-                right: 0,
             });
             if node.prim_count == 0 {
-                // The left child is popped next: its position is `at + 1`.
-                pending.extend([(node.first_index + 1, at), (node.first_index, NONE)]);
+                pending.extend([node.first_index + 1, node.first_index]);
             }
         }
         let leaf_cost = |count: u32, area: f32| match count.div_ceil(PACKET as u32) {
@@ -507,17 +498,18 @@ impl Collapse {
             2 => area * c.two_packets,
             _ => f32::INFINITY,
         };
-        let mut cost = vec![[0.0f32; WIDTH]; walk.len()];
-        for at in (0..walk.len()).rev() {
-            let step = walk[at];
+        // Per finished subtree: its cost with at most `j + 1` children, and its primitives.
+        let mut done: Vec<([f32; WIDTH], u32)> = Vec::new();
+        for step in walk.iter().rev() {
             if step.prims > 0 {
-                cost[at] = [leaf_cost(step.prims, step.area); WIDTH];
+                done.push(([leaf_cost(step.prims, step.area); WIDTH], step.prims));
                 continue;
             }
-            let (l, r) = (at + 1, step.right as usize);
-            let prims = walk[l].prims.saturating_add(walk[r].prims);
-            walk[at].prims = prims;
-            let (cl, cr) = (cost[l], cost[r]);
+            // The left subtree finished last.
+            let (Some((cl, pl)), Some((cr, pr))) = (done.pop(), done.pop()) else {
+                unreachable!("an inner node has two subtrees below it in the walk");
+            };
+            let prims = pl.saturating_add(pr);
             let (mut row, mut ks) = ([0.0f32; WIDTH], [0u8; WIDTH]);
             let mut best = (leaf_cost(prims, step.area), 0u8);
             for k in 1..WIDTH {
@@ -537,7 +529,7 @@ impl Collapse {
                 }
                 (row[j], ks[j]) = best;
             }
-            cost[at] = row;
+            done.push((row, prims));
             split[step.node as usize] = ks;
         }
         // Leaves keep an all-zero row of splits: `is_leaf` and `roots` read `prim_count` first.
