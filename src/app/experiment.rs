@@ -135,6 +135,12 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
         )));
     }
     if plan.convergence.is_some() {
+        if args.dry_run {
+            let text =
+                experiment::convergence::plan_text(&plan, &args.out).map_err(CliError::runtime)?;
+            super::write_stdout(format_args!("{text}"));
+            return Ok(());
+        }
         let dir = experiment::convergence::run(&plan, &args.out).map_err(CliError::runtime)?;
         if !args.quiet {
             let rows = raysched::converge::read_csv(&dir.join("convergence.csv"))

@@ -133,6 +133,80 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
     Ok(dir)
 }
 
+/// What [`run`] would do, measuring nothing: the progression, each scene's reference (analytic,
+/// cached under `<out>/refs/` or to be rendered) and every configuration, with a time estimate
+/// from one untimed serial render per (scene, tracer) scaled to a sample per pixel (a
+/// configuration of w workers at 1 / min(w, cores) of it). Writes no file.
+pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
+    let settings = plan
+        .convergence
+        .ok_or_else(|| anyhow::anyhow!("{} is not a convergence experiment", plan.name))?;
+    let steps = settings.max_spp.ilog2() + 1;
+    // 1 + 2 + 4 + … + max_spp samples per pixel, the progression's last step included.
+    let samples = 2.0 * f64::from(settings.max_spp) - 1.0;
+    let cores = crate::host::available_threads();
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "experiment {} (convergence) → {}
+progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel per configuration)
+",
+        plan.name,
+        out.join(&plan.name).display(),
+        settings.max_spp,
+    );
+    let (mut total, mut probe_total) = (0.0, 0.0);
+    // References this run would render: the first tracer of a scene renders it, the next
+    // finds it cached.
+    let mut rendered: Vec<PathBuf> = Vec::new();
+    for (bi, b) in plan.baselines.iter().enumerate() {
+        let scene = plan.scenes[b.scene].scene.as_ref();
+        let t0 = std::time::Instant::now();
+        let _ = crate::render::render_serial(scene, b.tracer.as_ref());
+        let probe = t0.elapsed().as_secs_f64();
+        probe_total += probe;
+        let per_spp = probe / f64::from(scene.settings.spp.max(1));
+        let cached = reference::cache_path(&out.join("refs"), scene, settings.ref_spp);
+        let refs = if let Some(r) = reference::analytic(scene) {
+            r.kind.label()
+        } else if cached.exists() {
+            format!("cached {}", cached.display())
+        } else if rendered.contains(&cached) {
+            "rendered above, then cached".into()
+        } else {
+            rendered.push(cached);
+            let t =
+                per_spp * f64::from(settings.ref_spp) / plan.max_workers.min(cores).max(1) as f64;
+            total += t;
+            format!("rendered at {} spp, est. {t:.1} s", settings.ref_spp)
+        };
+        let _ = writeln!(text, "{} · {}: reference {refs}", scene.name, b.tracer_id);
+        let specs: Vec<_> = plan
+            .configs
+            .iter()
+            .filter(|c| c.baseline == bi)
+            .filter_map(|c| c.spec.as_ref())
+            .collect();
+        let mut line = |label: String, workers: usize| {
+            let t = per_spp * samples / workers.min(cores).max(1) as f64;
+            total += t;
+            let _ = writeln!(text, "  {label} ×{workers}: est. {t:.1} s");
+        };
+        if specs.is_empty() {
+            line("rows_rayon".into(), plan.max_workers);
+        }
+        for spec in specs {
+            line(spec.label(), spec.workers);
+        }
+    }
+    let _ = writeln!(
+        text,
+        "
+estimated {total:.0} s of rendering (probe: one serial render per scene and tracer, {probe_total:.2} s). Nothing was measured."
+    );
+    Ok(text)
+}
+
 /// The 1-minute load average (Linux), or "unknown": how busy the machine was around the run.
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")

@@ -610,6 +610,21 @@ fn convergence_experiment_writes_rows_plot_and_slopes() {
         scene.display()
     );
     std::fs::write(dir.path().join("conv.toml"), &good).unwrap();
+    // `--dry-run` plans it (each tracer's reference and configuration) and writes nothing.
+    let out = run(
+        &["run", "conv.toml", "--dry-run", "--out", "res"],
+        dir.path(),
+    );
+    assert_ok(&out);
+    let plan = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        plan.contains("1, 2, 4 … 8 spp (4 steps, 15 samples per pixel")
+            && plan.contains("furnace_a08 · brute: reference analytic_environment")
+            && plan.contains("rows_rayon ×1")
+            && plan.contains("Nothing was measured"),
+        "{plan}"
+    );
+    assert!(!dir.path().join("res").exists());
     let out = run(&["run", "conv.toml", "--quiet", "--out", "res"], dir.path());
     assert_ok(&out);
     let rows = raysched::converge::read_csv(&dir.path().join("res/conv/convergence.csv")).unwrap();
