@@ -135,7 +135,8 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
 
 /// What [`run`] would do, measuring nothing: the progression, each scene's reference (analytic,
 /// cached under `<out>/refs/` or to be rendered) and every configuration, with a time estimate
-/// from one untimed serial render per (scene, tracer) scaled to a sample per pixel (a
+/// from one probe render per (scene, tracer) ([`super::dry_run::probe_render_s`]) scaled to a
+/// sample per pixel (a
 /// configuration of w workers at 1 / min(w, cores) of it). Writes no file.
 pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
     let settings = plan
@@ -161,9 +162,7 @@ progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel pe
     let mut rendered: Vec<PathBuf> = Vec::new();
     for (bi, b) in plan.baselines.iter().enumerate() {
         let scene = plan.scenes[b.scene].scene.as_ref();
-        let t0 = std::time::Instant::now();
-        let _ = crate::render::render_serial(scene, b.tracer.as_ref());
-        let probe = t0.elapsed().as_secs_f64();
+        let probe = super::dry_run::probe_render_s(scene, b.tracer.as_ref());
         probe_total += probe;
         let per_spp = probe / f64::from(scene.settings.spp.max(1));
         let cached = reference::cache_path(&out.join("refs"), scene, settings.ref_spp);
@@ -202,7 +201,7 @@ progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel pe
     let _ = writeln!(
         text,
         "
-estimated {total:.0} s of rendering (probe: one serial render per scene and tracer, {probe_total:.2} s). Nothing was measured."
+estimated {total:.0} s of rendering (one serial render per scene and tracer, est. from a probe of ≤ 16 spp: {probe_total:.2} s). Nothing was measured."
     );
     Ok(text)
 }

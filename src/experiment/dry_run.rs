@@ -1,14 +1,40 @@
 //! `raysched run --dry-run`: what a run would do (configurations, samples, time) without timing
-//! anything. The time estimate rests on one untimed serial render per (scene, tracer): a
-//! configuration with w workers is guessed at serial / min(w, cores), the guess a real run
-//! replaces with its own samples.
+//! anything. The time estimate rests on one untimed serial render per (scene, tracer), of at
+//! most [`PROBE_SPP`] samples per pixel scaled to the scene's: a configuration with w workers
+//! is guessed at serial / min(w, cores), the guess a real run replaces with its own samples.
 
 use super::meta::{self, Meta};
 use super::plan::ExperimentPlan;
 use super::run::{inner_count, RunError, RunOptions, MIN_ADAPTIVE_RUNS};
 use crate::render::render_serial;
+use crate::scene::Scene;
+use crate::tracer::Tracer;
 use std::fmt::Write;
 use std::time::Instant;
+
+/// Samples per pixel a probe renders at most, scaled to the scene's own count beyond it, so a
+/// dry run stays quick at any spp (a mutated `spp = 65536` made one probe take minutes). The
+/// scenes of every shipped experiment (≤ 16 spp) are probed whole, as before: a render's
+/// per-pixel and per-item costs do not scale with spp, so a scaled probe reads high.
+const PROBE_SPP: u32 = 16;
+
+/// Seconds one serial render of `scene` would take: a render of at most [`PROBE_SPP`] samples
+/// per pixel, untimed by the caller, scaled to the scene's count.
+pub(crate) fn probe_render_s<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> f64 {
+    let spp = scene.settings.spp.max(1);
+    let probe = spp.min(PROBE_SPP);
+    let mut small;
+    let scene = if probe < spp {
+        small = scene.clone();
+        small.settings.spp = probe;
+        &small
+    } else {
+        scene
+    };
+    let t0 = Instant::now();
+    let _ = render_serial(scene, tracer);
+    t0.elapsed().as_secs_f64() * f64::from(spp) / f64::from(probe)
+}
 
 /// The plan as text, ending with the estimated total.
 pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, RunError> {
@@ -60,11 +86,7 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
     let probes: Vec<f64> = plan
         .baselines
         .iter()
-        .map(|b| {
-            let t0 = Instant::now();
-            let _ = render_serial(plan.scenes[b.scene].scene.as_ref(), b.tracer.as_ref());
-            t0.elapsed().as_secs_f64()
-        })
+        .map(|b| probe_render_s(plan.scenes[b.scene].scene.as_ref(), b.tracer.as_ref()))
         .collect();
     let cores = crate::host::available_threads();
     let _ = writeln!(
@@ -112,7 +134,7 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
     }
     let _ = writeln!(
         out,
-        "\n{} configurations; estimated {:.0}–{:.0} s of rendering (probe: one serial render per scene and tracer, {:.2} s). Nothing was measured.",
+        "\n{} configurations; estimated {:.0}–{:.0} s of rendering (one serial render per scene and tracer, est. from a probe of ≤ 16 spp: {:.2} s). Nothing was measured.",
         plan.configs.len(),
         lo_total,
         hi_total,
