@@ -51,12 +51,7 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
         if !refs.contains(&line) {
             refs.push(line);
         }
-        let specs: Vec<_> = plan
-            .configs
-            .iter()
-            .filter(|c| c.baseline == bi)
-            .filter_map(|c| c.spec.as_ref())
-            .collect();
+        let specs = specs_of(plan, bi);
         if specs.is_empty() {
             rows.extend(converge::run_convergence(
                 scene,
@@ -133,6 +128,15 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
     Ok(dir)
 }
 
+/// The scheduler configurations of baseline `bi` (a scene and tracer); none: `rows_rayon`.
+fn specs_of(plan: &ExperimentPlan, bi: usize) -> Vec<&crate::sched::SchedulerSpec> {
+    plan.configs
+        .iter()
+        .filter(|c| c.baseline == bi)
+        .filter_map(|c| c.spec.as_ref())
+        .collect()
+}
+
 /// What [`run`] would do, measuring nothing: the progression, each scene's reference (analytic,
 /// cached under `<out>/refs/` or to be rendered) and every configuration, with a time estimate
 /// from one probe render per (scene, tracer) ([`super::dry_run::probe_render_s`]) scaled to a
@@ -180,12 +184,7 @@ progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel pe
             format!("rendered at {} spp, est. {t:.1} s", settings.ref_spp)
         };
         let _ = writeln!(text, "{} · {}: reference {refs}", scene.name, b.tracer_id);
-        let specs: Vec<_> = plan
-            .configs
-            .iter()
-            .filter(|c| c.baseline == bi)
-            .filter_map(|c| c.spec.as_ref())
-            .collect();
+        let specs = specs_of(plan, bi);
         let mut line = |label: String, workers: usize| {
             let t = per_spp * samples / workers.min(cores).max(1) as f64;
             total += t;
