@@ -140,8 +140,7 @@ fn specs_of(plan: &ExperimentPlan, bi: usize) -> Vec<&crate::sched::SchedulerSpe
 /// What [`run`] would do, measuring nothing: the progression, each scene's reference (analytic,
 /// cached under `<out>/refs/` or to be rendered) and every configuration, with a time estimate
 /// from one probe render per (scene, tracer) ([`super::dry_run::probe_render_s`]) scaled to a
-/// sample per pixel (a
-/// configuration of w workers at 1 / min(w, cores) of it). Writes no file.
+/// sample per pixel (a configuration of w workers at 1 / min(w, cores) of it). Writes no file.
 pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
     let settings = plan
         .convergence
@@ -153,9 +152,8 @@ pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
     let mut text = String::new();
     let _ = writeln!(
         text,
-        "experiment {} (convergence) → {}
-progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel per configuration)
-",
+        "experiment {} (convergence) → {}\nprogressive 1, 2, 4 … {} spp ({steps} steps, \
+         {samples:.0} samples per pixel per configuration)\n",
         plan.name,
         out.join(&plan.name).display(),
         settings.max_spp,
@@ -199,8 +197,8 @@ progressive 1, 2, 4 … {} spp ({steps} steps, {samples:.0} samples per pixel pe
     }
     let _ = writeln!(
         text,
-        "
-estimated {total:.0} s of rendering (one serial render per scene and tracer, est. from a probe of ≤ 16 spp: {probe_total:.2} s). Nothing was measured."
+        "\nestimated {total:.0} s of rendering ({}). Nothing was measured.",
+        super::dry_run::probe_label(probe_total)
     );
     Ok(text)
 }

@@ -18,6 +18,13 @@ use std::time::Instant;
 /// per-pixel and per-item costs do not scale with spp, so a scaled probe reads high.
 const PROBE_SPP: u32 = 16;
 
+/// How a plan's closing line states its probes: `probe_s`, their scaled sum.
+pub(crate) fn probe_label(probe_s: f64) -> String {
+    format!(
+        "one serial render per scene and tracer, est. from a probe of ≤ {PROBE_SPP} spp: {probe_s:.2} s"
+    )
+}
+
 /// Seconds one serial render of `scene` would take: a render of at most [`PROBE_SPP`] samples
 /// per pixel, untimed by the caller, scaled to the scene's count.
 pub(crate) fn probe_render_s<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> f64 {
@@ -134,11 +141,11 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
     }
     let _ = writeln!(
         out,
-        "\n{} configurations; estimated {:.0}–{:.0} s of rendering (one serial render per scene and tracer, est. from a probe of ≤ 16 spp: {:.2} s). Nothing was measured.",
+        "\n{} configurations; estimated {:.0}–{:.0} s of rendering ({}). Nothing was measured.",
         plan.configs.len(),
         lo_total,
         hi_total,
-        probes.iter().sum::<f64>()
+        probe_label(probes.iter().sum::<f64>())
     );
     Ok(out)
 }

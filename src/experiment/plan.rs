@@ -651,8 +651,8 @@ fn expand_grids(file: &ExperimentFile, settings: &Settings) -> Result<Vec<Grid>,
             let mut grid = Vec::with_capacity(specs.len() * setups.len());
             for setup in &setups {
                 for spec in &specs {
-                    let gpu = setup.set.has(SourceKind::Gpu);
-                    if let Some(r) = gpu.then(|| Runner::Gpu.refuses(&spec.policy)).flatten() {
+                    let refusal = Runner::Gpu.refuses(&spec.policy);
+                    if let Some(r) = refusal.filter(|_| setup.set.has(SourceKind::Gpu)) {
                         return Err(at((
                             r.param.into(),
                             format!("{} (sources = \"{}\")", r.as_value(), setup.set.id()),

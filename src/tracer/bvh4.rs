@@ -513,18 +513,18 @@ impl Collapse {
             let (mut row, mut ks) = ([0.0f32; WIDTH], [0u8; WIDTH]);
             let mut best = (leaf_cost(prims, step.area), 0u8);
             for k in 1..WIDTH {
-                let c = step.area * c.node + cl[k - 1] + cr[WIDTH - k - 1];
-                if c < best.0 {
-                    best = (c, k as u8);
+                let cost = step.area * c.node + cl[k - 1] + cr[WIDTH - k - 1];
+                if cost < best.0 {
+                    best = (cost, k as u8);
                 }
             }
             (row[0], ks[0]) = best;
             for j in 1..WIDTH {
                 let mut best = (row[j - 1], 0u8);
                 for k in 1..=j {
-                    let c = cl[k - 1] + cr[j - k];
-                    if c < best.0 {
-                        best = (c, k as u8);
+                    let cost = cl[k - 1] + cr[j - k];
+                    if cost < best.0 {
+                        best = (cost, k as u8);
                     }
                 }
                 (row[j], ks[j]) = best;
