@@ -90,17 +90,27 @@ pub(super) type Wide = Option<super::simd::Avx2>;
 #[cfg(not(target_arch = "x86_64"))]
 pub(super) type Wide = Option<std::convert::Infallible>;
 
-/// The traversal-side copy of a ray: origin, reciprocal direction, and per axis the plane
-/// entered first (`near`: the upper one where the direction is negative) and the one left by.
+/// The traversal-side copy of a ray: origin, reciprocal direction, the reciprocal direction
+/// scaled by [`FAR_SCALE`] for the far planes, and per axis the plane entered first (`near`:
+/// the upper one where the direction is negative) and the one left by.
 pub(super) struct RaySlabs<V> {
     pub(super) o: [V; 3],
     pub(super) inv: [V; 3],
+    /// `inv · FAR_SCALE`: the far distances come out scaled, one multiply fewer on the path
+    /// from a node's memory to its mask. bvh/Embree on 1 M triangles at 1024², one thread,
+    /// medians of 6 alternated runs: diffuse 0.785 → 0.80, primary 0.82 → 0.845, hit counts
+    /// unchanged (2-core AMD EPYC guest, 2026-12-05). Reducing the three axes as a tree
+    /// (two dependent `max`/`min` steps instead of three) added nothing there (0.785, 0.85).
+    pub(super) inv_far: [V; 3],
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
 }
 
 /// `t_far` is scaled by this so that rounding in the slab test never culls a box the ray
-/// touches (pbrt-v4, `Bounds3::IntersectP`).
+/// touches (pbrt-v4, `Bounds3::IntersectP`). Folded into the reciprocal direction
+/// ([`RaySlabs::inv_far`]): `(far − o) · (inv · s)` rounds four times, as `((far − o) · inv) · s`
+/// did, so the bound holds alike; the two can differ only on a box the ray passes within the
+/// margin.
 pub(super) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
 impl<V> RaySlabs<V> {
@@ -123,6 +133,7 @@ impl<V> RaySlabs<V> {
         Self {
             o: [ray.o.x, ray.o.y, ray.o.z].map(&splat),
             inv: inv.map(&splat),
+            inv_far: inv.map(|i| splat(i * FAR_SCALE)),
             near: [0, 1, 2].map(|a| if neg[a] { 3 + a } else { a }),
             far: [0, 1, 2].map(|a| if neg[a] { a } else { 3 + a }),
         }
@@ -143,11 +154,11 @@ impl NodeTest for RaySlabs<Vec4> {
                     Vec4::from_slice(&far[4 * h..]),
                 );
                 t0[h] = t0[h].max((near - self.o[a]) * self.inv[a]);
-                t1[h] = t1[h].min((far - self.o[a]) * self.inv[a]);
+                t1[h] = t1[h].min((far - self.o[a]) * self.inv_far[a]);
             }
         }
         let t_max = Vec4::splat(t_max);
-        let inside = |h: usize| t0[h].cmple((t1[h] * FAR_SCALE).min(t_max)).bitmask();
+        let inside = |h: usize| t0[h].cmple(t1[h].min(t_max)).bitmask();
         let mut entry = [0.0; WIDTH];
         t0[0].write_to_slice(&mut entry[..4]);
         t0[1].write_to_slice(&mut entry[4..]);

@@ -9,7 +9,7 @@
 //! (subtract, multiply, `max`/`min` with the same operand order, no fused multiply-add), so
 //! both enter the same children in the same order and images do not depend on the CPU.
 
-use super::bvh4::{Leaves, Node, NodeTest, RaySlabs, WideBvh, FAR_SCALE, WIDTH};
+use super::bvh4::{Leaves, Node, NodeTest, RaySlabs, WideBvh, WIDTH};
 use crate::geometry::{gamma, Hit, Ray, ShearedRay, Triangle4};
 use std::arch::x86_64::{
     __m256, _mm256_add_ps, _mm256_and_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps,
@@ -264,12 +264,9 @@ impl NodeTest for Slabs8 {
                 let near = _mm256_loadu_ps(n.planes[s.near[a]].as_ptr());
                 let far = _mm256_loadu_ps(n.planes[s.far[a]].as_ptr());
                 t0 = _mm256_max_ps(t0, _mm256_mul_ps(_mm256_sub_ps(near, s.o[a]), s.inv[a]));
-                t1 = _mm256_min_ps(t1, _mm256_mul_ps(_mm256_sub_ps(far, s.o[a]), s.inv[a]));
+                t1 = _mm256_min_ps(t1, _mm256_mul_ps(_mm256_sub_ps(far, s.o[a]), s.inv_far[a]));
             }
-            let far = _mm256_min_ps(
-                _mm256_mul_ps(t1, _mm256_set1_ps(FAR_SCALE)),
-                _mm256_set1_ps(t_max),
-            );
+            let far = _mm256_min_ps(t1, _mm256_set1_ps(t_max));
             _mm256_storeu_ps(entry.as_mut_ptr(), t0);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, far)) as u32
         };
