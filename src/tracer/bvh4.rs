@@ -415,28 +415,39 @@ impl WideBvh {
         }
     }
 
-    /// [`Self::any`] with node test `slabs`. Children are visited in lane order, without
-    /// sorting: any blocker ends the query.
+    /// [`Self::any`] with node test `slabs`. Children are visited without sorting, the
+    /// highest hit lane first (it is entered at once, the others wait on the stack): any
+    /// blocker ends the query. Entering it at once rather than pushing and popping it back
+    /// (the same order): bvh/Embree occlusion rays on 1 M triangles 0.74 → 0.78 at 1024² and
+    /// 0.79 → 0.825 at 256² (medians of 4 alternated runs, 2-core AMD EPYC guest, 2026-12-05).
     #[inline(always)]
     pub(super) fn any_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> bool {
         let mut stack = Stack::new();
         stack.push((self.root, 0.0));
-        while let Some((r, _)) = stack.pop() {
-            if r & LEAF != 0 {
-                if leaves.any(leaf_range(r), slabs.wide()) {
-                    return true;
+        while let Some((mut r, _)) = stack.pop() {
+            loop {
+                if r & LEAF != 0 {
+                    if leaves.any(leaf_range(r), slabs.wide()) {
+                        return true;
+                    }
+                    break;
                 }
-                continue;
-            }
-            let n = &self.nodes[r as usize];
-            let (_, mut mask) = slabs.hit(n, t_max);
-            if self.prefetch {
-                self.prefetch_children(n, mask, leaves);
-            }
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack.push((n.child[lane], 0.0));
+                let n = &self.nodes[r as usize];
+                let (_, mut mask) = slabs.hit(n, t_max);
+                if mask == 0 {
+                    break;
+                }
+                if self.prefetch {
+                    self.prefetch_children(n, mask, leaves);
+                }
+                let last = (u32::BITS - 1 - mask.leading_zeros()) as usize;
+                mask &= !(1 << last);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    stack.push((n.child[lane], 0.0));
+                }
+                r = n.child[last];
             }
         }
         false
