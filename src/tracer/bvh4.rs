@@ -383,10 +383,11 @@ impl WideBvh {
                     r = EMPTY;
                     break;
                 }
-                if self.prefetch {
-                    self.prefetch_children(n, mask, leaves);
-                }
-                r = push_sorted(&mut stack, n, &t0, mask);
+                r = if self.prefetch {
+                    push_sorted(&mut stack, n, &t0, mask, |c| self.prefetch_child(c, leaves))
+                } else {
+                    push_sorted(&mut stack, n, &t0, mask, |_| {})
+                };
             }
             if r == EMPTY {
                 continue;
@@ -399,19 +400,24 @@ impl WideBvh {
         best
     }
 
-    /// Ask for the cache lines of the children of `n` in `mask`: a node's planes, a leaf's
-    /// packets. Hints only: no result depends on them.
+    /// Ask for the cache lines of child `c`: a node's planes, a leaf's packets. A hint only:
+    /// no result depends on it.
+    #[inline(always)]
+    fn prefetch_child(&self, c: u32, leaves: &impl Leaves) {
+        if c & LEAF != 0 {
+            leaves.prefetch(leaf_range(c));
+        } else {
+            #[cfg(target_arch = "x86_64")]
+            super::simd::prefetch(&self.nodes[c as usize]);
+        }
+    }
+
+    /// [`Self::prefetch_child`] for every child of `n` in `mask`.
     #[inline(always)]
     fn prefetch_children(&self, n: &Node, mut mask: u32, leaves: &impl Leaves) {
         while mask != 0 {
-            let c = n.child[mask.trailing_zeros() as usize];
+            self.prefetch_child(n.child[mask.trailing_zeros() as usize], leaves);
             mask &= mask - 1;
-            if c & LEAF != 0 {
-                leaves.prefetch(leaf_range(c));
-            } else {
-                #[cfg(target_arch = "x86_64")]
-                super::simd::prefetch(&self.nodes[c as usize]);
-            }
         }
     }
 
@@ -646,24 +652,38 @@ fn leaf_range(r: u32) -> Range<usize> {
     first..first + (r & ((1 << LEAF_BITS) - 1)) as usize
 }
 
-/// Push the hit children of `n` except the nearest, farthest first, and return the nearest.
+/// Push the hit children of `n` except the nearest, farthest first, and return the nearest;
+/// `hint` sees each hit child as its reference is read (the traversal's cache hints, given
+/// here rather than in a loop of their own over the same children: 5 % fewer instructions
+/// in the traversal per primary ray (callgrind, 100 k triangles, 256²), bvh/Embree on 1 M
+/// triangles at 1024² primary 0.86 → 0.87 and diffuse 0.79–0.80 → 0.80 in two sets of 5
+/// alternated runs, 2-core AMD EPYC guest, 2026-12-05).
 /// One child hit (the common case low in the tree) is returned without sorting, two with one
 /// comparison; either way equal entry distances leave the higher lane nearer, as the
 /// insertion sort does, so every path visits children in one order.
 #[inline(always)]
-fn push_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u32) -> u32 {
+fn push_sorted(
+    stack: &mut Stack,
+    n: &Node,
+    t0: &[f32; WIDTH],
+    mask: u32,
+    hint: impl Fn(u32),
+) -> u32 {
     let a = mask.trailing_zeros() as usize;
     let rest = mask & (mask - 1);
     if rest == 0 {
+        hint(n.child[a]);
         return n.child[a];
     }
     if rest & (rest - 1) == 0 {
         let b = rest.trailing_zeros() as usize;
+        hint(n.child[a]);
+        hint(n.child[b]);
         let (near, far) = if t0[a] < t0[b] { (a, b) } else { (b, a) };
         stack.push((n.child[far], t0[far]));
         return n.child[near];
     }
-    push_insertion_sorted(stack, n, t0, mask)
+    push_insertion_sorted(stack, n, t0, mask, hint)
 }
 
 /// [`push_sorted`] for any number of hit children: an insertion sort in lane order. Padding
@@ -674,7 +694,13 @@ fn push_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u32) -> u32
 /// stored in each node and applied with AVX2 permutes, no sort: primary 0.76–0.77 against
 /// 0.79–0.80, diffuse 0.69 against 0.68–0.69 (another EPYC guest, `benches/peers/results.md`).
 #[inline(always)]
-fn push_insertion_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u32) -> u32 {
+fn push_insertion_sorted(
+    stack: &mut Stack,
+    n: &Node,
+    t0: &[f32; WIDTH],
+    mask: u32,
+    hint: impl Fn(u32),
+) -> u32 {
     let mut hits = [(0u32, 0f32); WIDTH];
     let mut k = 0;
     let mut m = mask;
@@ -683,6 +709,7 @@ fn push_insertion_sorted(stack: &mut Stack, n: &Node, t0: &[f32; WIDTH], mask: u
         m &= m - 1;
         // Insertion sort, nearest last.
         let e = (n.child[lane], t0[lane]);
+        hint(e.0);
         let mut j = k;
         while j > 0 && hits[j - 1].1 < e.1 {
             hits[j] = hits[j - 1];
@@ -800,8 +827,8 @@ mod tests {
                 (t0[a], t0[b]) = (ta, tb);
                 let mask = 1 << a | 1 << b;
                 let (mut s1, mut s2) = (Stack::new(), Stack::new());
-                let near = push_sorted(&mut s1, &n, &t0, mask);
-                assert_eq!(near, push_insertion_sorted(&mut s2, &n, &t0, mask));
+                let near = push_sorted(&mut s1, &n, &t0, mask, |_| {});
+                assert_eq!(near, push_insertion_sorted(&mut s2, &n, &t0, mask, |_| {}));
                 assert_eq!(s1.pop(), s2.pop());
                 assert_eq!((s1.pop(), s2.pop()), (None, None));
             }
