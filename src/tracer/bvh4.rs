@@ -75,12 +75,16 @@ impl Node {
 /// IEEE operations lane by lane, so both enter the same children in the same order.
 pub(super) trait NodeTest {
     /// Entry distance of every child and the mask of those entered before `t_max`.
-    fn hit(&self, n: &Node, t_max: f32) -> ([f32; WIDTH], u32);
+    fn hit(&self, n: &Node, t_max: f32) -> Entered;
     /// The 8-lane leaf test's token where this test runs in a traversal compiled for AVX2.
     fn wide(&self) -> Wide {
         None
     }
 }
+
+/// What [`NodeTest::hit`] finds: each child's entry distance and the mask of the children
+/// entered.
+pub(super) type Entered = ([f32; WIDTH], u32);
 
 /// Proof that the 8-lane leaf test of [`super::simd`] may run (x86-64 with AVX2); `None`
 /// elsewhere, where leaves are tested four lanes at a time.
@@ -378,15 +382,15 @@ impl WideBvh {
             // Descend nearest-first; the farther children wait on the stack.
             while r & LEAF == 0 {
                 let n = &self.nodes[r as usize];
-                let (t0, mask) = slabs.hit(n, t_max);
-                if mask == 0 {
+                let hits = slabs.hit(n, t_max);
+                if hits.1 == 0 {
                     r = EMPTY;
                     break;
                 }
                 r = if self.prefetch {
-                    push_sorted(&mut stack, n, &t0, mask, |c| self.prefetch_child(c, leaves))
+                    push_sorted(&mut stack, n, &hits, |c| self.prefetch_child(c, leaves))
                 } else {
-                    push_sorted(&mut stack, n, &t0, mask, |_| {})
+                    push_sorted(&mut stack, n, &hits, |_| {})
                 };
             }
             if r == EMPTY {
@@ -662,13 +666,8 @@ fn leaf_range(r: u32) -> Range<usize> {
 /// comparison; either way equal entry distances leave the higher lane nearer, as the
 /// insertion sort does, so every path visits children in one order.
 #[inline(always)]
-fn push_sorted(
-    stack: &mut Stack,
-    n: &Node,
-    t0: &[f32; WIDTH],
-    mask: u32,
-    hint: impl Fn(u32),
-) -> u32 {
+fn push_sorted(stack: &mut Stack, n: &Node, entered: &Entered, hint: impl Fn(u32)) -> u32 {
+    let (t0, mask) = (&entered.0, entered.1);
     let a = mask.trailing_zeros() as usize;
     let rest = mask & (mask - 1);
     if rest == 0 {
@@ -683,7 +682,7 @@ fn push_sorted(
         stack.push((n.child[far], t0[far]));
         return n.child[near];
     }
-    push_insertion_sorted(stack, n, t0, mask, hint)
+    push_insertion_sorted(stack, n, entered, hint)
 }
 
 /// [`push_sorted`] for any number of hit children: an insertion sort in lane order. Padding
@@ -697,10 +696,10 @@ fn push_sorted(
 fn push_insertion_sorted(
     stack: &mut Stack,
     n: &Node,
-    t0: &[f32; WIDTH],
-    mask: u32,
+    entered: &Entered,
     hint: impl Fn(u32),
 ) -> u32 {
+    let (t0, mask) = (&entered.0, entered.1);
     let mut hits = [(0u32, 0f32); WIDTH];
     let mut k = 0;
     let mut m = mask;
@@ -827,8 +826,11 @@ mod tests {
                 (t0[a], t0[b]) = (ta, tb);
                 let mask = 1 << a | 1 << b;
                 let (mut s1, mut s2) = (Stack::new(), Stack::new());
-                let near = push_sorted(&mut s1, &n, &t0, mask, |_| {});
-                assert_eq!(near, push_insertion_sorted(&mut s2, &n, &t0, mask, |_| {}));
+                let near = push_sorted(&mut s1, &n, &(t0, mask), |_| {});
+                assert_eq!(
+                    near,
+                    push_insertion_sorted(&mut s2, &n, &(t0, mask), |_| {})
+                );
                 assert_eq!(s1.pop(), s2.pop());
                 assert_eq!((s1.pop(), s2.pop()), (None, None));
             }
