@@ -123,7 +123,7 @@ pub struct BvhTracer {
     linear: Option<Geometry>,
     /// The BVH's leaf slots four by four.
     packets: Vec<Packet>,
-    /// Spheres by slot (empty when the scene has none).
+    /// The scene's spheres, by id (a slot's id below [`Self::sphere_count`]).
     spheres: Vec<Sphere>,
     /// Wall time of the build (zero for the linear list of [`BvhTracer::new`]).
     pub build_time: Duration,
@@ -177,20 +177,6 @@ impl BvhTracer {
         let costs = (params.max_prims_per_leaf == 1).then_some(COLLAPSE_COSTS);
         let bvh = WideBvh::build(&aabbs, params, costs);
         let ns = geometry.spheres.len() as u32;
-        let mut spheres = Vec::new();
-        if ns > 0 {
-            spheres = bvh
-                .order
-                .iter()
-                .map(|&p| {
-                    // Triangle and padding slots: a placeholder no lane flag points to.
-                    geometry.spheres.get(p as usize).copied().unwrap_or(Sphere {
-                        center: glam::Vec3::ZERO,
-                        radius: 0.0,
-                    })
-                })
-                .collect();
-        }
         let packets = bvh
             .order
             .chunks_exact(PACKET)
@@ -212,7 +198,7 @@ impl BvhTracer {
             sphere_count: ns,
             linear: None,
             packets,
-            spheres,
+            spheres: geometry.spheres.clone(),
             build_time: start.elapsed(),
         }
     }
@@ -239,7 +225,7 @@ impl BvhTracer {
         while spheres != 0 {
             let lane = spheres.trailing_zeros() as usize;
             spheres &= spheres - 1;
-            if let Some(t) = self.spheres[k * PACKET + lane].intersect(ray, t_max) {
+            if let Some(t) = self.spheres[p.ids[lane] as usize].intersect(ray, t_max) {
                 h.t[lane] = t;
                 h.b1[lane] = 0.0;
                 h.b2[lane] = 0.0;
@@ -271,7 +257,7 @@ impl BvhTracer {
         while spheres != 0 {
             let lane = spheres.trailing_zeros() as usize;
             spheres &= spheres - 1;
-            if let Some(t) = self.spheres[k * PACKET + lane].intersect(ray, t_max) {
+            if let Some(t) = self.spheres[id8(p, q, lane) as usize].intersect(ray, t_max) {
                 h.t[lane] = t;
                 h.b1[lane] = 0.0;
                 h.b2[lane] = 0.0;
@@ -282,27 +268,25 @@ impl BvhTracer {
     }
 }
 
+/// The scene id in lane `lane` of the eight lanes of packets `p` (lanes 0–3) and `q`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn id8(p: &Packet, q: &Packet, lane: usize) -> u32 {
+    if lane < PACKET {
+        p.ids[lane]
+    } else {
+        q.ids[lane - PACKET]
+    }
+}
+
 /// [`nearest`] over the eight lanes of two packets `p` (lanes 0–3) and `q`.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn nearest8(h: &super::simd::Hit8, p: &Packet, q: &Packet) -> Hit {
-    let mut m = h.mask;
-    let mut lane = m.trailing_zeros() as usize;
-    m &= m - 1;
-    while m != 0 {
-        let l = m.trailing_zeros() as usize;
-        m &= m - 1;
-        if h.t[l] < h.t[lane] {
-            lane = l;
-        }
-    }
+    let lane = nearest_lane(h.mask, &h.t);
     Hit {
         t: h.t[lane],
-        prim: if lane < PACKET {
-            p.ids[lane]
-        } else {
-            q.ids[lane - PACKET]
-        },
+        prim: id8(p, q, lane),
         b1: h.b1[lane],
         b2: h.b2[lane],
     }
@@ -312,22 +296,29 @@ fn nearest8(h: &super::simd::Hit8, p: &Packet, q: &Packet) -> Hit {
 /// first of equal hits), as a hit on its scene primitive.
 #[inline(always)]
 fn nearest(h: &Hit4, packet: &Packet) -> Hit {
-    let mut m = h.mask;
-    let mut lane = m.trailing_zeros() as usize;
-    m &= m - 1;
-    while m != 0 {
-        let l = m.trailing_zeros() as usize;
-        m &= m - 1;
-        if h.t[l] < h.t[lane] {
-            lane = l;
-        }
-    }
+    let lane = nearest_lane(h.mask, h.t.as_ref());
     Hit {
         t: h.t[lane],
         prim: packet.ids[lane],
         b1: h.b1[lane],
         b2: h.b2[lane],
     }
+}
+
+/// The lane of `mask` (not empty) with the smallest `t`, the lowest of equals.
+#[inline(always)]
+fn nearest_lane(mask: u32, t: &[f32]) -> usize {
+    let mut m = mask;
+    let mut lane = m.trailing_zeros() as usize;
+    m &= m - 1;
+    while m != 0 {
+        let l = m.trailing_zeros() as usize;
+        m &= m - 1;
+        if t[l] < t[lane] {
+            lane = l;
+        }
+    }
+    lane
 }
 
 impl Tracer for BvhTracer {

@@ -449,6 +449,8 @@ impl WideBvh {
                 if mask == 0 {
                     break;
                 }
+                // The hints first, in a pass of their own, so that no leaf test below holds
+                // back a later child's hint.
                 if self.prefetch {
                     self.prefetch_children(n, mask, leaves);
                 }
