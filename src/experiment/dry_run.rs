@@ -6,7 +6,7 @@
 use super::meta::{self, Meta};
 use super::plan::ExperimentPlan;
 use super::run::{inner_count, RunError, RunOptions, MIN_ADAPTIVE_RUNS};
-use crate::render::render_serial;
+use crate::render::{render_item_spp, WorkItem};
 use crate::scene::Scene;
 use crate::tracer::Tracer;
 use std::fmt::Write;
@@ -26,20 +26,18 @@ pub(crate) fn probe_label(probe_s: f64) -> String {
 }
 
 /// Seconds one serial render of `scene` would take: a render of at most [`PROBE_SPP`] samples
-/// per pixel, untimed by the caller, scaled to the scene's count.
+/// per pixel (row by row, as [`crate::render::render_serial`] renders, the scene read in place
+/// rather than copied with a lower count), untimed by the caller, scaled to the scene's count.
 pub(crate) fn probe_render_s<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> f64 {
     let spp = scene.settings.spp.max(1);
     let probe = spp.min(PROBE_SPP);
-    let mut small;
-    let scene = if probe < spp {
-        small = scene.clone();
-        small.settings.spp = probe;
-        &small
-    } else {
-        scene
-    };
     let t0 = Instant::now();
-    let _ = render_serial(scene, tracer);
+    for f in 0..scene.frames() {
+        for y in 0..scene.height() {
+            let item = WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f);
+            std::hint::black_box(render_item_spp(scene, tracer, &item, probe));
+        }
+    }
     t0.elapsed().as_secs_f64() * f64::from(spp) / f64::from(probe)
 }
 

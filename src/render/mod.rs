@@ -372,7 +372,20 @@ pub fn extra_work() -> Option<f64> {
 
 #[inline(always)]
 fn render_item_pure<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
-    with_features!(scene, tile_with::<T, _>(scene, tracer, item))
+    let spp = scene.settings.spp;
+    with_features!(scene, tile_with::<T, _>(scene, tracer, item, spp))
+}
+
+/// [`render_item`] with the first `spp` samples of each pixel instead of the scene's count
+/// (the same samples a scene of `spp` renders), for probes that time a short render of a
+/// scene without copying it.
+pub fn render_item_spp<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    item: &WorkItem,
+    spp: u32,
+) -> TileResult {
+    with_features!(scene, tile_with::<T, _>(scene, tracer, item, spp))
 }
 
 /// Each pixel's sample mean straight into the item's result, at most one allocation per item
@@ -385,8 +398,8 @@ fn tile_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
     scene: &Scene,
     tracer: &T,
     item: &WorkItem,
+    spp: u32,
 ) -> TileResult {
-    let spp = scene.settings.spp;
     let inv = 1.0 / spp as f64;
     let cam = scene.frame_camera(item.frame);
     let seed = frame_seed(scene.settings.seed, item.frame);

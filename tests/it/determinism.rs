@@ -1,7 +1,9 @@
 //! A pixel's value never depends on which thread renders it, in which order, or with which
 //! other pixels: whole-image render vs random pixel subsets in shuffled order on several threads.
 
-use raysched::render::{render_item, render_parallel, render_serial, Region, WorkItem};
+use raysched::render::{
+    render_item, render_item_spp, render_parallel, render_serial, Region, WorkItem,
+};
 use raysched::rng::Sampler;
 use raysched::scene::SceneOverrides;
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -97,4 +99,31 @@ fn a_different_seed_gives_a_different_image() {
         render_serial(&a, &ta).0.hash(),
         render_serial(&b, &tb).0.hash()
     );
+}
+
+/// A probe's short render of a scene in place (`render_item_spp`, the dry run's estimate)
+/// renders the samples a copy of the scene with that count renders, bit for bit, and a
+/// different count renders other pixels.
+#[test]
+fn rendering_fewer_samples_in_place_matches_a_scene_of_that_count() {
+    let load = |spp| {
+        crate::support::load(
+            "cornell_box.toml",
+            SceneOverrides {
+                width: Some(9),
+                height: Some(7),
+                spp: Some(spp),
+                ..Default::default()
+            },
+        )
+    };
+    let (full, small) = (load(8), load(3));
+    let tracer = AnyTracer::build(TracerKind::Bvh, &full, 1).unwrap();
+    for y in 0..full.height() {
+        let item = WorkItem::rect(y, 0, y, full.width(), 1);
+        let probe = render_item_spp(&full, &tracer, &item, 3);
+        assert_eq!(probe.pixels, render_item(&small, &tracer, &item).pixels, "row {y}");
+        assert_eq!(probe.rays, render_item(&small, &tracer, &item).rays, "row {y}");
+        assert_ne!(probe.pixels, render_item(&full, &tracer, &item).pixels, "row {y}");
+    }
 }
