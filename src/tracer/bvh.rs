@@ -43,7 +43,11 @@ impl Default for Packet {
 /// vs bvh 1.99/2.72 µs at 1 prim, 2.80/2.99 at 2, 4.93/3.20 at 4, 9.30/4.09 at 8. (With the
 /// earlier CWBVH traversal the crossover was at 8.) Above it the tree pays even on the Cornell
 /// box's 36 triangles: testing all nine packets of them in a row was 1.6× slower than the
-/// 8-wide tree (one-thread render, 16 spp, best of 4: 0.674 against 0.421 s, machine loaded).
+/// 8-wide tree (one-thread render, 16 spp, best of 4: 0.674 against 0.421 s, machine loaded);
+/// so was testing them in five 8-lane tests (`triangles8`, ids in order, inlined into an AVX2
+/// loop): 0.83× the tree's rate on primary rays and 0.91× on one diffuse bounce
+/// (`examples/tracer_ab --rays primary,diffuse cornell_box 0 512 7`, three alternated runs,
+/// 2-core AMD EPYC guest, 2026-12-05).
 pub const BVH_MIN_PRIMS: usize = 4;
 
 /// obvhs' `medium_build` (PLOC, reinsertion, leaves of ≤ 8 by SAH collapse) with the collapse's
