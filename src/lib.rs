@@ -63,6 +63,7 @@ pub mod metrics;
 pub mod model;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod one_line;
 pub mod plot;
 pub mod profile;
 pub mod provenance;

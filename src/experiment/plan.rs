@@ -9,6 +9,7 @@ use crate::hash::{fnv, hex};
 use crate::limits::{
     checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
 };
+use crate::one_line::OneLine;
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
@@ -20,9 +21,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// A bad experiment file: `file: field: message`.
+/// A bad experiment file: `file: field: message`, on one line whatever bytes the file names
+/// hold ([`OneLine`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}: {field}{}{msg}", if field.is_empty() { "" } else { ": " })]
+#[error("{}: {}{}{}", OneLine(path), OneLine(field), if field.is_empty() { "" } else { ": " }, OneLine(msg))]
 pub struct ConfigError {
     /// The experiment file, with `:line:column` for a TOML error.
     pub path: String,

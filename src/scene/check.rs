@@ -1,10 +1,12 @@
 //! Field checks of stage two: every error names the file and the field.
 
+use crate::one_line::OneLine;
 use glam::DVec3;
 
-/// A bad scene: which file, which field (or line), and what is wrong with it.
+/// A bad scene: which file, which field (or line), and what is wrong with it; one line,
+/// whatever bytes the file name holds ([`OneLine`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}{}: {field}{}{msg}", line.map(|l| format!(":{l}")).unwrap_or_default(), if field.is_empty() { "" } else { ": " })]
+#[error("{}{}: {}{}{}", OneLine(path), line.map(|l| format!(":{l}")).unwrap_or_default(), OneLine(field), if field.is_empty() { "" } else { ": " }, OneLine(msg))]
 pub struct SceneError {
     /// The scene file, as named in the error.
     pub path: String,

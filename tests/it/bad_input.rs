@@ -242,3 +242,43 @@ fn advise_bad_flags_are_one_line_errors_with_exit_2() {
     assert_eq!(missing.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/scene.toml"));
 }
+
+/// A file name may hold a newline: an error naming it is still one line, the name escaped
+/// (an experiment naming such a scene, a missing scene and a mesh named so, through the
+/// library and through the binary).
+#[test]
+fn file_names_with_control_characters_are_escaped_in_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = dir.path().join("exp.toml");
+    std::fs::write(
+        &exp,
+        "repetitions = 1\nworkers = [1]\ntracers = [\"bvh\"]\n[[scenes]]\npath = \"co\\nell\\t.toml\"\n[[schedulers]]\nkind = \"static\"\nchunk = [\"16\"]\n",
+    )
+    .unwrap();
+    let e = raysched::experiment::load_plan(&exp)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(!e.contains('\n') && !e.contains('\t'), "{e:?}");
+    assert!(
+        e.contains("co\\nell\\t.toml") && e.contains("scenes[0]"),
+        "{e}"
+    );
+
+    std::fs::write(dir.path().join("tri.obj"), OBJ).unwrap();
+    let mesh = GOOD.replace("path = \"tri.obj\"", "path = \"tri\\n.obj\"");
+    let (code, stderr, written) = run(dir.path(), &mesh, &[]);
+    assert_eq!(code, 2, "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr:?}");
+    assert!(stderr.contains("tri\\n.obj") && !written, "{stderr}");
+
+    let output = Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .arg("render")
+        .arg(dir.path().join("missing\n.toml"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr:?}");
+    assert!(stderr.contains("missing\\n.toml"), "{stderr}");
+}

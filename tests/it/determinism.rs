@@ -122,8 +122,20 @@ fn rendering_fewer_samples_in_place_matches_a_scene_of_that_count() {
     for y in 0..full.height() {
         let item = WorkItem::rect(y, 0, y, full.width(), 1);
         let probe = render_item_spp(&full, &tracer, &item, 3);
-        assert_eq!(probe.pixels, render_item(&small, &tracer, &item).pixels, "row {y}");
-        assert_eq!(probe.rays, render_item(&small, &tracer, &item).rays, "row {y}");
-        assert_ne!(probe.pixels, render_item(&full, &tracer, &item).pixels, "row {y}");
+        assert_eq!(
+            probe.pixels,
+            render_item(&small, &tracer, &item).pixels,
+            "row {y}"
+        );
+        assert_eq!(
+            probe.rays,
+            render_item(&small, &tracer, &item).rays,
+            "row {y}"
+        );
+        assert_ne!(
+            probe.pixels,
+            render_item(&full, &tracer, &item).pixels,
+            "row {y}"
+        );
     }
 }
