@@ -430,6 +430,14 @@ fn random_flags_exit_0_or_2_with_one_line_errors() {
         "--tracer",
         "--deadline-ms",
         "--local-threads",
+        "--slow",
+        "--passes",
+        "--returns",
+        "--weights",
+        "--fsc-warm",
+        "--sources",
+        "--gpu-chunk",
+        "--gpu-buffer",
     ];
     let (cases, time) = budget(128, 3);
     let flag = (prop::sample::select(FLAGS), prop::sample::select(HOSTILE));
@@ -546,4 +554,78 @@ fn model_files_never_panic_and_every_error_is_one_line() {
         Ok(())
     });
     eprintln!("fuzz models: {} models loaded", loaded_ok.into_inner());
+}
+
+/// `advise` and `profile` with random flags and hostile values on a 4×4 scene: exit 0 or 2
+/// (1 for a run-time failure), never a panic, every error one line.
+#[test]
+fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
+                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
+                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    const ADVISE: &[&str] = &[
+        "--workers",
+        "--scheduler",
+        "--chunks",
+        "--buffer",
+        "--passes",
+        "--sources",
+        "--slow",
+        "--spp",
+        "--probe-spp",
+        "--tracer",
+        "--tolerance-pct",
+    ];
+    const PROFILE: &[&str] = &["--spp", "--tracer", "--chunks", "--passes"];
+    let (cases, time) = budget(64, 3);
+    let command = prop_oneof![
+        prop::collection::vec(
+            (prop::sample::select(ADVISE), prop::sample::select(HOSTILE)),
+            1..3
+        )
+        .prop_map(|f| ("advise", f)),
+        prop::collection::vec(
+            (prop::sample::select(PROFILE), prop::sample::select(HOSTILE)),
+            1..3
+        )
+        .prop_map(|f| ("profile", f)),
+    ];
+    fuzz(
+        "advise/profile flags",
+        command,
+        (cases.div_ceil(8), time),
+        |(sub, flags)| {
+            let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"));
+            cmd.current_dir(dir.path()).args([sub, "s.toml"]);
+            if sub == "advise" {
+                cmd.args(["--probe-spp", "1", "--spp", "1"]);
+            } else {
+                cmd.args(["-o", "p.png", "--passes", "1"]);
+            }
+            for (f, v) in &flags {
+                cmd.arg(f).arg(v.trim_matches('"'));
+            }
+            let out = cmd.output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            let code = out.status.code();
+            prop_assert!(
+                code == Some(0) || code == Some(2) || code == Some(1),
+                "{sub} {flags:?}: exit {code:?}: {stderr}"
+            );
+            prop_assert!(!stderr.contains("panicked"), "{sub} {flags:?}: {stderr}");
+            if code != Some(0) {
+                prop_assert_eq!(
+                    stderr.trim_end().lines().count(),
+                    1,
+                    "{} {:?}: {}",
+                    sub,
+                    flags,
+                    stderr
+                );
+            }
+            Ok(())
+        },
+    );
 }
