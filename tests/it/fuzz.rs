@@ -411,11 +411,7 @@ fn experiment_texts_never_panic_and_every_error_is_one_line() {
 
 #[test]
 fn random_flags_exit_0_or_2_with_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
-                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
-                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
-    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let dir = tiny_scene_dir();
     const FLAGS: &[&str] = &[
         "--threads",
         "--spp",
@@ -446,30 +442,11 @@ fn random_flags_exit_0_or_2_with_one_line_errors() {
         prop::collection::vec(flag, 1..3),
         (cases.div_ceil(8), time),
         |flags| {
-            let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"));
-            cmd.current_dir(dir.path())
-                .args(["render", "s.toml", "-o", "o.exr", "--threads", "1"]);
-            for (f, v) in &flags {
-                cmd.arg(f).arg(v.trim_matches('"'));
-            }
-            let out = cmd.output().unwrap();
-            let stderr = String::from_utf8_lossy(&out.stderr);
-            let code = out.status.code();
-            prop_assert!(
-                code == Some(0) || code == Some(2) || code == Some(1),
-                "{flags:?}: exit {code:?}: {stderr}"
-            );
-            prop_assert!(!stderr.contains("panicked"), "{flags:?}: {stderr}");
-            if code != Some(0) {
-                prop_assert_eq!(
-                    stderr.trim_end().lines().count(),
-                    1,
-                    "{:?}: {}",
-                    flags,
-                    stderr
-                );
-            }
-            Ok(())
+            exits_0_or_2_in_one_line(
+                &dir,
+                &["render", "s.toml", "-o", "o.exr", "--threads", "1"],
+                &flags,
+            )
         },
     );
 }
@@ -560,11 +537,7 @@ fn model_files_never_panic_and_every_error_is_one_line() {
 /// (1 for a run-time failure), never a panic, every error one line.
 #[test]
 fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
-                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
-                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
-    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    let dir = tiny_scene_dir();
     const ADVISE: &[&str] = &[
         "--workers",
         "--scheduler",
@@ -597,35 +570,55 @@ fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
         command,
         (cases.div_ceil(8), time),
         |(sub, flags)| {
-            let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"));
-            cmd.current_dir(dir.path()).args([sub, "s.toml"]);
-            if sub == "advise" {
-                cmd.args(["--probe-spp", "1", "--spp", "1"]);
+            let base: &[&str] = if sub == "advise" {
+                &["advise", "s.toml", "--probe-spp", "1", "--spp", "1"]
             } else {
-                cmd.args(["-o", "p.png", "--passes", "1"]);
-            }
-            for (f, v) in &flags {
-                cmd.arg(f).arg(v.trim_matches('"'));
-            }
-            let out = cmd.output().unwrap();
-            let stderr = String::from_utf8_lossy(&out.stderr);
-            let code = out.status.code();
-            prop_assert!(
-                code == Some(0) || code == Some(2) || code == Some(1),
-                "{sub} {flags:?}: exit {code:?}: {stderr}"
-            );
-            prop_assert!(!stderr.contains("panicked"), "{sub} {flags:?}: {stderr}");
-            if code != Some(0) {
-                prop_assert_eq!(
-                    stderr.trim_end().lines().count(),
-                    1,
-                    "{} {:?}: {}",
-                    sub,
-                    flags,
-                    stderr
-                );
-            }
-            Ok(())
+                &["profile", "s.toml", "-o", "p.png", "--passes", "1"]
+            };
+            exits_0_or_2_in_one_line(&dir, base, &flags)
         },
     );
+}
+
+/// A temporary folder holding `s.toml`, a 4×4 scene of one sphere at 1 spp.
+fn tiny_scene_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
+                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
+                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
+    std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+    dir
+}
+
+/// The binary run in `dir` with `base` arguments and `flags`: exit 0, 2 (bad input) or 1 (a
+/// run-time failure), never a panic, and an error on one line.
+fn exits_0_or_2_in_one_line(
+    dir: &tempfile::TempDir,
+    base: &[&str],
+    flags: &[(&str, &str)],
+) -> Result<(), TestCaseError> {
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"));
+    cmd.current_dir(dir.path()).args(base);
+    for (f, v) in flags {
+        cmd.arg(f).arg(v.trim_matches('"'));
+    }
+    let out = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let code = out.status.code();
+    prop_assert!(
+        code == Some(0) || code == Some(2) || code == Some(1),
+        "{base:?} {flags:?}: exit {code:?}: {stderr}"
+    );
+    prop_assert!(!stderr.contains("panicked"), "{base:?} {flags:?}: {stderr}");
+    if code != Some(0) {
+        prop_assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "{:?} {:?}: {}",
+            base,
+            flags,
+            stderr
+        );
+    }
+    Ok(())
 }
