@@ -68,6 +68,14 @@ pub const BVH_MIN_PRIMS: usize = 4;
 /// Re-swept on the Cornell box with 8-wide nodes (one thread, 16 spp, best of 4, alternated,
 /// machine loaded): cost 1, 2, 2.5, 3, 4 → 0.411, 0.431, 0.421, 0.460, 0.461 s; leaf size
 /// 1, 2, 4 at 2.5 → 0.457, 0.406, 0.422 s: no setting beyond the noise, so unchanged.
+///
+/// On the Cornell box the greedy collapse leaves obvhs' one- and two-triangle leaves apart
+/// (17 packets for 36 triangles; the two triangles of a wall, same box, in two leaves).
+/// Merging a wide node's sibling leaves that fit one packet where their union's half area is
+/// at most the sum of theirs did not pay: bvh/Embree at 512², 3 runs of 7 rounds alternated
+/// with the tree without it, primary 1.19, 1.29, 1.17 against 1.21, 1.16, 1.18 and one
+/// diffuse bounce 1.11, 1.19, 1.12 against 1.22, 1.15, 1.21 (2-core AMD EPYC guest,
+/// 2026-12-05); not kept.
 pub const BUILD_PARAMS: BvhBuildParams = {
     let mut p = BvhBuildParams::medium_build();
     p.collapse_traversal_cost = 2.5;
