@@ -133,7 +133,9 @@ pub fn read_gltf(path: &Path, hash: &mut Fnv64) -> Result<GltfMesh, String> {
         }
     }
     let gltf::Gltf { document, blob } = unchecked;
-    let document = gltf::Document::from_json(document.into_json()).map_err(one_line)?;
+    let root = document.into_json();
+    position_accessors_in_range(&root)?;
+    let document = gltf::Document::from_json(root).map_err(one_line)?;
     let buffers = gltf::import_buffers(&document, path.parent(), blob).map_err(one_line)?;
     for b in &buffers {
         hash.write(&b.0);
@@ -223,6 +225,27 @@ fn unsupported_required(ext: &str) -> String {
 }
 
 /// A `gltf` crate error on one line: validation lists every problem, keep the first.
+/// Every primitive's `POSITION` accessor exists. The validator of `gltf-json` 1.4 reads that
+/// accessor by plain indexing before it checks the index, and panics on a file whose index is
+/// out of range (a one-byte change to the shipped model found it); this check runs first.
+fn position_accessors_in_range(root: &gltf::json::Root) -> Result<(), String> {
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(i) = prim.attributes.get(&position) {
+                if i.value() >= accessors {
+                    return Err(format!(
+                        "invalid glTF: meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} of {accessors}",
+                        i.value()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 fn one_line(e: gltf::Error) -> String {
     match e {
         gltf::Error::Validation(list) => {

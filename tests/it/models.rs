@@ -328,3 +328,28 @@ fn bvh_matches_brute_force_over_every_corpus_model() {
     }
     assert!(models >= 30, "only {models} corpus models compared");
 }
+
+/// The shipped glTF binary with one byte changed, as the model fuzz found it: byte 573, the
+/// first letter of the key `accessors`, made `#`, so the file has no accessors and
+/// `gltf-json`'s validator indexed the missing `POSITION` accessor and panicked. Now a one-line
+/// error names the field.
+#[test]
+fn a_gltf_whose_position_accessor_is_missing_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/models/wuson.glb");
+    let mut bytes = std::fs::read(glb).unwrap();
+    assert_eq!(&bytes[573..582], b"accessors");
+    bytes[573] = b'#';
+    std::fs::write(dir.path().join("m.glb"), &bytes).unwrap();
+    let text = format!(
+        "{CAMERA_4X4}{GREY_M}[[shapes]]\ntype = \"gltf\"\nmaterial = \"m\"\npath = \"m.glb\"\n"
+    );
+    let loaded = std::panic::catch_unwind(|| {
+        load_scene_str(&text, "s.toml", dir.path(), "s", &SceneOverrides::default())
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    });
+    let err = loaded.expect("no panic").expect_err("refused");
+    assert!(!err.contains('\n'), "{err}");
+    assert!(err.contains("m.glb") && err.contains("POSITION"), "{err}");
+}
