@@ -224,7 +224,6 @@ fn unsupported_required(ext: &str) -> String {
     format!("requires the glTF extension {ext}{what}, which raysched does not support")
 }
 
-/// A `gltf` crate error on one line: validation lists every problem, keep the first.
 /// Every primitive's `POSITION` accessor exists. The validator of `gltf-json` 1.4 reads that
 /// accessor by plain indexing before it checks the index, and panics on a file whose index is
 /// out of range (a one-byte change to the shipped model found it); this check runs first.
@@ -246,6 +245,7 @@ fn position_accessors_in_range(root: &gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
+/// A `gltf` crate error on one line: validation lists every problem, keep the first.
 fn one_line(e: gltf::Error) -> String {
     match e {
         gltf::Error::Validation(list) => {
