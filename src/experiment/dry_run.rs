@@ -6,7 +6,7 @@
 use super::meta::{self, Meta};
 use super::plan::ExperimentPlan;
 use super::run::{inner_count, RunError, RunOptions, MIN_ADAPTIVE_RUNS};
-use crate::render::{render_item_spp, WorkItem};
+use crate::render::{render_item_spp, serial_rows};
 use crate::scene::Scene;
 use crate::tracer::Tracer;
 use std::fmt::Write;
@@ -33,8 +33,7 @@ pub(crate) fn probe_render_s<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> f
     let probe = spp.min(PROBE_SPP);
     let t0 = Instant::now();
     for f in 0..scene.frames() {
-        for y in 0..scene.height() {
-            let item = WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f);
+        for item in serial_rows(scene, f) {
             std::hint::black_box(render_item_spp(scene, tracer, &item, probe));
         }
     }

@@ -345,11 +345,12 @@ fn moments_with<T: Tracer + ?Sized, F: integrator::FeatureSet>(
 // speedup measures scheduling, not where the optimiser happened to inline the renderer.
 #[inline(never)]
 pub fn render_item<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
+    let spp = scene.settings.spp;
     let Some(extra) = extra_work() else {
-        return render_item_pure(scene, tracer, item);
+        return render_item_spp(scene, tracer, item, spp);
     };
     let t0 = std::time::Instant::now();
-    let r = render_item_pure(scene, tracer, item);
+    let r = render_item_spp(scene, tracer, item, spp);
     let until = t0.elapsed().mul_f64(1.0 + extra);
     while t0.elapsed() < until {
         std::hint::spin_loop();
@@ -370,15 +371,10 @@ pub fn extra_work() -> Option<f64> {
     })
 }
 
+/// [`render_item`]'s pure body with the first `spp` samples of each pixel (the scene's count
+/// there; fewer in probes that time a short render of a scene without copying it: the same
+/// samples a scene of `spp` renders).
 #[inline(always)]
-fn render_item_pure<T: Tracer + ?Sized>(scene: &Scene, tracer: &T, item: &WorkItem) -> TileResult {
-    let spp = scene.settings.spp;
-    with_features!(scene, tile_with::<T, _>(scene, tracer, item, spp))
-}
-
-/// [`render_item`] with the first `spp` samples of each pixel instead of the scene's count
-/// (the same samples a scene of `spp` renders), for probes that time a short render of a
-/// scene without copying it.
 pub fn render_item_spp<T: Tracer + ?Sized>(
     scene: &Scene,
     tracer: &T,
@@ -455,8 +451,7 @@ pub fn render_serial_frames<T: Tracer + ?Sized>(
     let mut frames = Vec::with_capacity(scene.frames() as usize);
     for f in 0..scene.frames() {
         let mut image = Image::new(scene.width(), scene.height());
-        for y in 0..scene.height() {
-            let item = WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f);
+        for item in serial_rows(scene, f) {
             let r = render_item(scene, tracer, &item);
             counters.rays += r.rays;
             counters.nonfinite += r.nonfinite;
@@ -465,6 +460,12 @@ pub fn render_serial_frames<T: Tracer + ?Sized>(
         frames.push(image);
     }
     (frames, counters)
+}
+
+/// The items of the serial render of frame `f`: its rows, top first, ids counted over frames.
+pub fn serial_rows(scene: &Scene, f: u32) -> impl Iterator<Item = WorkItem> + '_ {
+    (0..scene.height())
+        .map(move |y| WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f))
 }
 
 /// Row-parallel render on a rayon pool of `threads` workers; an animation comes back as a film

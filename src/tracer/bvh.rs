@@ -46,9 +46,8 @@ impl Default for Packet {
 /// 8-wide tree (one-thread render, 16 spp, best of 4: 0.674 against 0.421 s, machine loaded);
 /// so was testing them in five 8-lane tests (`triangles8`, ids in order, inlined into an AVX2
 /// loop): 0.84× (0.81–0.87) the tree's rate on primary rays and 0.91× (0.90–0.95) on one
-/// diffuse bounce
-/// (`examples/tracer_ab --rays primary,diffuse cornell_box 0 512 7`, three alternated runs,
-/// 2-core AMD EPYC guest, 2026-12-05).
+/// diffuse bounce (`examples/tracer_ab --rays primary,diffuse cornell_box 0 512 7`, three
+/// alternated runs, 2-core AMD EPYC guest, 2026-12-05).
 pub const BVH_MIN_PRIMS: usize = 4;
 
 /// obvhs' `medium_build` (PLOC, reinsertion, leaves of ≤ 8 by SAH collapse) with the collapse's
