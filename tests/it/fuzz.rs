@@ -348,6 +348,23 @@ fn no_panic_one_line<T, E: std::fmt::Display>(
     }
 }
 
+/// One sample of each of `pixels` of a loaded `scene` (from input `text`), without a panic.
+fn renders(
+    scene: &raysched::scene::Scene,
+    pixels: impl IntoIterator<Item = u32>,
+    text: &[u8],
+) -> Result<(), TestCaseError> {
+    no_panic_one_line("render", text, || {
+        let tracer = raysched::tracer::BvhTracer::new(&scene.geometry);
+        let mut rays = 0;
+        for p in pixels {
+            let _ = raysched::render::sample_pixel(scene, &tracer, p, 0, &mut rays);
+        }
+        Ok::<_, String>(())
+    })
+    .map(|_| ())
+}
+
 /// The shipped scenes beside their (shrunk) copies, so mesh paths and `../scenes` resolve.
 fn scratch() -> (tempfile::TempDir, PathBuf, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
@@ -375,15 +392,7 @@ fn scene_texts_never_panic_and_every_error_is_one_line() {
         if let Some(scene) = loaded {
             loaded_ok.fetch_add(1, Ordering::Relaxed);
             // A scene that loads renders: its first and last pixel, one sample each.
-            no_panic_one_line("render", &bytes, || {
-                let tracer = raysched::tracer::BvhTracer::new(&scene.geometry);
-                let mut rays = 0;
-                let last = scene.pixel_count() as u32 - 1;
-                for p in [0, last] {
-                    let _ = raysched::render::sample_pixel(&scene, &tracer, p, 0, &mut rays);
-                }
-                Ok::<_, String>(())
-            })?;
+            renders(&scene, [0, scene.pixel_count() as u32 - 1], &bytes)?;
         }
         Ok(())
     });
@@ -519,14 +528,7 @@ fn model_files_never_panic_and_every_error_is_one_line() {
         })?;
         if let Some(scene) = loaded {
             loaded_ok.fetch_add(1, Ordering::Relaxed);
-            no_panic_one_line("render", shown.as_bytes(), || {
-                let tracer = raysched::tracer::BvhTracer::new(&scene.geometry);
-                let mut rays = 0;
-                for p in 0..scene.pixel_count() as u32 {
-                    let _ = raysched::render::sample_pixel(&scene, &tracer, p, 0, &mut rays);
-                }
-                Ok::<_, String>(())
-            })?;
+            renders(&scene, 0..scene.pixel_count() as u32, shown.as_bytes())?;
         }
         Ok(())
     });
