@@ -53,26 +53,12 @@ fn cells_in_order(gx: u32, gy: u32, (cw, ch): (u32, u32), order: Order) -> Vec<(
             |d| unhilbert(side, d),
             |x, y| hilbert(side, x, y),
         ),
-        Order::Scatter => walk_or_sort(
-            gx,
-            gy,
-            side,
-            |k| unscatter(side, k),
-            |x, y| scatter(side, x, y),
-        ),
+        Order::Scatter => scatter_cells(gx, gy),
         Order::ScatterBlocks => {
             // The blocks in `scatter` order, the cells of each in scanline order: the order of
             // the key (scatter(block), y % bh, x % bw).
             let (bw, bh) = (BLOCK_PX.div_ceil(cw), BLOCK_PX.div_ceil(ch));
-            let (nx, ny) = (gx.div_ceil(bw), gy.div_ceil(bh));
-            let side = nx.max(ny).next_power_of_two();
-            let blocks = walk_or_sort(
-                nx,
-                ny,
-                side,
-                |k| unscatter(side, k),
-                |x, y| scatter(side, x, y),
-            );
+            let blocks = scatter_cells(gx.div_ceil(bw), gy.div_ceil(bh));
             let mut cells = Vec::with_capacity(gx as usize * gy as usize);
             for (bx, by) in blocks {
                 for y in by * bh..((by + 1) * bh).min(gy) {
@@ -82,6 +68,18 @@ fn cells_in_order(gx: u32, gy: u32, (cw, ch): (u32, u32), order: Order) -> Vec<(
             cells
         }
     }
+}
+
+/// The cells of a `gx`×`gy` grid in `scatter` order.
+fn scatter_cells(gx: u32, gy: u32) -> Vec<(u32, u32)> {
+    let side = gx.max(gy).next_power_of_two();
+    walk_or_sort(
+        gx,
+        gy,
+        side,
+        |k| unscatter(side, k),
+        |x, y| scatter(side, x, y),
+    )
 }
 
 fn scanline_cells(gx: u32, gy: u32) -> Vec<(u32, u32)> {
