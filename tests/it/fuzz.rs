@@ -4,7 +4,8 @@
 //! through a tracer build and one sample). None may panic, and every error is one line.
 //! Model files (OBJ, ASCII and binary PLY, glTF binary) are mutated byte by byte and line by
 //! line and loaded as a scene's mesh the same way.
-//! Random flags go through the binary the same way.
+//! Random flags go through the binary the same way, and so do results folders whose files
+//! were mutated, through `plot` and `compare`.
 //!
 //! `cargo test` runs a bounded number of cases. Longer runs:
 //!
@@ -623,4 +624,90 @@ fn exits_0_or_2_in_one_line(
         );
     }
     Ok(())
+}
+
+/// The results files `plot` and `compare` read, mutated: byte flips, deleted, duplicated and
+/// swapped lines, truncation, and CSV fields or TOML values replaced by hostile ones. `plot` of
+/// the mutated folder and `compare` of it against the intact one exit 0, 2 or 1, never panic,
+/// and an error is one line.
+#[test]
+fn results_folders_never_panic_and_every_error_is_one_line() {
+    let dir = tiny_scene_dir();
+    let exp = "description = \"fuzz base\"\nrepetitions = 2\nci_target = 0\nwarmup = 0\n\
+               workers = [1, 2]\ntracers = [\"bvh\"]\ntimeline = false\n[[scenes]]\n\
+               path = \"s.toml\"\n[[schedulers]]\nkind = \"self_scheduling\"\n\
+               chunk = [\"1\", \"2\"]\n[[schedulers]]\nkind = \"static\"\nchunk = \"rows:1\"\n";
+    std::fs::write(dir.path().join("base.toml"), exp).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"))
+        .current_dir(dir.path())
+        .args(["run", "base.toml", "--out", "res", "--quiet"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let base = dir.path().join("res/base");
+    const FILES: &[&str] = &[
+        "runs.csv",
+        "summary.csv",
+        "runs.json",
+        "summary.json",
+        "meta.toml",
+    ];
+    let texts: Vec<Vec<u8>> = FILES
+        .iter()
+        .map(|f| std::fs::read(base.join(f)).unwrap())
+        .collect();
+    let edit = prop_oneof![
+        1 => mutation().prop_map(Ok),
+        // The j-th comma-separated field of line i.
+        2 => (any::<usize>(), any::<usize>(), prop::sample::select(HOSTILE))
+            .prop_map(|(i, j, v)| Err((i, j, v))),
+    ];
+    let strategy = (0..FILES.len(), prop::collection::vec(edit, 1..3));
+    let (cases, time) = budget(16, 3);
+    let case_no = AtomicU64::new(0);
+    fuzz("results folders", strategy, (cases, time), |(k, edits)| {
+        let bytes = edits.iter().fold(texts[k].clone(), |t, e| match e {
+            Ok(m) => apply(&t, m),
+            Err((i, j, v)) => replace_field(&t, *i, *j, v),
+        });
+        let copy = dir
+            .path()
+            .join(format!("case{}", case_no.fetch_add(1, Ordering::Relaxed)));
+        copy_folder(&base, &copy);
+        std::fs::write(copy.join(FILES[k]), &bytes).unwrap();
+        let (copy_s, base_s) = (copy.to_str().unwrap(), base.to_str().unwrap());
+        exits_0_or_2_in_one_line(&dir, &["plot", copy_s], &[])?;
+        exits_0_or_2_in_one_line(&dir, &["compare", copy_s, base_s], &[])?;
+        std::fs::remove_dir_all(&copy).unwrap();
+        Ok(())
+    });
+}
+
+/// `text` with the `j`-th comma-separated field of its `i`-th line (both modulo) set to `v`.
+fn replace_field(text: &[u8], i: usize, j: usize, v: &str) -> Vec<u8> {
+    let mut lines: Vec<Vec<u8>> = text.split(|&b| b == b'\n').map(<[u8]>::to_vec).collect();
+    let l = i % lines.len();
+    let mut fields: Vec<Vec<u8>> = lines[l].split(|&b| b == b',').map(<[u8]>::to_vec).collect();
+    let f = j % fields.len();
+    fields[f] = v.as_bytes().to_vec();
+    lines[l] = fields.join(&b',');
+    lines.join(&b'\n')
+}
+
+/// Copy the files of `from` (one level of subfolders) into a new folder `to`.
+fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let dest = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_folder(&p, &dest);
+        } else {
+            std::fs::copy(&p, &dest).unwrap();
+        }
+    }
 }
