@@ -200,22 +200,47 @@ pub fn scatter(side: u32, x: u32, y: u32) -> u64 {
 
 /// The cells of a `gx`×`gy` grid in a square spiral from the centre cell (⌊gx/2⌋, ⌊gy/2⌋)
 /// outward: right 1, down 1, left 2, up 2, right 3, … skipping steps outside the grid, as
-/// Mitsuba's `Spiral` walks its blocks.
+/// Mitsuba's `Spiral` walks its blocks. Each leg is clipped to the grid at once, so a long
+/// grid costs its cells plus a constant per leg: stepping through every position, a one-pixel
+/// render of a 65 536 × 1 image in this order took 2.46 s of process time against 0.022 s
+/// now (its spiral winds out to a 65 536² square; 2-core AMD EPYC guest, 2026-12-05).
 pub fn spiral(gx: u32, gy: u32) -> Vec<(u32, u32)> {
     let total = gx as usize * gy as usize;
     let mut out = Vec::with_capacity(total);
-    let (mut x, mut y) = ((gx / 2) as i64, (gy / 2) as i64);
+    if total == 0 {
+        return out;
+    }
+    let (gx, gy) = (gx as i64, gy as i64);
+    let (mut x, mut y) = (gx / 2, gy / 2);
     let dirs = [(1i64, 0i64), (0, 1), (-1, 0), (0, -1)];
     let (mut leg, mut d) = (1i64, 0usize);
     out.push((x as u32, y as u32));
     while out.len() < total {
         for _ in 0..2 {
-            for _ in 0..leg {
-                (x, y) = (x + dirs[d].0, y + dirs[d].1);
-                if (0..gx as i64).contains(&x) && (0..gy as i64).contains(&y) {
-                    out.push((x as u32, y as u32));
+            let (dx, dy) = dirs[d];
+            // The steps k = 1..=leg whose cell lies inside the grid, in order.
+            let (moving, fixed, m, f) = if dx != 0 {
+                (x, y, gx, gy)
+            } else {
+                (y, x, gy, gx)
+            };
+            let step = dx + dy;
+            if (0..f).contains(&fixed) {
+                let (lo, hi) = if step > 0 {
+                    (1.max(-moving), leg.min(m - 1 - moving))
+                } else {
+                    (1.max(moving - m + 1), leg.min(moving))
+                };
+                for k in lo..=hi {
+                    let p = moving + step * k;
+                    out.push(if dx != 0 {
+                        (p as u32, fixed as u32)
+                    } else {
+                        (fixed as u32, p as u32)
+                    });
                 }
             }
+            (x, y) = (x + dx * leg, y + dy * leg);
             d = (d + 1) % 4;
         }
         leg += 1;
@@ -414,6 +439,37 @@ mod tests {
         assert!(cells.windows(2).all(|w| ring(&w[0]) <= ring(&w[1])));
         assert_eq!(cells.len(), 64);
         assert_eq!(spiral(1, 5).len(), 5);
+        // Clipping each leg at once gives the cells of stepping through every position.
+        let stepwise = |gx: u32, gy: u32| {
+            let total = gx as usize * gy as usize;
+            let mut out = Vec::new();
+            let (mut x, mut y) = ((gx / 2) as i64, (gy / 2) as i64);
+            let dirs = [(1i64, 0i64), (0, 1), (-1, 0), (0, -1)];
+            let (mut leg, mut d) = (1i64, 0usize);
+            out.push((x as u32, y as u32));
+            while out.len() < total {
+                for _ in 0..2 {
+                    for _ in 0..leg {
+                        (x, y) = (x + dirs[d].0, y + dirs[d].1);
+                        if (0..gx as i64).contains(&x) && (0..gy as i64).contains(&y) {
+                            out.push((x as u32, y as u32));
+                        }
+                    }
+                    d = (d + 1) % 4;
+                }
+                leg += 1;
+            }
+            out
+        };
+        for gx in 1..=9 {
+            for gy in 1..=9 {
+                assert_eq!(spiral(gx, gy), stepwise(gx, gy), "{gx}×{gy}");
+            }
+        }
+        for (gx, gy) in [(1, 40), (40, 1), (37, 3), (2, 31), (64, 64), (100, 7)] {
+            assert_eq!(spiral(gx, gy), stepwise(gx, gy), "{gx}×{gy}");
+        }
+        assert!(spiral(0, 5).is_empty());
     }
 
     #[test]
