@@ -41,24 +41,17 @@ pub fn decompose(width: u32, height: u32, chunk: Chunk, order: Order) -> Vec<Wor
 
 /// The cells of a `gx`×`gy` grid of `cw`×`ch` cells in `order`.
 fn cells_in_order(gx: u32, gy: u32, (cw, ch): (u32, u32), order: Order) -> Vec<(u32, u32)> {
-    let side = gx.max(gy).next_power_of_two();
     match order {
         Order::Scanline => scanline_cells(gx, gy),
         Order::Spiral => spiral(gx, gy),
-        Order::Morton => walk_or_sort(gx, gy, side, unmorton, morton),
-        Order::Hilbert => walk_or_sort(
-            gx,
-            gy,
-            side,
-            |d| unhilbert(side, d),
-            |x, y| hilbert(side, x, y),
-        ),
-        Order::Scatter => scatter_cells(gx, gy),
+        Order::Morton => walk_or_sort(gx, gy, |_, code| unmorton(code), |_, x, y| morton(x, y)),
+        Order::Hilbert => walk_or_sort(gx, gy, unhilbert, hilbert),
+        Order::Scatter => walk_or_sort(gx, gy, unscatter, scatter),
         Order::ScatterBlocks => {
             // The blocks in `scatter` order, the cells of each in scanline order: the order of
             // the key (scatter(block), y % bh, x % bw).
             let (bw, bh) = (BLOCK_PX.div_ceil(cw), BLOCK_PX.div_ceil(ch));
-            let blocks = scatter_cells(gx.div_ceil(bw), gy.div_ceil(bh));
+            let blocks = walk_or_sort(gx.div_ceil(bw), gy.div_ceil(bh), unscatter, scatter);
             let mut cells = Vec::with_capacity(gx as usize * gy as usize);
             for (bx, by) in blocks {
                 for y in by * bh..((by + 1) * bh).min(gy) {
@@ -70,45 +63,37 @@ fn cells_in_order(gx: u32, gy: u32, (cw, ch): (u32, u32), order: Order) -> Vec<(
     }
 }
 
-/// The cells of a `gx`×`gy` grid in `scatter` order.
-fn scatter_cells(gx: u32, gy: u32) -> Vec<(u32, u32)> {
-    let side = gx.max(gy).next_power_of_two();
-    walk_or_sort(
-        gx,
-        gy,
-        side,
-        |k| unscatter(side, k),
-        |x, y| scatter(side, x, y),
-    )
-}
-
 fn scanline_cells(gx: u32, gy: u32) -> Vec<(u32, u32)> {
     (0..gy).flat_map(|y| (0..gx).map(move |x| (x, y))).collect()
 }
 
-/// The cells of a `gx`×`gy` grid by increasing `key`, where `decode` inverts `key` on the
-/// `side`×`side` square (side a power of two, at least gx and gy): the square's keys walked
-/// in order, cells outside the grid skipped, where the square holds at most four keys per
-/// cell; else the grid sorted by key ([`sort_cells`]). The walk is linear: for the 1 M
-/// one-pixel items of a 1024² image in `scatter` order, the decomposition took 129 M
-/// instructions against the sort's 451 M (callgrind), and an AF render of skewed_low there
-/// (1 spp, two threads) 0.91× (0.81–1.14) the whole-process wall and 123 MiB at its peak
-/// against 139 MiB (9 pairs alternated, 2-core AMD EPYC guest, 2026-12-05).
+/// The cells of a `gx`×`gy` grid by increasing `key(side, x, y)`, where `decode(side, k)`
+/// inverts it on the `side`×`side` square, side the power of two that holds the grid: the
+/// square's keys walked in order, cells outside the grid skipped, where the square holds at
+/// most four keys per cell; else the grid sorted by key ([`sort_cells`]). The walk is linear:
+/// for the 1 M one-pixel items of a 1024² image in `scatter` order, the decomposition took
+/// 129 M instructions against the sort's 451 M (callgrind), and an AF render of skewed_low
+/// there (1 spp, two threads) 0.91× (0.81–1.14) the whole-process wall and 123 MiB at its
+/// peak against 139 MiB (9 pairs alternated, 2-core AMD EPYC guest, 2026-12-05).
 fn walk_or_sort<K: Ord>(
     gx: u32,
     gy: u32,
-    side: u32,
-    decode: impl Fn(u64) -> (u32, u32),
-    key: impl Fn(u32, u32) -> K,
+    decode: impl Fn(u32, u64) -> (u32, u32),
+    key: impl Fn(u32, u32, u32) -> K,
 ) -> Vec<(u32, u32)> {
+    let side = gx.max(gy).next_power_of_two();
     let (keys, n) = (side as u64 * side as u64, gx as u64 * gy as u64);
     if keys > 4 * n {
         let mut cells = scanline_cells(gx, gy);
-        sort_cells(&mut cells, key);
+        sort_cells(&mut cells, |x, y| key(side, x, y));
         return cells;
     }
     let mut cells = Vec::with_capacity(n as usize);
-    cells.extend((0..keys).map(decode).filter(|&(x, y)| x < gx && y < gy));
+    cells.extend(
+        (0..keys)
+            .map(|k| decode(side, k))
+            .filter(|&(x, y)| x < gx && y < gy),
+    );
     cells
 }
 
@@ -556,8 +541,7 @@ mod tests {
     fn keys_computed_once_sort_as_the_stable_sort_by_key() {
         for (gx, gy) in [(1, 1), (5, 3), (16, 16), (37, 9), (2, 64)] {
             let side = u32::max(gx, gy).next_power_of_two();
-            let scanline: Vec<(u32, u32)> =
-                (0..gy).flat_map(|y| (0..gx).map(move |x| (x, y))).collect();
+            let scanline = scanline_cells(gx, gy);
             let keys: [&dyn Fn(u32, u32) -> u64; 3] =
                 [&morton, &|x, y| hilbert(side, x, y), &|x, y| {
                     scatter(side, x, y)
