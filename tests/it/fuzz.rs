@@ -17,6 +17,7 @@
 //! With `RAYSCHED_FUZZ_SECS` each property runs batches of cases until that time has passed
 //! (split between the properties); the number of cases run is printed.
 
+use crate::support::GREY_M;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use raysched::scene::{load_scene_str, SceneOverrides};
@@ -516,12 +517,7 @@ fn model_files_never_panic_and_every_error_is_one_line() {
         let bytes = ms.iter().fold(base.clone(), |t, m| apply(&t, m));
         let name = format!("model.{ext}");
         std::fs::write(dir.path().join(&name), &bytes).unwrap();
-        let text = format!(
-            "[camera]\norigin = [0, 0, 6]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
-             width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
-             reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"{kind}\"\nmaterial = \"m\"\n\
-             path = \"{name}\"\n"
-        );
+        let text = tiny_scene(6, &format!("type = \"{kind}\"\npath = \"{name}\"\n"));
         let over = SceneOverrides::default();
         let shown = format!("{name} (mutated {ext}, {} bytes)", bytes.len());
         let loaded = no_panic_one_line("load_scene_str", shown.as_bytes(), || {
@@ -583,12 +579,19 @@ fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
     );
 }
 
+/// A 4×4 scene at 1 spp seen from (0, 0, `z`): one shape of material `m` (grey diffuse),
+/// `shape` its keys besides `material`.
+fn tiny_scene(z: u32, shape: &str) -> String {
+    format!(
+        "[camera]\norigin = [0, 0, {z}]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
+         width = 4\nheight = 4\n[render]\nspp = 1\n{GREY_M}[[shapes]]\nmaterial = \"m\"\n{shape}"
+    )
+}
+
 /// A temporary folder holding `s.toml`, a 4×4 scene of one sphere at 1 spp.
 fn tiny_scene_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    let scene = "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40\n\
-                 width = 4\nheight = 4\n[render]\nspp = 1\n[materials.m]\ntype = \"diffuse\"\n\
-                 reflectance = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"m\"\n";
+    let scene = tiny_scene(4, "type = \"sphere\"\n");
     std::fs::write(dir.path().join("s.toml"), scene).unwrap();
     dir
 }
@@ -643,11 +646,7 @@ fn results_folders_never_panic_and_every_error_is_one_line() {
         .args(["run", "base.toml", "--out", "res", "--quiet"])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    crate::support::assert_ok(&out);
     let base = dir.path().join("res/base");
     const FILES: &[&str] = &[
         "runs.csv",
