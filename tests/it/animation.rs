@@ -106,8 +106,8 @@ fn frame_0_is_the_static_scene_bit_for_bit() {
 
 #[test]
 fn static_scenes_keep_their_hash_and_image_from_before_animations() {
-    // Values from results/published/quick/runs.csv (simple, 256×256, 8 spp, serial), committed before
-    // animations existed.
+    // The serial render of simple at 256×256, 8 spp, as results/published/quick/runs.csv first
+    // recorded it before animations existed (its snapshot of 2026-12-05 has the same hashes).
     let scene = crate::support::load(
         "simple.toml",
         SceneOverrides {
