@@ -424,7 +424,11 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             .into_iter()
             .filter(|s| s.row.workers == max_w)
             .collect();
-        if let Some(sec) = super::prediction::section(g, &at) {
+        let serial = sums
+            .iter()
+            .find(|s| &s.group() == g && s.row.scheduler == "serial")
+            .map(|s| s.wall_median);
+        if let Some(sec) = super::prediction::section(g, &at, serial) {
             model += &sec;
         }
     }
