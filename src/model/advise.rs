@@ -82,7 +82,7 @@ impl Probed {
             // The period that matters is that of the items that wait, the cheap ones: at the
             // median item's cost, not the mean's, which a hot spot pulls far above them.
             let typical = probe::median(&mut items.clone());
-            let r = probe::loaded_refill(spec.policy, spec.workers, typical, &o, 5);
+            let r = probe::loaded_refill(spec.policy, spec.workers, typical, &o, 3);
             o.refill_s = r.unwrap_or(o.refill_s);
         }
         predict(spec, &work, &o)

@@ -431,34 +431,13 @@ pub fn fit(pairs: &[(f64, f64)], n: u32) -> ZeroWork {
     }
 }
 
-/// A job whose items each spin for `secs` of the worker thread's own CPU time (a stand-in of
-/// known cost), or of wall time where the thread clock is unavailable.
-///
-/// CPU time, because a rendering item needs its CPU time: when the master thread, a third
-/// thread on two cores, preempts a worker, the worker's item ends that much later. An item
-/// spinning on the wall clock ends on time anyway, so the refill probe missed what the master
-/// takes from the workers' cores. The per-ray master on 2 workers (2-core AMD EPYC guest,
-/// 2026-12-05, `advise` probes against `render`s, medians): the one-sphere scene at 128², 8 spp
-/// predicted at 15.7 ms with wall-clock spinning and 24.9 ms with CPU time, measured 25 ms;
-/// skewed_mid and skewed_x100 at 16 spp 52.8 and 35.3 ms in that day's `advise_check` run,
-/// 56.3 and 44.2 ms with CPU time, measured 67 and 44 ms; the Cornell box at 8 spp 118.8 ms,
-/// and 131.7 and 180 ms with CPU time in two batches, measured 132 and 148 ms (the one case it
-/// overshoots). Medians of 4–6 probes and 7–12 renders each.
+/// A job whose items each spin for `secs` (a stand-in of known cost).
 fn spinning(secs: f64) -> Job {
     let d = std::time::Duration::from_secs_f64(secs);
     Arc::new(move |it: &WorkItem| {
-        match crate::cpu_time::thread_cpu_s() {
-            Some(c0) => {
-                while crate::cpu_time::thread_cpu_s().is_some_and(|c| c - c0 < secs) {
-                    std::hint::spin_loop();
-                }
-            }
-            None => {
-                let t0 = std::time::Instant::now();
-                while t0.elapsed() < d {
-                    std::hint::spin_loop();
-                }
-            }
+        let t0 = std::time::Instant::now();
+        while t0.elapsed() < d {
+            std::hint::spin_loop();
         }
         TileResult {
             item: it.id,
