@@ -12,13 +12,21 @@ pub fn error(s: &Summary) -> Option<f64> {
     (s.wall_median > 0.0).then(|| p / s.wall_median - 1.0)
 }
 
+/// A prediction's wall time and its parts: (wall, hand-out cost, refill waiting, imbalance);
+/// the rest of the wall is work / P. `None` without a prediction.
+fn parts(s: &Summary) -> Option<(f64, f64, f64, f64)> {
+    Some((
+        s.row.predicted_wall_s?,
+        s.row.predicted_handout_s.unwrap_or(0.0),
+        s.row.predicted_refill_s.unwrap_or(0.0),
+        s.row.predicted_imbalance_s.unwrap_or(0.0),
+    ))
+}
+
 /// "predicted 12.3 ms = work 10.1 + hand-out 1.2 (h × items / P) + refill waiting 0.4 +
 /// imbalance 0.6": a prediction's parts, or `None` without one.
 pub fn decomposition(s: &Summary) -> Option<String> {
-    let wall = s.row.predicted_wall_s?;
-    let h = s.row.predicted_handout_s.unwrap_or(0.0);
-    let r = s.row.predicted_refill_s.unwrap_or(0.0);
-    let i = s.row.predicted_imbalance_s.unwrap_or(0.0);
+    let (wall, h, r, i) = parts(s)?;
     let work = wall - h - r - i;
     Some(format!(
         "predicted {:.2} ms = work {:.2} + hand-out {:.2} (h × items / P) + refill waiting {:.2} + imbalance {:.2}",
@@ -46,12 +54,8 @@ pub fn level(with: &[&Summary], serial_median: f64) -> Option<f64> {
         .iter()
         .filter(|s| s.row.slow.as_deref().is_none_or(|v| v == "none"))
         .filter_map(|s| {
-            let wall = s.row.predicted_wall_s?;
-            let work = (wall
-                - s.row.predicted_handout_s.unwrap_or(0.0)
-                - s.row.predicted_refill_s.unwrap_or(0.0)
-                - s.row.predicted_imbalance_s.unwrap_or(0.0))
-                * s.row.workers as f64;
+            let (wall, h, r, i) = parts(s)?;
+            let work = (wall - h - r - i) * s.row.workers as f64;
             (work > 0.0).then(|| serial_median / work)
         })
         .filter(|k| k.is_finite() && *k > 0.0)
@@ -66,8 +70,8 @@ pub fn level(with: &[&Summary], serial_median: f64) -> Option<f64> {
 /// [`error`] with the prediction's work and imbalance (the parts the item costs set) scaled
 /// by `k` ([`level`]); hand-out cost and refill waiting are measured apart and stay.
 pub fn error_at_level(s: &Summary, k: f64) -> Option<f64> {
-    let wall = s.row.predicted_wall_s?;
-    let fixed = s.row.predicted_handout_s.unwrap_or(0.0) + s.row.predicted_refill_s.unwrap_or(0.0);
+    let (wall, h, r, _) = parts(s)?;
+    let fixed = h + r;
     let p = (wall - fixed) * k + fixed;
     (s.wall_median > 0.0).then(|| p / s.wall_median - 1.0)
 }
@@ -75,14 +79,6 @@ pub fn error_at_level(s: &Summary, k: f64) -> Option<f64> {
 /// The per-ray master's gap to `best` in the model's terms: how much of the predicted
 /// difference is hand-out cost, refill waiting and imbalance.
 pub fn gap_clause(per_ray: &Summary, best: &Summary) -> Option<String> {
-    let parts = |s: &Summary| -> Option<(f64, f64, f64, f64)> {
-        Some((
-            s.row.predicted_wall_s?,
-            s.row.predicted_handout_s.unwrap_or(0.0),
-            s.row.predicted_refill_s.unwrap_or(0.0),
-            s.row.predicted_imbalance_s.unwrap_or(0.0),
-        ))
-    };
     let (pw, ph, pr, pi) = parts(per_ray)?;
     let (bw, bh, br, bi) = parts(best)?;
     let gap = pw - bw;

@@ -49,7 +49,7 @@ chunk = "rows:1"
 
 /// A temporary folder holding the tiny experiment with `reps` repetitions, already run into
 /// `res/` (asserted to succeed).
-fn run_tiny(reps: u32) -> (tempfile::TempDir, PathBuf) {
+pub(crate) fn run_tiny(reps: u32) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let exp = write_tiny(dir.path(), reps);
     let out = run(

@@ -635,19 +635,8 @@ fn exits_0_or_2_in_one_line(
 /// and an error is one line.
 #[test]
 fn results_folders_never_panic_and_every_error_is_one_line() {
-    let dir = tiny_scene_dir();
-    let exp = "description = \"fuzz base\"\nrepetitions = 2\nci_target = 0\nwarmup = 0\n\
-               workers = [1, 2]\ntracers = [\"bvh\"]\ntimeline = false\n[[scenes]]\n\
-               path = \"s.toml\"\n[[schedulers]]\nkind = \"self_scheduling\"\n\
-               chunk = [\"1\", \"2\"]\n[[schedulers]]\nkind = \"static\"\nchunk = \"rows:1\"\n";
-    std::fs::write(dir.path().join("base.toml"), exp).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"))
-        .current_dir(dir.path())
-        .args(["run", "base.toml", "--out", "res", "--quiet"])
-        .output()
-        .unwrap();
-    crate::support::assert_ok(&out);
-    let base = dir.path().join("res/base");
+    let (dir, _) = crate::experiment::run_tiny(2);
+    let base = dir.path().join("res/tiny");
     const FILES: &[&str] = &[
         "runs.csv",
         "summary.csv",
@@ -697,7 +686,7 @@ fn replace_field(text: &[u8], i: usize, j: usize, v: &str) -> Vec<u8> {
     lines.join(&b'\n')
 }
 
-/// Copy the files of `from` (one level of subfolders) into a new folder `to`.
+/// Copy the files of `from`, subfolders included, into a new folder `to`.
 fn copy_folder(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for e in std::fs::read_dir(from).unwrap() {
