@@ -202,34 +202,30 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
             c.verdict.text(TOLERANCE)
         );
     }
-    let count = |v: Verdict| checks.iter().filter(|c| c.verdict == v).count();
-    let _ = writeln!(
-        md,
-        "\nAgainst the best fixed chunk: {} of {} within {:.0} %, {} beyond, {} undecided.",
-        count(Verdict::Within),
-        checks.len(),
-        TOLERANCE * 100.0,
-        count(Verdict::Beyond),
-        count(Verdict::Undecided)
-    );
+    let all: Vec<Verdict> = checks.iter().map(|c| c.verdict).collect();
+    md += &tally("\nAgainst the best fixed chunk", &all);
     let held: Vec<Verdict> = checks
         .iter()
         .filter_map(|c| Some(c.held_out.as_ref()?.1))
         .collect();
     if !held.is_empty() {
-        let count = |v: Verdict| held.iter().filter(|&&h| h == v).count();
-        let _ = writeln!(
-            md,
-            "Held out: {} of {} within {:.0} %, {} beyond, {} undecided.",
-            count(Verdict::Within),
-            held.len(),
-            TOLERANCE * 100.0,
-            count(Verdict::Beyond),
-            count(Verdict::Undecided)
-        );
+        md += &tally("Held out", &held);
     }
     md += "\n";
     Some(md)
+}
+
+/// "{what}: 2 of 3 within 3 %, 1 beyond, 0 undecided.", a line.
+fn tally(what: &str, verdicts: &[Verdict]) -> String {
+    let count = |v: Verdict| verdicts.iter().filter(|&&x| x == v).count();
+    format!(
+        "{what}: {} of {} within {:.0} %, {} beyond, {} undecided.\n",
+        count(Verdict::Within),
+        verdicts.len(),
+        TOLERANCE * 100.0,
+        count(Verdict::Beyond),
+        count(Verdict::Undecided)
+    )
 }
 
 /// The section's preamble.
