@@ -15,7 +15,8 @@ use raysched::sched::{
 #[derive(Clone, Debug)]
 pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
-    chunk: Chunk,
+    /// `None`: the kind's own default item size.
+    chunk: Option<Chunk>,
     /// `None`: the kind's own default order.
     order: Option<Order>,
     slow: Slow,
@@ -29,7 +30,11 @@ impl SchedulerFlags {
         let mut spec = SchedulerSpec {
             timeline,
             slow: self.slow,
-            ..SchedulerSpec::new(self.kind, self.chunk, workers)
+            ..SchedulerSpec::new(
+                self.kind,
+                self.chunk.unwrap_or(self.kind.default_chunk()),
+                workers,
+            )
         };
         if let Some(order) = self.order {
             spec.order = order;
@@ -85,13 +90,15 @@ impl Args for SchedulerFlags {
                 Arg::new("chunk")
                     .long("chunk")
                     .value_name("CHUNK")
-                    .default_value("16")
                     .value_parser(|s: &str| Chunk::parse(s).map_err(|e| e.msg))
-                    .help(
+                    .help(format!(
                         "Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias \
                          frames: one whole frame per item; an animation is cut frame by frame \
-                         for every size)",
-                    ),
+                         for every size) [default: {} for guided and the factoring family, \
+                         which size their own hand-outs; {} otherwise]",
+                        SchedulerKind::Guided.default_chunk(),
+                        SchedulerKind::SelfScheduling.default_chunk(),
+                    )),
             )
             .arg(
                 Arg::new("order")
@@ -139,7 +146,7 @@ impl FromArgMatches for SchedulerFlags {
         let get = |id: &str| m.get_one::<String>(id).cloned();
         Ok(Self {
             kind: *m.get_one("scheduler").expect("has a default"),
-            chunk: *m.get_one("chunk").expect("has a default"),
+            chunk: m.get_one("chunk").copied(),
             order: m.get_one("order").copied(),
             slow: *m.get_one("slow").expect("has a default"),
             params: param_columns()

@@ -92,6 +92,24 @@ impl SchedulerKind {
         }
     }
 
+    /// The item size this kind takes unless told otherwise (the command line's `--chunk`; an
+    /// experiment names its chunks). 2×2 tiles for guided and the factoring family, whose
+    /// chunk rules size the hand-outs themselves: over one-pixel items each pixel's own cost
+    /// (50–125 ns beyond its 2–3 µs at 16 spp) took AF 1.05–1.06× the best fixed chunk on the
+    /// smooth skews, and over 4² tiles one tile of the 1000× hot spot left AWF with a 3×
+    /// slower worker at 1.18–1.23×; over 2² items AF and AWF were 0.94–1.05× in 72 held-out
+    /// checks and guided, factoring, weighted factoring, TSS and FSC 0.97–1.04× in 30, none
+    /// beyond 3 %, while over 16² tiles those five were beyond in 11 of 30 (up to 1.80× on
+    /// the hot spots at 128²; 2-core AMD EPYC guest, 2026-12-05,
+    /// `results/published/self_tuning/2026-12-05-amd-epyc-2x2/`). 16×16 tiles for the rest.
+    pub fn default_chunk(self) -> Chunk {
+        if self.is_dls() || self == Self::Guided {
+            Chunk::Tile { w: 2, h: 2 }
+        } else {
+            Chunk::Tile { w: 16, h: 16 }
+        }
+    }
+
     /// Does a worker of this kind run the items of each hand-out in scanline order rather than
     /// as handed out (`sched::scanline`)? The kinds whose hand-outs are shares of items in
     /// [`Self::default_order`]'s `scatter`: over one-pixel items on one worker factoring then

@@ -598,6 +598,34 @@ mod cli {
     }
 
     #[test]
+    fn the_chunk_left_out_is_the_kinds_own_default() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = scene_file(dir.path());
+        let out = dir.path().join("o.pfm");
+        // 9×7 pixels: 2×2 tiles make 5 · 4 = 20 items, 16×16 one, single pixels 63.
+        for (args, chunk, items) in [
+            (&["--scheduler", "awf"][..], "chunk=2", 20),
+            (&["--scheduler", "guided"][..], "chunk=2", 20),
+            (&["--scheduler", "self_scheduling"][..], "chunk=16", 1),
+            (&["--scheduler", "awf", "--chunk", "1"][..], "chunk=1", 63),
+        ] {
+            let o = Command::new(env!("CARGO_BIN_EXE_raysched"))
+                .args(["render", scene.to_str().unwrap(), "-o"])
+                .arg(&out)
+                .args(args)
+                .output()
+                .unwrap();
+            assert_ok(&o);
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(text.contains(chunk), "{args:?}: {text}");
+            assert!(
+                text.contains(&format!("items {items} ")),
+                "{args:?}: {text}"
+            );
+        }
+    }
+
+    #[test]
     fn render_with_a_scheduler_and_bad_flags_exit_2_naming_the_flag() {
         let dir = tempfile::tempdir().unwrap();
         let scene = scene_file(dir.path());
