@@ -64,7 +64,7 @@ fn is_fixed(s: &Summary) -> bool {
 
 /// A rule that sizes its own chunks from what is left (and, for some, from measured times).
 fn is_self_sizing(s: &Summary) -> bool {
-    kind(s).is_some_and(|k| k.is_dls() || k == SchedulerKind::Guided)
+    kind(s).is_some_and(SchedulerKind::sizes_own_hand_outs)
 }
 
 /// One rule's comparison with the best fixed chunk of its setting.
@@ -113,12 +113,13 @@ pub fn held_out_ratio<'a>(rule: &Summary, fixed: &[&'a Summary]) -> Option<HeldO
     if shared.len() < MIN_PAIRS || (0..2).any(|h| half(h).count() < 2) {
         return None;
     }
-    // The candidate fastest by median over half `h`'s rounds.
+    // The candidate fastest by median over half `h`'s rounds (the first of equals).
     let pick = |h: u32| {
-        (0..fixed.len()).min_by(|&a, &b| {
-            let med = |k: usize| median(&half(h).map(|(r, _)| by_round[k][r]).collect::<Vec<_>>());
-            med(a).total_cmp(&med(b))
-        })
+        let med: Vec<f64> = by_round
+            .iter()
+            .map(|m| median(&half(h).map(|(r, _)| m[r]).collect::<Vec<_>>()))
+            .collect();
+        (0..fixed.len()).min_by(|&a, &b| med[a].total_cmp(&med[b]))
     };
     let picks = [pick(0)?, pick(1)?];
     let (mut num, mut den) = (Vec::new(), Vec::new());

@@ -85,7 +85,7 @@ impl SchedulerKind {
     /// (`self_tuning.toml` and diagnostics, 16–20 rounds, ratios paired by round, 2-core Xeon
     /// VM, 2026-12-04).
     pub fn default_order(self) -> Order {
-        if self.is_dls() || self == Self::Guided {
+        if self.sizes_own_hand_outs() {
             Order::Scatter
         } else {
             Order::Scanline
@@ -103,7 +103,7 @@ impl SchedulerKind {
     /// the hot spots at 128²; 2-core AMD EPYC guest, 2026-12-05,
     /// `results/published/self_tuning/2026-12-05-amd-epyc-2x2/`). 16×16 tiles for the rest.
     pub fn default_chunk(self) -> Chunk {
-        if self.is_dls() || self == Self::Guided {
+        if self.sizes_own_hand_outs() {
             Chunk::Tile { w: 2, h: 2 }
         } else {
             Chunk::Tile { w: 16, h: 16 }
@@ -115,6 +115,13 @@ impl SchedulerKind {
     /// [`Self::default_order`]'s `scatter`: over one-pixel items on one worker factoring then
     /// took 1.003× its scanline time instead of 1.04×.
     pub fn runs_hand_outs_in_scanline(self) -> bool {
+        self.sizes_own_hand_outs()
+    }
+
+    /// Is this guided or one of the factoring family: a rule that sizes each hand-out from
+    /// what is left, its first chunks a share of all items? Their default order, item size
+    /// and scanline runs of hand-outs all follow from that.
+    pub fn sizes_own_hand_outs(self) -> bool {
         self.is_dls() || self == Self::Guided
     }
 
