@@ -26,7 +26,7 @@
 //! ```
 
 use crossbeam::channel::Receiver;
-use raysched::metrics::{Probe, WorkerStats};
+use raysched::metrics::{Probe, SourceKind, WorkerStats};
 use raysched::render::{TileResult, WorkItem};
 use raysched::sched::{master::run_master_hetero, Hetero, MasterParams, RunOptions};
 use raysched::source::{
@@ -141,7 +141,7 @@ impl GpuLike {
         );
         let serve = move |fl: &Flags, rx: &Receiver<Vec<(WorkItem, Completer)>>| {
             let mut stats = WorkerStats {
-                source: "gpu".into(),
+                source: Some(SourceKind::Gpu),
                 ..Default::default()
             };
             for batch in rx.iter() {
@@ -257,11 +257,7 @@ fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String,
     let wall = t.elapsed().as_secs_f64();
     let mut kinds: Vec<(String, u64, f64)> = Vec::new();
     for w in &stats.workers {
-        let kind = if w.source.is_empty() {
-            "threads"
-        } else {
-            &w.source
-        };
+        let kind = w.source.unwrap_or(SourceKind::Threads).id();
         match kinds.iter_mut().find(|k| k.0 == kind) {
             Some(k) => {
                 k.1 += w.items;

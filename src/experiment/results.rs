@@ -912,15 +912,18 @@ mod tests {
         r.sources = "threads+gpu".into();
         r.image_z = Some(-0.5);
         r.agrees = Some(true);
-        let worker = |source: &str, items: u64, busy_s: f64| crate::metrics::WorkerStats {
+        let worker = |source, items: u64, busy_s: f64| crate::metrics::WorkerStats {
             items,
             pixels: 16 * items,
             busy_s,
-            source: source.into(),
+            source: Some(source),
             ..Default::default()
         };
         let shares = crate::sched::Share::of(&crate::metrics::RunStats {
-            workers: vec![worker("threads", 3, 0.25), worker("gpu", 5, 0.125)],
+            workers: vec![
+                worker(crate::sched::SourceKind::Threads, 3, 0.25),
+                worker(crate::sched::SourceKind::Gpu, 5, 0.125),
+            ],
             ..Default::default()
         });
         r.sourcing = [Some("4096".to_string()), None, Some("true".into())]

@@ -799,7 +799,8 @@ pub fn timeline_text(spans: &[crate::metrics::Span], stats: &RunStats) -> String
             stats
                 .workers
                 .get(s.worker as usize)
-                .map_or("", |w| w.source.as_str())
+                .and_then(|w| w.source)
+                .map_or("", |k| k.id())
         };
         text += &format!(
             "{},{},{},{},{source}\n",
@@ -854,7 +855,7 @@ fn measure(
                     items: rows,
                     pixels: scene.pixel_count() as u64 * scene.frames() as u64,
                     rays: counters.rays,
-                    source: "threads".into(),
+                    source: Some(crate::metrics::SourceKind::Threads),
                 }],
                 items: rows,
                 issued: rows,

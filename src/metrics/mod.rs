@@ -8,4 +8,4 @@ mod stats;
 
 pub(crate) use clock::BusyClock;
 pub use clock::Probe;
-pub use stats::{MasterStats, RunStats, Span, WorkerStats, MASTER_LANE};
+pub use stats::{MasterStats, RunStats, SourceKind, Span, WorkerStats, MASTER_LANE};

@@ -15,16 +15,31 @@ pub struct WorkerStats {
     pub pixels: u64,
     /// Rays those items traced.
     pub rays: u64,
-    /// What kind of compute source it is (`threads`, `gpu`, `mpi`; empty when not recorded).
+    /// What kind of compute source it is (`None` where not recorded).
     #[serde(default)]
-    pub source: String,
+    pub source: Option<SourceKind>,
+}
+
+/// A kind of compute source. The type lives here, below both `sched` and `source`, so that a
+/// source records its kind in its [`WorkerStats`] without importing the scheduler; its ids
+/// (the CLI's `--sources`, experiment files, the CSV's columns) and what each kind needs are
+/// `crate::sched`'s (`sched/sources.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SourceKind {
+    /// Worker threads of this process (`local` is accepted as an alias).
+    Threads,
+    /// One GPU through wgpu/Vulkan (feature `gpu`): one dispatch per hand-out.
+    Gpu,
+    /// MPI ranks 1…K−1 under `mpirun -n K` (feature `mpi`).
+    Mpi,
 }
 
 impl WorkerStats {
     /// A local thread's statistics, nothing counted yet.
     pub fn local_thread() -> Self {
         Self {
-            source: "threads".into(),
+            source: Some(SourceKind::Threads),
             ..Default::default()
         }
     }
@@ -148,11 +163,7 @@ impl RunStats {
             self.imbalance()
         );
         for (i, w) in self.workers.iter().enumerate() {
-            let kind = if w.source.is_empty() {
-                String::new()
-            } else {
-                format!(" ({})", w.source)
-            };
+            let kind = w.source.map_or(String::new(), |k| format!(" ({})", k.id()));
             let _ = writeln!(
                 s,
                 "  worker {i}{kind}: busy {:.4} s · idle {:.4} s · items {} · pixels {} · rays {}",

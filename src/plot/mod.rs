@@ -3,6 +3,7 @@
 //! as PNG (bitmap backend) and SVG, with the bundled DejaVu Sans (no system fonts needed).
 
 mod charts;
+pub mod compare;
 pub mod prediction;
 pub mod raster;
 pub mod report;

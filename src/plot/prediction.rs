@@ -2,7 +2,7 @@
 //! each configuration's predicted and measured wall time and the error, the model's pick
 //! against the measured best, and the parts the model splits a prediction into.
 
-use super::report::{tied_with_best, wall_ratio, with_ci};
+use super::compare::{tied_with_best, wall_ratio, with_ci};
 use crate::experiment::summary::Summary;
 use std::fmt::Write;
 

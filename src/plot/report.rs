@@ -1,55 +1,15 @@
 //! `report.md`: what ran, on what machine, the plots, the best configuration per scheduler, and
 //! one plain sentence comparing the per-ray master with the best scheduler.
 
+use super::compare::{best_by, speedup_text, tied_with_best, wall_ratio, with_ci};
 use super::Figure;
 use crate::experiment::meta::Meta;
 use crate::experiment::stats::Ratio;
-use crate::experiment::summary::{ratio_by_round, seed_of, Summary};
+use crate::experiment::summary::Summary;
 use std::fmt::Write;
 
 /// How the model's inputs were measured, for the report.
 const PROBE_NOTE: &str = "probe of per-pixel costs at ≤ 4 spp on the run's workers and zero-work hand-outs per scheduler";
-
-fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {
-    v.min_by(|a, b| a.wall_median.total_cmp(&b.wall_median))
-}
-
-/// wall(a) / wall(b) as a ratio of medians ([`ratio_by_round`]: paired by repetition where
-/// they share enough rounds, else unpaired).
-pub fn wall_ratio(a: &Summary, b: &Summary) -> Ratio {
-    let seed = seed_of(&a.row.config) ^ seed_of(&b.row.config).rotate_left(1);
-    ratio_by_round(&a.walls, &b.walls, seed).unwrap_or(Ratio {
-        value: f64::NAN,
-        lo: f64::NAN,
-        hi: f64::NAN,
-        n: 0,
-    })
-}
-
-/// "1.99× (95 % CI 1.95–2.03)".
-pub fn with_ci(r: &Ratio) -> String {
-    format!("{:.2}× (95 % CI {:.2}–{:.2})", r.value, r.lo, r.hi)
-}
-
-/// A configuration's speedup over serial with its interval where it has one.
-pub fn speedup_text(s: &Summary) -> String {
-    match &s.speedup {
-        Some(r) => with_ci(r),
-        None => format!("{:.2}×", s.speedup_median),
-    }
-}
-
-/// The fastest configuration of `at` and every other one not shown slower than it: those whose
-/// 95 % interval of wall(other) / wall(best) reaches down to 1.
-pub fn tied_with_best<'a>(at: &[&'a Summary]) -> Option<(&'a Summary, Vec<&'a Summary>)> {
-    let best = best_by(at.iter().copied())?;
-    let tied = at
-        .iter()
-        .copied()
-        .filter(|s| s.row.config != best.row.config && wall_ratio(s, best).lo <= 1.0)
-        .collect();
-    Some((best, tied))
-}
 
 /// The comparison sentence for one group at its largest worker count, if it has a per-ray
 /// master (master with 1-pixel items) and some other configuration: the fastest one, those

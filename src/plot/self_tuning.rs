@@ -9,7 +9,7 @@
 //! plays the hand tuner, who picks a chunk from earlier runs and then uses it: the chunk is
 //! picked on half of the rounds and judged on the other half ([`held_out_ratio`]).
 
-use super::report::{wall_ratio, with_ci};
+use super::compare::{wall_ratio, with_ci};
 use crate::experiment::stats::{median, paired_ratio, Ratio};
 use crate::experiment::summary::{seed_of, Summary, MIN_PAIRS};
 use crate::sched::{Order, SchedulerKind};

@@ -10,17 +10,13 @@ use crate::metrics::RunStats;
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
-id_enum! {
-    /// A kind of compute source.
-    pub enum SourceKind("sources", "compute source") {
-        /// Worker threads of this process (`local` is accepted as an alias).
-        Threads = "threads",
-        /// One GPU through wgpu/Vulkan (feature `gpu`): one dispatch per hand-out.
-        Gpu = "gpu",
-        /// MPI ranks 1…K−1 under `mpirun -n K` (feature `mpi`).
-        Mpi = "mpi",
-    }
-}
+pub use crate::metrics::SourceKind;
+
+id_enum!(impl SourceKind ("sources", "compute source") {
+    Threads = "threads",
+    Gpu = "gpu",
+    Mpi = "mpi",
+});
 
 impl SourceKind {
     /// The cargo feature this kind needs, if any.
@@ -366,13 +362,7 @@ impl Share {
     pub fn of(stats: &RunStats) -> [Option<Share>; SourceKind::ALL.len()] {
         let mut out = [None; SourceKind::ALL.len()];
         for w in &stats.workers {
-            let kind = match w.source.as_str() {
-                "" | "local" => SourceKind::Threads,
-                id => match SourceKind::from_id(id) {
-                    Ok(k) => k,
-                    Err(_) => continue,
-                },
-            };
+            let kind = w.source.unwrap_or(SourceKind::Threads);
             let s: &mut Share = out[pos(kind)].get_or_insert_with(Share::default);
             s.items += w.items;
             s.pixels += w.pixels;
@@ -478,20 +468,36 @@ mod tests {
     }
 
     #[test]
+    fn a_kinds_serde_name_is_its_id() {
+        // The type's serde names (the statistics' JSON) come from its variant names, its ids
+        // from this module: they must spell the same.
+        for k in SourceKind::ALL {
+            assert_eq!(
+                serde_json::to_string(&k).unwrap(),
+                format!("\"{}\"", k.id())
+            );
+            assert_eq!(
+                serde_json::from_str::<SourceKind>(&format!("\"{}\"", k.id())).unwrap(),
+                k
+            );
+        }
+    }
+
+    #[test]
     fn shares_sum_workers_by_kind_and_round_trip_through_their_cells() {
         use crate::metrics::WorkerStats;
-        let w = |source: &str, items, busy_s| WorkerStats {
+        let w = |source, items, busy_s| WorkerStats {
             items,
             pixels: 4 * items,
             busy_s,
-            source: source.into(),
+            source: Some(source),
             ..Default::default()
         };
         let stats = RunStats {
             workers: vec![
-                w("threads", 3, 0.5),
-                w("threads", 2, 0.25),
-                w("gpu", 10, 0.125),
+                w(SourceKind::Threads, 3, 0.5),
+                w(SourceKind::Threads, 2, 0.25),
+                w(SourceKind::Gpu, 10, 0.125),
             ],
             ..Default::default()
         };
@@ -504,5 +510,19 @@ mod tests {
         assert_eq!(cells.len(), share_columns().len());
         assert_eq!(share_columns()[0], "threads_items");
         assert_eq!(Share::from_cells(&cells), shares.to_vec());
+        // MPI ranks count as mpi; a worker that recorded no kind counts as threads.
+        let mpi = Share::of(&RunStats {
+            workers: vec![
+                w(SourceKind::Mpi, 7, 0.5),
+                w(SourceKind::Mpi, 1, 0.25),
+                WorkerStats {
+                    items: 4,
+                    ..Default::default()
+                },
+            ],
+            ..Default::default()
+        });
+        assert_eq!(mpi[pos(SourceKind::Mpi)].unwrap().items, 8);
+        assert_eq!(mpi[pos(SourceKind::Threads)].unwrap().items, 4);
     }
 }

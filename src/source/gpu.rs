@@ -72,7 +72,7 @@ impl GpuClock {
 
 fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = crate::sched::SourceKind::Gpu.id().into();
+    report.stats.source = Some(crate::metrics::SourceKind::Gpu);
     let mut inflight: VecDeque<InFlight> = VecDeque::new();
     let mut clock = GpuClock {
         busy: Duration::ZERO,

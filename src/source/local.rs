@@ -112,7 +112,7 @@ impl Serving<'_> {
 /// job panics (then this item and everything still queued fail as lost).
 fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = crate::sched::SourceKind::Threads.id().into();
+    report.stats.source = Some(crate::metrics::SourceKind::Threads);
     let mut s = Serving {
         id,
         job,

@@ -499,7 +499,10 @@ fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
         &RunOptions::default(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(stats.workers[1].source, "gpu");
+    assert_eq!(
+        stats.workers[1].source,
+        Some(raysched::metrics::SourceKind::Gpu)
+    );
     assert!(stats.workers[1].items > 0, "the GPU rendered nothing");
     // The items of one dispatch share its span: groups of 4 items (64 px), the last maybe fewer.
     let mut groups: std::collections::BTreeMap<(u64, u64), usize> = Default::default();

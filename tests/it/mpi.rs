@@ -252,6 +252,15 @@ fn three_ranks_give_the_serial_image_for_every_scheduler_and_granularity() {
             stdout.contains("source 0 = mpi-rank-1") && stdout.contains("source 1 = mpi-rank-2"),
             "{stdout}"
         );
+        // Each worker's statistics name its kind, which the per-kind CSV columns sum by: the
+        // ranks are mpi, rank 0's own thread is threads.
+        assert!(
+            stdout.contains("worker 0 (mpi):") && stdout.contains("worker 1 (mpi):"),
+            "{stdout}"
+        );
+        if case.contains(&"--local-threads") {
+            assert!(stdout.contains("worker 2 (threads):"), "{stdout}");
+        }
         // Under static both ranks must have rendered their band (under the master a slow rank
         // may legitimately see all its items re-issued and done elsewhere first).
         let is_static = case.contains(&"static");

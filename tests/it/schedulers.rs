@@ -787,7 +787,10 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
     let rebalances = stats.master.as_ref().unwrap().rebalances;
     assert!(rebalances >= 1, "{:.2} s and no rebalance", stats.wall_s);
     assert!(stats.workers[0].items > stats.workers[1].items);
-    assert_eq!(stats.workers[0].source, "threads");
+    assert_eq!(
+        stats.workers[0].source,
+        Some(raysched::metrics::SourceKind::Threads)
+    );
 }
 
 /// A local thread source that records the size of every hand-out it is given; `whole`: it
