@@ -186,7 +186,7 @@ fn load(dir: &Path) -> Result<Loaded, String> {
 /// The serial baseline walls of `s`'s group in `sums`.
 fn serial_of<'a>(sums: &'a [Summary], s: &Summary) -> Option<&'a Summary> {
     sums.iter()
-        .find(|x| x.row.scheduler == "serial" && x.group() == s.group())
+        .find(|x| x.row.is_serial() && x.group() == s.group())
 }
 
 /// Compare every configuration of `a` with the same configuration (same id) of `b`.
@@ -220,7 +220,7 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String>
             Verdict::NoChange
         };
         let speedup_ratio = match (serial_of(&sa, x), serial_of(&sb, y)) {
-            (Some(ba), Some(bb)) if x.row.scheduler != "serial" => {
+            (Some(ba), Some(bb)) if !x.row.is_serial() => {
                 let (na, da) = pair_by_rep(&ba.walls, &x.walls);
                 let (nb, db) = pair_by_rep(&bb.walls, &y.walls);
                 (!na.is_empty() && !nb.is_empty())

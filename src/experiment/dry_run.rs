@@ -122,9 +122,12 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
             super::plan::Sources::Local(setup) => setup.label(),
             super::plan::Sources::Mpi { transport } => format!(" over MPI ({transport})"),
         };
-        let label = c.spec.as_ref().map_or("serial".to_string(), |s| {
-            format!("{}{setup_label} ×{}", s.label(), s.workers)
-        });
+        let label = c
+            .spec
+            .as_ref()
+            .map_or(super::results::SERIAL.to_string(), |s| {
+                format!("{}{setup_label} ×{}", s.label(), s.workers)
+            });
         let _ = writeln!(
             out,
             "{:<17} {:>8.1}ms {:>6} {:>9} {:>14}  {} · {label}",

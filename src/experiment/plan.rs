@@ -80,7 +80,7 @@ impl Sources {
     pub fn id(&self) -> String {
         match self {
             Self::Local(s) => s.set.column(),
-            Self::Mpi { .. } => "mpi".into(),
+            Self::Mpi { .. } => SourceKind::Mpi.id().into(),
         }
     }
 

@@ -174,7 +174,7 @@ pub struct RunRow {
 }
 
 fn local() -> String {
-    "local".into()
+    crate::sched::SourceSet::threads().column()
 }
 fn one() -> u32 {
     1
@@ -196,7 +196,26 @@ fn params_at(cols: &[String]) -> usize {
         .map_or(cols.len(), |i| i + 1)
 }
 
+/// The `scheduler` (and label) of the serial baseline's rows: no scheduler, one thread
+/// renders the rows in order.
+pub const SERIAL: &str = "serial";
+
 impl RunRow {
+    /// Is this a row of the serial baseline?
+    pub fn is_serial(&self) -> bool {
+        self.scheduler == SERIAL
+    }
+
+    /// Did MPI ranks render it (the `sources` column `mpi`)?
+    pub fn on_mpi(&self) -> bool {
+        self.sources == crate::sched::SourceKind::Mpi.id()
+    }
+
+    /// Did this process's threads alone render it (the `sources` column `local`)?
+    pub fn on_threads_alone(&self) -> bool {
+        self.sources == crate::sched::SourceSet::threads().column()
+    }
+
     /// The column names, in order: the struct's fields (from serde, so they never drift from
     /// it) with the scheduler parameters' columns after `order`.
     pub fn header() -> Vec<String> {
@@ -337,8 +356,8 @@ impl RunRow {
         }
         match &c.spec {
             None => {
-                r.scheduler = "serial".into();
-                r.label = "serial".into();
+                r.scheduler = SERIAL.into();
+                r.label = SERIAL.into();
                 r.workers = 1;
             }
             Some(s) => {
@@ -403,7 +422,7 @@ impl RunRow {
             key += &format!("|slow={slow}");
         }
         // ... and only rows with other sources than threads their set and settings.
-        if self.ranks.is_none() && self.sources != "local" {
+        if self.ranks.is_none() && !self.on_threads_alone() {
             key += &format!("|sources={}", self.sources);
         }
         for (name, v) in sourcing_columns()

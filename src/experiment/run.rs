@@ -578,7 +578,7 @@ fn label_of(plan: &ExperimentPlan, c: &RunConfig) -> String {
     let label = c
         .spec
         .as_ref()
-        .map_or("serial".to_string(), |s| match &c.sources {
+        .map_or(super::results::SERIAL.to_string(), |s| match &c.sources {
             Sources::Local(setup) => format!("{}{} ×{}", s.label(), setup.label(), s.workers),
             Sources::Mpi { transport } => {
                 format!("{} over {} ranks ({transport})", s.label(), s.workers)

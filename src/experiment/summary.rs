@@ -222,7 +222,7 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
     // The serial baseline of each group (scene, settings, tracer), by repetition.
     let serial: std::collections::HashMap<String, Vec<(u32, f64)>> = order
         .iter()
-        .filter(|c| groups[*c][0].scheduler == "serial")
+        .filter(|c| groups[*c][0].is_serial())
         .map(|c| (group_of(groups[c][0]), walls_of(&groups[c])))
         .collect();
     order
@@ -236,7 +236,7 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
             let seed = seed_of(c);
             let wall_median_ci = median_ci(&wall, seed);
             let speedup = match serial.get(&group_of(rs[0])) {
-                Some(base) if rs[0].scheduler != "serial" => ratio_by_round(base, &walls, seed),
+                Some(base) if !rs[0].is_serial() => ratio_by_round(base, &walls, seed),
                 _ => None,
             };
             let loads = rs

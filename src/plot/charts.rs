@@ -753,7 +753,7 @@ impl<'a> Group<'a> {
     fn of(name: &'a str, sums: &'a [Summary]) -> Option<Self> {
         let all: Vec<&Summary> = sums
             .iter()
-            .filter(|s| s.group() == name && s.row.scheduler != "serial" && s.row.sources != "mpi")
+            .filter(|s| s.group() == name && !s.row.is_serial() && !s.row.on_mpi())
             .collect();
         if all.is_empty() {
             return None;
@@ -1029,7 +1029,7 @@ fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R {
     // The fastest run of every other set of sources (threads+gpu, gpu): its lanes by kind.
     let mut sets: Vec<&str> = Vec::new();
     for s in &gr.all {
-        if s.row.sources != "local" && !sets.contains(&s.row.sources.as_str()) {
+        if !s.row.on_threads_alone() && !sets.contains(&s.row.sources.as_str()) {
             sets.push(&s.row.sources);
         }
     }
@@ -1127,7 +1127,7 @@ fn mpi_throughput(
         .iter()
         .filter(|s| s.group() == g && s.row.ranks.is_some() && s.row.chunk_px.is_some())
         .collect();
-    if !rows.iter().any(|s| s.row.sources == "mpi") {
+    if !rows.iter().any(|s| s.row.on_mpi()) {
         return Ok(None);
     }
     let rays = series(

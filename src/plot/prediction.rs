@@ -224,7 +224,7 @@ pub fn section(group: &str, at: &[&Summary], serial: Option<f64>) -> Option<Stri
     let with: Vec<&Summary> = at
         .iter()
         .copied()
-        .filter(|s| s.row.predicted_wall_s.is_some() && s.row.scheduler != "serial")
+        .filter(|s| s.row.predicted_wall_s.is_some() && !s.row.is_serial())
         .collect();
     if with.is_empty() {
         return None;

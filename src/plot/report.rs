@@ -17,13 +17,13 @@ const PROBE_NOTE: &str = "probe of per-pixel costs at ≤ 4 spp on the run's wor
 pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
     let max_w = sums
         .iter()
-        .filter(|s| s.row.scheduler != "serial")
+        .filter(|s| !s.row.is_serial())
         .map(|s| s.row.workers)
         .max()?;
     let at: Vec<&Summary> = sums
         .iter()
         .copied()
-        .filter(|s| s.row.workers == max_w && s.row.scheduler != "serial")
+        .filter(|s| s.row.workers == max_w && !s.row.is_serial())
         .collect();
     let per_ray = best_by(
         at.iter()
@@ -99,7 +99,7 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
     for g in &groups {
         let in_g: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.scheduler != "serial" && s.row.sources != "mpi")
+            .filter(|s| &s.group() == g && !s.row.is_serial() && !s.row.on_mpi())
             .collect();
         if let Some(b) = best_by(in_g.iter().copied()) {
             let slower = b.speedup.map_or(b.speedup_median < 1.0, |r| r.hi < 1.0);
@@ -175,7 +175,7 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
 pub fn shares_section(sums: &[Summary]) -> String {
     let mixed: Vec<&Summary> = sums
         .iter()
-        .filter(|s| s.row.sources != "local" && s.row.sources != "mpi")
+        .filter(|s| !s.row.on_threads_alone() && !s.row.on_mpi())
         .collect();
     if mixed.is_empty() {
         return String::new();
@@ -357,7 +357,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         // Thread schedulers only: MPI rows have their own section.
         let in_g: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.sources != "mpi")
+            .filter(|s| &s.group() == g && !s.row.on_mpi())
             .collect();
         if let Some(sentence) = per_ray_sentence(g, &in_g) {
             let _ = writeln!(md, "{sentence}\n");
@@ -375,7 +375,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
     for g in &groups {
         let in_g: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.sources == "local" && s.row.scheduler != "serial")
+            .filter(|s| &s.group() == g && s.row.on_threads_alone() && !s.row.is_serial())
             .collect();
         let Some(max_w) = in_g.iter().map(|s| s.row.workers).max() else {
             continue;
@@ -386,7 +386,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             .collect();
         let serial = sums
             .iter()
-            .find(|s| &s.group() == g && s.row.scheduler == "serial")
+            .find(|s| &s.group() == g && s.row.is_serial())
             .map(|s| s.wall_median);
         if let Some(sec) = super::prediction::section(g, &at, serial) {
             model += &sec;
@@ -401,7 +401,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
     for g in &groups {
         let at: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.sources == "local")
+            .filter(|s| &s.group() == g && s.row.on_threads_alone())
             .collect();
         if let Some(sec) = super::self_tuning::section(g, &at) {
             tuning += &sec;
@@ -417,7 +417,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         // Thread schedulers only: MPI rows have their own section.
         let in_g: Vec<&Summary> = sums
             .iter()
-            .filter(|s| &s.group() == g && s.row.sources != "mpi")
+            .filter(|s| &s.group() == g && !s.row.on_mpi())
             .collect();
         let _ = writeln!(md, "### {g}\n");
         let _ = writeln!(md, "| scheduler | best configuration | workers | median wall (s) | 95 % CI of median (s) | speedup (95 % CI) | efficiency | runs |");
@@ -474,7 +474,7 @@ pub const BLOCK_PX: u64 = 256;
 pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
     use super::throughput;
     let mut md = String::new();
-    if !sums.iter().any(|s| s.row.sources == "mpi") {
+    if !sums.iter().any(|s| s.row.on_mpi()) {
         return md;
     }
     let _ = writeln!(md, "## MPI ranks vs local threads\n");
@@ -489,7 +489,7 @@ pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
         for s in &in_g {
             if let (Some(r), Some(t)) = (s.row.ranks, &s.row.transport) {
                 let k = (s.row.scheduler.clone(), r, t.clone());
-                if s.row.sources == "mpi" && !lines.contains(&k) {
+                if s.row.on_mpi() && !lines.contains(&k) {
                     lines.push(k);
                 }
             }
@@ -509,9 +509,9 @@ pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
                             && s.row.ranks == Some(*ranks)
                             && s.row.chunk_px == Some(px)
                             && if mpi {
-                                s.row.sources == "mpi" && s.row.transport.as_deref() == Some(t)
+                                s.row.on_mpi() && s.row.transport.as_deref() == Some(t)
                             } else {
-                                s.row.sources == "local"
+                                s.row.on_threads_alone()
                             }
                     })
                     .max_by(|a, b| throughput(a).0.total_cmp(&throughput(b).0))

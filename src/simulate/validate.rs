@@ -85,15 +85,17 @@ pub fn mpi_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)
 }
 
 fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOverrides), String> {
-    let local = |r: &&RunRow| r.sources == "local";
-    let picked = |r: &&RunRow| r.sources == if mpi { "mpi" } else { "local" };
+    let local = |r: &&RunRow| r.on_threads_alone();
+    let picked = |r: &&RunRow| {
+        if mpi {
+            r.on_mpi()
+        } else {
+            r.on_threads_alone()
+        }
+    };
     let mut out: Vec<Measured> = Vec::new();
     let mut size: Option<(u32, u32, u32, i32)> = None;
-    for r in rows
-        .iter()
-        .filter(picked)
-        .filter(|r| r.scheduler != "serial")
-    {
+    for r in rows.iter().filter(picked).filter(|r| !r.is_serial()) {
         let this = (r.width, r.height, r.spp, r.max_depth);
         if *size.get_or_insert(this) != this {
             return Err(format!(
@@ -139,7 +141,7 @@ fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOver
     let serial: Vec<&RunRow> = rows
         .iter()
         .filter(local)
-        .filter(|r| r.scheduler == "serial")
+        .filter(|r| r.is_serial())
         .filter(|r| (r.width, r.height, r.spp, r.max_depth) == (width, height, spp, max_depth))
         .collect();
     // Without serial rows each configuration keeps its last row's (the most samples).
@@ -510,13 +512,14 @@ pub fn markdown(v: &Validation) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::experiment::results::SERIAL;
 
     fn row(scheduler: &str, wall_s: f64, serial_s: f64) -> RunRow {
         let mut r = RunRow::example();
         (r.width, r.height, r.spp, r.max_depth) = (8, 8, 1, 4);
         r.scheduler = scheduler.into();
         r.workers = 1;
-        if scheduler != "serial" {
+        if scheduler != SERIAL {
             r.chunk = Some("16".into());
         }
         r.wall_s = wall_s;
@@ -529,11 +532,11 @@ mod tests {
         // As a run writes them: the first round's rows carry the first serial render alone
         // (0.42), later rows the running median.
         let rows = [
-            row("serial", 0.42, 0.42),
+            row(SERIAL, 0.42, 0.42),
             row("static", 0.38, 0.42),
-            row("serial", 0.33, 0.33),
+            row(SERIAL, 0.33, 0.33),
             row("static", 0.39, 0.375),
-            row("serial", 0.36, 0.36),
+            row(SERIAL, 0.36, 0.36),
             row("static", 0.37, 0.36),
         ];
         let (configs, o) = configs_of(&rows).unwrap();
@@ -557,7 +560,7 @@ mod tests {
         let mut rows = Vec::new();
         for (k, s) in serials.into_iter().enumerate() {
             let running = median(&serials[..=k]);
-            let mut r = row("serial", s, running);
+            let mut r = row(SERIAL, s, running);
             r.repetition = k as u32;
             rows.push(r);
             let mut r = row("static", s * 1.02, running);
@@ -592,7 +595,7 @@ mod tests {
 
     #[test]
     fn mpi_rows_are_one_configuration_per_transport_at_every_serials_level() {
-        let mut rows = vec![row("serial", 0.24, 0.24), row("serial", 0.28, 0.26)];
+        let mut rows = vec![row(SERIAL, 0.24, 0.24), row(SERIAL, 0.28, 0.26)];
         rows[1].repetition = 1;
         for (t, wall) in [("shared_memory", 0.13), ("tcp_loopback", 0.15)] {
             for rep in 0..2 {
@@ -632,7 +635,7 @@ mod tests {
             (r.workers, r.items) = (workers, 64);
             r
         };
-        let serial = row("serial", 0.26, 0.26);
+        let serial = row(SERIAL, 0.26, 0.26);
         let rendered = [
             serial.clone(),
             mpi(0.3, "tcp_loopback", 2),
