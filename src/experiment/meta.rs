@@ -3,7 +3,7 @@
 //! written once, when runs.csv is started; each later start only appends a [`Start`] to its
 //! `history`, and a start on another machine or build is refused ([`resume_conflict`]).
 
-use super::plan::ExperimentPlan;
+use super::plan::{ExperimentPlan, GpuMeta};
 use serde::{Deserialize, Serialize};
 
 /// The contents of `meta.toml`.
@@ -42,19 +42,6 @@ pub struct Meta {
     /// written before it was recorded).
     #[serde(default)]
     pub gpu: Option<GpuMeta>,
-}
-
-/// The GPU adapter of a run (as the driver reports it), its provenance beside the CPU's.
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
-pub struct GpuMeta {
-    /// Adapter name (`llvmpipe (LLVM 15.0.6, 256 bits)`, `NVIDIA H200`, …).
-    pub name: String,
-    /// Driver name and version.
-    pub driver: String,
-    /// wgpu backend (`vulkan`).
-    pub backend: String,
-    /// Device type (`Cpu`, `DiscreteGpu`, …).
-    pub device_type: String,
 }
 
 /// One start of `raysched run` on a results folder: when, where, with what, under what load.

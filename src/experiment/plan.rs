@@ -90,11 +90,24 @@ impl Sources {
     }
 }
 
+/// The GPU adapter of a run (as the driver reports it), its provenance beside the CPU's.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize, PartialEq, Eq)]
+pub struct GpuMeta {
+    /// Adapter name (`llvmpipe (LLVM 15.0.6, 256 bits)`, `NVIDIA H200`, …).
+    pub name: String,
+    /// Driver name and version.
+    pub driver: String,
+    /// wgpu backend (`vulkan`).
+    pub backend: String,
+    /// Device type (`Cpu`, `DiscreteGpu`, …).
+    pub device_type: String,
+}
+
 /// The GPU of an experiment's source sets with `gpu`, opened once by the plan with every
 /// scene uploaded to it (never timed with a run).
 pub struct PlannedGpu {
     /// The adapter (recorded in `meta.toml`).
-    pub info: super::meta::GpuMeta,
+    pub info: GpuMeta,
     /// Seconds taken to upload each scene, in [`ExperimentPlan::scenes`] order.
     pub upload_s: Vec<f64>,
     /// Each scene on the device, in [`ExperimentPlan::scenes`] order.
@@ -287,7 +300,7 @@ fn open_gpu(
         "sources"
     };
     let ctx = GpuContext::open(adapter).map_err(|e| field(at, e.to_string()))?;
-    let info = super::meta::GpuMeta {
+    let info = GpuMeta {
         name: ctx.info.name.clone(),
         driver: ctx.info.driver.clone(),
         backend: ctx.info.backend.clone(),
