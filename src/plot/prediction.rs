@@ -52,7 +52,12 @@ pub fn decomposition(s: &Summary) -> Option<String> {
 pub fn level(with: &[&Summary], serial_median: f64) -> Option<f64> {
     let mut k: Vec<f64> = with
         .iter()
-        .filter(|s| s.row.slow.as_deref().is_none_or(|v| v == "none"))
+        .filter(|s| {
+            s.row
+                .slow
+                .as_deref()
+                .is_none_or(|v| *v == crate::sched::Slow::NONE.to_string())
+        })
         .filter_map(|s| {
             let (wall, h, r, i) = parts(s)?;
             let work = (wall - h - r - i) * s.row.workers as f64;

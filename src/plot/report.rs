@@ -25,11 +25,9 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
         .copied()
         .filter(|s| s.row.workers == max_w && !s.row.is_serial())
         .collect();
-    let per_ray = best_by(
-        at.iter()
-            .copied()
-            .filter(|s| s.row.scheduler == "master" && s.row.chunk_px == Some(1)),
-    )?;
+    let per_ray = best_by(at.iter().copied().filter(|s| {
+        s.row.scheduler == crate::sched::SchedulerKind::Master.id() && s.row.chunk_px == Some(1)
+    }))?;
     let others: Vec<&Summary> = at
         .iter()
         .copied()
