@@ -472,6 +472,8 @@ struct Row {
     sources: String,
     ranks: Option<usize>,
     transport: Option<String>,
+    threads_items: Option<u64>,
+    mpi_items: Option<u64>,
 }
 
 fn rows(path: &Path) -> Vec<Row> {
@@ -530,6 +532,12 @@ fn mpirun_raysched_run_appends_mpi_rows_per_transport_beside_the_local_baseline(
         assert!(mpi
             .iter()
             .all(|r| r.sources == "mpi" && r.ranks == Some(3) && r.workers == 2));
+        // Who rendered what is summed per kind: the ranks' items under mpi, none under threads.
+        assert!(
+            mpi.iter()
+                .all(|r| r.mpi_items.is_some_and(|n| n > 0) && r.threads_items.is_none()),
+            "{transport}: {mpi:#?}"
+        );
         let local: Vec<&Row> = rs
             .iter()
             .filter(|r| r.sources == "local" && r.scheduler != "serial")
