@@ -174,7 +174,7 @@ pub struct RunRow {
 }
 
 fn local() -> String {
-    crate::sched::SourceSet::threads().column()
+    crate::sched::sources::THREADS_COLUMN.into()
 }
 fn one() -> u32 {
     1
@@ -213,7 +213,7 @@ impl RunRow {
 
     /// Did this process's threads alone render it (the `sources` column `local`)?
     pub fn on_threads_alone(&self) -> bool {
-        self.sources == crate::sched::SourceSet::threads().column()
+        self.sources == crate::sched::sources::THREADS_COLUMN
     }
 
     /// The column names, in order: the struct's fields (from serde, so they never drift from

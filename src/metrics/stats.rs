@@ -27,7 +27,7 @@ pub struct WorkerStats {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SourceKind {
-    /// Worker threads of this process (`local` is accepted as an alias).
+    /// Worker threads of this process (sets written `local` parse to it).
     Threads,
     /// One GPU through wgpu/Vulkan (feature `gpu`): one dispatch per hand-out.
     Gpu,

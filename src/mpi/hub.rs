@@ -102,13 +102,7 @@ impl<'c> Hub<'c> {
         let mut ranks = Vec::new();
         let mut sources: Vec<Box<dyn ComputeSource>> = Vec::new();
         for (k, p) in peers.iter().enumerate() {
-            let shared = Arc::new(Shared::default());
-            shared
-                .report
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .stats
-                .source = Some(crate::metrics::SourceKind::Mpi);
+            let shared = Arc::new(Shared::new());
             let id = first_id + k as u32;
             sources.push(Box::new(MpiRankSource::new(
                 id,

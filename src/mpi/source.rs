@@ -19,11 +19,23 @@ pub struct Cmd {
 }
 
 /// What a source and the hub both see of one rank.
-#[derive(Default)]
 pub(super) struct Shared {
     pub(super) lost: AtomicBool,
     pub(super) notifier: OnceLock<Notifier>,
     pub(super) report: Mutex<SourceReport>,
+}
+
+impl Shared {
+    /// A rank not yet heard from: its report's statistics say it is an MPI rank.
+    pub(super) fn new() -> Self {
+        let mut report = SourceReport::default();
+        report.stats.source = Some(crate::metrics::SourceKind::Mpi);
+        Self {
+            lost: AtomicBool::new(false),
+            notifier: OnceLock::new(),
+            report: Mutex::new(report),
+        }
+    }
 }
 
 /// One worker rank as a compute source of the master on rank 0.

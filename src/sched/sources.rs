@@ -12,6 +12,10 @@ use std::sync::OnceLock;
 
 pub use crate::metrics::SourceKind;
 
+/// The `sources` column's value for threads alone ([`SourceSet::column`]), also accepted
+/// for `threads` wherever a set is parsed.
+pub const THREADS_COLUMN: &str = "local";
+
 id_enum!(impl SourceKind ("sources", "compute source") {
     Threads = "threads",
     Gpu = "gpu",
@@ -90,7 +94,7 @@ impl SourceSet {
         let kinds = text
             .split([',', '+'])
             .map(|s| match s.trim() {
-                "local" => Ok(SourceKind::Threads),
+                THREADS_COLUMN => Ok(SourceKind::Threads),
                 t => SourceKind::from_id(t),
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -112,11 +116,11 @@ impl SourceSet {
         self.0.iter().map(|k| k.id()).collect::<Vec<_>>().join("+")
     }
 
-    /// The `sources` column of runs.csv: [`Self::id`], except `local` for threads alone
-    /// (the column's value since before the other kinds; [`Self::parse`] reads it back).
+    /// The `sources` column of runs.csv: [`Self::id`], except [`THREADS_COLUMN`] for threads
+    /// alone (the column's value since before the other kinds; [`Self::parse`] reads it back).
     pub fn column(&self) -> String {
         if *self == Self::threads() {
-            "local".into()
+            THREADS_COLUMN.into()
         } else {
             self.id()
         }
