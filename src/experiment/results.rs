@@ -206,6 +206,13 @@ impl RunRow {
         self.scheduler == SERIAL
     }
 
+    /// Were its workers equal (the `slow` column empty or `none`)?
+    pub fn equal_workers(&self) -> bool {
+        self.slow
+            .as_deref()
+            .is_none_or(|v| crate::sched::Slow::parse(v).is_ok_and(|s| s.is_none()))
+    }
+
     /// Did MPI ranks render it (the `sources` column `mpi`)?
     pub fn on_mpi(&self) -> bool {
         self.sources == crate::sched::SourceKind::Mpi.id()

@@ -43,6 +43,9 @@ pub struct Summary {
     pub load_max: Option<f64>,
     /// (repetition, wall time) of every sample, in repetition order: what pairs are made of.
     pub walls: Vec<(u32, f64)>,
+    /// (repetition, Σ worker busy time) of every sample, in repetition order, paired like
+    /// `walls`.
+    pub busy: Vec<(u32, f64)>,
     /// Median speedup (serial median / wall).
     pub speedup_median: f64,
     /// Lowest speedup.
@@ -214,11 +217,12 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
             })
             .push(r);
     }
-    let walls_of = |rs: &[&RunRow]| {
-        let mut w: Vec<(u32, f64)> = rs.iter().map(|r| (r.repetition, r.wall_s)).collect();
+    let by_rep = |rs: &[&RunRow], f: fn(&RunRow) -> f64| {
+        let mut w: Vec<(u32, f64)> = rs.iter().map(|r| (r.repetition, f(r))).collect();
         w.sort_by_key(|x| x.0);
         w
     };
+    let walls_of = |rs: &[&RunRow]| by_rep(rs, |r| r.wall_s);
     // The serial baseline of each group (scene, settings, tracer), by repetition.
     let serial: std::collections::HashMap<String, Vec<(u32, f64)>> = order
         .iter()
@@ -252,6 +256,7 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
                 inner: rs.iter().map(|r| r.inner).max().unwrap_or(1),
                 load_max: loads.reduce(f64::max),
                 walls,
+                busy: by_rep(rs, |r| r.work_s),
                 row: rs[0].clone(),
                 n: rs.len(),
                 wall_median: median(&wall),

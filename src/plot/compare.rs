@@ -12,8 +12,17 @@ pub fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> 
 /// wall(a) / wall(b) as a ratio of medians ([`ratio_by_round`]: paired by repetition where
 /// they share enough rounds, else unpaired).
 pub fn wall_ratio(a: &Summary, b: &Summary) -> Ratio {
+    ratio_of(a, b, |s| &s.walls)
+}
+
+/// Σ busy(a) / Σ busy(b), the workers' busy time summed per sample, paired as [`wall_ratio`].
+pub fn busy_ratio(a: &Summary, b: &Summary) -> Ratio {
+    ratio_of(a, b, |s| &s.busy)
+}
+
+fn ratio_of(a: &Summary, b: &Summary, of: fn(&Summary) -> &[(u32, f64)]) -> Ratio {
     let seed = seed_of(&a.row.config) ^ seed_of(&b.row.config).rotate_left(1);
-    ratio_by_round(&a.walls, &b.walls, seed).unwrap_or(Ratio {
+    ratio_by_round(of(a), of(b), seed).unwrap_or(Ratio {
         value: f64::NAN,
         lo: f64::NAN,
         hi: f64::NAN,

@@ -50,10 +50,9 @@ pub fn decomposition(s: &Summary) -> Option<String> {
 /// model's shape. The serial render runs on one core and the probe on P, so where busy cores
 /// slow each other the two levels also differ for that reason.
 pub fn level(with: &[&Summary], serial_median: f64) -> Option<f64> {
-    let equal_workers = crate::sched::Slow::NONE.to_string();
     let mut k: Vec<f64> = with
         .iter()
-        .filter(|s| s.row.slow.as_deref().is_none_or(|v| v == equal_workers))
+        .filter(|s| s.row.equal_workers())
         .filter_map(|s| {
             let (wall, h, r, i) = parts(s)?;
             let work = (wall - h - r - i) * s.row.workers as f64;

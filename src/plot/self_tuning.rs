@@ -9,7 +9,7 @@
 //! plays the hand tuner, who picks a chunk from earlier runs and then uses it: the chunk is
 //! picked on half of the rounds and judged on the other half ([`held_out_ratio`]).
 
-use super::compare::{wall_ratio, with_ci};
+use super::compare::{busy_ratio, wall_ratio, with_ci};
 use crate::experiment::stats::{median, paired_ratio, Ratio};
 use crate::experiment::summary::{seed_of, Summary, MIN_PAIRS};
 use crate::sched::{Order, SchedulerKind};
@@ -79,6 +79,9 @@ pub struct Check<'a> {
     pub ratio: Ratio,
     /// `ratio` against the tolerance.
     pub verdict: Verdict,
+    /// Σ busy(rule) / Σ busy(best fixed), paired as `ratio`: with equal workers only, since a
+    /// slow worker's busy time also holds its spin, which grows with the share it takes.
+    pub busy: Option<Ratio>,
     /// The held-out ratio ([`held_out_ratio`]) and its verdict, where the rounds allow one.
     pub held_out: Option<(HeldOut<'a>, Verdict)>,
 }
@@ -165,6 +168,10 @@ pub fn checks<'a>(at: &[&'a Summary], tol: f64) -> Vec<Check<'a>> {
         out.push(Check {
             rule,
             best_fixed,
+            busy: rule
+                .row
+                .equal_workers()
+                .then(|| busy_ratio(rule, best_fixed)),
             verdict: Verdict::of(&ratio, tol),
             ratio,
             held_out,
@@ -180,7 +187,7 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
         return None;
     }
     let mut md = format!("### {group}\n\n");
-    md += "| rule | workers | best fixed chunk | median (ms) rule / fixed | wall ratio (95 % CI) | rounds | verdict | held-out picks (even / odd rounds) | held-out ratio (95 % CI) | held-out verdict |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    md += "| rule | workers | best fixed chunk | median (ms) rule / fixed | wall ratio (95 % CI) | busy ratio (95 % CI) | rounds | verdict | held-out picks (even / odd rounds) | held-out ratio (95 % CI) | held-out verdict |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     for c in &checks {
         let (picks, held, held_verdict) = match &c.held_out {
             Some((h, v)) => (
@@ -190,9 +197,10 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
             ),
             None => ("–".into(), "–".into(), "–".into()),
         };
+        let busy = c.busy.as_ref().map_or("–".into(), with_ci);
         let _ = writeln!(
             md,
-            "| `{}` | {} | `{}` | {:.3} / {:.3} | {} | {} | {} | {picks} | {held} | {held_verdict} |",
+            "| `{}` | {} | `{}` | {:.3} / {:.3} | {} | {busy} | {} | {} | {picks} | {held} | {held_verdict} |",
             c.rule.row.label,
             c.rule.row.workers,
             c.best_fixed.row.label,
@@ -212,8 +220,30 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
     if !held.is_empty() {
         md += &tally("Held out", &held);
     }
+    md += &excess_line(&checks);
     md += "\n";
     Some(md)
+}
+
+/// Where the rules' excess over the best fixed chunk lies, with equal workers: the medians of
+/// their wall and busy ratios, a line (empty without such rows). Equal busy and wall excesses
+/// mean the workers spent the extra time rendering the rule's items (their size and order
+/// change what a pixel costs), not waiting for work.
+fn excess_line(checks: &[Check]) -> String {
+    let (wall, busy): (Vec<f64>, Vec<f64>) = checks
+        .iter()
+        .filter_map(|c| Some((c.ratio.value, c.busy.as_ref()?.value)))
+        .filter(|(w, b)| w.is_finite() && b.is_finite())
+        .unzip();
+    if wall.is_empty() {
+        return String::new();
+    }
+    format!(
+        "Equal workers ({} rows): median wall ratio {:.3}×, median busy ratio {:.3}× (Σ worker busy time, paired by round).\n",
+        wall.len(),
+        median(&wall),
+        median(&busy)
+    )
 }
 
 /// "{what}: 2 of 3 within 3 %, 1 beyond, 0 undecided.", a line.
@@ -230,7 +260,7 @@ fn tally(what: &str, verdicts: &[Verdict]) -> String {
 }
 
 /// The section's preamble.
-pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chunks (guided and the dynamic-loop-scheduling family) against the fastest `self_scheduling` chunk in scanline order of the same workers and `slow` setting: wall(rule) / wall(best fixed chunk), a ratio of medians over samples paired by round, with its seeded bootstrap 95 % interval. Verdict against 3 %: *within* when the whole interval is at or below 1.03, *beyond* when it is all above, *undecided* otherwise. The best fixed chunk is the fastest of several noisy medians, so it is biased fast: the check leans against the rules. The held-out columns play a hand tuner, who picks a chunk from earlier runs and then uses it: the fixed chunk fastest over the even rounds is judged on the odd rounds and the other way round, so the luck of the pick is not credited to the fixed chunk (paired by round, same interval and verdict).";
+pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chunks (guided and the dynamic-loop-scheduling family) against the fastest `self_scheduling` chunk in scanline order of the same workers and `slow` setting: wall(rule) / wall(best fixed chunk), a ratio of medians over samples paired by round, with its seeded bootstrap 95 % interval. Verdict against 3 %: *within* when the whole interval is at or below 1.03, *beyond* when it is all above, *undecided* otherwise. The best fixed chunk is the fastest of several noisy medians, so it is biased fast: the check leans against the rules. The held-out columns play a hand tuner, who picks a chunk from earlier runs and then uses it: the fixed chunk fastest over the even rounds is judged on the odd rounds and the other way round, so the luck of the pick is not credited to the fixed chunk (paired by round, same interval and verdict). The busy ratio (equal workers only) is the workers' summed busy time under the rule over that under the best fixed chunk, paired by round: where it is as far above 1 as the wall ratio, the workers spent the extra time rendering the rule's items (their size and order change what a pixel costs), not waiting for work. With a slow worker it is left out: that worker's busy time holds its spin, which grows with the share of items it takes.";
 
 #[cfg(test)]
 mod tests {
@@ -401,6 +431,100 @@ mod tests {
         );
         assert!(
             md.contains("Held out: 1 of 1 within 3 %, 0 beyond, 0 undecided."),
+            "{md}"
+        );
+    }
+
+    /// The busy ratio tells a rule whose items render slower (busy time up as much as the
+    /// wall) from one whose workers wait (wall up, busy time not); with a slow worker it is
+    /// left out.
+    #[test]
+    fn the_busy_ratio_tells_rendering_from_waiting() {
+        // Two workers; a run's wall is (Σ busy + Σ idle) / 2. Round r drifts every
+        // configuration alike.
+        let run =
+            |label: &str, kind: &str, order: &str, slow: Option<&str>, busy: f64, idle: f64| {
+                let mut v = rounds(label, kind, order, |r| {
+                    (busy + idle) / 2.0 * (1.0 + 0.01 * (r % 4) as f64)
+                });
+                for r in &mut v {
+                    r.work_s = busy * (1.0 + 0.01 * (r.repetition % 4) as f64);
+                    r.idle_s = idle * (1.0 + 0.01 * (r.repetition % 4) as f64);
+                    r.slow = slow.map(str::to_string);
+                    r.config = format!("{label} {slow:?}");
+                }
+                v
+            };
+        let mut all = Vec::new();
+        for slow in [None, Some("1:3")] {
+            all.extend(run(
+                "ss 8",
+                "self_scheduling",
+                "scanline",
+                slow,
+                0.200,
+                0.002,
+            ));
+            all.extend(run(
+                "ss 16",
+                "self_scheduling",
+                "scanline",
+                slow,
+                0.201,
+                0.010,
+            ));
+        }
+        // AF renders 4 % slower and waits as little; AWF renders as fast and waits 8 ms more.
+        all.extend(run(
+            "af",
+            "adaptive_factoring",
+            "scatter",
+            None,
+            0.208,
+            0.002,
+        ));
+        all.extend(run("awf", "awf", "scatter", None, 0.200, 0.010));
+        all.extend(run(
+            "af",
+            "adaptive_factoring",
+            "scatter",
+            Some("1:3"),
+            0.208,
+            0.002,
+        ));
+        let sums = summarize(&all);
+        let at: Vec<&Summary> = sums.iter().collect();
+        let c = checks(&at, TOLERANCE);
+        let find = |label: &str, slow: Option<&str>| {
+            c.iter()
+                .find(|c| c.rule.row.label == label && c.rule.row.slow.as_deref() == slow)
+                .unwrap_or_else(|| panic!("{label} {slow:?} not checked: {c:?}"))
+        };
+        let af = find("af", None);
+        assert_eq!(af.best_fixed.row.label, "ss 8");
+        let b = af.busy.as_ref().expect("equal workers");
+        assert!((b.value - 1.04).abs() < 1e-9, "{b:?}");
+        assert!(
+            (af.ratio.value - 0.210 / 0.202).abs() < 1e-9,
+            "{:?}",
+            af.ratio
+        );
+        let awf = find("awf", None);
+        let b = awf.busy.as_ref().expect("equal workers");
+        assert!((b.value - 1.0).abs() < 1e-9, "{b:?}");
+        assert!(
+            (awf.ratio.value - 0.210 / 0.202).abs() < 1e-9,
+            "{:?}",
+            awf.ratio
+        );
+        assert!(find("af", Some("1:3")).busy.is_none());
+        let md = section("g", &at).unwrap();
+        assert!(md.contains("| 1.04× (95 % CI 1.04–1.04) | 20 |"), "{md}");
+        assert!(md.contains("| – | 20 |"), "{md}");
+        assert!(
+            md.contains(
+                "Equal workers (2 rows): median wall ratio 1.040×, median busy ratio 1.020×"
+            ),
             "{md}"
         );
     }
