@@ -227,8 +227,8 @@ pub fn section(group: &str, at: &[&Summary]) -> Option<String> {
 
 /// Where the rules' excess over the best fixed chunk lies, with equal workers: the medians of
 /// their wall and busy ratios, a line (empty without such rows). Equal busy and wall excesses
-/// mean the workers spent the extra time rendering the rule's items (their size and order
-/// change what a pixel costs), not waiting for work.
+/// put the extra time before the workers' last items end (rendering, hand-outs), not in the
+/// wait at the end.
 fn excess_line(checks: &[Check]) -> String {
     let (wall, busy): (Vec<f64>, Vec<f64>) = checks
         .iter()
@@ -260,7 +260,7 @@ fn tally(what: &str, verdicts: &[Verdict]) -> String {
 }
 
 /// The section's preamble.
-pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chunks (guided and the dynamic-loop-scheduling family) against the fastest `self_scheduling` chunk in scanline order of the same workers and `slow` setting: wall(rule) / wall(best fixed chunk), a ratio of medians over samples paired by round, with its seeded bootstrap 95 % interval. Verdict against 3 %: *within* when the whole interval is at or below 1.03, *beyond* when it is all above, *undecided* otherwise. The best fixed chunk is the fastest of several noisy medians, so it is biased fast: the check leans against the rules. The held-out columns play a hand tuner, who picks a chunk from earlier runs and then uses it: the fixed chunk fastest over the even rounds is judged on the odd rounds and the other way round, so the luck of the pick is not credited to the fixed chunk (paired by round, same interval and verdict). The busy ratio (equal workers only) is the workers' summed busy time under the rule over that under the best fixed chunk, paired by round: where it is as far above 1 as the wall ratio, the workers spent the extra time rendering the rule's items (their size and order change what a pixel costs), not waiting for work. With a slow worker it is left out: that worker's busy time holds its spin, which grows with the share of items it takes.";
+pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chunks (guided and the dynamic-loop-scheduling family) against the fastest `self_scheduling` chunk in scanline order of the same workers and `slow` setting: wall(rule) / wall(best fixed chunk), a ratio of medians over samples paired by round, with its seeded bootstrap 95 % interval. Verdict against 3 %: *within* when the whole interval is at or below 1.03, *beyond* when it is all above, *undecided* otherwise. The best fixed chunk is the fastest of several noisy medians, so it is biased fast: the check leans against the rules. The held-out columns play a hand tuner, who picks a chunk from earlier runs and then uses it: the fixed chunk fastest over the even rounds is judged on the odd rounds and the other way round, so the luck of the pick is not credited to the fixed chunk (paired by round, same interval and verdict). The busy ratio (equal workers only) is the workers' summed busy time under the rule over that under the best fixed chunk, paired by round. A worker of these schedulers is busy from its start to the end of its last item (rendering, and taking its hand-outs), idle only after it: where the busy ratio is as far above 1 as the wall ratio, the extra time went into rendering the rule's items (their size and order change what a pixel costs) or handing them out, not into the wait at the end. With a slow worker it is left out: that worker's busy time holds its spin, which grows with the share of items it takes.";
 
 #[cfg(test)]
 mod tests {
