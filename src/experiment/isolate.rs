@@ -39,42 +39,11 @@ pub struct RoundJob {
     pub round: u64,
     /// The parent's statistics settings (the file's, with the command line's overrides).
     pub stats: StatsSettings,
-    /// `Some(k)`: instead of a round, run the cost model's probe and leave its predictions in
-    /// the folder's `.predictions.k.json` ([`PROBES`]).
-    #[serde(default)]
-    pub probe: Option<u32>,
 }
-
-/// Processes that each probe the cost model when rounds run isolated; every configuration's
-/// prediction is the median of theirs ([`median_predictions`]). One probe's level of the work
-/// is a draw: six probes of one scene in separate processes ranged from −2 % to +16 % of its
-/// serial median (2-core AMD EPYC guest, 2026-12-05), and one such draw 18–24 % high made the
-/// three misses at the measured best of that day's `advise_check` snapshot.
-pub const PROBES: u32 = 3;
 
 /// The cost model's predictions, computed once by the parent for every child to record.
 fn predictions_path(dir: &Path) -> PathBuf {
     dir.join(".predictions.json")
-}
-
-/// Where probe process `k` leaves its predictions.
-fn probe_path(dir: &Path, k: u32) -> PathBuf {
-    dir.join(format!(".predictions.{k}.json"))
-}
-
-/// Per configuration, the prediction of median wall time among the probes that predicted it
-/// (the lower middle one of an even count), whole, so that its parts still sum to its wall.
-pub fn median_predictions(probes: &[HashMap<String, Prediction>]) -> HashMap<String, Prediction> {
-    let mut ids: Vec<&String> = probes.iter().flat_map(|p| p.keys()).collect();
-    ids.sort();
-    ids.dedup();
-    ids.into_iter()
-        .map(|id| {
-            let mut v: Vec<Prediction> = probes.iter().filter_map(|p| p.get(id).copied()).collect();
-            v.sort_by(|a, b| a.wall_s.total_cmp(&b.wall_s));
-            (id.clone(), v[(v.len() - 1) / 2])
-        })
-        .collect()
 }
 
 /// The predictions the parent left for the children (none when the plan records none).
@@ -119,29 +88,8 @@ pub fn run_experiment_isolated(
     let mut rows = old_rows;
     let mut todo = todo_of(&rows);
     let pred_path = predictions_path(&dir);
-    if plan.predict && !todo.all_done() {
-        let mut probes = Vec::new();
-        for k in 0..PROBES {
-            let job = RoundJob {
-                experiment: plan.file.clone(),
-                file_hash: plan.file_hash.clone(),
-                out: opts.out.clone(),
-                round: 0,
-                stats: plan.stats,
-                probe: Some(k),
-            };
-            run_child(exe, &job, &mut |_| {}).map_err(|e| {
-                RunError::Child(format!(
-                    "{}: cost-model probe {k}: {e}",
-                    plan.file.display()
-                ))
-            })?;
-            let path = probe_path(&dir, k);
-            let text = std::fs::read_to_string(&path).map_err(|e| run::io_err(&path, e))?;
-            let _ = std::fs::remove_file(&path);
-            probes.push(serde_json::from_str(&text).map_err(|e| run::io_err(&path, e))?);
-        }
-        let p = median_predictions(&probes);
+    if plan.predict {
+        let p = run::predictions(plan, &todo)?;
         let text = serde_json::to_string(&p).map_err(|e| run::io_err(&pred_path, e))?;
         run::write_atomic(&pred_path, text.as_bytes())?;
     }
@@ -156,7 +104,6 @@ pub fn run_experiment_isolated(
             out: opts.out.clone(),
             round,
             stats: plan.stats,
-            probe: None,
         };
         let before = measured;
         run_child(exe, &job, &mut |line| {
@@ -249,16 +196,6 @@ pub fn child_main(job: &RoundJob) -> Result<(), RunError> {
         )));
     }
     plan.stats = job.stats;
-    if let Some(k) = job.probe {
-        let dir = job.out.join(&plan.name);
-        let rows = read_runs(&dir.join("runs.csv"))?.0;
-        let mut todo = Todo::of(&plan, &rows, None);
-        todo.update_done(&plan);
-        let p = run::predictions(&plan, &todo)?;
-        let path = probe_path(&dir, k);
-        let text = serde_json::to_string(&p).map_err(|e| run::io_err(&path, e))?;
-        return run::write_atomic(&path, text.as_bytes());
-    }
     let opts = RunOptions {
         out: job.out.clone(),
         fresh: false,
@@ -273,39 +210,4 @@ pub fn child_main(job: &RoundJob) -> Result<(), RunError> {
 /// A child's line for one sample of the configuration labelled `label`.
 pub(super) fn sample_line(label: &str) -> String {
     format!("{SAMPLE}{label}")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn pred(wall_s: f64) -> Prediction {
-        Prediction {
-            wall_s,
-            work_s: wall_s * 0.75,
-            imbalance_s: wall_s * 0.25,
-            ..Default::default()
-        }
-    }
-
-    /// Each configuration takes, whole, the prediction of median wall among the probes that
-    /// made one: the middle of three, the lower middle of two, the one of one.
-    #[test]
-    fn each_configuration_takes_its_median_probe_whole() {
-        let probe = |v: &[(&str, f64)]| -> HashMap<String, Prediction> {
-            v.iter().map(|(k, w)| (k.to_string(), pred(*w))).collect()
-        };
-        let m = median_predictions(&[
-            probe(&[("a", 3.0), ("b", 1.0), ("c", 5.0)]),
-            probe(&[("a", 1.0), ("b", 2.0)]),
-            probe(&[("a", 2.0), ("b", 9.0)]),
-        ]);
-        assert_eq!(m.len(), 3);
-        assert_eq!(m["a"], pred(2.0));
-        assert_eq!(m["b"], pred(2.0));
-        assert_eq!(m["c"], pred(5.0));
-        let two = median_predictions(&[probe(&[("a", 4.0)]), probe(&[("a", 3.0)])]);
-        assert_eq!(two["a"], pred(3.0));
-        assert!(median_predictions(&[]).is_empty());
-    }
 }

@@ -442,11 +442,6 @@ impl<'p> Todo<'p> {
 
     /// Mark what is done: a configuration by its own criteria, a serial baseline once every
     /// configuration compared with it is done too (or its runs are spent).
-    /// Has every configuration of this launch its samples?
-    pub(super) fn all_done(&self) -> bool {
-        self.states.iter().all(|s| s.done)
-    }
-
     pub(super) fn update_done(&mut self, plan: &ExperimentPlan) {
         for s in &mut self.states {
             s.done = s.own_criteria_met(plan);
