@@ -194,6 +194,13 @@ pub fn pixels_with<T: Tracer + 'static>(
         s.settings.spp = 1;
         Arc::new(s)
     });
+    // One untimed render first: the first probe of an experiment's process put the image's
+    // work 4–32 % above the rounds' serial median in 12 of 12 runs of `advise_check`, `skewed`
+    // and `heterogeneous` (median +17 %; 2-core AMD EPYC guest, 2026-12-05, with probes at 4 and
+    // 16 spp and in fresh processes alike), and −7…+13 % in 6 with this render (median +1 %).
+    // The later probes' levels stayed within their spread (−5…+67 % before, −9…+30 % with
+    // it); `results/published/advise_check/2026-12-05-amd-epyc-probe-level/`.
+    bulk_pass(scene, tracer, workers)?;
     for k in bulk_after(pixel_passes.max(2), bulk_passes) {
         spans.push(pass(scene, tracer, workers)?);
         for _ in 0..k {
