@@ -277,6 +277,13 @@ mod tests {
         }
     }
 
+    /// The check of rule `label` under `slow`.
+    fn find<'c, 'a>(c: &'c [Check<'a>], label: &str, slow: Option<&str>) -> &'c Check<'a> {
+        c.iter()
+            .find(|c| c.rule.row.label == label && c.rule.row.slow.as_deref() == slow)
+            .unwrap_or_else(|| panic!("{label} {slow:?} not checked: {c:?}"))
+    }
+
     /// Twelve rounds of `label` at `wall` seconds; round r shifts every configuration by the
     /// same machine drift (up to ±20 %) plus ±0.5 % of its own.
     fn rows(label: &str, kind: &str, order: &str, slow: Option<&str>, wall: f64) -> Vec<RunRow> {
@@ -349,11 +356,7 @@ mod tests {
         let sums = summarize(&all);
         let at: Vec<&Summary> = sums.iter().collect();
         let c = checks(&at, TOLERANCE);
-        let find = |label: &str, slow: Option<&str>| {
-            c.iter()
-                .find(|c| c.rule.row.label == label && c.rule.row.slow.as_deref() == slow)
-                .unwrap_or_else(|| panic!("{label} {slow:?} not checked: {c:?}"))
-        };
+        let find = |label: &str, slow: Option<&str>| find(&c, label, slow);
         assert_eq!(c.len(), 3, "{c:?}");
         let af = find("af", None);
         assert_eq!(af.best_fixed.row.label, "ss 4");
@@ -457,66 +460,32 @@ mod tests {
             };
         let mut all = Vec::new();
         for slow in [None, Some("1:3")] {
-            all.extend(run(
-                "ss 8",
-                "self_scheduling",
-                "scanline",
-                slow,
-                0.200,
-                0.002,
-            ));
-            all.extend(run(
-                "ss 16",
-                "self_scheduling",
-                "scanline",
-                slow,
-                0.201,
-                0.010,
-            ));
+            for (label, busy, idle) in [("ss 8", 0.200, 0.002), ("ss 16", 0.201, 0.010)] {
+                all.extend(run(label, "self_scheduling", "scanline", slow, busy, idle));
+            }
         }
         // AF renders 4 % slower and waits as little; AWF renders as fast and waits 8 ms more.
-        all.extend(run(
-            "af",
-            "adaptive_factoring",
-            "scatter",
-            None,
-            0.208,
-            0.002,
-        ));
-        all.extend(run("awf", "awf", "scatter", None, 0.200, 0.010));
-        all.extend(run(
-            "af",
-            "adaptive_factoring",
-            "scatter",
-            Some("1:3"),
-            0.208,
-            0.002,
-        ));
+        for (label, kind, slow, busy) in [
+            ("af", "adaptive_factoring", None, 0.208),
+            ("awf", "awf", None, 0.200),
+            ("af", "adaptive_factoring", Some("1:3"), 0.208),
+        ] {
+            let idle = if kind == "awf" { 0.010 } else { 0.002 };
+            all.extend(run(label, kind, "scatter", slow, busy, idle));
+        }
         let sums = summarize(&all);
         let at: Vec<&Summary> = sums.iter().collect();
         let c = checks(&at, TOLERANCE);
-        let find = |label: &str, slow: Option<&str>| {
-            c.iter()
-                .find(|c| c.rule.row.label == label && c.rule.row.slow.as_deref() == slow)
-                .unwrap_or_else(|| panic!("{label} {slow:?} not checked: {c:?}"))
-        };
-        let af = find("af", None);
-        assert_eq!(af.best_fixed.row.label, "ss 8");
-        let b = af.busy.as_ref().expect("equal workers");
-        assert!((b.value - 1.04).abs() < 1e-9, "{b:?}");
-        assert!(
-            (af.ratio.value - 0.210 / 0.202).abs() < 1e-9,
-            "{:?}",
-            af.ratio
-        );
-        let awf = find("awf", None);
-        let b = awf.busy.as_ref().expect("equal workers");
-        assert!((b.value - 1.0).abs() < 1e-9, "{b:?}");
-        assert!(
-            (awf.ratio.value - 0.210 / 0.202).abs() < 1e-9,
-            "{:?}",
-            awf.ratio
-        );
+        let find = |label: &str, slow: Option<&str>| find(&c, label, slow);
+        // Both walls are 0.210 / 0.202 of the best fixed chunk's; only AF's busy time grew.
+        for (label, busy) in [("af", 1.04), ("awf", 1.0)] {
+            let c = find(label, None);
+            assert_eq!(c.best_fixed.row.label, "ss 8");
+            let b = c.busy.as_ref().expect("equal workers");
+            assert!((b.value - busy).abs() < 1e-9, "{label}: {b:?}");
+            let w = &c.ratio;
+            assert!((w.value - 0.210 / 0.202).abs() < 1e-9, "{label}: {w:?}");
+        }
         assert!(find("af", Some("1:3")).busy.is_none());
         let md = section("g", &at).unwrap();
         assert!(md.contains("| 1.04× (95 % CI 1.04–1.04) | 20 |"), "{md}");
