@@ -44,7 +44,8 @@ pub struct Summary {
     /// (repetition, wall time) of every sample, in repetition order: what pairs are made of.
     pub walls: Vec<(u32, f64)>,
     /// (repetition, Σ worker busy time) of every sample, in repetition order, paired like
-    /// `walls`.
+    /// `walls`: the row's `work_s`, which is the last render's where a sample repeats its
+    /// render (`inner`), while its wall time is their mean.
     pub busy: Vec<(u32, f64)>,
     /// Median speedup (serial median / wall).
     pub speedup_median: f64,
