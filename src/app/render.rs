@@ -6,7 +6,8 @@ use super::sched_flags::SchedulerFlags;
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::sched::{
-    run_scheduler_with, RunOptions, SchedError, SchedulerSpec, SourceKind, SourceSet,
+    run_scheduler_with, run_with_sources, RunOptions, SchedError, SchedulerSpec, SourceKind,
+    SourceSet,
 };
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::{Path, PathBuf};
@@ -62,10 +63,17 @@ pub(crate) struct RenderArgs {
 }
 
 impl RenderArgs {
-    /// The scheduler spec for `workers`, every value checked; errors name the flag.
+    /// The scheduler spec for `workers`, every value checked; errors name the flag. With a
+    /// GPU among the sources and no `--scheduler`, the master: it gives each kind of source
+    /// its own buffer and grain.
     pub(crate) fn scheduler_spec(&self, workers: usize) -> Result<SchedulerSpec, CliError> {
+        let default = if self.sources.has(SourceKind::Gpu) {
+            raysched::sched::SchedulerKind::Master
+        } else {
+            raysched::sched::SchedulerKind::WorkStealing
+        };
         self.scheduler
-            .spec(workers, self.timeline)
+            .spec_or(default, workers, self.timeline)
             .map_err(CliError::message)
     }
 
@@ -113,47 +121,67 @@ fn parse_tracer(s: &str) -> Result<TracerKind, String> {
 }
 
 pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
-    // With feature `mpi`, `--sources mpi` is dispatched to the MPI front-end before this.
+    // With feature `mpi`, `--sources mpi` is dispatched to the MPI launch before this.
     if args.sources.has(SourceKind::Mpi) {
         return Err(CliError::message(
             "--sources mpi: this raysched was built without feature `mpi` (cargo build --features mpi)",
         ));
     }
-    if args.sources.has(SourceKind::Gpu) {
-        return super::gpu_render::render(args);
-    }
-    if args.gpu_adapter.is_some() {
+    let gpu_asked = args.sources.has(SourceKind::Gpu);
+    if args.gpu_adapter.is_some() && !gpu_asked {
         return Err(CliError::message(
             "--gpu-adapter: needs gpu among --sources",
         ));
     }
     // The per-source flags (--gpu-chunk, --gpu-buffer, --balance) say why they do not apply.
-    args.source_setup()?;
-    if args.threads == 0 {
-        return Err(CliError::message("--threads: must be ≥ 1 (got 0)"));
-    }
+    let setup = args.source_setup()?;
+    let threads = if args.sources.has(SourceKind::Threads) {
+        if args.threads == 0 {
+            return Err(CliError::message("--threads: must be ≥ 1 (got 0)"));
+        }
+        args.threads
+    } else {
+        0
+    };
     let overrides = args.check_output()?;
-    let spec = args.scheduler_spec(args.threads)?;
+    let spec = args.scheduler_spec(threads.max(1))?;
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     if let Some(w) = scene.depth_warning() {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
+    let gpu = super::gpu_render::open(&args, &scene)?;
     let t0 = Instant::now();
-    let tracer = Arc::new(AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?);
+    let tracer = Arc::new(AnyTracer::build(kind, &scene, threads.max(1)).map_err(CliError::input)?);
     let build = t0.elapsed();
-    let (image, stats) =
-        run_scheduler_with(&spec, &scene, &tracer, &args.run_options()).map_err(|e| match e {
-            SchedError::Spec(_) => CliError::input(e),
-            _ => CliError::runtime(e),
-        })?;
+    let as_cli = |e: SchedError| match e {
+        SchedError::Spec(_) => CliError::input(e),
+        _ => CliError::runtime(e),
+    };
+    let (image, stats) = if setup.set == SourceSet::threads() {
+        run_scheduler_with(&spec, &scene, &tracer, &args.run_options()).map_err(as_cli)?
+    } else {
+        let (frames, stats) = run_with_sources(
+            &spec,
+            &setup,
+            &scene,
+            &tracer,
+            #[cfg(feature = "gpu")]
+            gpu.as_ref().map(|g| g.renderer.clone()),
+            &args.run_options(),
+        )
+        .map_err(as_cli)?;
+        (Image::stack(frames), stats)
+    };
     let wrote = save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
-    let tracer_line = format!(
-        "{} built in {:.3} s, {} threads",
+    let mut tracer_line = format!(
+        "{} built in {:.3} s, {threads} threads",
         args.tracer,
         build.as_secs_f64(),
-        args.threads
     );
+    if let Some(g) = &gpu {
+        tracer_line += &format!("; {}", g.line);
+    }
     print_render_header(&scene, &tracer_line, &spec, &image);
     print_render_footer(&scene, &stats, tracer.accelerated(), &wrote);
     Ok(())

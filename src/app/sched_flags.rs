@@ -15,6 +15,8 @@ use raysched::sched::{
 #[derive(Clone, Debug)]
 pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
+    /// Whether `--scheduler` was given (not its default).
+    named: bool,
     /// `None`: the kind's own default item size.
     chunk: Option<Chunk>,
     /// `None`: the kind's own default order.
@@ -25,8 +27,22 @@ pub(crate) struct SchedulerFlags {
 }
 
 impl SchedulerFlags {
-    /// The scheduler spec for `workers` workers; errors name the flag.
-    pub(crate) fn spec(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
+    /// The scheduler spec for `workers` workers, with `default` as the kind when
+    /// `--scheduler` was not given; errors name the flag.
+    pub(crate) fn spec_or(
+        &self,
+        default: SchedulerKind,
+        workers: usize,
+        timeline: bool,
+    ) -> Result<SchedulerSpec, String> {
+        let mut flags = self.clone();
+        if !self.named {
+            flags.kind = default;
+        }
+        flags.spec_of(workers, timeline)
+    }
+
+    fn spec_of(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
         let mut spec = SchedulerSpec {
             timeline,
             slow: self.slow,
@@ -146,6 +162,7 @@ impl FromArgMatches for SchedulerFlags {
         let get = |id: &str| m.get_one::<String>(id).cloned();
         Ok(Self {
             kind: *m.get_one("scheduler").expect("has a default"),
+            named: m.value_source("scheduler") == Some(clap::parser::ValueSource::CommandLine),
             chunk: m.get_one("chunk").copied(),
             order: m.get_one("order").copied(),
             slow: *m.get_one("slow").expect("has a default"),

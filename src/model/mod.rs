@@ -65,8 +65,8 @@ pub mod advise;
 pub mod probe;
 
 use crate::sched::dls::{self, ChunkRule, ItemTimes, Report};
-use crate::sched::renderers::mitsuba_grain;
-use crate::sched::{Passes, Policy, SchedulerSpec};
+use crate::sched::rule::{Grab, HandOut, Scheduler, WorkerRule};
+use crate::sched::{Passes, SchedulerSpec, Slow};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 
@@ -120,23 +120,6 @@ pub fn expected_max_normal(p: usize) -> f64 {
         .get(p)
         .copied()
         .unwrap_or_else(|| (2.0 * (p as f64).ln()).sqrt())
-}
-
-/// One grab size rule that needs no measurements: a fixed grab or guided self-scheduling.
-struct Grab {
-    grab: usize,
-    /// Guided: grab max(grab, ⌈R/(k·P)⌉), k·P given here; 0 for a fixed grab.
-    guided_kp: usize,
-}
-
-impl ChunkRule for Grab {
-    fn next(&mut self, _worker: usize, remaining: usize) -> usize {
-        if self.guided_kp == 0 {
-            self.grab
-        } else {
-            self.grab.max(remaining.div_ceil(self.guided_kp))
-        }
-    }
 }
 
 /// What a played-out schedule leaves.
@@ -280,57 +263,52 @@ fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> 
 /// The predicted wall time of `spec` over `work` with hand-out costs `o`. The items must be
 /// those of `spec.layout` in its order; worker speeds come from `spec.slow`.
 pub fn predict(spec: &SchedulerSpec, work: &Workload<'_>, o: &Overheads) -> Prediction {
-    let p = spec.workers.max(1);
-    let speeds: Vec<f64> = (0..p).map(|w| spec.slow.factor_of(w)).collect();
+    predict_with(&spec.policy, spec.workers, spec.slow, work, o)
+}
+
+/// [`predict`] for any [`Scheduler`] (a researcher's own included) on `workers` workers
+/// slowed as `slow` says.
+pub fn predict_with(
+    scheduler: &dyn Scheduler,
+    workers: usize,
+    slow: Slow,
+    work: &Workload<'_>,
+    o: &Overheads,
+) -> Prediction {
+    let p = workers.max(1);
+    let speeds: Vec<f64> = (0..p).map(|w| slow.factor_of(w)).collect();
     let c = work.per_item_s.max(0.0);
     // Each item as the job runs it: its pixels and its own cost c.
     let with_c: Vec<f64> = work.item_s.iter().map(|t| t + c).collect();
     let item_s = &with_c[..];
     let n = item_s.len();
-    let o_run = match spec.policy {
-        Policy::Master(m) if m.passes == Passes::Thread => *o,
+    let rule = scheduler.hand_out(n, p, slow);
+    // Only the master's own thread refills a source: elsewhere nothing waits for a refill.
+    let o_run = match &rule {
+        HandOut::ByMaster(m) if m.passes == Passes::Thread => *o,
         _ => Overheads {
             refill_s: 0.0,
             ..*o
         },
     };
-    let fixed_grab = |grab: usize| Grab { grab, guided_kp: 0 };
-    let played = match spec.policy {
-        Policy::Static => play_fixed(item_s, &speeds, &o_run, |i| {
-            // Band w holds items w·n/P … (w+1)·n/P − 1, as `run_shared` cuts them.
-            (0..p).rev().find(|w| w * n / p <= i).unwrap_or(0)
-        }),
-        Policy::StaticCyclic => play_fixed(item_s, &speeds, &o_run, |i| i % p),
+    let played = match rule {
+        HandOut::ByWorkers(WorkerRule::Own(own)) => {
+            play_fixed(item_s, &speeds, &o_run, |i| own.owner(i, n, p))
+        }
         // Without a master thread nothing waits for a refill: each worker takes its next items
         // under the lock as it needs them, B at a time (`hand_out`; `item` keeps a window of B
         // ahead, which commits the same B items at the tail), at h per item.
-        Policy::Master(m) if m.passes == Passes::Workers => {
-            play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(m.buffer))
+        HandOut::ByMaster(m) if m.passes == Passes::Workers => {
+            play_dynamic(item_s, &speeds, &o_run, &mut Grab::fixed(m.buffer))
         }
-        Policy::Master(m) => play_master(item_s, &speeds, &o_run, m.buffer),
-        Policy::SelfScheduling(s) => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(s.grab)),
-        Policy::WorkStealing(_) | Policy::WorkStealingDeque | Policy::Pbrt => {
-            play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1))
+        HandOut::ByMaster(m) => play_master(item_s, &speeds, &o_run, m.buffer),
+        HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
+            play_dynamic(item_s, &speeds, &o_run, pool.rule.as_mut())
         }
-        Policy::Mitsuba => play_dynamic(
-            item_s,
-            &speeds,
-            &o_run,
-            &mut fixed_grab(mitsuba_grain(n, p)),
-        ),
-        Policy::Guided(g) => play_dynamic(
-            item_s,
-            &speeds,
-            &o_run,
-            &mut Grab {
-                grab: g.grab,
-                guided_kp: g.guided_k * p,
-            },
-        ),
-        _ => match dls::rule(&spec.policy, n, p, spec.slow) {
-            Some(mut rule) => play_dynamic(item_s, &speeds, &o_run, rule.as_mut()),
-            None => play_dynamic(item_s, &speeds, &o_run, &mut fixed_grab(1)),
-        },
+        // Stealing is played as one item per take: a thief's half-deque is not modelled.
+        HandOut::ByWorkers(WorkerRule::Steal(_)) => {
+            play_dynamic(item_s, &speeds, &o_run, &mut Grab::fixed(1))
+        }
     };
     decompose_played(&played, work, &speeds, &o_run)
 }
@@ -378,7 +356,7 @@ pub fn near_best(walls: &[f64], tolerance: f64) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sched::{Chunk, MasterParams, SchedulerKind, Slow};
+    use crate::sched::{Chunk, MasterParams, Policy, SchedulerKind};
 
     fn spec(kind: SchedulerKind, p: usize) -> SchedulerSpec {
         SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, p)
@@ -420,9 +398,10 @@ mod tests {
             // TSS's shrinking chunks (8, 7, 7, 6, … on 64 items) end one item apart, and so
             // does FSC, whose one-item warm phase runs a few items past 32 (a worker reports
             // its item when it asks for the next), leaving a remainder that P does not divide.
-            let tail = match kind {
-                SchedulerKind::Trapezoid | SchedulerKind::FixedSize => 1e-3,
-                _ => 0.0,
+            let tail = if matches!(kind, SchedulerKind::Trapezoid | SchedulerKind::FixedSize) {
+                1e-3
+            } else {
+                0.0
             };
             assert!(close(r.imbalance_s, tail), "{kind:?}: {r:?}");
             assert!(close(r.wall_s, 16e-3 + tail), "{kind:?}: {r:?}");

@@ -547,8 +547,9 @@ pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads,
     let p = workers as f64;
     let z = zero_work(policy, PROBE_ITEMS, workers, reps)?;
     let (fixed_s, slope) = (z.fixed_s, z.per_item_s);
-    Ok(match policy {
-        Policy::Master(_) if !policy.passes_by_workers() => {
+    // Only the master on its own thread refills: its slope is r, and h is self-scheduling's.
+    Ok(
+        if matches!(policy, Policy::Master(_)) && !policy.passes_by_workers() {
             let ss = Policy::defaults(SchedulerKind::SelfScheduling);
             let worker_slope = zero_work(ss, PROBE_ITEMS, workers, reps)?.per_item_s;
             Overheads {
@@ -556,13 +557,14 @@ pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads,
                 fixed_s,
                 refill_s: p * slope,
             }
-        }
-        _ => Overheads {
-            per_item_s: p * slope,
-            fixed_s,
-            refill_s: 0.0,
+        } else {
+            Overheads {
+                per_item_s: p * slope,
+                fixed_s,
+                refill_s: 0.0,
+            }
         },
-    })
+    )
 }
 
 /// Each item's cost in hand-out order under `spec` (its own layout), from per-pixel costs at

@@ -12,7 +12,7 @@ use super::wire::decode_results;
 use crate::metrics::{Probe, RunStats, Span};
 use crate::render::WorkItem;
 use crate::sched::wire::encode_item;
-use crate::sched::{master, Policy, Results, RunOptions, SchedError, SchedulerSpec};
+use crate::sched::{run, Hetero, Results, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
 use crate::source::local::panic_message;
 use crate::source::{Completer, ComputeSource, SourceFailure};
 use crossbeam::channel::{Receiver, TryRecvError};
@@ -416,9 +416,14 @@ pub fn run_on_ranks(
     probe: Probe,
 ) -> (Result<(Results, RunStats), SchedError>, HubReport) {
     std::thread::scope(|s| {
-        let master = s.spawn(|| match spec.policy {
-            Policy::Master(m) => master::run_master(&m, items, sources, opts, probe),
-            _ => super::pull::run_pull(spec, items, sources, opts.deadline, probe),
+        let master = s.spawn(|| {
+            let plan = RunPlan {
+                scheduler: &spec.policy,
+                slow: spec.slow,
+                opts,
+                probe,
+            };
+            run(&plan, items, Sources::Boxed(sources, Hetero::default()))
         });
         let report = match end {
             HubEnd::Stop(wait) => hub.serve(wait),

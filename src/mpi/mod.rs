@@ -18,7 +18,6 @@
 
 pub mod comm;
 pub mod hub;
-pub mod pull;
 pub mod scene;
 pub mod source;
 pub mod wire;

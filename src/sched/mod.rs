@@ -7,12 +7,16 @@
 
 pub mod decompose;
 pub mod dls;
+pub mod factory;
 mod locked_master;
 pub mod master;
 pub mod param;
+mod pull;
 pub mod refusal;
 pub mod renderers;
 mod results;
+pub mod rule;
+mod run;
 mod scanline;
 mod shared;
 pub mod sources;
@@ -28,6 +32,7 @@ pub use param::{
 pub use refusal::{Refusal, Runner};
 pub use results::Results;
 pub(crate) use results::{Collector, Tally};
+pub use run::{run, RunPlan, Sources};
 pub use sources::{
     share_columns, source_params, HandOut, Share, SourceKind, SourceParam, SourceSet, SourceSetup,
 };
@@ -40,10 +45,7 @@ pub use spec::{
 use crate::metrics::{Probe, RunStats};
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
-use crate::source::{
-    faulty::{faulty_source, faulty_sources},
-    slowed_job, ComputeSource, FaultPlan, Job, LocalThreadSource,
-};
+use crate::source::{slowed_job, ComputeSource, FaultPlan, Job};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;
@@ -164,107 +166,68 @@ pub fn run_scheduler_frames<T: Tracer + 'static>(
     Ok((frames, stats))
 }
 
-/// The master's per-source settings for `threads` local threads followed by `gpus` GPU
-/// sources under `setup`, on a `width`×`height` image: each kind's own buffer and grain
-/// ([`HandOut`]), and whether the balancer runs.
-pub fn hetero_of(
-    setup: &SourceSetup,
-    params: &MasterParams,
-    threads: usize,
-    gpus: usize,
-    (width, height): (u32, u32),
-) -> Hetero {
-    let lanes = std::iter::repeat_n(SourceKind::Threads, threads)
-        .chain(std::iter::repeat_n(SourceKind::Gpu, gpus));
-    let (buffers, grains) = lanes
-        .map(|k| {
-            let own = setup.own(k);
-            (
-                own.buffer.unwrap_or(params.buffer),
-                own.chunk.map_or(0, |c| c.pixels(width, height)),
-            )
-        })
-        .unzip();
-    Hetero {
-        buffers,
-        grains,
-        balance: setup.balance,
-    }
-}
-
-/// Render every frame of `scene` under the master on the sources of `setup`: `spec.workers`
-/// local threads (slowed as `spec.slow` says) when the set has threads, and the GPU renderer
-/// `gpu` as one more source when it has a GPU, each kind with its own buffer and grain
-/// ([`hetero_of`]). Only the master can hand out to a GPU: every other scheduler runs its
-/// own threads.
-#[cfg(feature = "gpu")]
+/// Render every frame of `scene` under `spec` on the sources of `setup`, built by
+/// [`factory::build_sources`] in the set's order (`spec.workers` local threads, slowed as
+/// `spec.slow` says, when the set has threads; the GPU renderer `gpu` when it has a GPU),
+/// each kind with its own buffer and grain under the master ([`factory::hetero_of`]). A
+/// worker rule (self-scheduling, guided, the factoring family, static) is played over them by
+/// this thread; stealing needs threads alone.
 pub fn run_with_sources<T: Tracer + 'static>(
     spec: &SchedulerSpec,
     setup: &SourceSetup,
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
-    gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    #[cfg(feature = "gpu")] gpu: Option<Arc<crate::gpu::GpuRenderer>>,
     opts: &RunOptions,
 ) -> Result<(Vec<Image>, RunStats), SchedError> {
     spec.validate()?;
     setup.validate()?;
-    let Policy::Master(m) = spec.policy else {
-        return Err(SpecError {
-            field: "scheduler".into(),
-            msg: format!(
-                "'{}' cannot hand out to a GPU source (use master)",
-                spec.kind().id()
-            ),
+    if setup.set.has(SourceKind::Gpu) {
+        if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
+            return Err(SpecError {
+                field: r.param.into(),
+                msg: r.as_value(),
+            }
+            .into());
         }
-        .into());
-    };
-    if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
-        return Err(SpecError {
-            field: r.param.into(),
-            msg: r.as_value(),
-        }
-        .into());
     }
-    let gpu = if setup.set.has(SourceKind::Gpu) {
-        Some(gpu.ok_or_else(|| SpecError {
-            field: "sources".into(),
-            msg: "gpu among the sources but no GPU renderer given".into(),
-        })?)
-    } else {
-        None
-    };
-    let threads = if setup.set.has(SourceKind::Threads) {
-        spec.workers
-    } else {
-        0
-    };
     let (w, h) = (scene.width(), scene.height());
     let (chunk, order) = spec.layout(w, h);
     let items = decompose_frames(w, h, scene.frames(), chunk, order);
     let probe = Probe::new(opts.stats, spec.timeline);
-    let jobs = worker_jobs(&render_job(scene, tracer), threads, spec.slow);
-    let mut sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
-    let gpus = usize::from(gpu.is_some());
-    if let Some(g) = gpu {
-        let id = sources.len() as u32;
-        sources.push(Box::new(crate::source::GpuSource::spawn(id, g, probe)));
-    }
-    if sources.is_empty() {
-        return Err(SchedError::AllSourcesLost {
-            sources: 0,
-            remaining: items.len() as u64,
-            total: items.len() as u64,
-        });
-    }
-    let hetero = hetero_of(setup, &m, threads, gpus, (w, h));
-    let (results, mut stats) =
-        master::run_master_hetero(&m, &hetero, &items, sources, opts, probe)?;
+    let job = render_job(scene, tracer);
+    let ctx = factory::SourceContext {
+        job: &job,
+        threads: spec.workers,
+        slow: spec.slow,
+        faults: opts.faults.as_ref(),
+        probe,
+        #[cfg(feature = "gpu")]
+        gpu,
+    };
+    let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
+        .into_iter()
+        .unzip();
+    let buffer = if let Policy::Master(m) = spec.policy {
+        m.buffer
+    } else {
+        MasterParams::DEFAULT.buffer
+    };
+    let hetero = factory::hetero_of(setup, buffer, &kinds, (w, h));
+    let plan = RunPlan {
+        scheduler: &spec.policy,
+        slow: spec.slow,
+        opts,
+        probe,
+    };
+    let (results, mut stats) = run(&plan, &items, Sources::Boxed(sources, hetero))?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))
 }
 
-/// Run `job` over `items` under `spec`; results come back indexed by item id.
+/// Run `job` over `items` under `spec` on `spec.workers` local threads: [`run`] with
+/// [`Sources::Threads`]. Results come back indexed by item id.
 pub fn run_items(
     spec: &SchedulerSpec,
     items: &[WorkItem],
@@ -272,30 +235,17 @@ pub fn run_items(
     opts: &RunOptions,
 ) -> Result<(Results, RunStats), SchedError> {
     spec.validate()?;
-    debug_assert!(items.iter().enumerate().all(|(i, it)| it.id == i as u32));
-    let probe = Probe::new(opts.stats, spec.timeline);
-    let jobs = worker_jobs(&job, spec.workers, spec.slow);
-    match spec.policy {
-        Policy::Master(m) if m.passes == Passes::Workers => {
-            if let Some(r) = opts
-                .faults
-                .as_ref()
-                .and(Runner::Faults.refuses(&spec.policy))
-            {
-                return Err(SpecError {
-                    field: r.param.into(),
-                    msg: r.as_value(),
-                }
-                .into());
-            }
-            locked_master::run_locked_master(&m, items, &jobs, opts.deadline, probe)
-        }
-        Policy::Master(m) => {
-            let sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
-            master::run_master(&m, items, sources, opts, probe)
-        }
-        _ => shared::run_shared(spec, items, &jobs, probe),
-    }
+    let plan = RunPlan {
+        scheduler: &spec.policy,
+        slow: spec.slow,
+        opts,
+        probe: Probe::new(opts.stats, spec.timeline),
+    };
+    run(
+        &plan,
+        items,
+        Sources::Threads(worker_jobs(&job, spec.workers, spec.slow)),
+    )
 }
 
 /// Worker i's job: `job`, slowed by `slow`'s factor for the slowed workers.
@@ -312,38 +262,10 @@ fn make_sources_of(
     faults: Option<&FaultPlan>,
     probe: Probe,
 ) -> Vec<Box<dyn ComputeSource>> {
-    match faults {
-        Some(plan) => jobs
-            .iter()
-            .enumerate()
-            .map(|(id, j)| faulty_source(j, id as u32, plan, probe))
-            .collect(),
-        None => jobs
-            .iter()
-            .enumerate()
-            .map(|(id, j)| {
-                Box::new(LocalThreadSource::spawn(id as u32, j.clone(), probe))
-                    as Box<dyn ComputeSource>
-            })
-            .collect(),
-    }
-}
-
-/// `workers` local thread sources (fault-injecting ones when `faults` is given).
-pub fn make_sources(
-    job: &Job,
-    workers: usize,
-    faults: Option<&FaultPlan>,
-    probe: Probe,
-) -> Vec<Box<dyn ComputeSource>> {
-    match faults {
-        Some(plan) => faulty_sources(job, workers, plan, probe),
-        None => (0..workers as u32)
-            .map(|id| {
-                Box::new(LocalThreadSource::spawn(id, job.clone(), probe)) as Box<dyn ComputeSource>
-            })
-            .collect(),
-    }
+    jobs.iter()
+        .enumerate()
+        .map(|(id, j)| factory::thread_source(j, id as u32, faults, probe))
+        .collect()
 }
 
 /// Put each item's result into an image; a missing result is an error. Items of several

@@ -2,14 +2,14 @@
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
 use super::dls::{self, ItemTimes, Report, Timing};
-use super::renderers::mitsuba_grain;
+use super::rule::{band, ChunkRule, Grab, Steal, WorkerRule};
 use super::scanline::{as_handed_out, ScanlineScratch};
-use super::{wire, Policy, Results, SchedError, SchedulerSpec, Tally};
+use super::{wire, Results, SchedError, Tally};
 use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
 use crate::source::local::panic_message;
 use crate::source::Job;
-use crossbeam::deque::{Steal, Stealer, Worker};
+use crossbeam::deque::{Steal as Taken, Stealer, Worker};
 use crossbeam::utils::CachePadded;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -132,131 +132,155 @@ fn spawn_workers<S: Send>(
     })
 }
 
-/// `jobs[i]` is worker i's job (the same job for all but in a heterogeneous run).
+/// Play `rule` over `items` on `jobs.len()` worker threads; `jobs[i]` is worker i's job (the
+/// same job for all but in a heterogeneous run). The rule decides who takes what; this
+/// executor only chooses how to take it (an atomic counter where the rule allows one).
 pub(super) fn run_shared(
-    spec: &SchedulerSpec,
+    rule: WorkerRule,
     items: &[WorkItem],
     jobs: &[Job],
     probe: Probe,
 ) -> Result<(Results, RunStats), SchedError> {
     let t0 = Instant::now();
-    let (n, w) = (items.len(), spec.workers);
-    debug_assert_eq!(jobs.len(), w);
-    let grab = match spec.policy {
-        Policy::WorkStealing(p) => p.grab,
-        Policy::SelfScheduling(p) => p.grab,
-        Policy::Guided(p) => p.grab,
-        Policy::Mitsuba => mitsuba_grain(n, w),
-        _ => 1,
-    };
+    let (n, w) = (items.len(), jobs.len());
     let units = vec![(); w];
-    // Hand-outs of the kinds that ask for it run in scanline order (`super::scanline`).
-    let scanline = spec.kind().runs_hand_outs_in_scanline();
+    let grab = match &rule {
+        WorkerRule::Pool(p) => p.rule.as_grab().map_or(1, |g| g.grab),
+        WorkerRule::Steal(s) => s.grab(),
+        WorkerRule::Own(_) => 1,
+    };
     // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
     let expect = n / w + n / (4 * w) + grab;
-    let locals = match spec.policy {
-        Policy::Static => spawn_workers(units, &probe, expect, |id, (), l| {
-            let id = id as usize;
-            for it in &items[id * n / w..(id + 1) * n / w] {
-                l.run(&jobs[id], it, &probe);
+    let locals = match rule {
+        WorkerRule::Own(own) => spawn_workers(units, &probe, expect, |id, (), l| {
+            for i in own.items(id as usize, n, w) {
+                l.run(&jobs[id as usize], &items[i], &probe);
             }
         })?,
-        Policy::StaticCyclic => spawn_workers(units, &probe, expect, |id, (), l| {
-            for it in items.iter().skip(id as usize).step_by(w) {
-                l.run(&jobs[id as usize], it, &probe);
+        WorkerRule::Pool(pool) => match (pool.rule.as_grab(), pool.locked) {
+            (Some(g), false) if g.constant().is_some() && !pool.scanline => {
+                counter_locals(items, jobs, g.grab, expect, probe)?
             }
-        })?,
-        Policy::SelfScheduling(_) | Policy::Mitsuba => {
-            // Padded: nothing the workers read per item shares the counter's line (no
-            // measurable change on the dispatch bench, 23–26 ns per item either way: the cost
-            // is the counter's own line moving between cores at every grab, see
-            // `dispatch/shared_counter_only`).
-            let next = CachePadded::new(AtomicUsize::new(0));
-            spawn_workers(units, &probe, expect, |id, (), l| loop {
-                let s = next.fetch_add(grab, Ordering::Relaxed);
-                if s >= n {
-                    break;
-                }
-                for it in &items[s..(s + grab).min(n)] {
-                    l.run(&jobs[id as usize], it, &probe);
-                }
-            })?
-        }
-        Policy::Guided(p) => {
-            let next = AtomicUsize::new(0);
-            let k = p.guided_k * w;
-            spawn_workers(units, &probe, expect, |id, (), l| {
-                let job = &jobs[id as usize];
-                let mut cur = next.load(Ordering::Relaxed);
-                while cur < n {
-                    let c = grab.max((n - cur).div_ceil(k)).min(n - cur);
-                    match next.compare_exchange_weak(
-                        cur,
-                        cur + c,
-                        Ordering::Relaxed,
-                        Ordering::Relaxed,
-                    ) {
-                        Ok(_) => {
-                            l.run_chunk(job, (items, cur..cur + c), scanline, &probe);
-                            cur = next.load(Ordering::Relaxed);
-                        }
-                        Err(now) => cur = now,
-                    }
-                }
-            })?
-        }
-        Policy::WorkStealingDeque => {
-            // Each deque starts with a contiguous band; thieves take half a victim's deque.
-            let deques: Vec<Worker<u32>> = (0..w).map(|_| Worker::new_fifo()).collect();
-            for (id, d) in deques.iter().enumerate() {
-                for i in id * n / w..(id + 1) * n / w {
-                    d.push(i as u32);
-                }
+            (Some(g), false) => guided_locals(items, jobs, g, pool.scanline, expect, probe)?,
+            (Some(g), true) if g.constant().is_some() && !pool.scanline => {
+                mutex_locals(items, jobs, g.grab, expect, probe)?
             }
-            let stealers: Vec<Stealer<u32>> = deques.iter().map(Worker::stealer).collect();
-            spawn_workers(deques, &probe, expect, |id, own, l| {
-                while let Some(i) = find_task(id as usize, &own, &stealers) {
-                    l.run(&jobs[id as usize], &items[i as usize], &probe);
-                }
-            })?
-        }
-        Policy::Pbrt => {
-            // pbrt-v4 hands out the next tile under its loop's mutex, one tile per grab.
-            let next = Mutex::new(0usize);
-            spawn_workers(units, &probe, expect, |id, (), l| loop {
-                let i = {
-                    let mut g = next.lock().unwrap_or_else(PoisonError::into_inner);
-                    let i = *g;
-                    *g += 1;
-                    i
-                };
-                let Some(it) = items.get(i) else { break };
-                l.run(&jobs[id as usize], it, &probe);
-            })?
-        }
-        Policy::Factoring(_)
-        | Policy::WeightedFactoring(_)
-        | Policy::Trapezoid(_)
-        | Policy::FixedSize(_)
-        | Policy::AdaptiveFactoring(_)
-        | Policy::Awf(_) => {
-            let rule = dls::rule(&spec.policy, n, w, spec.slow).expect("a dls policy");
-            let dispenser = Mutex::new((0usize, rule));
-            spawn_workers(units, &probe, expect, |id, (), l| {
-                run_dispensed(
-                    id as usize,
-                    &dispenser,
-                    (items, scanline),
-                    &jobs[id as usize],
-                    l,
-                    &probe,
-                )
-            })?
-        }
-        Policy::WorkStealing(_) => rayon_locals(items, jobs, w, grab, probe)?,
-        Policy::Master(_) => unreachable!("the master has its own loop"),
+            _ => {
+                let dispenser = Mutex::new((0usize, pool.rule));
+                spawn_workers(units, &probe, expect, |id, (), l| {
+                    run_dispensed(
+                        id as usize,
+                        &dispenser,
+                        (items, pool.scanline),
+                        &jobs[id as usize],
+                        l,
+                        &probe,
+                    )
+                })?
+            }
+        },
+        WorkerRule::Steal(Steal::Split { min }) => rayon_locals(items, jobs, w, min, probe)?,
+        WorkerRule::Steal(Steal::Half) => deque_locals(items, jobs, expect, probe)?,
     };
     Ok(finish(locals, n, t0, probe))
+}
+
+/// A constant grab from one atomic counter: each take is one `fetch_add`.
+fn counter_locals(
+    items: &[WorkItem],
+    jobs: &[Job],
+    grab: usize,
+    expect: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
+    let n = items.len();
+    // Padded: nothing the workers read per item shares the counter's line; the cost is the
+    // counter's own line moving between cores at every grab (`dispatch/shared_counter_only`).
+    let next = CachePadded::new(AtomicUsize::new(0));
+    spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| loop {
+        let s = next.fetch_add(grab, Ordering::Relaxed);
+        if s >= n {
+            break;
+        }
+        for it in &items[s..(s + grab).min(n)] {
+            l.run(&jobs[id as usize], it, &probe);
+        }
+    })
+}
+
+/// A grab sized by what is left (guided), taken by compare-and-swap on one counter.
+fn guided_locals(
+    items: &[WorkItem],
+    jobs: &[Job],
+    g: Grab,
+    scanline: bool,
+    expect: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
+    let n = items.len();
+    let next = AtomicUsize::new(0);
+    spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| {
+        let job = &jobs[id as usize];
+        let mut cur = next.load(Ordering::Relaxed);
+        while cur < n {
+            let c = g.size(n - cur).clamp(1, n - cur);
+            match next.compare_exchange_weak(cur, cur + c, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => {
+                    l.run_chunk(job, (items, cur..cur + c), scanline, &probe);
+                    cur = next.load(Ordering::Relaxed);
+                }
+                Err(now) => cur = now,
+            }
+        }
+    })
+}
+
+/// A constant grab taken under a mutex (pbrt-v4's loop: the next tile under its mutex).
+fn mutex_locals(
+    items: &[WorkItem],
+    jobs: &[Job],
+    grab: usize,
+    expect: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
+    let n = items.len();
+    let next = Mutex::new(0usize);
+    spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| loop {
+        let s = {
+            let mut g = next.lock().unwrap_or_else(PoisonError::into_inner);
+            let s = *g;
+            *g += grab;
+            s
+        };
+        if s >= n {
+            break;
+        }
+        for it in &items[s..(s + grab).min(n)] {
+            l.run(&jobs[id as usize], it, &probe);
+        }
+    })
+}
+
+/// One crossbeam deque per worker, filled with its [`band`]; a thief takes half a victim's.
+fn deque_locals(
+    items: &[WorkItem],
+    jobs: &[Job],
+    expect: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
+    let (n, w) = (items.len(), jobs.len());
+    let deques: Vec<Worker<u32>> = (0..w).map(|_| Worker::new_fifo()).collect();
+    for (id, d) in deques.iter().enumerate() {
+        for i in band(id, n, w) {
+            d.push(i as u32);
+        }
+    }
+    let stealers: Vec<Stealer<u32>> = deques.iter().map(Worker::stealer).collect();
+    spawn_workers(deques, &probe, expect, |id, own, l| {
+        while let Some(i) = find_task(id as usize, &own, &stealers) {
+            l.run(&jobs[id as usize], &items[i as usize], &probe);
+        }
+    })
 }
 
 /// One worker of a dynamic-loop-scheduling rule: ask the dispenser for a chunk (reporting the
@@ -264,7 +288,7 @@ pub(super) fn run_shared(
 /// until no item is left.
 fn run_dispensed(
     id: usize,
-    dispenser: &Mutex<(usize, Box<dyn dls::ChunkRule>)>,
+    dispenser: &Mutex<(usize, Box<dyn ChunkRule>)>,
     (items, scanline): (&[WorkItem], bool),
     job: &Job,
     l: &mut Local,
@@ -356,9 +380,9 @@ fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<
         let mut retry = false;
         for k in 1..stealers.len() {
             match stealers[(id + k) % stealers.len()].steal_batch_and_pop(own) {
-                Steal::Success(i) => return Some(i),
-                Steal::Retry => retry = true,
-                Steal::Empty => {}
+                Taken::Success(i) => return Some(i),
+                Taken::Retry => retry = true,
+                Taken::Empty => {}
             }
         }
         if !retry {

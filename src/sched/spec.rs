@@ -452,7 +452,19 @@ impl SchedulerSpec {
                 let b = mitsuba_block(width, height, self.workers);
                 (Chunk::Tile { w: b, h: b }, Order::Spiral)
             }
-            _ => (self.chunk, self.order),
+            Policy::Static
+            | Policy::StaticCyclic
+            | Policy::Master(_)
+            | Policy::WorkStealing(_)
+            | Policy::WorkStealingDeque
+            | Policy::SelfScheduling(_)
+            | Policy::Guided(_)
+            | Policy::Factoring(_)
+            | Policy::WeightedFactoring(_)
+            | Policy::Trapezoid(_)
+            | Policy::FixedSize(_)
+            | Policy::AdaptiveFactoring(_)
+            | Policy::Awf(_) => (self.chunk, self.order),
         }
     }
 

@@ -8,7 +8,8 @@
 pub mod ffi;
 mod protocols;
 
-use crate::sched::{SchedulerKind, SchedulerSpec};
+use crate::sched::rule::Scheduler;
+use crate::sched::{SchedulerKind, SchedulerSpec, Slow};
 use crate::simulate::job::{placement_order, PlatformInfo, SimJob, SimOutcome};
 use std::rc::Rc;
 
@@ -58,8 +59,16 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
     for (k, v) in &job.params {
         spec.set(k, v).map_err(|e| e.to_string())?;
     }
+    simulate_with(job, &spec.policy)
+}
+
+/// [`simulate`] of any [`Scheduler`], a researcher's own included (`job.scheduler` and
+/// `job.params` are then only labels). The simulation has no known slowdown (host speeds
+/// come from the platform), so `weighted_factoring` with `weights = known` sees equal weights.
+pub fn simulate_with(job: SimJob, scheduler: &dyn Scheduler) -> Result<SimOutcome, String> {
+    let rule = scheduler.hand_out(job.cost_s.len(), job.workers, Slow::NONE);
     let started = std::time::Instant::now();
-    let actors = crate::simulate::job::actors_needed(kind, job.workers, job.lost.len());
+    let actors = crate::simulate::job::actors_playing(&rule, job.workers, job.lost.len());
     if actors > crate::simulate::job::mapping_budget() {
         return Err(format!(
             "{} workers need about {actors} SimGrid actors, more than this system's {} memory mappings per process (vm.max_map_count) allow",
@@ -96,7 +105,7 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
         hosts[master],
         placed.iter().map(|&i| hosts[i]).collect(),
     ));
-    protocols::spawn_protocol(Rc::clone(&world), spec.policy);
+    protocols::spawn_protocol(Rc::clone(&world), rule);
     ffi::run();
     let mut out = world.finish();
     out.wall_s += world.job.start_s;

@@ -14,10 +14,9 @@
 //! and no borrow is held across a call that can switch actors (execute, sleep, put, get).
 
 use super::ffi::{self, clock, execute, sleep_for, Host, Mailbox, Semaphore};
-use crate::sched::dls::{self, ItemTimes, Report};
-use crate::sched::param::Slow;
-use crate::sched::renderers::mitsuba_grain;
-use crate::sched::{Policy, Requeue};
+use crate::sched::dls::{ItemTimes, Report};
+use crate::sched::rule::{band, ChunkRule, HandOut, WorkerRule};
+use crate::sched::Requeue;
 use crate::simulate::job::{Network, SimJob, SimOutcome, FAN_IN_GROUP, REFERENCE_FLOPS};
 use std::cell::{Cell, RefCell};
 use std::collections::{BinaryHeap, HashMap, VecDeque};
@@ -391,68 +390,22 @@ impl<T: 'static> Inbox<T> {
     }
 }
 
-/// Start the actors of `world.job`'s scheduler. Adding a scheduler: one arm here and, when it
-/// grabs from a shared counter, one arm in [`grab_rule`].
-pub(crate) fn spawn_protocol(world: Rc<World>, policy: Policy) {
-    let master_inbox = matches!(policy, Policy::Master(_))
+/// Start the actors that play `rule`, the scheduler's hand-out rule over `world.job`.
+pub(crate) fn spawn_protocol(world: Rc<World>, rule: HandOut) {
+    let master_inbox = matches!(rule, HandOut::ByMaster(_))
         .then(|| Inbox::<MasterMsg>::new(&world, "master", world.master_host, true));
     spawn_killers(&world, master_inbox.clone());
-    match policy {
-        Policy::Static => static_split(world, |n, w, k| (k * n / w..(k + 1) * n / w).collect()),
-        Policy::StaticCyclic => static_split(world, |n, w, k| (k..n).step_by(w).collect()),
-        Policy::Master(p) => {
+    match rule {
+        HandOut::ByWorkers(WorkerRule::Own(own)) => {
+            static_split(world, move |n, w, k| own.items(k, n, w).collect())
+        }
+        HandOut::ByMaster(p) => {
             if let Some(inbox) = master_inbox {
                 master(world, inbox, p.buffer, p.requeue)
             }
         }
-        Policy::WorkStealing(p) => stealing(world, p.grab),
-        Policy::WorkStealingDeque => stealing(world, 1),
-        Policy::SelfScheduling(_)
-        | Policy::Guided(_)
-        | Policy::Pbrt
-        | Policy::Mitsuba
-        | Policy::Factoring(_)
-        | Policy::WeightedFactoring(_)
-        | Policy::Trapezoid(_)
-        | Policy::FixedSize(_)
-        | Policy::AdaptiveFactoring(_)
-        | Policy::Awf(_) => {
-            let (n, w) = (world.job.cost_s.len(), world.job.workers);
-            let rule = grab_rule(&policy, n, w);
-            counter(world, rule)
-        }
-    }
-}
-
-/// How many items a grab from the shared counter takes: `(worker, next free item, item count,
-/// worker count, the worker's report on its previous grab)` → chunk. Fixed-sequence members are
-/// a function of the position; the dynamic-loop-scheduling rules ([`dls::rule`]) are the very
-/// objects the threaded schedulers use, fed the simulated times of each worker's chunks. The
-/// simulation has no known slowdown (host speeds come from the platform), so
-/// `weighted_factoring` with `weights = known` sees equal weights.
-pub(crate) type GrabRule = Box<dyn FnMut(usize, usize, usize, usize, Option<&Report>) -> usize>;
-
-/// The [`GrabRule`] of a counter-based scheduler over `n` items and `w` workers.
-pub(crate) fn grab_rule(policy: &Policy, n: usize, w: usize) -> GrabRule {
-    if let Some(mut rule) = dls::rule(policy, n, w, Slow::NONE) {
-        return Box::new(move |worker, next, n, _, report| {
-            if let Some(r) = report {
-                rule.report(worker, r);
-            }
-            rule.next(worker, n - next)
-        });
-    }
-    match *policy {
-        Policy::SelfScheduling(p) => Box::new(move |_, next, n, _, _| p.grab.min(n - next)),
-        Policy::Guided(p) => Box::new(move |_, next, n, w, _| {
-            let rest = n - next;
-            p.grab.max(rest.div_ceil(p.guided_k * w)).min(rest)
-        }),
-        Policy::Mitsuba => {
-            let grain = mitsuba_grain(n, w);
-            Box::new(move |_, next, n, _, _| grain.min(n - next))
-        }
-        _ => Box::new(|_, next, n, _, _| 1.min(n - next)),
+        HandOut::ByWorkers(WorkerRule::Steal(s)) => stealing(world, s.grab()),
+        HandOut::ByWorkers(WorkerRule::Pool(pool)) => counter(world, pool.rule),
     }
 }
 
@@ -483,7 +436,7 @@ fn spawn_killers(world: &Rc<World>, master: Option<Rc<Inbox<MasterMsg>>>) {
 }
 
 /// `static` / `static_cyclic`: each worker computes its fixed share; no messages.
-fn static_split(world: Rc<World>, share: fn(usize, usize, usize) -> Vec<usize>) {
+fn static_split(world: Rc<World>, share: impl Fn(usize, usize, usize) -> Vec<usize>) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     for k in 0..w {
         let wd = Rc::clone(&world);
@@ -505,7 +458,7 @@ struct Request {
 
 /// Self-scheduling family: a counter actor on the master's host answers each request with the
 /// next `rule(next, n, workers)` items; an empty answer ends the worker.
-fn counter(world: Rc<World>, mut rule: GrabRule) {
+fn counter(world: Rc<World>, mut rule: Box<dyn ChunkRule>) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     let wd = Rc::clone(&world);
     let requests = Inbox::<Request>::new(&world, "counter", world.master_host, true);
@@ -519,7 +472,10 @@ fn counter(world: Rc<World>, mut rule: GrabRule) {
             let req = inbox.get();
             sleep_for(wd.job.counter_s);
             let c = if next < n {
-                rule(req.worker, next, n, w, req.report.as_ref()).clamp(1, n - next)
+                if let Some(r) = &req.report {
+                    rule.report(req.worker, r);
+                }
+                rule.next(req.worker, n - next).clamp(1, n - next)
             } else {
                 0
             };
@@ -613,9 +569,7 @@ fn result_sink(world: &Rc<World>) -> Rc<Inbox<usize>> {
 fn stealing(world: Rc<World>, grab: usize) {
     let (n, w) = (world.job.cost_s.len(), world.job.workers);
     let deques: Shared<Vec<VecDeque<usize>>> = Rc::new(RefCell::new(
-        (0..w)
-            .map(|k| (k * n / w..(k + 1) * n / w).collect())
-            .collect(),
+        (0..w).map(|k| band(k, n, w).collect()).collect(),
     ));
     let unassigned = Rc::new(RefCell::new(n));
     world.tally.borrow_mut().out.issued = n as u64;

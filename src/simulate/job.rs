@@ -19,10 +19,21 @@ pub const FAN_IN_GROUP: usize = 64;
 /// counter or sink, and `lost` killers. Each actor's stack is one memory mapping, two with
 /// its guard page.
 pub fn actors_needed(kind: crate::sched::SchedulerKind, workers: usize, lost: usize) -> usize {
-    use crate::sched::SchedulerKind as K;
-    let per_worker = match kind {
-        K::WorkStealing | K::WorkStealingDeque => 2,
-        _ => 1,
+    let rule = crate::sched::rule::hand_out(
+        &crate::sched::Policy::defaults(kind),
+        0,
+        1,
+        crate::sched::Slow::NONE,
+    );
+    actors_playing(&rule, workers, lost)
+}
+
+/// [`actors_needed`] for any rule: a stealing worker also runs a steal server.
+pub fn actors_playing(rule: &crate::sched::rule::HandOut, workers: usize, lost: usize) -> usize {
+    use crate::sched::rule::{HandOut, WorkerRule};
+    let per_worker = match rule {
+        HandOut::ByWorkers(WorkerRule::Steal(_)) => 2,
+        HandOut::ByMaster(_) | HandOut::ByWorkers(WorkerRule::Own(_) | WorkerRule::Pool(_)) => 1,
     };
     per_worker * workers + workers.div_ceil(FAN_IN_GROUP) + 2 + lost
 }

@@ -313,12 +313,13 @@ impl Inputs {
             .iter()
             .filter_map(|p| Some((p.name.to_string(), spec.get(p.name)?)))
             .collect();
-        let (master_h_s, fixed_s) = match spec.policy {
-            Policy::Master(p) => (
+        let (master_h_s, fixed_s) = if let Policy::Master(p) = spec.policy {
+            (
                 self.master_h_s.get(&p.buffer).copied().unwrap_or(0.0),
                 self.fixed_s.0.get(&p.buffer).copied().unwrap_or(0.0),
-            ),
-            _ => (0.0, self.fixed_s.1),
+            )
+        } else {
+            (0.0, self.fixed_s.1)
         };
         let refill_s = self.source_floor(spec, &items.cost_s)?;
         Ok(SimJob {

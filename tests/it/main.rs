@@ -15,6 +15,7 @@ mod embree4;
 #[cfg(any(feature = "embree", feature = "embree4"))]
 mod embree_contract;
 mod experiment;
+mod extension;
 mod fuzz;
 mod gpu;
 mod hostile;

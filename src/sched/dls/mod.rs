@@ -9,7 +9,7 @@
 //! - [`adaptive_factoring`]: adaptive factoring (AF).
 //! - [`awf`]: adaptive weighted factoring, variant C (AWF-C).
 //!
-//! The dispenser (in `shared`) is a mutex over (next item, rule): one lock per chunk, and
+//! Each policy's rule is built in [`super::rule::hand_out`]. The dispenser (in `shared`) is a mutex over (next item, rule): one lock per chunk, and
 //! these rules hand out O(P·log N) chunks, so the lock costs well under a nanosecond per item
 //! at the dispatch bench's 2¹⁸ items. A worker reports its previous chunk's timing when it
 //! asks for the next one, under the same lock.
@@ -20,8 +20,7 @@ pub mod factoring;
 pub mod fixed_size;
 pub mod trapezoid;
 
-use super::param::Slow;
-use super::spec::Policy;
+use super::rule::Grab;
 
 /// What a rule needs measured by the workers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,25 +112,11 @@ pub trait ChunkRule: Send {
     fn timing(&self) -> Timing {
         Timing::None
     }
-}
-
-/// The rule of a dynamic-loop-scheduling policy over `n` items on `workers` workers, or
-/// `None` for a policy of another family.
-pub fn rule(policy: &Policy, n: usize, workers: usize, slow: Slow) -> Option<Box<dyn ChunkRule>> {
-    let p = workers.max(1);
-    Some(match *policy {
-        Policy::Factoring(f) => Box::new(factoring::Factoring::fac2(p, f.grab)),
-        Policy::WeightedFactoring(f) => {
-            Box::new(factoring::Factoring::weighted(p, f.grab, f.weights, slow))
-        }
-        Policy::Trapezoid(t) => Box::new(trapezoid::Trapezoid::new(n, p, t.grab)),
-        Policy::FixedSize(f) => Box::new(fixed_size::FixedSize::new(n, p, f.fsc_warm)),
-        Policy::AdaptiveFactoring(a) => {
-            Box::new(adaptive_factoring::AdaptiveFactoring::new(p, a.grab))
-        }
-        Policy::Awf(a) => Box::new(awf::Awf::new(p, a.grab)),
-        _ => return None,
-    })
+    /// `Some` where the size depends on the items left alone: an executor may then take
+    /// hand-outs without the dispenser's lock, sizing them by the [`Grab`] itself.
+    fn as_grab(&self) -> Option<Grab> {
+        None
+    }
 }
 
 /// `⌈x⌉` of a non-negative float as a count, at least 1.

@@ -1,0 +1,119 @@
+//! The one place a run's [`SourceSet`] becomes compute sources: local threads (slowed as the
+//! run says, wrapped in a fault injector when asked), a GPU, in the set's order. A
+//! researcher's own source needs no entry here: it is built by its caller and handed to
+//! [`super::run`] in [`super::Sources::Boxed`] beside these (`examples/custom_source.rs`).
+
+use super::master::Hetero;
+use super::{worker_jobs, SourceKind, SourceSet, SourceSetup, SpecError};
+use crate::metrics::Probe;
+use crate::source::faulty::faulty_source;
+use crate::source::{ComputeSource, FaultPlan, Job, LocalThreadSource};
+#[cfg(feature = "gpu")]
+use std::sync::Arc;
+
+/// What building a run's sources needs besides the set.
+pub struct SourceContext<'a> {
+    /// The render job every local thread runs.
+    pub job: &'a Job,
+    /// Local threads, when the set has `threads`.
+    pub threads: usize,
+    /// Which threads are slowed, and how much.
+    pub slow: super::Slow,
+    /// Wrap each local thread in a fault injector.
+    pub faults: Option<&'a FaultPlan>,
+    /// What to time per item.
+    pub probe: Probe,
+    /// The GPU renderer, when the set has `gpu` (the scene uploaded once, shared).
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+}
+
+/// The sources of `set`, each with its kind, ids 0, 1, … in the set's order.
+///
+/// # Errors
+/// A kind this build lacks, a GPU without its renderer, MPI ranks (made by the MPI launch).
+pub fn build_sources(
+    set: &SourceSet,
+    ctx: &SourceContext<'_>,
+) -> Result<Vec<(SourceKind, Box<dyn ComputeSource>)>, SpecError> {
+    let mut out: Vec<(SourceKind, Box<dyn ComputeSource>)> = Vec::new();
+    for &kind in set.kinds() {
+        match kind {
+            SourceKind::Threads => {
+                for job in worker_jobs(ctx.job, ctx.threads, ctx.slow) {
+                    let id = out.len() as u32;
+                    out.push((kind, thread_source(&job, id, ctx.faults, ctx.probe)));
+                }
+            }
+            SourceKind::Gpu => out.push((kind, gpu_source(out.len() as u32, ctx)?)),
+            SourceKind::Mpi => {
+                return Err(SpecError {
+                    field: "sources".into(),
+                    msg: "MPI ranks come from the MPI launch (mpirun -n N raysched render … \
+                          --sources mpi), not from a source set"
+                        .into(),
+                })
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A local thread running `job`, inside a fault injector when `faults` says.
+pub fn thread_source(
+    job: &Job,
+    id: u32,
+    faults: Option<&FaultPlan>,
+    probe: Probe,
+) -> Box<dyn ComputeSource> {
+    match faults {
+        Some(plan) => faulty_source(job, id, plan, probe),
+        None => Box::new(LocalThreadSource::spawn(id, job.clone(), probe)),
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn gpu_source(id: u32, ctx: &SourceContext<'_>) -> Result<Box<dyn ComputeSource>, SpecError> {
+    let gpu = ctx.gpu.clone().ok_or_else(|| SpecError {
+        field: "sources".into(),
+        msg: "gpu among the sources but no GPU renderer given".into(),
+    })?;
+    Ok(Box::new(crate::source::GpuSource::spawn(
+        id, gpu, ctx.probe,
+    )))
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_source(_id: u32, _ctx: &SourceContext<'_>) -> Result<Box<dyn ComputeSource>, SpecError> {
+    Err(SpecError {
+        field: "sources".into(),
+        msg: "gpu: this raysched was built without feature `gpu` (cargo build --features gpu)"
+            .into(),
+    })
+}
+
+/// The master's per-source settings for sources of `kinds` (in that order) under `setup` on
+/// a `width`×`height` image: each kind's own buffer and grain, and whether the balancer
+/// runs. `buffer` is the master's B, for kinds without their own.
+pub fn hetero_of(
+    setup: &SourceSetup,
+    buffer: usize,
+    kinds: &[SourceKind],
+    (width, height): (u32, u32),
+) -> Hetero {
+    let (buffers, grains) = kinds
+        .iter()
+        .map(|&k| {
+            let own = setup.own(k);
+            (
+                own.buffer.unwrap_or(buffer),
+                own.chunk.map_or(0, |c| c.pixels(width, height)),
+            )
+        })
+        .unzip();
+    Hetero {
+        buffers,
+        grains,
+        balance: setup.balance,
+    }
+}

@@ -1,0 +1,286 @@
+//! The hand-out rules: the founding design's *specification*. A rule says which items go to
+//! whom and when, from the state of the run alone (items left, who asks, what came back); it
+//! does no I/O and reads no clock. Every executor — local threads, the master, the workers-run
+//! master, MPI ranks, the SimGrid protocols and the cost model — plays these rules and holds
+//! no scheduler arithmetic of its own.
+//!
+//! [`hand_out`] maps each built-in [`Policy`] to its rule, in one exhaustive match: a new kind
+//! that lacks an arm does not compile. A scheduler from outside the crate implements
+//! [`Scheduler`] and returns a [`HandOut`] of its own (see `examples/custom_scheduler.rs`).
+//!
+//! # Examples
+//!
+//! ```
+//! use raysched::sched::rule::{hand_out, HandOut, WorkerRule};
+//! use raysched::sched::{Policy, SchedulerKind, Slow};
+//!
+//! // Guided self-scheduling over 100 items on 2 workers: chunks of max(grab, ⌈R/(k·P)⌉).
+//! let HandOut::ByWorkers(WorkerRule::Pool(mut pool)) =
+//!     hand_out(&Policy::defaults(SchedulerKind::Guided), 100, 2, Slow::NONE)
+//! else {
+//!     unreachable!()
+//! };
+//! assert_eq!(pool.rule.next(0, 100), 25);
+//! ```
+
+mod grab;
+
+pub use super::dls::{ChunkRule, ItemTimes, Report, Timing};
+pub use grab::Grab;
+
+use super::dls::{adaptive_factoring, awf, factoring, fixed_size, trapezoid};
+use super::param::Slow;
+use super::renderers::mitsuba_grain;
+use super::spec::{MasterParams, Policy};
+use std::ops::Range;
+
+/// Worker `k`'s contiguous band of `n` items split over `w` workers: `k·n/w .. (k+1)·n/w`.
+/// The one place this formula lives (static, the deques' first fill, MPI's static split).
+pub fn band(k: usize, n: usize, w: usize) -> Range<usize> {
+    let w = w.max(1);
+    k * n / w..(k + 1) * n / w
+}
+
+/// Who hands out: a master that renders nothing, or the workers themselves.
+pub enum HandOut {
+    /// The founding design's master: ≤ B items outstanding per source from a FIFO, re-queued
+    /// at the back; its passes run on its own thread or by the workers (`passes`).
+    ByMaster(MasterParams),
+    /// The workers take their own items under a rule.
+    ByWorkers(WorkerRule),
+}
+
+/// How workers without a master take their items.
+pub enum WorkerRule {
+    /// Every item has its owner from the start ([`Ownership`]).
+    Own(Ownership),
+    /// One pool of consecutive items; each request gets the next chunk that the pool's
+    /// [`ChunkRule`] sizes.
+    Pool(Pool),
+    /// Each worker starts with its [`band`]; an idle one steals from another.
+    Steal(Steal),
+}
+
+/// A fixed assignment of items to workers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ownership {
+    /// Worker k owns [`band`]`(k, n, w)`.
+    Bands,
+    /// Worker k owns items k, k + w, k + 2w, …
+    Cyclic,
+}
+
+impl Ownership {
+    /// The items worker `k` of `w` owns among `n`, in the order it runs them.
+    pub fn items(self, k: usize, n: usize, w: usize) -> std::iter::StepBy<Range<usize>> {
+        match self {
+            Self::Bands => band(k, n, w).step_by(1),
+            Self::Cyclic => (k.min(n)..n).step_by(w.max(1)),
+        }
+    }
+
+    /// The worker that owns item `i` of `n` over `w` workers.
+    pub fn owner(self, i: usize, n: usize, w: usize) -> usize {
+        let w = w.max(1);
+        match self {
+            // The last band whose start is at or before i (bands may be empty when n < w).
+            Self::Bands => (0..w)
+                .rev()
+                .find(|&k| band(k, n, w).start <= i)
+                .unwrap_or(0),
+            Self::Cyclic => i % w,
+        }
+    }
+}
+
+/// A pool of consecutive items, each hand-out sized by `rule`.
+pub struct Pool {
+    /// Sizes each chunk (clamped by every executor to 1..=items left).
+    pub rule: Box<dyn ChunkRule>,
+    /// Whether the hand-outs are taken under a lock even where the rule would allow an
+    /// atomic counter (pbrt's loop takes each tile under its mutex).
+    pub locked: bool,
+    /// Whether a worker runs each hand-out's items in scanline order rather than as handed
+    /// out (the rules whose chunks are a share of all items, over `scatter`-ordered items).
+    pub scanline: bool,
+}
+
+impl Pool {
+    /// A pool whose executor may take hand-outs without a lock where the rule allows.
+    pub fn new(rule: Box<dyn ChunkRule>) -> Self {
+        Self {
+            rule,
+            locked: false,
+            scanline: false,
+        }
+    }
+}
+
+/// How idle workers steal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Steal {
+    /// rayon's recursive splitting of the item range, no part smaller than `min` items.
+    Split {
+        /// The smallest part rayon runs as one task.
+        min: usize,
+    },
+    /// One deque per worker filled with its band; a thief takes half a victim's deque.
+    Half,
+}
+
+impl Steal {
+    /// Items a worker runs per take from its own deque (the simulation's grab).
+    pub fn grab(self) -> usize {
+        match self {
+            Self::Split { min } => min.max(1),
+            Self::Half => 1,
+        }
+    }
+}
+
+/// A scheduler as the run path sees it: an id and the rule it hands out by. Every built-in
+/// [`Policy`] is one; a researcher's own scheduler implements this trait outside the crate.
+pub trait Scheduler: Send + Sync {
+    /// The scheduler's id, as in labels and CSV rows.
+    fn id(&self) -> String;
+    /// The rule over `n` items on `workers` workers, worker i slowed as `slow` says.
+    fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
+}
+
+impl Scheduler for Policy {
+    fn id(&self) -> String {
+        self.kind().id().to_string()
+    }
+
+    fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut {
+        hand_out(self, n, workers, slow)
+    }
+}
+
+/// The rule of a built-in `policy` over `n` items on `workers` workers (slowed as `slow`
+/// says, which weighted factoring's known weights read).
+pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOut {
+    let p = workers.max(1);
+    let pool = |rule: Box<dyn ChunkRule>| HandOut::ByWorkers(WorkerRule::Pool(Pool::new(rule)));
+    // Guided and the factoring family size hand-outs as a share of what is left: their
+    // items run in scanline order within a hand-out (`SchedulerKind::runs_hand_outs_in_scanline`).
+    let shares = |rule: Box<dyn ChunkRule>| {
+        HandOut::ByWorkers(WorkerRule::Pool(Pool {
+            scanline: true,
+            ..Pool::new(rule)
+        }))
+    };
+    match *policy {
+        Policy::Master(m) => HandOut::ByMaster(m),
+        Policy::Static => HandOut::ByWorkers(WorkerRule::Own(Ownership::Bands)),
+        Policy::StaticCyclic => HandOut::ByWorkers(WorkerRule::Own(Ownership::Cyclic)),
+        Policy::WorkStealing(s) => {
+            HandOut::ByWorkers(WorkerRule::Steal(Steal::Split { min: s.grab }))
+        }
+        Policy::WorkStealingDeque => HandOut::ByWorkers(WorkerRule::Steal(Steal::Half)),
+        Policy::SelfScheduling(s) => pool(Box::new(Grab::fixed(s.grab))),
+        Policy::Guided(g) => shares(Box::new(Grab::guided(g.grab, g.guided_k, p))),
+        Policy::Pbrt => HandOut::ByWorkers(WorkerRule::Pool(Pool {
+            locked: true,
+            ..Pool::new(Box::new(Grab::fixed(1)))
+        })),
+        Policy::Mitsuba => pool(Box::new(Grab::fixed(mitsuba_grain(n, p)))),
+        Policy::Factoring(f) => shares(Box::new(factoring::Factoring::fac2(p, f.grab))),
+        Policy::WeightedFactoring(f) => shares(Box::new(factoring::Factoring::weighted(
+            p, f.grab, f.weights, slow,
+        ))),
+        Policy::Trapezoid(t) => shares(Box::new(trapezoid::Trapezoid::new(n, p, t.grab))),
+        Policy::FixedSize(f) => shares(Box::new(fixed_size::FixedSize::new(n, p, f.fsc_warm))),
+        Policy::AdaptiveFactoring(a) => shares(Box::new(
+            adaptive_factoring::AdaptiveFactoring::new(p, a.grab),
+        )),
+        Policy::Awf(a) => shares(Box::new(awf::Awf::new(p, a.grab))),
+    }
+}
+
+/// The chunk sizes a pool rule hands out over `n` items when `p` workers ask in turn (0, 1,
+/// …, P−1, 0, …), none reporting: what a rule does before any measurement.
+pub fn chunk_sequence(rule: &mut dyn ChunkRule, n: usize, p: usize) -> Vec<usize> {
+    let (mut next, mut out, mut w) = (0, Vec::new(), 0);
+    while next < n {
+        let c = rule.next(w, n - next).clamp(1, n - next);
+        out.push(c);
+        next += c;
+        w = (w + 1) % p.max(1);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sched::SchedulerKind;
+
+    #[test]
+    fn bands_cover_every_item_once_in_order_even_with_more_workers_than_items() {
+        for (n, w) in [(10, 3), (3, 5), (0, 2), (17, 1), (64, 4)] {
+            let all: Vec<usize> = (0..w).flat_map(|k| band(k, n, w)).collect();
+            assert_eq!(all, (0..n).collect::<Vec<_>>(), "n={n} w={w}");
+            for i in 0..n {
+                let k = Ownership::Bands.owner(i, n, w);
+                assert!(band(k, n, w).contains(&i), "n={n} w={w} i={i} k={k}");
+            }
+        }
+        // 10 over 3: 0..3, 3..6, 6..10.
+        assert_eq!(band(2, 10, 3), 6..10);
+    }
+
+    #[test]
+    fn cyclic_ownership_strides_by_the_worker_count() {
+        let k1: Vec<usize> = Ownership::Cyclic.items(1, 10, 3).collect();
+        assert_eq!(k1, [1, 4, 7]);
+        assert_eq!(Ownership::Cyclic.items(4, 3, 5).count(), 0);
+        assert_eq!(Ownership::Cyclic.owner(8, 10, 3), 2);
+    }
+
+    #[test]
+    fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
+        for kind in SchedulerKind::ALL {
+            let policy = Policy::defaults(kind);
+            match hand_out(&policy, 1000, 4, Slow::NONE) {
+                HandOut::ByMaster(m) => assert_eq!(kind, SchedulerKind::Master, "{m:?}"),
+                HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
+                    let seq = chunk_sequence(pool.rule.as_mut(), 1000, 4);
+                    assert_eq!(seq.iter().sum::<usize>(), 1000, "{kind:?}");
+                    assert_eq!(pool.locked, kind == SchedulerKind::Pbrt);
+                    assert_eq!(pool.scanline, kind.runs_hand_outs_in_scanline(), "{kind:?}");
+                }
+                HandOut::ByWorkers(WorkerRule::Own(o)) => {
+                    let total: usize = (0..4).map(|k| o.items(k, 1000, 4).count()).sum();
+                    assert_eq!(total, 1000, "{kind:?}");
+                }
+                HandOut::ByWorkers(WorkerRule::Steal(s)) => assert!(s.grab() >= 1),
+            }
+        }
+    }
+
+    #[test]
+    fn guided_and_mitsuba_chunks_follow_their_formulas() {
+        // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, then ⌈875/8⌉ = 110, …
+        let HandOut::ByWorkers(WorkerRule::Pool(mut g)) = hand_out(
+            &Policy::defaults(SchedulerKind::Guided),
+            1000,
+            4,
+            Slow::NONE,
+        ) else {
+            panic!("guided is a pool")
+        };
+        assert_eq!(
+            &chunk_sequence(g.rule.as_mut(), 1000, 4)[..3],
+            [125, 110, 97]
+        );
+        // Mitsuba's grain: max(blocks / (4·threads), 1) = 64 / 8 = 8.
+        let HandOut::ByWorkers(WorkerRule::Pool(mut m)) =
+            hand_out(&Policy::defaults(SchedulerKind::Mitsuba), 64, 2, Slow::NONE)
+        else {
+            panic!("mitsuba is a pool")
+        };
+        assert_eq!(chunk_sequence(m.rule.as_mut(), 64, 2), [8; 8]);
+        assert_eq!(m.rule.as_grab(), Some(Grab::fixed(8)));
+    }
+}

@@ -1,0 +1,147 @@
+//! The extension API from outside the crate: the two examples' scheduler and source, played by
+//! every executor through the one run path, the cost model and the simulation.
+
+#[path = "../../examples/custom_scheduler.rs"]
+#[allow(dead_code, unreachable_pub)]
+mod custom_scheduler;
+#[path = "../../examples/custom_source.rs"]
+#[allow(dead_code, unreachable_pub)]
+mod custom_source;
+
+use custom_scheduler::{cornell, predict, render, Fraction, On};
+use raysched::sched::rule::{chunk_sequence, HandOut, Scheduler, WorkerRule};
+use raysched::sched::{Policy, SchedulerKind, Slow};
+use std::time::Duration;
+
+const QUARTER: Fraction = Fraction {
+    fraction: 0.25,
+    min: 2,
+};
+
+#[test]
+fn a_custom_rule_hands_out_its_fraction_of_what_is_left() {
+    let HandOut::ByWorkers(WorkerRule::Pool(mut pool)) = QUARTER.hand_out(100, 2, Slow::NONE)
+    else {
+        panic!("the fraction rule is a pool rule")
+    };
+    // ⌈R/4⌉ at least 2: 100 → 25, 75 → 19, 56 → 14, 42 → 11, 31 → 8, 23 → 6, 17 → 5, …
+    assert_eq!(
+        chunk_sequence(pool.rule.as_mut(), 100, 2),
+        [25, 19, 14, 11, 8, 6, 5, 3, 3, 2, 2, 2]
+    );
+}
+
+#[test]
+fn a_custom_rule_renders_the_serial_image_on_threads_and_on_sources() {
+    let (scene, tracer) = cornell(32, 2);
+    let serial = Policy::defaults(SchedulerKind::Static);
+    let (reference, _) = render(&serial, On::Threads, 1, &scene, &tracer);
+    for on in [On::Threads, On::Sources] {
+        let (image, stats) = render(&QUARTER, on, 2, &scene, &tracer);
+        assert_eq!(image.hash(), reference.hash(), "{on:?}");
+        assert_eq!(stats.items, 64, "{on:?}: 8×8 tiles of 4²");
+        assert_eq!(
+            stats.workers.iter().map(|w| w.items).sum::<u64>(),
+            64,
+            "{on:?}: every item rendered once"
+        );
+    }
+}
+
+#[test]
+fn the_cost_model_plays_a_custom_rule() {
+    // 256 items of 0.1 ms on 2 workers: 12.8 ms of work each.
+    let p = predict(&QUARTER, 2, 256, 1e-4);
+    assert!((p.work_s - 12.8e-3).abs() < 1e-12, "{p:?}");
+    // The last hand-outs are 2 items, so the workers end at most 2 items apart.
+    assert!(p.imbalance_s <= 2e-4 + 1e-12, "{p:?}");
+    // All of it in one hand-out: one worker runs all 256 items at 0.1 ms + h = 1 µs each.
+    let whole = Fraction {
+        fraction: 1.0,
+        min: 1,
+    };
+    let q = predict(&whole, 2, 256, 1e-4);
+    assert!((q.wall_s - 256.0 * 101e-6).abs() < 1e-9, "{q:?}");
+}
+
+#[test]
+fn a_custom_source_joins_the_master_and_a_worker_rule() {
+    let (scene, tracer) = cornell(32, 2);
+    let serial = Policy::defaults(SchedulerKind::Static);
+    let (reference, _) =
+        custom_source::render_mixed(&serial, (1, 0, Duration::ZERO), &scene, &tracer);
+    let delay = Duration::from_millis(1);
+    for kind in [SchedulerKind::Master, SchedulerKind::SelfScheduling] {
+        let policy = Policy::defaults(kind);
+        let (image, stats) = custom_source::render_mixed(&policy, (1, 1, delay), &scene, &tracer);
+        assert_eq!(image.hash(), reference.hash(), "{kind:?}");
+        assert_eq!(stats.workers.len(), 2, "{kind:?}");
+        assert!(
+            stats.workers[1].items > 0,
+            "{kind:?}: the network source rendered nothing"
+        );
+        assert_eq!(stats.workers.iter().map(|w| w.items).sum::<u64>(), 16);
+    }
+    // The fraction rule over the same two sources.
+    let (image, _) = custom_source::render_mixed(&QUARTER, (1, 1, delay), &scene, &tracer);
+    assert_eq!(image.hash(), reference.hash());
+}
+
+/// SimGrid runs once per process: the parent test runs this one in a child of the test binary.
+#[cfg(feature = "simgrid")]
+#[test]
+#[ignore = "run by the_simulation_plays_a_custom_rule in a process of its own"]
+fn simulation_child() {
+    use raysched::simulate::job::{Network, SimJob};
+    let platform = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("platforms/smp2.xml");
+    let n = 256;
+    let job = SimJob {
+        platform,
+        scheduler: QUARTER.id(),
+        params: Default::default(),
+        workers: 2,
+        cost_s: vec![1e-4; n],
+        item_bytes: vec![25; n],
+        result_bytes: vec![44; n],
+        master_h_s: 0.0,
+        counter_s: 0.0,
+        start_s: 0.0,
+        refill_s: 0.0,
+        lost: Vec::new(),
+        seed: 1,
+        network: Network::Fine,
+    };
+    let out = raysched::simgrid::simulate_with(job, &QUARTER).unwrap();
+    println!("SIMULATED wall_s={} issued={}", out.wall_s, out.issued);
+}
+
+#[cfg(feature = "simgrid")]
+#[test]
+fn the_simulation_plays_a_custom_rule() {
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "extension::simulation_child",
+            "--ignored",
+            "--nocapture",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("SIMULATED "))
+        .unwrap_or_else(|| panic!("no answer: {text} {}", String::from_utf8_lossy(&out.stderr)));
+    let field = |k: &str| -> f64 {
+        line.split_whitespace()
+            .find_map(|f| f.strip_prefix(k)?.strip_prefix('='))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(field("issued"), 256.0, "{line}");
+    // 12.8 ms of work per worker on smp2's cores, the last hand-outs 2 items (0.2 ms) apart,
+    // and the messages' time on top.
+    let wall = field("wall_s");
+    assert!((12.8e-3..14e-3).contains(&wall), "{line}");
+}
