@@ -67,6 +67,7 @@ pub mod one_line;
 pub mod plot;
 pub mod profile;
 pub mod provenance;
+pub mod reference;
 pub mod render;
 pub mod rng;
 pub mod scene;

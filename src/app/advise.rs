@@ -20,8 +20,18 @@ pub(crate) enum AdviseSources {
     Mpi,
 }
 
-const DEFAULT_SCHEDULERS: &str = "static,self_scheduling,guided,factoring,trapezoid,fixed_size,\
-adaptive_factoring,awf,work_stealing,master,pbrt,mitsuba";
+/// Every kind `advise` weighs unless told otherwise ([`SchedulerKind::advised_by_default`]).
+fn default_schedulers() -> &'static str {
+    static LIST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    LIST.get_or_init(|| {
+        let ids: Vec<&str> = SchedulerKind::ALL
+            .into_iter()
+            .filter(|k| k.advised_by_default())
+            .map(SchedulerKind::id)
+            .collect();
+        ids.join(",")
+    })
+}
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct AdviseArgs {
@@ -31,7 +41,7 @@ pub(crate) struct AdviseArgs {
     #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     workers: usize,
     /// Schedulers to consider, comma-separated.
-    #[arg(long = "scheduler", default_value = DEFAULT_SCHEDULERS, value_delimiter = ',',
+    #[arg(long = "scheduler", default_value = default_schedulers(), value_delimiter = ',',
           value_parser = |s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))]
     schedulers: Vec<SchedulerKind>,
     /// Chunks to consider, comma-separated (N = N×N tiles, WxH, rows:N, frame).

@@ -124,7 +124,7 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
             args.experiment.display()
         )));
     }
-    super::gpu_render::quiet_vulkan_loader();
+    super::gpu::quiet_vulkan_loader();
     let mut plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
     apply_stats_flags(&mut plan, &args)?;
     if plan.mpi.is_some() {

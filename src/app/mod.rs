@@ -16,7 +16,7 @@ mod compare;
 mod converge;
 mod error;
 mod experiment;
-mod gpu_render;
+mod gpu;
 #[cfg(feature = "mpi")]
 mod mpi_render;
 #[cfg(feature = "mpi")]

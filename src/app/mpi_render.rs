@@ -134,9 +134,9 @@ fn prepare(
     args: &RenderArgs,
 ) -> Result<(Scene, ScenePackage, SchedulerSpec), CliError> {
     let mut spec = args.scheduler_spec(args.threads)?;
-    if !spec.kind().over_mpi() {
+    if !spec.kind().over_sources() {
         return Err(input(format!(
-            "--scheduler {}: not available over MPI sources (use master, static or self_scheduling)",
+            "--scheduler {}: stealing needs workers that share memory, not MPI ranks (use master or a scheduler without stealing)",
             spec.kind().id()
         )));
     }

@@ -150,7 +150,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     if let Some(w) = scene.depth_warning() {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
-    let gpu = super::gpu_render::open(&args, &scene)?;
+    let gpu = super::gpu::open(
+        &args.sources,
+        args.gpu_adapter.as_deref(),
+        (&scene, &args.scene),
+    )?;
     let t0 = Instant::now();
     let tracer = Arc::new(AnyTracer::build(kind, &scene, threads.max(1)).map_err(CliError::input)?);
     let build = t0.elapsed();

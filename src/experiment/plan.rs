@@ -961,11 +961,11 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
     };
     for (i, s) in file.schedulers.iter().enumerate() {
         if let Ok(k) = SchedulerKind::from_id(&s.kind) {
-            if !k.over_mpi() {
+            if !k.over_sources() {
                 return Err((
                     format!("schedulers[{i}].kind"),
                     format!(
-                        "'{}' cannot hand items to MPI ranks (use master, static or self_scheduling)",
+                        "'{}' steals between workers that share memory, which MPI ranks do not (use master or a scheduler without stealing)",
                         k.id()
                     ),
                 ));

@@ -12,8 +12,9 @@
 //! source: its unfinished items are re-queued (under `never`, lost).
 
 use super::master::Progress;
+use super::rule::{MasterQueue, Take};
 use super::shared::{finish, Local};
-use super::{wire, MasterParams, Requeue, Results, Returns, SchedError};
+use super::{wire, MasterParams, Results, Returns, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::local::panic_message;
@@ -44,21 +45,13 @@ enum Step {
 struct Ledger {
     n: usize,
     buffer: usize,
-    requeue: Requeue,
     deadline: Option<Duration>,
     t0: quanta::Instant,
-    queue: VecDeque<u32>,
-    handed: Vec<bool>,
-    /// When each item was last handed out, or `None`: it may go out again at once (its copy
-    /// was lost). Only the timeout policy reads the time; the others store the start.
-    issued_at: Vec<Option<quanta::Instant>>,
+    /// The master's queue; only the timeout policy reads a clock for it.
+    queue: MasterQueue,
     alive: Vec<bool>,
     /// First results reported so far.
     done: usize,
-    /// Items whose only copy was lost under `never`.
-    known_lost: u64,
-    issued: u64,
-    reissued: u64,
     /// How the run ended, once it has.
     end: Option<Result<(), SchedError>>,
 }
@@ -69,17 +62,11 @@ impl Ledger {
         Self {
             n,
             buffer: params.buffer,
-            requeue: params.requeue,
             deadline,
             t0,
-            queue: (0..n as u32).collect(),
-            handed: vec![false; n],
-            issued_at: vec![Some(t0); n],
+            queue: MasterQueue::new(n, params.requeue),
             alive: vec![true; workers],
             done: 0,
-            known_lost: 0,
-            issued: 0,
-            reissued: 0,
             end: None,
         }
     }
@@ -95,36 +82,24 @@ impl Ledger {
         if self.end.is_some() {
             return Step::Stop;
         }
-        let timed = matches!(self.requeue, Requeue::Timeout(_));
-        let now = if timed {
-            quanta::Instant::now()
+        let now = if self.queue.timed() {
+            quanta::Instant::now() - self.t0
         } else {
-            self.t0
+            Duration::ZERO
         };
         let len = self.queue.len();
         let mut scanned = 0;
         while held.len() < self.buffer && scanned < len {
             scanned += 1;
-            let Some(i) = self.queue.pop_front() else {
-                break;
-            };
-            if done[i as usize].load(Ordering::Acquire) {
-                continue; // finished: leaves the queue for good
+            match self.queue.take(
+                now,
+                |i| done[i as usize].load(Ordering::Acquire),
+                |i| held.contains(&i),
+            ) {
+                Take::Item(i) => held.push_back(i),
+                Take::Skip => {}
+                Take::Empty => break,
             }
-            if self.handed[i as usize] {
-                if !self.may_reissue(i, held, now) {
-                    self.queue.push_back(i);
-                    continue;
-                }
-                self.reissued += 1;
-            }
-            self.handed[i as usize] = true;
-            self.issued_at[i as usize] = Some(now);
-            self.issued += 1;
-            if self.requeue != Requeue::Never {
-                self.queue.push_back(i);
-            }
-            held.push_back(i);
         }
         match (held.is_empty(), self.queue.is_empty()) {
             (false, _) => Step::Render,
@@ -135,17 +110,6 @@ impl Ledger {
         }
     }
 
-    /// May item `i`, already handed out, go out again to the worker holding `held`? As the
-    /// master thread's rule: the re-queue policy says when, never to a worker holding it.
-    fn may_reissue(&self, i: u32, held: &VecDeque<u32>, now: quanta::Instant) -> bool {
-        let again = match (self.requeue, self.issued_at[i as usize]) {
-            (Requeue::Revisit, _) | (_, None) => true,
-            (Requeue::Timeout(d), Some(at)) => now - at >= d,
-            (Requeue::Never, _) => false,
-        };
-        again && !held.contains(&i)
-    }
-
     /// Worker `w` is lost with `unfinished` (its items not run, and the one that failed): hand
     /// them out again at once, or (`never`) count them lost for good.
     fn lose(&mut self, w: usize, unfinished: impl Iterator<Item = u32>, done: &[AtomicBool]) {
@@ -154,10 +118,7 @@ impl Ledger {
             if done[i as usize].load(Ordering::Acquire) {
                 continue;
             }
-            match self.requeue {
-                Requeue::Never => self.known_lost += 1,
-                _ => self.issued_at[i as usize] = None,
-            }
+            self.queue.lost(i);
         }
         if self.end.is_none() {
             self.end = self.verdict();
@@ -169,10 +130,10 @@ impl Ledger {
         Progress {
             total: self.n as u64,
             done: self.done as u64,
-            known_lost: self.known_lost,
+            known_lost: self.queue.known_lost,
             sources: self.alive.len() as u64,
             alive: self.alive.iter().filter(|&&a| a).count() as u64,
-            requeue: self.requeue,
+            requeue: self.queue.requeue(),
             deadline_passed: self.deadline.filter(|dl| self.t0.elapsed() >= *dl),
         }
         .verdict()
@@ -453,8 +414,8 @@ pub(super) fn run_locked_master(
         .collect();
     // Duplicates were dropped as they were made (the `done` flags) and are in the tallies.
     let (results, mut stats) = finish(locals, n, t0, probe);
-    stats.issued = ledger.issued;
-    stats.reissued = ledger.reissued;
+    stats.issued = ledger.queue.issued;
+    stats.reissued = ledger.queue.reissued;
     stats.lost_sources = ledger.alive.iter().filter(|a| !**a).count() as u64;
     stats.master = Some(master);
     Ok((results, stats))
@@ -464,7 +425,7 @@ pub(super) fn run_locked_master(
 mod tests {
     use super::*;
     use crate::render::TileResult;
-    use crate::sched::Passes;
+    use crate::sched::{Passes, Requeue};
     use std::sync::atomic::AtomicU32;
     use std::sync::Arc;
 

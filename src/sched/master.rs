@@ -6,11 +6,11 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
+use super::rule::{MasterQueue, Take};
 use super::{wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::{ComputeSource, DelayedResult, Doorbell};
-use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 /// How long the master waits before it re-polls everything even without a notification
@@ -128,18 +128,12 @@ impl Lane {
 /// The items' side of the master: the FIFO queue, what was handed out when, what is done.
 struct Ledger<'a> {
     items: &'a [WorkItem],
-    requeue: Requeue,
-    queue: VecDeque<u32>,
-    /// Last hand-out time (timeout policy) or None = may be handed out again at once.
-    issued_at: Vec<Option<Instant>>,
-    handed: Vec<bool>,
+    /// The run's start: the queue's times are durations since.
+    t0: Instant,
+    queue: MasterQueue,
     collector: Collector,
-    /// Items whose only copy was lost under re-queue policy `never`.
-    known_lost: u64,
     /// The longest a result took so far (the staleness scale).
     slowest: Duration,
-    issued: u64,
-    reissued: u64,
     item_bytes: u64,
     /// Scratch of one hand-out: the items going to one source, then their results.
     batch: Vec<WorkItem>,
@@ -147,19 +141,14 @@ struct Ledger<'a> {
 }
 
 impl<'a> Ledger<'a> {
-    fn new(items: &'a [WorkItem], params: &MasterParams) -> Self {
+    fn new(items: &'a [WorkItem], params: &MasterParams, t0: Instant) -> Self {
         let n = items.len();
         Self {
             items,
-            requeue: params.requeue,
-            queue: (0..n as u32).collect(),
-            issued_at: vec![None; n],
-            handed: vec![false; n],
+            t0,
+            queue: MasterQueue::new(n, params.requeue),
             collector: Collector::new(n),
-            known_lost: 0,
             slowest: Duration::ZERO,
-            issued: 0,
-            reissued: 0,
             item_bytes: 0,
             batch: Vec::new(),
             handed_out: Vec::new(),
@@ -176,7 +165,7 @@ impl<'a> Ledger<'a> {
         while k < lane.slots.len() {
             if !lane.slots[k].result.is_ready() {
                 // Only a re-issued item can be finished by another source.
-                if self.reissued > 0 && self.collector.is_done(lane.slots[k].item) {
+                if self.queue.reissued > 0 && self.collector.is_done(lane.slots[k].item) {
                     lane.slots.swap_remove(k); // done elsewhere: its slot is free again
                 } else {
                     k += 1;
@@ -202,12 +191,8 @@ impl<'a> Ledger<'a> {
     /// `item`'s copy was lost with its source: hand it out again at once, or (`never`) count
     /// it as lost for good.
     fn requeue_lost(&mut self, item: u32) {
-        if self.collector.is_done(item) {
-            return;
-        }
-        match self.requeue {
-            Requeue::Never => self.known_lost += 1,
-            _ => self.issued_at[item as usize] = None,
+        if !self.collector.is_done(item) {
+            self.queue.lost(item);
         }
     }
 
@@ -232,7 +217,7 @@ impl<'a> Ledger<'a> {
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
             };
-            self.issue(i, now, first);
+            self.issue(i, first);
             fresh += 1;
             if (fresh == 1 && !lane.whole) || self.batch.len() >= piece {
                 // The source is idle: its first item goes at once, not after the scan; and a
@@ -269,7 +254,7 @@ impl<'a> Ledger<'a> {
             let Some(i) = self.pop_ready(&lane.slots, stale) else {
                 continue;
             };
-            self.issue(i, now, first);
+            self.issue(i, first);
             fresh += px(i);
             grouped += px(i);
             if grouped >= lane.grain {
@@ -280,47 +265,28 @@ impl<'a> Ledger<'a> {
         lane.hand_out(&mut self.batch, &mut self.handed_out, now);
     }
 
-    /// The queue's next item if it may be handed out now to the source holding `slots`;
-    /// `None` when it is done (it leaves the queue) or may not go out again yet (it goes to
-    /// the back).
+    /// The queue's next item if it may be handed out now to the source holding `slots`
+    /// ([`MasterQueue::take`], which books it); `None` when it is done or may not go out
+    /// again yet.
     fn pop_ready(&mut self, slots: &[Slot], stale: Staleness) -> Option<u32> {
-        let i = self.queue.pop_front()?;
-        if self.collector.is_done(i) {
-            return None; // finished: leaves the queue for good
+        let (queue, collector) = (&mut self.queue, &self.collector);
+        let now = stale.now.saturating_duration_since(self.t0);
+        match queue.take(
+            now,
+            |i| collector.is_done(i),
+            |i| slots.iter().any(|sl| sl.item == i && stale.fresh(sl)),
+        ) {
+            Take::Item(i) => Some(i),
+            Take::Skip | Take::Empty => None,
         }
-        if self.handed[i as usize] {
-            if !self.may_reissue(i, slots, stale) {
-                self.queue.push_back(i);
-                return None;
-            }
-            self.reissued += 1;
-        }
-        Some(i)
     }
 
-    /// Put item `i` into the batch being handed out and book it.
-    fn issue(&mut self, i: u32, now: Instant, first: &mut Option<u32>) {
+    /// Put item `i` into the batch being handed out.
+    fn issue(&mut self, i: u32, first: &mut Option<u32>) {
         let item = self.items[i as usize].clone();
         self.item_bytes += wire::item_bytes(&item);
         self.batch.push(item);
         first.get_or_insert(i);
-        self.issued += 1;
-        self.handed[i as usize] = true;
-        self.issued_at[i as usize] = Some(now);
-        if self.requeue != Requeue::Never {
-            self.queue.push_back(i);
-        }
-    }
-
-    /// May item `i`, already handed out, go out again, to the source holding `slots`? The
-    /// re-queue policy says when; never to a source that still holds a fresh copy.
-    fn may_reissue(&self, i: u32, slots: &[Slot], stale: Staleness) -> bool {
-        let again = match (self.requeue, self.issued_at[i as usize]) {
-            (Requeue::Revisit, _) | (_, None) => true,
-            (Requeue::Timeout(d), Some(at)) => stale.now - at >= d,
-            (Requeue::Never, _) => false,
-        };
-        again && !slots.iter().any(|sl| sl.item == i && stale.fresh(sl))
     }
 }
 
@@ -612,7 +578,7 @@ impl<'a> Master<'a> {
             t0,
             bell,
             lanes,
-            ledger: Ledger::new(items, params),
+            ledger: Ledger::new(items, params, t0),
             stats: MasterStats::default(),
             spans: Vec::new(),
             balancer: None,
@@ -635,7 +601,7 @@ impl<'a> Master<'a> {
         Progress {
             total: self.ledger.items.len() as u64,
             done: self.ledger.done() as u64,
-            known_lost: self.ledger.known_lost,
+            known_lost: self.ledger.queue.known_lost,
             sources: self.lanes.len() as u64,
             alive: self.lanes.iter().filter(|l| l.alive).count() as u64,
             requeue: self.params.requeue,
@@ -690,8 +656,8 @@ impl<'a> Master<'a> {
         let ledger = self.ledger;
         let mut stats = RunStats {
             items: ledger.items.len() as u64,
-            issued: ledger.issued,
-            reissued: ledger.reissued,
+            issued: ledger.queue.issued,
+            reissued: ledger.queue.reissued,
             bytes: ledger.item_bytes,
             ..Default::default()
         };

@@ -216,14 +216,23 @@ impl fmt::Display for Chunk {
 macro_rules! id_enum {
     (
         $(#[$meta:meta])* pub enum $name:ident ($field:literal, $what:literal) {
-            $( $(#[$vmeta:meta])* $variant:ident = $id:literal, )*
+            $( $(#[doc = $doc:literal])* $variant:ident = $id:literal, )*
         }
     ) => {
         $(#[$meta])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
         #[serde(rename_all = "snake_case")]
         pub enum $name {
-            $( $(#[$vmeta])* $variant, )*
+            $( $(#[doc = $doc])* $variant, )*
+        }
+        impl $name {
+            /// What the value means: its doc comment, one line (the reference pages' text).
+            pub fn doc(self) -> String {
+                let lines: &[&str] = match self {
+                    $( Self::$variant => &[$($doc),*], )*
+                };
+                lines.iter().map(|l| l.trim()).collect::<Vec<_>>().join(" ")
+            }
         }
         id_enum!(impl $name ($field, $what) { $( $variant = $id, )* });
     };

@@ -56,9 +56,25 @@ id_enum! {
 }
 
 impl SchedulerKind {
-    /// Can this scheduler hand items to MPI ranks (a source in another process)?
-    pub fn over_mpi(self) -> bool {
-        matches!(self, Self::Master | Self::Static | Self::SelfScheduling)
+    /// Does `advise` weigh this kind unless told otherwise? All but three: the model plays
+    /// `work_stealing_deque` as `work_stealing` and `weighted_factoring` over equal workers as
+    /// `factoring`, and `static_cyclic` is a fixed assignment like `static`.
+    pub fn advised_by_default(self) -> bool {
+        !matches!(
+            self,
+            Self::StaticCyclic | Self::WorkStealingDeque | Self::WeightedFactoring
+        )
+    }
+
+    /// Can this scheduler hand items to sources behind the source interface (MPI ranks, a
+    /// GPU, a researcher's own)? Every rule but stealing, which needs workers that share
+    /// memory ([`super::run`]).
+    pub fn over_sources(self) -> bool {
+        use super::rule::{hand_out, HandOut, WorkerRule};
+        !matches!(
+            hand_out(&Policy::defaults(self), 1, 1, Slow::NONE),
+            HandOut::ByWorkers(WorkerRule::Steal(_))
+        )
     }
 
     /// Does this scheduler choose its own tile size and order from the image and the thread

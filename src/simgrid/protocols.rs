@@ -15,12 +15,13 @@
 
 use super::ffi::{self, clock, execute, sleep_for, Host, Mailbox, Semaphore};
 use crate::sched::dls::{ItemTimes, Report};
-use crate::sched::rule::{band, ChunkRule, HandOut, WorkerRule};
+use crate::sched::rule::{band, ChunkRule, HandOut, MasterQueue, Take, WorkerRule};
 use crate::sched::Requeue;
 use crate::simulate::job::{Network, SimJob, SimOutcome, FAN_IN_GROUP, REFERENCE_FLOPS};
 use std::cell::{Cell, RefCell};
 use std::collections::{BinaryHeap, HashMap, VecDeque};
 use std::rc::Rc;
+use std::time::Duration;
 
 /// Bytes of a message that carries nothing but its envelope (a steal request, an empty grab).
 const EMPTY_MESSAGE: u64 = 1;
@@ -658,51 +659,42 @@ enum MasterMsg {
     Lost,
 }
 
-/// The master's ledger: the same rules as `sched::master` (FIFO queue; ≤ B fresh items per
-/// worker; under a re-queue policy a handed-out item goes to the back of the queue and is
-/// handed out again when met unfinished, never to the worker holding it).
+/// The master's ledger: the master's queue ([`MasterQueue`], the rule `sched::master` plays
+/// too) and what each simulated worker holds (≤ B fresh items).
 struct Ledger {
-    queue: VecDeque<usize>,
-    handed: Vec<bool>,
+    queue: MasterQueue,
     done: Vec<bool>,
     done_count: usize,
     held: Vec<Vec<usize>>,
     alive: Vec<bool>,
-    known_lost: usize,
     buffer: usize,
-    requeue: Requeue,
 }
 
 impl Ledger {
+    /// Top worker `k` up to B from the queue at the simulated time now: the items handed out
+    /// and how many of them were handed out before.
     fn top_up(&mut self, k: usize) -> (Vec<usize>, u64) {
         let mut batch = Vec::new();
-        let mut reissued = 0;
+        let before = self.queue.reissued;
+        let now = Duration::from_secs_f64(clock().max(0.0));
         let len = self.queue.len();
         let mut scanned = 0;
         while self.held[k].len() < self.buffer && scanned < len {
-            let Some(i) = self.queue.pop_front() else {
-                break;
-            };
             scanned += 1;
-            if self.done[i] {
-                continue;
-            }
-            if self.handed[i] {
-                // Timeout re-queue is simulated like seed: no wall clock to compare with.
-                if self.requeue == Requeue::Never || self.held[k].contains(&i) {
-                    self.queue.push_back(i);
-                    continue;
+            let (done, held) = (&self.done, &self.held[k]);
+            match self
+                .queue
+                .take(now, |i| done[i as usize], |i| held.contains(&(i as usize)))
+            {
+                Take::Item(i) => {
+                    self.held[k].push(i as usize);
+                    batch.push(i as usize);
                 }
-                reissued += 1;
-            }
-            self.handed[i] = true;
-            self.held[k].push(i);
-            batch.push(i);
-            if self.requeue != Requeue::Never {
-                self.queue.push_back(i);
+                Take::Skip => {}
+                Take::Empty => break,
             }
         }
-        (batch, reissued)
+        (batch, self.queue.reissued - before)
     }
 }
 
@@ -748,15 +740,12 @@ fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue:
     let wd = world;
     ffi::spawn("master", wd.master_host, false, move || {
         let mut l = Ledger {
-            queue: (0..n).collect(),
-            handed: vec![false; n],
+            queue: MasterQueue::new(n, requeue),
             done: vec![false; n],
             done_count: 0,
             held: vec![Vec::new(); w],
             alive: vec![true; w],
-            known_lost: 0,
             buffer,
-            requeue,
         };
         let hand_out = |l: &mut Ledger, k: usize| {
             let (batch, reissued) = l.top_up(k);
@@ -798,20 +787,17 @@ fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue:
                             l.alive[k] = false;
                             for i in std::mem::take(&mut l.held[k]) {
                                 if !l.done[i] {
-                                    match l.requeue {
-                                        Requeue::Never => l.known_lost += 1,
-                                        _ => l.handed[i] = false,
-                                    }
+                                    l.queue.lost(i as u32);
                                 }
                             }
                         }
                     }
-                    if l.known_lost > 0 || !l.alive.iter().any(|a| *a) {
+                    if l.queue.known_lost > 0 || !l.alive.iter().any(|a| *a) {
                         let mut t = wd.tally.borrow_mut();
                         t.out.error = Some(format!(
                             "{} items lost with their worker; re-queue policy '{}' cannot redo them",
                             n - l.done_count,
-                            l.requeue
+                            l.queue.requeue()
                         ));
                         t.out.wall_s = clock();
                         return;

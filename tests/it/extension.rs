@@ -8,6 +8,10 @@ mod custom_scheduler;
 #[allow(dead_code, unreachable_pub)]
 mod custom_source;
 
+#[path = "../../examples/custom_tracer.rs"]
+#[allow(dead_code, unreachable_pub)]
+mod custom_tracer;
+
 use custom_scheduler::{cornell, predict, render, Fraction, On};
 use raysched::sched::rule::{chunk_sequence, HandOut, Scheduler, WorkerRule};
 use raysched::sched::{Policy, SchedulerKind, Slow};
@@ -144,4 +148,25 @@ fn the_simulation_plays_a_custom_rule() {
     // and the messages' time on top.
     let wall = field("wall_s");
     assert!((12.8e-3..14e-3).contains(&wall), "{line}");
+}
+
+#[test]
+fn a_custom_tracer_renders_the_native_image_and_counts_its_queries() {
+    use raysched::sched::{run_scheduler, Chunk, SchedulerSpec};
+    use raysched::tracer::BvhTracer;
+    use std::sync::atomic::Ordering;
+    use std::sync::Arc;
+    let (scene, native) = cornell(16, 2);
+    let counting = Arc::new(custom_tracer::Counting::new(BvhTracer::new(
+        &scene.geometry,
+    )));
+    let spec = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 4, h: 4 }, 2);
+    let (a, _) = run_scheduler(&spec, &scene, &native).unwrap();
+    let (b, stats) = run_scheduler(&spec, &scene, &counting).unwrap();
+    assert_eq!(a.hash(), b.hash());
+    // Every camera ray is a closest-hit query: at least one per pixel and sample.
+    let intersects = counting.intersects.load(Ordering::Relaxed);
+    assert!(intersects >= 16 * 16 * 2, "{intersects}");
+    assert!(counting.occludeds.load(Ordering::Relaxed) > 0);
+    assert!(stats.rays > 0);
 }

@@ -21,6 +21,7 @@ mod gpu;
 mod hostile;
 mod models;
 mod mpi;
+mod reference;
 mod schedulers;
 mod simulate;
 mod stability;

@@ -24,9 +24,11 @@
 //! ```
 
 mod grab;
+mod master;
 
 pub use super::dls::{ChunkRule, ItemTimes, Report, Timing};
 pub use grab::Grab;
+pub use master::{MasterQueue, Take};
 
 use super::dls::{adaptive_factoring, awf, factoring, fixed_size, trapezoid};
 use super::param::Slow;
@@ -261,7 +263,7 @@ mod tests {
 
     #[test]
     fn guided_and_mitsuba_chunks_follow_their_formulas() {
-        // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, then ⌈875/8⌉ = 110, …
+        // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, ⌈875/8⌉ = 110, ⌈765/8⌉ = 96.
         let HandOut::ByWorkers(WorkerRule::Pool(mut g)) = hand_out(
             &Policy::defaults(SchedulerKind::Guided),
             1000,
@@ -272,7 +274,7 @@ mod tests {
         };
         assert_eq!(
             &chunk_sequence(g.rule.as_mut(), 1000, 4)[..3],
-            [125, 110, 97]
+            [125, 110, 96]
         );
         // Mitsuba's grain: max(blocks / (4·threads), 1) = 64 / 8 = 8.
         let HandOut::ByWorkers(WorkerRule::Pool(mut m)) =

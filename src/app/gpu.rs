@@ -2,7 +2,9 @@
 //! before the common render path runs it beside any other sources.
 
 use super::error::CliError;
-use super::render::RenderArgs;
+use raysched::scene::Scene;
+use raysched::sched::{SourceKind, SourceSet};
+use std::path::Path;
 
 /// Mesa's Vulkan drivers probe for a Wayland display and print a line when
 /// `XDG_RUNTIME_DIR` is unset (a headless machine, CI); pointing it at the temp folder keeps
@@ -23,18 +25,19 @@ pub(crate) struct OpenGpu {
 /// Open the GPU when `--sources` has one (`None` otherwise) and upload `scene` to it.
 #[cfg(feature = "gpu")]
 pub(crate) fn open(
-    args: &RenderArgs,
-    scene: &raysched::scene::Scene,
+    sources: &SourceSet,
+    adapter: Option<&str>,
+    (scene, path): (&Scene, &Path),
 ) -> Result<Option<OpenGpu>, CliError> {
     use raysched::gpu::{GpuContext, GpuRenderer};
-    if !args.sources.has(raysched::sched::SourceKind::Gpu) {
+    if !sources.has(SourceKind::Gpu) {
         return Ok(None);
     }
     quiet_vulkan_loader();
-    let ctx = GpuContext::open(args.gpu_adapter.as_deref()).map_err(CliError::input)?;
+    let ctx = GpuContext::open(adapter).map_err(CliError::input)?;
     let t0 = std::time::Instant::now();
     let renderer = GpuRenderer::new(ctx, scene)
-        .map_err(|e| CliError::input(anyhow::anyhow!("{}: {e}", args.scene.display())))?;
+        .map_err(|e| CliError::input(anyhow::anyhow!("{}: {e}", path.display())))?;
     let info = renderer.info().clone();
     let line = format!(
         "gpu {} ({}, {}, {}), scene uploaded in {:.3} s",
@@ -54,10 +57,11 @@ pub(crate) fn open(
 /// this is the belt to its braces).
 #[cfg(not(feature = "gpu"))]
 pub(crate) fn open(
-    args: &RenderArgs,
-    _scene: &raysched::scene::Scene,
+    sources: &SourceSet,
+    _adapter: Option<&str>,
+    _scene: (&Scene, &Path),
 ) -> Result<Option<OpenGpu>, CliError> {
-    if args.sources.has(raysched::sched::SourceKind::Gpu) {
+    if sources.has(SourceKind::Gpu) {
         return Err(CliError::message(
             "--sources gpu: this raysched was built without feature `gpu` (cargo build --features gpu)",
         ));
