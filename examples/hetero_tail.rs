@@ -28,7 +28,7 @@
 use crossbeam::channel::Receiver;
 use raysched::metrics::{Probe, SourceKind, WorkerStats};
 use raysched::render::{TileResult, WorkItem};
-use raysched::sched::{master::run_master_hetero, Hetero, MasterParams, RunOptions};
+use raysched::sched::{Hetero, MasterParams, Policy, RunOptions, RunPlan, Slow, Sources};
 use raysched::source::{
     submit_one,
     thread::{pending_batch, Flags},
@@ -242,18 +242,17 @@ fn run(a: &Args, threads: usize, gpu: bool, balance: bool) -> (f64, Vec<(String,
         ..Default::default()
     };
     let t = Instant::now();
-    let (_, stats) = run_master_hetero(
-        &params,
-        &hetero,
-        &items,
-        sources,
-        &RunOptions::default(),
+    let plan = RunPlan {
+        scheduler: &Policy::Master(params),
+        slow: Slow::NONE,
+        opts: &RunOptions::default(),
         probe,
-    )
-    .unwrap_or_else(|e| {
-        eprintln!("error: {e}");
-        std::process::exit(1)
-    });
+    };
+    let (_, stats) = raysched::sched::run(&plan, &items, Sources::Boxed(sources, hetero))
+        .unwrap_or_else(|e| {
+            eprintln!("error: {e}");
+            std::process::exit(1)
+        });
     let wall = t.elapsed().as_secs_f64();
     let mut kinds: Vec<(String, u64, f64)> = Vec::new();
     for w in &stats.workers {

@@ -28,6 +28,9 @@ pub struct SourceContext<'a> {
     pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
 }
 
+/// A source with the kind it was built as.
+pub type KindedSource = (SourceKind, Box<dyn ComputeSource>);
+
 /// The sources of `set`, each with its kind, ids 0, 1, … in the set's order.
 ///
 /// # Errors
@@ -35,8 +38,8 @@ pub struct SourceContext<'a> {
 pub fn build_sources(
     set: &SourceSet,
     ctx: &SourceContext<'_>,
-) -> Result<Vec<(SourceKind, Box<dyn ComputeSource>)>, SpecError> {
-    let mut out: Vec<(SourceKind, Box<dyn ComputeSource>)> = Vec::new();
+) -> Result<Vec<KindedSource>, SpecError> {
+    let mut out: Vec<KindedSource> = Vec::new();
     for &kind in set.kinds() {
         match kind {
             SourceKind::Threads => {

@@ -756,7 +756,7 @@ fn sleeping_job(d: Duration) -> Job {
 #[test]
 fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_nothing() {
     use raysched::metrics::Probe;
-    use raysched::sched::{master::run_master_hetero, Hetero};
+    use raysched::sched::Hetero;
     use raysched::source::{slowed_job, ComputeSource, LocalThreadSource};
     // Source 1 takes 8× as long per item as source 0: at equal buffers it holds 8× the time's
     // worth of work, far past the 2 % the balancer tolerates. 8000 items of ≥ 200 µs on a
@@ -773,15 +773,8 @@ fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_not
         balance: true,
         ..Default::default()
     };
-    let (results, stats) = run_master_hetero(
-        &MasterParams::default(),
-        &hetero,
-        &items,
-        sources,
-        &RunOptions::default(),
-        probe,
-    )
-    .unwrap();
+    let (results, stats) =
+        master_over(MasterParams::default(), hetero, &items, sources, probe).unwrap();
     assert_eq!(results.len(), items.len());
     assert!((0..8000).all(|i| results.get(i).is_some()));
     let rebalances = stats.master.as_ref().unwrap().rebalances;
@@ -837,7 +830,7 @@ impl raysched::source::ComputeSource for Recording {
 #[test]
 fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_items() {
     use raysched::metrics::Probe;
-    use raysched::sched::{master::run_master_hetero, Hetero};
+    use raysched::sched::Hetero;
     use raysched::source::{ComputeSource, LocalThreadSource};
     let job = sleeping_job(Duration::from_micros(50));
     let probe = Probe::new(true, false);
@@ -860,15 +853,8 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
         grains: vec![0, 64],
         balance: false,
     };
-    let (results, stats) = run_master_hetero(
-        &MasterParams::default(),
-        &hetero,
-        &items,
-        sources,
-        &RunOptions::default(),
-        probe,
-    )
-    .unwrap();
+    let (results, stats) =
+        master_over(MasterParams::default(), hetero, &items, sources, probe).unwrap();
     assert!((0..1001).all(|i| results.get(i).is_some()));
     let grouped = logs[1].lock().unwrap().clone();
     let (last, whole) = grouped.split_last().expect("source 1 got work");
@@ -884,7 +870,6 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
 #[test]
 fn an_idle_source_gets_its_first_item_ahead_of_the_rest_unless_its_hand_outs_go_whole() {
     use raysched::metrics::Probe;
-    use raysched::sched::master::run_master_hetero;
     use raysched::source::{ComputeSource, LocalThreadSource};
     let job = sleeping_job(Duration::from_micros(50));
     let probe = Probe::new(true, false);
@@ -900,15 +885,8 @@ fn an_idle_source_gets_its_first_item_ahead_of_the_rest_unless_its_hand_outs_go_
             buffer: 16,
             ..Default::default()
         };
-        let (results, _) = run_master_hetero(
-            &params,
-            &Default::default(),
-            &items,
-            vec![source],
-            &RunOptions::default(),
-            probe,
-        )
-        .unwrap();
+        let (results, _) =
+            master_over(params, Default::default(), &items, vec![source], probe).unwrap();
         assert!((0..64).all(|i| results.get(i).is_some()));
         let sizes = log.lock().unwrap().clone();
         sizes[..2].to_vec()
@@ -917,4 +895,23 @@ fn an_idle_source_gets_its_first_item_ahead_of_the_rest_unless_its_hand_outs_go_
     assert_eq!(first_hand_outs(false), [1, 15]);
     // A source whose hand-out costs the same at any size gets the 16 in one.
     assert_eq!(first_hand_outs(true)[0], 16);
+}
+
+/// The master with `params` over `sources` (each with its own buffer and grain, `hetero`),
+/// through the one run path.
+fn master_over(
+    params: MasterParams,
+    hetero: raysched::sched::Hetero,
+    items: &[WorkItem],
+    sources: Vec<Box<dyn raysched::source::ComputeSource>>,
+    probe: raysched::metrics::Probe,
+) -> Result<(raysched::sched::Results, raysched::metrics::RunStats), raysched::sched::SchedError> {
+    use raysched::sched::{run, Policy, RunPlan, Slow, Sources};
+    let plan = RunPlan {
+        scheduler: &Policy::Master(params),
+        slow: Slow::NONE,
+        opts: &RunOptions::default(),
+        probe,
+    };
+    run(&plan, items, Sources::Boxed(sources, hetero))
 }
