@@ -59,9 +59,16 @@ pub fn kernel() -> String {
 
 /// The 1-, 5- and 15-minute load averages (/proc/loadavg; `None` where it does not exist).
 pub fn load_average() -> Option<[f64; 3]> {
-    let text = read("/proc/loadavg");
+    let text = load_average_text();
     let mut it = text.split_whitespace().map(|v| v.parse::<f64>().ok());
     Some([it.next()??, it.next()??, it.next()??])
+}
+
+/// The three load averages as the kernel writes them (`0.52 0.61 0.70`; empty where
+/// /proc/loadavg does not exist): the one reader of that file.
+pub fn load_average_text() -> String {
+    let text = read("/proc/loadavg");
+    text.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
 }
 
 fn read(path: &str) -> String {

@@ -205,8 +205,8 @@ pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
 
 /// The 1-minute load average (Linux), or "unknown": how busy the machine was around the run.
 fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|s| s.split_whitespace().next().map(str::to_string))
-        .unwrap_or_else(|| "unknown".into())
+    let all = crate::host::load_average_text();
+    all.split_whitespace()
+        .next()
+        .map_or_else(|| "unknown".into(), str::to_string)
 }

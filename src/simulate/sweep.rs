@@ -698,9 +698,7 @@ fn layout_toml(table: &str, factors: &[(String, String, usize, f64)]) -> String 
 
 /// `/proc/loadavg`'s first three fields (the machine is shared: measured inputs are noisy).
 pub fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_default()
+    crate::host::load_average_text()
 }
 
 #[cfg(test)]
