@@ -193,12 +193,25 @@ fn counter_locals(
     expect: usize,
     probe: Probe,
 ) -> Result<Vec<Local>, SchedError> {
-    let n = items.len();
     // Padded: nothing the workers read per item shares the counter's line; the cost is the
     // counter's own line moving between cores at every grab (`dispatch/shared_counter_only`).
     let next = CachePadded::new(AtomicUsize::new(0));
+    grab_locals(items, jobs, grab, (expect, probe), || {
+        next.fetch_add(grab, Ordering::Relaxed)
+    })
+}
+
+/// Each worker takes `grab` consecutive items from where `take` says, until past the end.
+fn grab_locals(
+    items: &[WorkItem],
+    jobs: &[Job],
+    grab: usize,
+    (expect, probe): (usize, Probe),
+    take: impl Fn() -> usize + Sync,
+) -> Result<Vec<Local>, SchedError> {
+    let n = items.len();
     spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| loop {
-        let s = next.fetch_add(grab, Ordering::Relaxed);
+        let s = take();
         if s >= n {
             break;
         }
@@ -243,21 +256,12 @@ fn mutex_locals(
     expect: usize,
     probe: Probe,
 ) -> Result<Vec<Local>, SchedError> {
-    let n = items.len();
     let next = Mutex::new(0usize);
-    spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| loop {
-        let s = {
-            let mut g = next.lock().unwrap_or_else(PoisonError::into_inner);
-            let s = *g;
-            *g += grab;
-            s
-        };
-        if s >= n {
-            break;
-        }
-        for it in &items[s..(s + grab).min(n)] {
-            l.run(&jobs[id as usize], it, &probe);
-        }
+    grab_locals(items, jobs, grab, (expect, probe), || {
+        let mut g = next.lock().unwrap_or_else(PoisonError::into_inner);
+        let s = *g;
+        *g += grab;
+        s
     })
 }
 
