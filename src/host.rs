@@ -68,7 +68,10 @@ pub fn load_average() -> Option<[f64; 3]> {
 /// /proc/loadavg does not exist): the one reader of that file.
 pub fn load_average_text() -> String {
     let text = read("/proc/loadavg");
-    text.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+    text.split_whitespace()
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn read(path: &str) -> String {

@@ -10,7 +10,7 @@
 //! Nothing is re-queued: a lost source fails the run (the master is the fault-tolerant one).
 
 use super::master::{finish_sources, seal_stats};
-use super::rule::{ItemTimes, Report, WorkerRule};
+use super::rule::{ChunkRule, ItemTimes, Report, WorkerRule};
 use super::{wire, Collector, Results, SchedError, SpecError};
 use crate::metrics::{MasterStats, Probe, RunStats};
 use crate::render::WorkItem;
@@ -24,6 +24,113 @@ struct Held {
     since: Instant,
     times: ItemTimes,
     report: Option<Report>,
+}
+
+impl Held {
+    /// Once its chunk is all back: what it reports with its next request.
+    fn close_chunk(&mut self) {
+        if self.chunk == 0 || !self.out.is_empty() {
+            return;
+        }
+        let secs = self.since.elapsed().as_secs_f64();
+        self.times.add_group(self.chunk as u64, secs);
+        self.report = Some(Report {
+            items: self.chunk,
+            secs,
+            grab_secs: 0.0,
+            times: self.times,
+        });
+        self.chunk = 0;
+    }
+}
+
+/// The run as this thread sees it: the sources, what each holds, the results so far.
+struct Pull<'a> {
+    items: &'a [WorkItem],
+    sources: Vec<Box<dyn ComputeSource>>,
+    held: Vec<Held>,
+    collector: Collector,
+    stats: RunStats,
+    /// The next item not handed out yet.
+    next: usize,
+}
+
+impl Pull<'_> {
+    /// Hand items `range` to source `s` (one `submit` each, as MPI ranks take them).
+    fn submit(&mut self, s: usize, range: std::ops::Range<usize>) {
+        for i in range {
+            self.stats.bytes += wire::item_bytes(&self.items[i]);
+            self.stats.issued += 1;
+            let r = self.sources[s].submit(self.items[i].clone());
+            self.held[s].out.push(r);
+        }
+    }
+
+    /// Take every ready result; `true` when one failed (its source is gone).
+    fn collect(&mut self) -> bool {
+        let mut failed = false;
+        for h in self.held.iter_mut() {
+            let mut j = 0;
+            while j < h.out.len() {
+                if !h.out[j].is_ready() {
+                    j += 1;
+                    continue;
+                }
+                match h.out.swap_remove(j).try_take() {
+                    Ok(Ok(r)) => self.collector.accept(r),
+                    Ok(Err(_)) => failed = true,
+                    Err(d) => h.out.push(d),
+                }
+            }
+        }
+        failed
+    }
+
+    /// Give every source with nothing outstanding the rule's next chunk, reporting its last.
+    fn top_up(&mut self, rule: &mut dyn ChunkRule) {
+        let n = self.items.len();
+        for s in 0..self.sources.len() {
+            self.held[s].close_chunk();
+            if !self.held[s].out.is_empty() || self.next >= n {
+                continue;
+            }
+            if let Some(r) = self.held[s].report.take() {
+                rule.report(s, &r);
+            }
+            let grab = rule.next(s, n - self.next).clamp(1, n - self.next);
+            self.submit(s, self.next..self.next + grab);
+            (self.held[s].chunk, self.held[s].since) = (grab, Instant::now());
+            self.next += grab;
+        }
+    }
+
+    /// How the run ends, if it ends now.
+    fn verdict(
+        &mut self,
+        failed: bool,
+        t0: Instant,
+        deadline: Option<Duration>,
+    ) -> Option<Result<(), SchedError>> {
+        let (n, done) = (self.items.len(), self.collector.tally.done);
+        if failed {
+            let lost = self.sources.iter().filter(|s| s.is_lost()).count();
+            self.stats.lost_sources = lost.max(1) as u64;
+            return Some(Err(SchedError::LostItems {
+                lost: (n - done) as u64,
+                total: n as u64,
+            }));
+        }
+        if done == n {
+            return Some(Ok(()));
+        }
+        deadline.filter(|dl| t0.elapsed() >= *dl).map(|dl| {
+            Err(SchedError::Deadline {
+                deadline: dl,
+                done: done as u64,
+                total: n as u64,
+            })
+        })
+    }
 }
 
 /// Run `items` on `sources` under `rule`; a lost source or a passed `deadline` fails the run.
@@ -40,12 +147,7 @@ pub(super) fn run_pull(
     for s in sources.iter_mut() {
         s.set_notifier(bell.notifier());
     }
-    let mut stats = RunStats {
-        items: n as u64,
-        ..Default::default()
-    };
-    let mut c = Collector::new(n);
-    let mut held: Vec<Held> = (0..k)
+    let held = (0..k)
         .map(|_| Held {
             out: Vec::new(),
             chunk: 0,
@@ -54,23 +156,28 @@ pub(super) fn run_pull(
             report: None,
         })
         .collect();
-    let submit = |h: &mut Held, i: usize, src: &mut Box<dyn ComputeSource>, st: &mut RunStats| {
-        st.bytes += wire::item_bytes(&items[i]);
-        st.issued += 1;
-        h.out.push(src.submit(items[i].clone()));
+    let mut p = Pull {
+        items,
+        sources,
+        held,
+        collector: Collector::new(n),
+        stats: RunStats {
+            items: n as u64,
+            ..Default::default()
+        },
+        next: 0,
     };
-    let mut next = 0usize;
     let mut pool = match rule {
         WorkerRule::Own(own) => {
-            for (s, src) in sources.iter_mut().enumerate() {
+            for s in 0..k {
                 for i in own.items(s, n, k) {
-                    submit(&mut held[s], i, src, &mut stats);
+                    p.submit(s, i..i + 1);
                 }
             }
-            next = n;
+            p.next = n;
             None
         }
-        WorkerRule::Pool(p) => Some(p.rule),
+        WorkerRule::Pool(pool) => Some(pool.rule),
         WorkerRule::Steal(_) => {
             return Err(SpecError {
                 field: "scheduler".into(),
@@ -84,83 +191,34 @@ pub(super) fn run_pull(
     let mut m = MasterStats::default();
     let outcome = loop {
         m.iterations += 1;
-        let mut failed = None;
-        for h in held.iter_mut() {
-            let slots = &mut h.out;
-            let mut j = 0;
-            while j < slots.len() {
-                if !slots[j].is_ready() {
-                    j += 1;
-                    continue;
-                }
-                match slots.swap_remove(j).try_take() {
-                    Ok(Ok(r)) => c.accept(r),
-                    Ok(Err(_)) => failed = Some(()),
-                    Err(d) => slots.push(d),
-                }
-            }
-        }
-        if failed.is_some() {
-            stats.lost_sources = sources.iter().filter(|s| s.is_lost()).count().max(1) as u64;
-            break Err(SchedError::LostItems {
-                lost: (n - c.tally.done) as u64,
-                total: n as u64,
-            });
-        }
-        if c.tally.done == n {
-            break Ok(());
-        }
-        if let Some(dl) = deadline.filter(|dl| t0.elapsed() >= *dl) {
-            break Err(SchedError::Deadline {
-                deadline: dl,
-                done: c.tally.done as u64,
-                total: n as u64,
-            });
+        let failed = p.collect();
+        if let Some(outcome) = p.verdict(failed, t0, deadline) {
+            break outcome;
         }
         if let Some(rule) = pool.as_mut() {
-            for (s, src) in sources.iter_mut().enumerate() {
-                let h = &mut held[s];
-                if !h.out.is_empty() {
-                    continue;
-                }
-                if h.chunk > 0 {
-                    let secs = h.since.elapsed().as_secs_f64();
-                    h.times.add_group(h.chunk as u64, secs);
-                    h.report = Some(Report {
-                        items: h.chunk,
-                        secs,
-                        grab_secs: 0.0,
-                        times: h.times,
-                    });
-                    h.chunk = 0;
-                }
-                if next >= n {
-                    continue;
-                }
-                if let Some(r) = h.report.take() {
-                    rule.report(s, &r);
-                }
-                let grab = rule.next(s, n - next).clamp(1, n - next);
-                for i in next..next + grab {
-                    submit(h, i, src, &mut stats);
-                }
-                (h.chunk, h.since) = (grab, Instant::now());
-                next += grab;
-            }
+            p.top_up(rule.as_mut());
         }
         let tw = Instant::now();
         bell.wait(Duration::from_millis(2), Wait::Block, || {
-            held.iter()
+            p.held
+                .iter()
                 .flat_map(|h| &h.out)
                 .any(DelayedResult::is_ready)
         });
         m.wait_s += tw.elapsed().as_secs_f64();
     };
+    let Pull {
+        sources,
+        held,
+        collector,
+        mut stats,
+        ..
+    } = p;
     drop(held);
     let wall = t0.elapsed().as_secs_f64();
     let mut spans = Vec::new();
     finish_sources(sources, wall, &mut stats, &mut spans);
     outcome?;
-    seal_stats(&mut stats, spans, &probe, wall, &c, m);
-    Ok((c.results, stats))
+    seal_stats(&mut stats, spans, &probe, wall, &collector, m);
+    Ok((collector.results, stats))
 }
