@@ -9,13 +9,16 @@ mod advise;
 mod analytic;
 mod animation;
 mod bad_input;
+mod comments;
 mod determinism;
+mod docs;
 mod embree;
 mod embree4;
 #[cfg(any(feature = "embree", feature = "embree4"))]
 mod embree_contract;
 mod experiment;
 mod fuzz;
+mod getting_started;
 mod gpu;
 mod hostile;
 mod models;
