@@ -5,7 +5,7 @@
 //! Cornell box's ceiling, in a third of that), one at a time. One GPU-like source runs a
 //! dispatch of n tiles in `overhead + max(serial, n × per_tile)`: a small dispatch costs about
 //! as much as a large one. The defaults are the H200's numbers at 512 spp divided by ten
-//! (`results/published/gpu/2026-12-04-h200/`: 105 µs per dispatch, 1024 tiles in 1.6 s, a
+//! (`results/published/gpu/`: 105 µs per dispatch, 1024 tiles in 1.6 s, a
 //! thread's tile 0.27 s on the ceiling rows and 0.8 s elsewhere), except `serial`, one tile
 //! alone, which was not measured there: 0.2 s is assumed (one pass of a pixel's samples). Prints the wall of the GPU alone, the threads
 //! alone, both without and with the balancer, and both against the sum of the separate rates.

@@ -84,7 +84,7 @@ sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_
 # Three interleaved passes of: 16 threads alone (64 spp: paths/s do not depend on spp); the
 # GPU alone (buffer 256 tiles = 262 144 pixels a dispatch); both under the balancer; both
 # without it (every source its plain B); threads and GPU each with its own grain. On the H200
-# (results/published/gpu/2026-12-04-h200/) threads + GPU reached 0.61 of the sum of the
+# (results/published/gpu/) threads + GPU reached 0.61 of the sum of the
 # separate rates under the balancer (one run) and 0.55-0.68 without it (15 threads instead of
 # 16 changed nothing); examples/hetero_tail.rs, replaying those runs with sleeping sources,
 # puts the own grains at 0.98-1.00 of the sum.

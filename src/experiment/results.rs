@@ -526,7 +526,7 @@ pub fn config_id(plan: &ExperimentPlan, c: &RunConfig) -> String {
 }
 
 /// The scheduler parameters whose values the config id joins by position, as the columns
-/// stood when this scheme was fixed (2026-12-05). A parameter added since enters the key by
+/// stood when this scheme was fixed. A parameter added since enters the key by
 /// name and only off its kind's default ([`named_params_key`]), so adding one to a scheduler
 /// leaves every id of an earlier `runs.csv` as it was: `resume` and `compare` still pair them.
 const KEYED_BY_POSITION: [&str; 9] = [

@@ -1,8 +1,7 @@
 //! The machine's own speed, measured beside the configurations: a fixed single-core workload
 //! that shares no code with the renderer, timed once per round of an experiment.
 //!
-//! A shared VM drifts as a whole (the serial Cornell render of `quick` took 237 ms in one run
-//! and 210 ms in the next, minutes apart, same binary). Dividing a run's wall times by its
+//! A shared VM drifts as a whole between runs minutes apart (M-115). Dividing a run's wall times by its
 //! median probe time cancels that common drift in `compare`, while a change in raysched's own
 //! code leaves the probe untouched and still shows.
 

@@ -184,13 +184,7 @@ impl Iterator for Pixels<'_> {
 impl ExactSizeIterator for Pixels<'_> {}
 
 /// An item's pixel values: one pixel inline, more on the heap. A one-pixel item's result then
-/// needs no allocation of its own, kept live until the frame is assembled: skewed_low at 1 spp
-/// in one-pixel items, results kept as a run keeps them, took 2.16–2.22 ms against 2.48–2.53
-/// with a `Vec` (`cargo bench --bench render -- item_cost`, `kept` rows, three alternations of
-/// both binaries, 2-core Xeon VM, 2026-12-04): about 40 → 23 ns per item beyond its pixel
-/// (rows: 1.77–1.82 against 1.76–1.91 ms). In runs at 16 spp (skewed_low, Cornell box, two
-/// workers, two alternated runs of 16 paired rounds each) AF, AWF and self-scheduling over
-/// pixels moved less than the ±3–5 % intervals against 8² tiles: the saving there is ~1 %.
+/// needs no allocation of its own, kept live until the frame is assembled. Measured: M-113.
 pub type PixelValues = smallvec::SmallVec<[[f32; 3]; 1]>;
 
 /// The result of rendering one item: pixels in the item's order plus counters.

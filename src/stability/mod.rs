@@ -195,7 +195,8 @@ pub fn against_reference<T: Tracer + ?Sized>(
 /// differences: pixels draw independent random numbers, so this holds for independent renders
 /// and for paired ones (same seed, same paths) alike. For a paired render it is the size of the
 /// actual difference (≈1e-7 of the mean for a transform that changes nothing) rather than the σ
-/// of two independent images (4.6 % of the Cornell mean at 24², 8 spp), so a 1 % bias fails.
+/// of two independent images (a few per cent of the Cornell mean at 24², 8 spp), so a 1 %
+/// bias fails.
 pub fn against_scene<T: Tracer + ?Sized, U: Tracer + ?Sized>(
     group: &str,
     case: &str,

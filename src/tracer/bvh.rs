@@ -17,10 +17,8 @@ use std::time::Duration;
 /// first in id order, so a slot holds a sphere where its id is below the sphere count).
 ///
 /// The ids sit in the packet, on the cache lines its test has just read, so a hit needs no
-/// second, scattered load from a slot-to-id table: that load was 45 % of the samples of the
-/// tracer's entry function (about 5 % of a diffuse ray's time) on the 1 M-triangle sphere
-/// (`perf`, 2-core AMD EPYC guest, 2026-12-05). 144 + 16 bytes: the same 160 as the sphere
-/// mask they replace, padding included.
+/// second, scattered load from a slot-to-id table. 144 + 16 bytes: the same 160 as the sphere
+/// mask they replace, padding included. Measured: M-101.
 #[derive(Clone, Copy)]
 struct Packet {
     tris: Triangle4,
@@ -38,44 +36,14 @@ impl Default for Packet {
 }
 
 /// Below this many primitives a BVH costs more than it saves: the tracer then tests every
-/// primitive in id order (exactly `brute`) and builds nothing. Measured with
-/// `cargo bench --bench features` (256 camera rays, spheres; quiet machine, 4-wide BVH): brute
-/// vs bvh 1.99/2.72 µs at 1 prim, 2.80/2.99 at 2, 4.93/3.20 at 4, 9.30/4.09 at 8. (With the
-/// earlier CWBVH traversal the crossover was at 8.) Above it the tree pays even on the Cornell
-/// box's 36 triangles: testing all nine packets of them in a row was 1.6× slower than the
-/// 8-wide tree (one-thread render, 16 spp, best of 4: 0.674 against 0.421 s, machine loaded);
-/// so was testing them in five 8-lane tests (`triangles8`, ids in order, inlined into an AVX2
-/// loop): 0.84× (0.81–0.87) the tree's rate on primary rays and 0.91× (0.90–0.95) on one
-/// diffuse bounce (`examples/tracer_ab --rays primary,diffuse cornell_box 0 512 7`, three
-/// alternated runs, 2-core AMD EPYC guest, 2026-12-05).
+/// primitive in id order (exactly `brute`) and builds nothing. Above it the tree pays even on
+/// the Cornell box's 36 triangles. Measured: M-102.
 pub const BVH_MIN_PRIMS: usize = 4;
 
 /// obvhs' `medium_build` (PLOC, reinsertion, leaves of ≤ 8 by SAH collapse) with the collapse's
 /// node-to-primitive cost lowered from 3 to 2.5: our node test is cheap, and at 3 the Cornell
-/// box's large overlapping triangles merged into big leaves. `examples/tracer_ab` and a
-/// 1-thread Cornell render (128², 32 spp, max_depth 8), quiet machine, 4-wide nodes:
-///
-/// | cost | Cornell wall | 1 M-tri displaced sphere, 256² primary rays, bvh / embree |
-/// |------|--------------|-------------------------------------------------------------|
-/// | 3    | 0.68 s       | 3.33 / 5.59 Mrays/s (60 %)                                  |
-/// | 2.5  | 0.42 s       | 3.32 / 5.58 (59.5 %)                                        |
-/// | 2    | 0.40 s       | 3.18 / 5.51 (58 %)                                          |
-/// | 1    | 0.41 s       | 3.10 (≈ 56 %)                                               |
-///
-/// Maximum leaf size at cost 3 (Cornell / 1 M): 8 → 0.68 s / 3.61, 4 → 0.57 / 3.41,
-/// 2 → 0.40 / 3.12, 1 → 0.40 / 2.81 Mrays/s.
-///
-/// Re-swept on the Cornell box with 8-wide nodes (one thread, 16 spp, best of 4, alternated,
-/// machine loaded): cost 1, 2, 2.5, 3, 4 → 0.411, 0.431, 0.421, 0.460, 0.461 s; leaf size
-/// 1, 2, 4 at 2.5 → 0.457, 0.406, 0.422 s: no setting beyond the noise, so unchanged.
-///
-/// On the Cornell box the greedy collapse leaves obvhs' one- and two-triangle leaves apart
-/// (17 packets for 36 triangles; the two triangles of a wall, same box, in two leaves).
-/// Merging a wide node's sibling leaves that fit one packet where their union's half area is
-/// at most the sum of theirs did not pay: bvh/Embree at 512², 3 runs of 7 rounds alternated
-/// with the tree without it, primary 1.19, 1.29, 1.17 against 1.21, 1.16, 1.18 and one
-/// diffuse bounce 1.11, 1.19, 1.12 against 1.22, 1.15, 1.21 (2-core AMD EPYC guest,
-/// 2026-12-05); not kept.
+/// box's large overlapping triangles merged into big leaves. Merging a wide node's sibling
+/// leaves into one packet did not pay and is not kept. Measured: M-103.
 pub const BUILD_PARAMS: BvhBuildParams = {
     let mut p = BvhBuildParams::medium_build();
     p.collapse_traversal_cost = 2.5;
@@ -88,12 +56,7 @@ pub const LARGE_SCENE_PRIMS: usize = 10_000;
 
 /// [`BUILD_PARAMS`] with one primitive per binary leaf and no leaf collapse in obvhs (nor the
 /// reinsertion pass after it): the SAH collapse into wide nodes ([`COLLAPSE_COSTS`]) then forms
-/// the leaves too. `examples/tracer_ab`, 1 M-triangle displaced sphere, one thread, best of 5
-/// rounds, 3 runs of each binary alternated, quiet 2-core Intel Xeon (AVX-512), against obvhs'
-/// leaves at collapse cost 4 and the greedy collapse: bvh/Embree primary 256² 0.70–0.73
-/// against 0.66–0.67, 1024² 0.87–0.94 against 0.85–0.89; diffuse 256² 0.61–0.64 against
-/// 0.58–0.60, 1024² 0.67–0.70 against 0.61–0.65; build 1.63–2.00× Embree's against 1.21–1.79×.
-/// With obvhs' leaves kept under the SAH collapse: 0.72, 0.85–0.88, 0.60–0.62, 0.63–0.64.
+/// the leaves too, which traces faster on the 1 M-triangle scene. Measured: M-104.
 pub const BUILD_PARAMS_LARGE: BvhBuildParams = {
     let mut p = BUILD_PARAMS;
     p.max_prims_per_leaf = 1;
@@ -103,13 +66,8 @@ pub const BUILD_PARAMS_LARGE: BvhBuildParams = {
 
 /// The SAH costs of the collapse into wide nodes and leaves (per unit of half area), used
 /// where obvhs makes one-primitive leaves (the large scenes): a node test twice a leaf
-/// packet's, two packets (one 8-lane test) 1.3×. On the 1 M-triangle mesh 5 % of the wide
-/// nodes then have two children (31 % with obvhs' leaves under the same collapse, 43 % under
-/// the greedy one). Node cost swept in two earlier quiet windows (`tracer_ab`, 3 runs each,
-/// same machine): 1 gave bvh/Embree 0.82–0.86 at 1024² primary and 0.60–0.66 diffuse; 1.5
-/// 0.87–0.92, 0.66–0.67; 2 0.87–0.91, 0.64–0.70; 3 0.86–0.89, 0.65–0.67; two packets at 1.0
-/// within noise of 1.3. The small scenes keep obvhs' leaves and the greedy collapse: on the
-/// Cornell box this collapse rendered in 1.08–1.11× their time (64 spp, 5 alternated pairs).
+/// packet's, two packets (one 8-lane test) 1.3×. The small scenes keep obvhs' leaves and the
+/// greedy collapse, which renders the Cornell box faster. Measured: M-105.
 pub const COLLAPSE_COSTS: CollapseCosts = CollapseCosts {
     node: 2.0,
     packet: 1.0,

@@ -9,10 +9,7 @@
 //! bound (`t_far · (1 + 2γ₃)`), with no epsilon.
 //!
 //! Eight children rather than four (with the inline stack and the inlined leaf tests below):
-//! 1 M-triangle displaced sphere, one thread, bvh/embree best Mrays/s, 6 runs of each binary
-//! alternated (`examples/tracer_ab`, quiet 2-core EPYC): primary 256² 0.56–0.64 against
-//! 0.47–0.52 with 4-wide nodes, 1024² 0.65–0.78 against 0.53–0.59; one diffuse bounce 0.50–0.55
-//! and 0.45–0.58 against 0.40–0.43 and 0.41–0.44.
+//! faster on primary and incoherent rays of the 1 M-triangle scene. Measured: M-021.
 
 use crate::geometry::{gamma, Hit, Ray};
 use glam::Vec4;
@@ -101,11 +98,7 @@ pub(super) struct RaySlabs<V> {
     pub(super) o: [V; 3],
     pub(super) inv: [V; 3],
     /// `inv · FAR_SCALE`: the far distances come out scaled, one multiply fewer on the path
-    /// from a node's memory to its mask. bvh/Embree on 1 M triangles at 1024², one thread,
-    /// medians of 6 alternated runs: diffuse 0.785 → 0.80, primary 0.82 → 0.845, hit counts
-    /// unchanged (2-core AMD EPYC guest, 2026-12-05); at 256² within noise (0.845 against
-    /// 0.855, 0.885 against 0.88). Reducing the three axes as a tree
-    /// (two dependent `max`/`min` steps instead of three) added nothing there (0.785, 0.85).
+    /// from a node's memory to its mask. Measured: M-106.
     pub(super) inv_far: [V; 3],
     pub(super) near: [usize; 3],
     pub(super) far: [usize; 3],
@@ -187,17 +180,8 @@ pub(super) trait Leaves {
 /// From this many bytes of nodes and leaf packets on, a traversal asks for the cache lines of
 /// every child it enters as soon as the node test has found them ([`super::simd::prefetch`]),
 /// so that the memory of the farther ones, popped later, arrives while the nearest is
-/// traversed. A tree below it (about an L2 cache) stays cached, and the hints only cost: the
-/// Cornell box (1 KiB) rendered in 1.009× its time with them (1 thread, 16 spp, 3 × 3 renders
-/// alternated). On the 1 M-triangle displaced sphere (~50 MB), `examples/tracer_ab`, one
-/// thread, 2-core Intel Xeon VM, 2026-12-04 21:36 UTC, three runs of each binary alternated:
-/// bvh/Embree one diffuse bounce 0.69–0.72 → 0.81–0.82 at 256² and 0.71–0.72 → 0.75–0.77 at
-/// 1024², primary rays 0.79–0.80 → 0.81–0.84 at 256² but 0.91–0.92 → 0.84–0.90 at 1024²,
-/// whose coherent rays find their nodes cached anyway; a path-traced render of it (128²,
-/// 32 spp, one thread, 8 process pairs) 0.89–0.99× its time, median 0.95, and on two threads
-/// (self-scheduling, 16² tiles, 4 pairs) 0.94–0.98×. Hints for half the lines (every 128 bytes,
-/// nodes aligned to 128) or only for the children of nodes with two hits or more kept less
-/// of the incoherent gain.
+/// traversed. A tree below it (about an L2 cache) stays cached, and the hints only cost.
+/// Measured: M-107.
 pub const PREFETCH_FROM_BYTES: usize = 1 << 20;
 
 /// An 8-wide BVH flattened from an obvhs binary BVH; leaves index packets of
@@ -428,10 +412,7 @@ impl WideBvh {
     /// [`Self::any`] with node test `slabs`. Children are visited without sorting: a node's
     /// hit leaves are tested at once, in lane order, and of its hit inner children the
     /// highest is entered at once while the others wait on the stack; any blocker ends the
-    /// query. Bvh/Embree occlusion rays on 1 M triangles (medians of 4 alternated runs, 2-core
-    /// AMD EPYC guest, 2026-12-05): every child pushed and popped back 0.74 at 1024² and 0.79
-    /// at 256²; the highest entered at once (the same order) 0.77–0.78 and 0.825; leaves
-    /// first as well 0.795 and 0.84.
+    /// query. Measured: M-108.
     #[inline(always)]
     pub(super) fn any_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> bool {
         let mut stack = Stack::new();
@@ -523,12 +504,7 @@ impl Collapse {
         // node once and records what the costs need. Read backwards, the records are a
         // post-order (right subtree, left subtree, node), so the costs are computed over them
         // with a stack of the finished subtrees' rows, no per-node array: the second pass
-        // reads memory in order where the nodes lie scattered (on 1 M triangles the two
-        // random passes over the nodes were 46 % of this function's samples in `perf`). Build
-        // of the 1 M-triangle sphere 0.63–0.70 s against 0.70–0.77 s with two passes over
-        // the nodes and a cost row per node (pairs 0.88–0.94), 1.56–1.67× Embree's against
-        // 1.77–1.93× (`examples/tracer_ab`, 4 alternated runs, 2-core Xeon VM, 2026-12-05);
-        // the same tree (hit counts unchanged).
+        // reads memory in order where the nodes lie scattered. Measured: M-109.
         let mut walk: Vec<Step> = Vec::with_capacity(n);
         let mut pending = vec![0u32];
         while let Some(i) = pending.pop() {
@@ -660,10 +636,7 @@ fn leaf_range(r: u32) -> Range<usize> {
 
 /// Push the hit children of `n` except the nearest, farthest first, and return the nearest;
 /// `hint` sees each hit child as its reference is read (the traversal's cache hints, given
-/// here rather than in a loop of their own over the same children: 5 % fewer instructions
-/// in the traversal per primary ray (callgrind, 100 k triangles, 256²), bvh/Embree on 1 M
-/// triangles at 1024² primary 0.86 → 0.87 and diffuse 0.79–0.80 → 0.80 in two sets of 5
-/// alternated runs, 2-core AMD EPYC guest, 2026-12-05).
+/// here rather than in a loop of their own over the same children; measured: M-110).
 /// One child hit (the common case low in the tree) is returned without sorting, two with one
 /// comparison; either way equal entry distances leave the higher lane nearer, as the
 /// insertion sort does, so every path visits children in one order.

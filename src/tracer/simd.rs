@@ -95,18 +95,10 @@ pub(super) struct Hit8 {
 }
 
 /// The body of [`Avx2::triangles8`], op for op [`Triangle4::intersect_sheared`]. Inlined into
-/// the AVX2 traversal copies (no call and no `vzeroupper` per leaf) it took 1.7 % fewer
-/// instructions per primary ray (callgrind, 100 k triangles, 256²). Whether it is inlined is
-/// the optimiser's choice (`#[inline]` is a hint, and `#[inline(always)]` does not combine
-/// with `#[target_feature]`): one build of 2026-12-04 called it out of line, the `tracer_ab`
-/// build of the same evening inlines it into `closest_avx2` and `any_avx2` (their disassembly
-/// has no call to it; the packet test's array map calls an out-of-line copy). Forcing it, as an
-/// `#[inline(always)] unsafe fn` without the attribute, cost more: its closures and array
-/// maps were then compiled without AVX and called out of line, 907 → 1 075 instructions per
-/// primary ray and 2 270 → 2 840 per diffuse one (callgrind, 2026-12-04). Written with local
-/// macros instead of closures, so that everything inlines: 810 → 818 instructions per
-/// primary ray inside `closest_avx2` and +0.9 % per diffuse one (callgrind toggled on
-/// `closest_avx2`, 100 k triangles, 256², 2026-12-04); not kept either.
+/// the AVX2 traversal copies (no call and no `vzeroupper` per leaf) it retires fewer
+/// instructions. Whether it is inlined is the optimiser's choice (`#[inline]` is a hint, and
+/// `#[inline(always)]` does not combine with `#[target_feature]`); forcing it, or writing it
+/// with macros instead of closures, cost more. Measured: M-111.
 #[inline]
 #[target_feature(enable = "avx2")]
 fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 {
@@ -237,10 +229,7 @@ fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 
 /// [`closest_avx2`] and [`any_avx2`], so its methods run only where AVX is present.
 ///
 /// The slab test stays subtract then multiply: one fused `b·inv − o·inv` per plane (AVX2 +
-/// FMA, o·inv rounded outward by 2⁻²²·|o·inv| so that no box is culled) ran slower, bvh/Embree
-/// on 1 M triangles at 1024² primary 0.80, 0.80 against 0.86, 0.83 and one diffuse bounce
-/// 0.72, 0.74 against 0.80, 0.80 (two alternated runs, `taskset -c 1`, 2-core AMD EPYC guest,
-/// 2026-12-05).
+/// FMA, o·inv rounded outward so that no box is culled) ran slower. Measured: M-112.
 struct Slabs8(RaySlabs<__m256>, Avx2);
 
 impl Slabs8 {

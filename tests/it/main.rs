@@ -9,7 +9,9 @@ mod advise;
 mod analytic;
 mod animation;
 mod bad_input;
+mod comments;
 mod determinism;
+mod docs;
 mod embree;
 mod embree4;
 #[cfg(any(feature = "embree", feature = "embree4"))]
@@ -17,6 +19,7 @@ mod embree_contract;
 mod experiment;
 mod extension;
 mod fuzz;
+mod getting_started;
 mod gpu;
 mod hostile;
 mod models;
