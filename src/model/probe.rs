@@ -194,12 +194,8 @@ pub fn pixels_with<T: Tracer + 'static>(
         s.settings.spp = 1;
         Arc::new(s)
     });
-    // One untimed render first: the first probe of an experiment's process put the image's
-    // work 4–32 % above the rounds' serial median in 12 of 12 runs of `advise_check`, `skewed`
-    // and `heterogeneous` (median +17 %; 2-core AMD EPYC guest, 2026-12-05, with probes at 4 and
-    // 16 spp and in fresh processes alike), and −7…+13 % in 6 with this render (median +1 %).
-    // The later probes' levels stayed within their spread (−5…+67 % before, −9…+30 % with
-    // it); `results/published/advise_check/2026-12-05-amd-epyc-probe-level/`.
+    // One untimed render first: an experiment process's first probe read the image's work
+    // well above the rounds' serial median without it (M-116).
     bulk_pass(scene, tracer, workers)?;
     for k in bulk_after(pixel_passes.max(2), bulk_passes) {
         spans.push(pass(scene, tracer, workers)?);
@@ -261,11 +257,8 @@ fn busy_pass<T: Tracer + 'static>(
 /// What the items of one layout (`chunk` in `order`) cost against the same pixels rendered
 /// in rows, the level the pixel costs are calibrated to: the median over `pairs` adjacent
 /// pairs of passes on `workers` workers of (layout's Σ busy) / (rows' Σ busy). Pixels taken
-/// far apart cost more than their neighbours' order: one-pixel items in `scatter` order took
-/// 1.029× the rows' busy time on one core of the 2-core EPYC (Cornell box, 16 spp, four
-/// alternations of `raysched render --scheduler static_cyclic`), scanline one-pixel items
-/// 1.005×, 16² tiles 0.996×; summing the probe's pixels misses that. 1 for the rows
-/// themselves and for `pairs` = 0.
+/// far apart cost more than in their neighbours' order, which summing the probe's pixels
+/// misses (M-117). 1 for the rows themselves and for `pairs` = 0.
 pub fn layout_factor<T: Tracer + 'static>(
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
@@ -479,12 +472,9 @@ pub fn loaded_items(item_s: f64, zero_refill_s: f64, workers: usize, target_s: f
 
 /// The master's refill period per source with items that each cost `item_s`: a source's time
 /// per item over spinning items, P × the slope of the wall between runs of n and 2n items, so
-/// the master's wake-up latency between items (which zero-work items never show: the master
-/// never sleeps there) is in it and the run's fixed cost is not. (With P × (wall − F) / n of
-/// one 20 ms run instead, the period at B = 2 on one worker came out 65 µs on the dev box,
-/// where the rendering runs took 39 µs per item: F of zero-work runs is not a spinning run's.)
-/// `zero` is the zero-work r; the larger of the two is kept. Median of `reps` pairs, the
-/// shorter run about 20 ms.
+/// the master's wake-up latency between items (which zero-work items never show) is in it and
+/// the run's fixed cost is not (M-118). `zero` is the zero-work r; the larger of the two is
+/// kept. Median of `reps` pairs, the shorter run about 20 ms.
 pub fn loaded_refill(
     policy: Policy,
     workers: usize,

@@ -70,11 +70,8 @@ fn scanline_cells(gx: u32, gy: u32) -> Vec<(u32, u32)> {
 /// The cells of a `gx`×`gy` grid by increasing `key(side, x, y)`, where `decode(side, k)`
 /// inverts it on the `side`×`side` square, side the power of two that holds the grid: the
 /// square's keys walked in order, cells outside the grid skipped, where the square holds at
-/// most four keys per cell; else the grid sorted by key ([`sort_cells`]). The walk is linear:
-/// for the 1 M one-pixel items of a 1024² image in `scatter` order, the decomposition took
-/// 129 M instructions against the sort's 451 M (callgrind), and an AF render of skewed_low
-/// there (1 spp, two threads) 0.91× (0.81–1.14) the whole-process wall and 123 MiB at its
-/// peak against 139 MiB (9 pairs alternated, 2-core AMD EPYC guest, 2026-12-05).
+/// most four keys per cell; else the grid sorted by key ([`sort_cells`]). The walk is linear
+/// (M-122).
 fn walk_or_sort<K: Ord>(
     gx: u32,
     gy: u32,
@@ -97,12 +94,8 @@ fn walk_or_sort<K: Ord>(
     cells
 }
 
-/// Sort scanline-ordered `cells` by `key`, each key computed once. Ties keep scanline order
-/// (the keys above are distinct anyway), so this is the stable sort by `key`. Computing the
-/// key inside every comparison, as `sort_by_key` does, took 20 M instructions for the 16 384
-/// one-pixel items of a 128² image in `scatter` order (callgrind); an AF render of skewed_low
-/// at 1024² in one-pixel items, 1 spp, two threads, took 0.77× (0.63–0.93) the whole-process
-/// wall with each key computed once (7 pairs alternated, 2-core AMD EPYC guest, 2026-12-05).
+/// Sort scanline-ordered `cells` by `key`, each key computed once (M-123). Ties keep scanline
+/// order (the keys above are distinct anyway), so this is the stable sort by `key`.
 fn sort_cells<K: Ord>(cells: &mut Vec<(u32, u32)>, key: impl Fn(u32, u32) -> K) {
     let mut keyed: Vec<(K, u32, u32)> = cells.iter().map(|&(x, y)| (key(x, y), y, x)).collect();
     keyed.sort_unstable();
@@ -186,9 +179,7 @@ pub fn scatter(side: u32, x: u32, y: u32) -> u64 {
 /// The cells of a `gx`×`gy` grid in a square spiral from the centre cell (⌊gx/2⌋, ⌊gy/2⌋)
 /// outward: right 1, down 1, left 2, up 2, right 3, … skipping steps outside the grid, as
 /// Mitsuba's `Spiral` walks its blocks. Each leg is clipped to the grid at once, so a long
-/// grid costs its cells plus a constant per leg: stepping through every position, a one-pixel
-/// render of a 65 536 × 1 image in this order took 2.46 s of process time against 0.022 s
-/// now (its spiral winds out to a 65 536² square; 2-core AMD EPYC guest, 2026-12-05).
+/// grid costs its cells plus a constant per leg (M-124).
 pub fn spiral(gx: u32, gy: u32) -> Vec<(u32, u32)> {
     let total = gx as usize * gy as usize;
     let mut out = Vec::with_capacity(total);

@@ -4,18 +4,9 @@
 //! misses the caches its predecessor warmed. The image does not change: a pixel is a pure
 //! function of the scene, the tracer and its seed.
 //!
-//! Measured (Cornell box 128², 16 spp, 2-core Intel Xeon VM, 2026-12-04, 7 process pairs
-//! alternated): factoring over one-pixel items on one worker took 1.04× its scanline time in
-//! hand-out order, 1.003× run as here. On two workers (`experiments/self_tuning.toml`,
-//! `results/published/self_tuning/2026-12-04-xeon-scanline/`) that took AF and AWF over
-//! one-pixel items on the Cornell box from 1.05× to 1.02× the best fixed chunk. The order has
-//! to be cheap beside 1–2 µs pixels: a comparison sort cost ~60 ns per item, and ranks of every
-//! item computed before the workers start took 120–170 µs for 16 384 items (0.7–1 % of a
-//! 17 ms run of the 100× hot spot). So each worker ranks its own hand-out's items on their grid
-//! and walks a bitmap of the ranks: linear in the hand-out plus one word per 64 cells of the
-//! span it covers. On zero-work one-pixel items (`benches/dispatch_ratio.rs`, scanline order)
-//! guided and the factoring family then cost 0.8–0.9× the bare counter, against 0.6–0.7×
-//! without the ordering and 1.1–1.5× with divisions and a walk of hand-outs already in order.
+//! What running them so saves is M-119. The order has to be cheap beside 1–2 µs pixels, so each worker ranks its own hand-out's items on their grid and walks
+//! a bitmap of the ranks: linear in the hand-out plus one word per 64 cells of the span it
+//! covers.
 
 use crate::render::{Region, WorkItem};
 use std::ops::Range;

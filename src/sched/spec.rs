@@ -85,21 +85,10 @@ impl SchedulerKind {
 
     /// The order this kind takes its items in unless told otherwise: stratified
     /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
-    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes are chosen
-    /// so that a chunk of independent items is unlikely to end after the optimum (Hummel,
-    /// Schonberg & Flynn 1992); in scanline order a hot spot lies in one early chunk instead,
-    /// which took FAC2, guided and AWF-C 1.17–1.24× the best fixed chunk on the 100× hot
-    /// spot and 1.66–1.72× on the 1000× one (`experiments/skewed.toml`, 2 workers).
-    /// Stratifying pixel by pixel has a price: one-pixel items in `scatter` order took
-    /// 1.030–1.039× their scanline time on one worker (Cornell box, skewed_low, skewed_mid at
-    /// 16 spp), in [`Order::ScatterBlocks`] 1.000–1.008×; these kinds run each hand-out in
-    /// scanline order ([`Self::runs_hand_outs_in_scanline`]), which leaves ~1.003×. Not
-    /// `scatter_blocks` all the same: on two workers (hand-outs run as handed out) it made AF
-    /// and AWF over pixels 2–3.5 % faster on those scenes, but with
-    /// one worker 3× slower AWF took 1.24× the best fixed chunk on the 1000× hot spot (in
-    /// `scatter` 1.01×): one 4² block of that hot spot is up to 9 % of the image's work
-    /// (`self_tuning.toml` and diagnostics, 16–20 rounds, ratios paired by round, 2-core Xeon
-    /// VM, 2026-12-04).
+    /// factoring family and guided), scanline for the rest. Factoring's chunk sizes assume
+    /// items whose costs do not depend on their place in the order (Hummel, Schonberg & Flynn
+    /// 1992); in scanline order a hot spot lies in one early chunk instead (M-121). These
+    /// kinds run each hand-out in scanline order ([`Self::runs_hand_outs_in_scanline`]).
     pub fn default_order(self) -> Order {
         if self.sizes_own_hand_outs() {
             Order::Scatter
@@ -110,14 +99,8 @@ impl SchedulerKind {
 
     /// The item size this kind takes unless told otherwise (the command line's `--chunk`; an
     /// experiment names its chunks). 2×2 tiles for guided and the factoring family, whose
-    /// chunk rules size the hand-outs themselves: over one-pixel items each pixel's own cost
-    /// (50–125 ns beyond its 2–3 µs at 16 spp) took AF 1.05–1.06× the best fixed chunk on the
-    /// smooth skews, and over 4² tiles one tile of the 1000× hot spot left AWF with a 3×
-    /// slower worker at 1.18–1.23×; over 2² items AF and AWF were 0.94–1.05× in 72 held-out
-    /// checks and guided, factoring, weighted factoring, TSS and FSC 0.97–1.04× in 30, none
-    /// beyond 3 %, while over 16² tiles those five were beyond in 11 of 30 (up to 1.80× on
-    /// the hot spots at 128²; 2-core AMD EPYC guest, 2026-12-05,
-    /// `results/published/self_tuning/2026-12-05-amd-epyc-2x2/`). 16×16 tiles for the rest.
+    /// chunk rules size the hand-outs themselves: one-pixel items pay each pixel's own cost,
+    /// larger tiles leave a hot spot's tile as the tail (M-120). 16×16 tiles for the rest.
     pub fn default_chunk(self) -> Chunk {
         if self.sizes_own_hand_outs() {
             Chunk::Tile { w: 2, h: 2 }

@@ -13,13 +13,12 @@ use crate::sched::{SchedulerKind, SchedulerSpec, Slow};
 use crate::simulate::job::{placement_order, PlatformInfo, SimJob, SimOutcome};
 use std::rc::Rc;
 
-/// SimGrid options: quiet; boost contexts (the fastest context factory measured: raw 1.5×,
-/// ucontext 2.3×, threads 34× slower); no cross-traffic (the TCP acks of each message, which
-/// nearly doubled the time of a 4096-worker run and matter only for bulk transfers).
+/// SimGrid options: quiet; boost contexts (the fastest context factory, M-126); no
+/// cross-traffic (the TCP acks of each message, which matter only for bulk transfers).
 ///
 /// Each actor's stack is a memory mapping plus one for its guard page; where that would pass
-/// the process's limit (`vm.max_map_count`: 16 384 workers need about 33 000 actors under work
-/// stealing) the guard pages are left out, so a stack overflow would no longer be caught.
+/// the process's limit (`vm.max_map_count`) the guard pages are left out, so a stack overflow
+/// would no longer be caught.
 fn options(actors: usize) -> Vec<String> {
     let mut o: Vec<String> = [
         "--log=root.thres:critical",

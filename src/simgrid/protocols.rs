@@ -228,9 +228,8 @@ impl<T> Ord for Arrival<T> {
 /// outgoing link is free, occupies it for bytes / bandwidth, arrives a route latency later and
 /// is delivered when b's incoming link has passed it (each link direction a FIFO server, as
 /// `SPLITDUPLEX` gives each direction its own capacity). Latency and bandwidth are the
-/// platform's, per route. Not modelled: a backbone shared by many pairs (the shipped clusters'
-/// is 10× a node's link) and the network model's factors (the shipped files set latency's to
-/// 1; bandwidth's 0.97 changes a 45-byte message at 10 Gb/s by 1 ns).
+/// platform's, per route. Not modelled: a backbone shared by many pairs and the network
+/// model's factors (M-128).
 pub(crate) struct Wires {
     routes: RefCell<HashMap<(Host, Host), (f64, f64)>>,
     out_free: RefCell<HashMap<Host, f64>>,
@@ -269,13 +268,10 @@ impl Wires {
 /// sender at a time reads its own mailbox; one with many (the master, the counter, the sink)
 /// is a fan-in: senders are split in groups of [`FAN_IN_GROUP`], each group sending to its own
 /// mailbox `{name}{group}`, whose relay actor (on the receiver's host) moves each message, once
-/// the network has delivered it, into one queue counted by a semaphore. The same arrival order
-/// as one shared mailbox, without its cost: SimGrid scans a mailbox's queue when a message is
-/// taken, and a saturated master's queue holds one result per waiting worker, so with one
-/// shared mailbox a run cost items × workers (measured on the loaded 2-core dev box, a master
-/// over 100 k items: 8.6 s at 1024 workers, 37 s at 4096; with the fan-in 13.5 s at 4096, the
-/// same simulated times). On the coarse network every message goes straight into the
-/// receiver's queue with its arrival time from [`Wires`]; no flow, relay or mailbox.
+/// the network has delivered it, into one queue counted by a semaphore: the arrival order of
+/// one shared mailbox without SimGrid's scan of its queue per message (M-127). On the coarse
+/// network every message goes straight into the receiver's queue with its arrival time from
+/// [`Wires`]; no flow, relay or mailbox.
 struct Inbox<T> {
     name: String,
     host: Host,

@@ -185,8 +185,7 @@ impl Inputs {
     /// A master's refill period on this machine: a source's measured time per item under
     /// `spec`'s master on `spec.workers` threads, with spinning items of `mean_s` each (the
     /// cost model's probe, [`crate::model::probe::loaded_refill_for`], with runs as long as
-    /// the zero-work runs': with 20 ms runs the simulated per-ray master moved −24 … +21 %
-    /// between probes a minute apart): the sleeping master's wake-up and its round trip per
+    /// the zero-work runs', M-129): the sleeping master's wake-up and its round trip per
     /// item, which zero-work items never show. Measured once per configuration; 0 for other
     /// schedulers.
     pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> anyhow::Result<f64> {
@@ -215,10 +214,8 @@ impl Inputs {
     /// `refill_s`), for items of costs `cost_s`: on local threads the measured refill period;
     /// over MPI the launch's period with spinning items, unless it is hidden behind the item
     /// ([`hidden_refill`]; the floor below is then 0, no zero-work run over MPI being
-    /// measured); else 0 (a cluster's master, whose round trip is the simulated network's).
-    /// Without the MPI period the per-ray master over 2 ranks was simulated −43 % (shared
-    /// memory) and −54 % (TCP loopback) against its measured launches, with it −4.6 % and
-    /// −1.2 % (Xeon dev VM, 16:05 window, run B).
+    /// measured); else 0 (a cluster's master, whose round trip is the simulated network's)
+    /// (M-130).
     pub fn source_floor(&mut self, spec: &SchedulerSpec, cost_s: &[f64]) -> anyhow::Result<f64> {
         if cost_s.is_empty() || !matches!(spec.policy, Policy::Master(_)) {
             return Ok(0.0);
@@ -344,10 +341,8 @@ impl Inputs {
 /// The floor a source's period per item gets from a refill period `loaded` measured with
 /// spinning items of `mean_s` each. A period within 5 % of the item cost says the refill is
 /// hidden behind the item: the master's wake-up is shorter than the mean item, by how much is
-/// not measured, so the floor is the zero-work period `zero_s`. Taken as the floor, such a period
-/// raised every item cheaper than the mean to it: the master at 16² tiles (mean 2.97 ms,
-/// measured period 2.98 ms) was simulated +13 … +17 % against its measured runs, which took
-/// the serial's time (AMD dev VM, 06:45 window).
+/// not measured, so the floor is the zero-work period `zero_s`; taken as the floor, such a
+/// period raised every item cheaper than the mean to it (M-131).
 pub fn hidden_refill(loaded: f64, mean_s: f64, zero_s: f64) -> f64 {
     if loaded < 1.05 * mean_s {
         zero_s

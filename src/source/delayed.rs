@@ -153,10 +153,7 @@ impl DelayedResult {
     /// The outcome if it is ready, else the handle back. A completer drops its handle right
     /// after filling the cell, so the master usually holds the only one by now: then the
     /// value is taken and the cell recycled without the lock (one atomic read-modify-write per
-    /// result instead of five: lock, unlock, the uniqueness check, a clone and a drop). With
-    /// the cell's `repr(C)` this took the master at B = 64 from 103–118 to 90–96 ns per
-    /// one-pixel item, B = 16 from 132–140 to 125–134 (`dispatch_ratio`, old and new binaries
-    /// alternated three times, 2-core EPYC VM).
+    /// result instead of five: lock, unlock, the uniqueness check, a clone and a drop; M-132).
     pub fn try_take(mut self) -> Result<Outcome, Self> {
         if !self.is_ready() {
             return Err(self);

@@ -17,8 +17,7 @@
 //! A worker's first chunk is a probe of ⌈R/(8P)⌉ items outside the batches (our choice, as
 //! adaptive factoring's probe): a first FAC2 batch at equal weights hands every worker a
 //! quarter of the image on 2 workers before any speed is known, and a slow worker's blind
-//! quarter was the run's tail (Cornell box, one worker 3× slower: its first 4 096 pixels took
-//! 158 ms of a 180 ms run, adaptive factoring 151 ms; `experiments/heterogeneous.toml`).
+//! quarter was the run's tail (M-125).
 
 use super::factoring::{normalise, probe_chunk, weighted, Batches};
 use super::{ChunkRule, Report, Timing};
