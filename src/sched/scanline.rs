@@ -4,9 +4,9 @@
 //! misses the caches its predecessor warmed. The image does not change: a pixel is a pure
 //! function of the scene, the tracer and its seed.
 //!
-//! What running them so saves is M-119. The order has to be cheap beside 1–2 µs pixels, so each worker ranks its own hand-out's items on their grid and walks
-//! a bitmap of the ranks: linear in the hand-out plus one word per 64 cells of the span it
-//! covers.
+//! What running them so saves is M-119. The order has to be cheap beside 1–2 µs pixels, so
+//! each worker ranks its own hand-out's items on their grid and walks a bitmap of the ranks:
+//! linear in the hand-out plus one word per 64 cells of the span it covers.
 
 use crate::render::{Region, WorkItem};
 use std::ops::Range;
