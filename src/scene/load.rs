@@ -286,8 +286,10 @@ fn file_lights(
                 let field = format!("{at}.position");
                 let p = cx.vec3(&field, *position)?;
                 let i = cx.non_negative3(&format!("{at}.intensity"), *intensity)?;
+                let position = cx.placed(&field, p - origin)?;
                 lights.push(Light::Point {
-                    position: cx.placed(&field, p - origin)?,
+                    position,
+                    position_lo: (p - origin - position.as_dvec3()).as_vec3(),
                     intensity: i.as_vec3(),
                 });
             }
