@@ -167,7 +167,7 @@ fn cornell_box_is_lit_and_coloured_as_specified() {
 
 /// Solid angle of the rectangle `[x0,x1]×[y0,y1]` of the plane z = 0 seen from `(0, 0, h)`:
 /// ∫∫ h/(h² + x² + y²)^{3/2} dx dy, from the antiderivative atan(xy / (h·√(h² + x² + y²))).
-fn rectangle_solid_angle(h: f64, x: [f64; 2], y: [f64; 2]) -> f64 {
+pub(crate) fn rectangle_solid_angle(h: f64, x: [f64; 2], y: [f64; 2]) -> f64 {
     let f = |x: f64, y: f64| (x * y / (h * (h * h + x * x + y * y).sqrt())).atan();
     f(x[1], y[1]) - f(x[0], y[1]) - f(x[1], y[0]) + f(x[0], y[0])
 }
