@@ -301,8 +301,13 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
         match l {
             Light::Point {
                 position,
+                position_lo,
                 intensity,
-            } => sources.push((position.as_dvec3(), 0, intensity.as_dvec3())),
+            } => sources.push((
+                position.as_dvec3() + position_lo.as_dvec3(),
+                0,
+                intensity.as_dvec3(),
+            )),
             Light::Area {
                 prims,
                 area,

@@ -18,10 +18,11 @@
 //! uncertainty (the median of one probe per round, ~30 rounds) is not in the intervals.
 
 use super::meta::Meta;
-use super::results::read_runs;
+use super::results::{read_runs, RunRow};
 use super::stats::{mann_whitney_p, median, paired_ratio_change, unpaired_ratio, Ratio};
 use super::summary::{pair_by_rep, seed_of, summarize, Summary};
 use serde::Serialize;
+use std::collections::BTreeSet;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -152,19 +153,85 @@ impl Comparison {
     }
 }
 
+/// Why two folders cannot be compared.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    /// A folder is no results folder, or its runs.csv cannot be read.
+    #[error("{0}")]
+    Folder(String),
+    /// The folders share no configuration, so every verdict would be vacuous.
+    #[error(
+        "{a} and {b} have no configuration in common: {why}; compare pairs rows by configuration \
+         (scene, settings, tracer, scheduler, workers), so measure one experiment file into both \
+         folders (raysched run FILE --out DIR) to compare across them"
+    )]
+    NothingInCommon {
+        /// Folder A.
+        a: String,
+        /// Folder B.
+        b: String,
+        /// Different experiments, scenes or grids, as found.
+        why: String,
+    },
+}
+
 /// One folder's summaries, its provenance line and its median probe time.
 type Loaded = (Vec<Summary>, String, Option<f64>);
 
-fn load(dir: &Path) -> Result<Loaded, String> {
+/// Why folders with rows `a` and `b` share no configuration: their experiments, their scenes
+/// (names, then content) or, failing both, their grids.
+fn why_disjoint(a: &[RunRow], b: &[RunRow]) -> String {
+    let set = |rows: &[RunRow], f: fn(&RunRow) -> String| -> BTreeSet<String> {
+        rows.iter().map(f).collect()
+    };
+    let list = |s: &BTreeSet<String>| s.iter().cloned().collect::<Vec<_>>().join(", ");
+    if a.is_empty() || b.is_empty() {
+        let which = if a.is_empty() { "A" } else { "B" };
+        return format!("{which} holds no measured rows");
+    }
+    let (ea, eb) = (
+        set(a, |r| r.experiment.clone()),
+        set(b, |r| r.experiment.clone()),
+    );
+    if ea.is_disjoint(&eb) {
+        return format!("different experiments ({} vs {})", list(&ea), list(&eb));
+    }
+    let (sa, sb) = (set(a, |r| r.scene.clone()), set(b, |r| r.scene.clone()));
+    if sa.is_disjoint(&sb) {
+        return format!("different scenes ({} vs {})", list(&sa), list(&sb));
+    }
+    let key = |r: &RunRow| format!("{} {}", r.scene, r.scene_hash);
+    let (ha, hb) = (set(a, key), set(b, key));
+    if ha.is_disjoint(&hb) {
+        return format!(
+            "the same scene names with different content (scene hash {} vs {})",
+            list(&ha),
+            list(&hb)
+        );
+    }
+    let key = |r: &RunRow| {
+        format!(
+            "{}×{} spp {} depth {}",
+            r.width, r.height, r.spp, r.max_depth
+        )
+    };
+    let (ga, gb) = (set(a, key), set(b, key));
+    if ga.is_disjoint(&gb) {
+        return format!("different render settings ({} vs {})", list(&ga), list(&gb));
+    }
+    "different grids (tracers, schedulers, chunks or workers: no configuration id in both)".into()
+}
+
+fn load(dir: &Path) -> Result<(Loaded, Vec<RunRow>), CompareError> {
     let runs = dir.join("runs.csv");
     if !runs.exists() {
-        return Err(format!(
+        return Err(CompareError::Folder(format!(
             "{}: not found (is {} a results folder?)",
             runs.display(),
             dir.display()
-        ));
+        )));
     }
-    let (rows, _) = read_runs(&runs).map_err(|e| e.to_string())?;
+    let (rows, _) = read_runs(&runs).map_err(|e| CompareError::Folder(e.to_string()))?;
     let meta: Option<Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());
@@ -180,7 +247,7 @@ fn load(dir: &Path) -> Result<Loaded, String> {
         .filter(|p| p.is_finite() && *p > 0.0)
         .collect();
     let probe = (!probes.is_empty()).then(|| median(&probes));
-    Ok((summarize(&rows), prov, probe))
+    Ok(((summarize(&rows), prov, probe), rows))
 }
 
 /// The serial baseline walls of `s`'s group in `sums`.
@@ -190,9 +257,20 @@ fn serial_of<'a>(sums: &'a [Summary], s: &Summary) -> Option<&'a Summary> {
 }
 
 /// Compare every configuration of `a` with the same configuration (same id) of `b`.
-pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, String> {
-    let (sa, pa, probe_a) = load(a)?;
-    let (sb, pb, probe_b) = load(b)?;
+/// Folders without a configuration in common are refused ([`CompareError::NothingInCommon`]).
+pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, CompareError> {
+    let ((sa, pa, probe_a), rows_a) = load(a)?;
+    let ((sb, pb, probe_b), rows_b) = load(b)?;
+    if !sa
+        .iter()
+        .any(|x| sb.iter().any(|y| y.row.config == x.row.config))
+    {
+        return Err(CompareError::NothingInCommon {
+            a: a.display().to_string(),
+            b: b.display().to_string(),
+            why: why_disjoint(&rows_a, &rows_b),
+        });
+    }
     let factor = match (probe_a, probe_b) {
         (Some(x), Some(y)) if !crit.raw => Some(y / x),
         _ => None,

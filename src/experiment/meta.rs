@@ -1,7 +1,7 @@
-//! `meta.toml`: the machine and build a run was measured on, and the experiment file's hash
-//! (a changed file is refused on resume unless `--fresh`). What it records about the rows is
-//! written once, when runs.csv is started; each later start only appends a [`Start`] to its
-//! `history`, and a start on another machine or build is refused ([`resume_conflict`]).
+//! `meta.toml`: the machine and build a run was measured on, and the experiment file's hash.
+//! What it records about the rows is written once, when runs.csv is started; each later start
+//! appends a [`Start`] to its `history` (and the scenes a grown experiment adds), and a start
+//! on another machine or build is refused ([`resume_conflict`]).
 
 use super::plan::{ExperimentPlan, GpuMeta};
 use serde::{Deserialize, Serialize};
@@ -13,7 +13,8 @@ pub struct Meta {
     pub experiment: String,
     /// The experiment file's path as given on the command line.
     pub experiment_file: String,
-    /// FNV-1a of the experiment file's bytes.
+    /// FNV-1a of the experiment file's bytes, as of the latest start (each start's own is in
+    /// its [`Start`]).
     pub experiment_hash: String,
     /// UTC, when runs.csv was started.
     pub started: String,
@@ -67,6 +68,10 @@ pub struct Start {
     pub rows_before: usize,
     /// The statistics settings this start measured with.
     pub stats: crate::experiment::plan::StatsSettings,
+    /// FNV-1a of the experiment file this start ran (absent in files written before it was
+    /// recorded): a grown grid resumes, so the file may differ between starts.
+    #[serde(default)]
+    pub experiment_hash: Option<String>,
 }
 
 impl Start {
@@ -85,6 +90,7 @@ impl Start {
             load1: crate::host::load_average().map_or(-1.0, |l| l[0]),
             rows_before,
             stats,
+            experiment_hash: None,
         }
     }
 }

@@ -343,6 +343,20 @@ fn read_file(path: &Path) -> Result<(Vec<u8>, ExperimentFile), ConfigError> {
     })?;
     let text = String::from_utf8(bytes.clone())
         .map_err(|_| err(shown.clone(), field("", "not UTF-8 text")))?;
+    // A scene file where an experiment is expected: say so, not `unknown field 'camera'`.
+    if let Ok(raw) = toml::from_str::<toml::Table>(&text) {
+        let has = |k: &str| raw.contains_key(k);
+        if (has("camera") || has("shapes")) && !has("scenes") && !has("schedulers") {
+            return Err(err(
+                shown,
+                field(
+                    "",
+                    "is a scene file, not an experiment: render it with `raysched render`, or \
+                     measure it by listing it in an experiment's [[scenes]] (path = ...)",
+                ),
+            ));
+        }
+    }
     let file: ExperimentFile = toml::from_str(&text).map_err(|e| {
         let (at, key, msg) = crate::scene::toml_error_at(&text, &e);
         let place = match at {
@@ -836,8 +850,8 @@ fn load_scenes(file: &ExperimentFile, base: &Path) -> Result<Vec<PlannedScene>, 
     for (i, s) in file.scenes.iter().enumerate() {
         let overrides = s.overrides();
         let t0 = Instant::now();
-        let scene = load_scene(&base.join(&s.path), &overrides)
-            .map_err(|e| field(&format!("scenes[{i}]"), e.to_string()))?;
+        let scene =
+            load_scene(&base.join(&s.path), &overrides).map_err(|e| scene_error(i, s, e))?;
         scenes.push(PlannedScene {
             file: s.path.clone(),
             overrides,
@@ -846,6 +860,26 @@ fn load_scenes(file: &ExperimentFile, base: &Path) -> Result<Vec<PlannedScene>, 
         });
     }
     Ok(scenes)
+}
+
+/// Scene `i`'s load error as a field error of the experiment: a value the experiment overrides
+/// (`width = 0`) is the experiment's field, not the scene file's.
+fn scene_error(i: usize, s: &super::config::SceneEntry, e: crate::scene::SceneError) -> FieldError {
+    let ours = e.line.is_none().then_some(()).and_then(|()| {
+        Some(match e.field.as_str() {
+            "camera.width" if s.width.is_some() => "width",
+            "camera.height" if s.height.is_some() => "height",
+            "render.spp" if s.spp.is_some() => "spp",
+            "render.max_depth" if s.max_depth.is_some() => "max_depth",
+            "render.seed" if s.seed.is_some() => "seed",
+            f if f.ends_with(".count") && s.generator_count.is_some() => "generator_count",
+            _ => return None,
+        })
+    });
+    match ours {
+        Some(key) => field(&format!("scenes[{i}].{key}"), e.msg),
+        None => field(&format!("scenes[{i}]"), e.to_string()),
+    }
 }
 
 /// One tracer per (scene, tracer), built with the largest worker count as its thread budget.

@@ -474,9 +474,14 @@ impl RunRow {
 
     /// A row from its cells under `names` (a prefix of [`Self::header`]): the parameter
     /// columns are taken out, the rest deserialised by name.
-    fn from_record(rec: &csv::StringRecord, names: &csv::StringRecord) -> Option<Self> {
+    /// An unreadable cell is named: `column N (name): `text` is not a valid value`.
+    fn parse_record(rec: &csv::StringRecord, names: &csv::StringRecord) -> Result<Self, String> {
         if rec.len() != names.len() {
-            return None;
+            return Err(format!(
+                "{} cells, the header has {}",
+                rec.len(),
+                names.len()
+            ));
         }
         let params = param_columns();
         let is_param =
@@ -488,7 +493,24 @@ impl RunRow {
             .filter(|(n, _)| !is_param(n))
             .map(|(_, v)| v)
             .collect();
-        let mut row: Self = rest.deserialize(Some(&rest_names)).ok()?;
+        let mut row: Self = rest.deserialize(Some(&rest_names)).map_err(|e| {
+            let field = match e.kind() {
+                csv::ErrorKind::Deserialize { err, .. } => err.field(),
+                _ => None,
+            };
+            let Some(name) = field.and_then(|f| rest_names.get(f as usize)) else {
+                return e.to_string();
+            };
+            let col = names.iter().position(|n| n == name).map_or(0, |i| i + 1);
+            let value = rest.get(field.unwrap_or(0) as usize).unwrap_or("");
+            // A cell may be huge or hold control characters; the message stays one short line.
+            let shown: String = value.chars().take(40).collect();
+            let more = if shown.len() < value.len() { "…" } else { "" };
+            format!(
+                "column {col} ({name}): `{}{more}` is not a valid value",
+                crate::one_line::escape_controls(&shown)
+            )
+        })?;
         row.params = params
             .iter()
             .map(|p| {
@@ -502,7 +524,7 @@ impl RunRow {
                 (!v.is_empty()).then(|| v.to_string())
             })
             .collect();
-        Some(row)
+        Ok(row)
     }
 }
 
@@ -630,21 +652,21 @@ pub fn parse_runs(bytes: &[u8]) -> Result<(Vec<RunRow>, u64), String> {
             .has_headers(false)
             .flexible(true)
             .from_reader(line);
-        let parsed = rdr.records().next().and_then(|r| r.ok()).and_then(|rec| {
-            if rec.len() != ncols {
-                return None;
-            }
-            RunRow::from_record(&rec, &names)
-        });
+        let parsed = match rdr.records().next() {
+            Some(Ok(rec)) if rec.len() == ncols => RunRow::parse_record(&rec, &names).map_err(Some),
+            _ => Err(None),
+        };
         match parsed {
-            Some(row) => rows.push(row),
-            // A complete-looking last line with the wrong columns is a torn write too.
-            None if is_last => break,
-            None => {
+            Ok(row) => rows.push(row),
+            // A complete-looking last line with the wrong columns is a torn write too; one
+            // with every column but an unreadable cell was written whole, so it is corrupt.
+            Err(None) if is_last => break,
+            Err(None) => {
                 return Err(format!(
                     "line {line_no} is not a valid row; rerun with --fresh"
                 ))
             }
+            Err(Some(cell)) => return Err(format!("line {line_no}, {cell}")),
         }
         valid = end as u64;
         start = end;
@@ -699,6 +721,19 @@ impl RunsFile {
             let (rows, valid) = parse_runs_of(path, &bytes)?;
             (rows, valid, legacy)
         };
+        // Checked here, before anything is written: a refused resume changes no file.
+        let mut seen = HashSet::new();
+        for r in &rows {
+            if !seen.insert((&r.config, r.repetition)) {
+                return Err(ResultsError::Corrupt {
+                    path: path.display().to_string(),
+                    msg: format!(
+                        "config {} repetition {} appears twice; rerun with --fresh",
+                        r.config, r.repetition
+                    ),
+                });
+            }
+        }
         Ok(OldRuns {
             path: path.to_path_buf(),
             rows,
@@ -746,18 +781,10 @@ impl OldRuns {
         } else {
             valid
         };
-        let mut done = HashSet::new();
-        for r in &rows {
-            if !done.insert((r.config.clone(), r.repetition)) {
-                return Err(ResultsError::Corrupt {
-                    path: path.display().to_string(),
-                    msg: format!(
-                        "config {} repetition {} appears twice; rerun with --fresh",
-                        r.config, r.repetition
-                    ),
-                });
-            }
-        }
+        let done = rows
+            .iter()
+            .map(|r| (r.config.clone(), r.repetition))
+            .collect();
         let mut file = OpenOptions::new()
             .create(true)
             .read(true)

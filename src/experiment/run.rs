@@ -121,9 +121,14 @@ pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
     dir.join("timelines").join(format!("{config}.csv"))
 }
 
+/// How a refusal to resume ends: both ways out, `--out` keeping the old folder as it is.
+const KEEP_OR_FRESH: &str =
+    "rerun with --out DIR to keep this folder as it is, or with --fresh to start it over";
+
 /// Check (or start) `meta.toml` and append this start to its history. An existing one must
-/// carry this experiment file's hash and have been measured by this machine and build; what it
-/// says about the earlier rows is kept as written.
+/// have been measured by this machine and build; what it says about the earlier rows is kept
+/// as written. The experiment file may have changed (a grown grid resumes): its new hash and
+/// any scene it adds are recorded. Every refusal comes before the file is written.
 fn prepare_meta(
     plan: &ExperimentPlan,
     dir: &Path,
@@ -132,7 +137,8 @@ fn prepare_meta(
 ) -> Result<Meta, RunError> {
     let path = dir.join("meta.toml");
     let runs = dir.join("runs.csv");
-    let start = meta::Start::now(rows_before, plan.stats);
+    let mut start = meta::Start::now(rows_before, plan.stats);
+    start.experiment_hash = Some(plan.file_hash.clone());
     let resuming = !fresh && runs.exists() && rows_before > 0;
     let mut meta = if resuming {
         let old: Option<Meta> = std::fs::read_to_string(&path)
@@ -140,20 +146,11 @@ fn prepare_meta(
             .and_then(|t| toml::from_str(&t).ok());
         let Some(old) = old else {
             return Err(RunError::Refused(format!(
-                "{}: missing or unreadable beside {}; rerun with --fresh to start over",
+                "{}: missing or unreadable beside {}; {KEEP_OR_FRESH}",
                 path.display(),
                 runs.display()
             )));
         };
-        if old.experiment_hash != plan.file_hash {
-            return Err(RunError::Refused(format!(
-                "{}: changed since {} was started (hash {} → {}); rerun with --fresh to start over",
-                plan.file.display(),
-                runs.display(),
-                old.experiment_hash,
-                plan.file_hash
-            )));
-        }
         let mut diffs = meta::resume_conflict(&old, &start);
         if let (Some(a), Some(b)) = (&old.gpu, plan.gpu.as_ref().map(|g| &g.info)) {
             if a != b {
@@ -165,13 +162,25 @@ fn prepare_meta(
         }
         if !diffs.is_empty() {
             return Err(RunError::Refused(format!(
-                "{}: its {rows_before} rows were measured elsewhere ({}); resuming would mix them: use --fresh or another --out",
+                "{}: its {rows_before} rows were measured elsewhere ({}); resuming would mix them: {KEEP_OR_FRESH}",
                 runs.display(),
                 diffs.join(", ")
             )));
         }
+        let mut scenes = old.scenes;
+        for s in meta::collect(plan).scenes {
+            if !scenes.iter().any(|o| o.file == s.file && o.hash == s.hash) {
+                scenes.push(s);
+            }
+        }
         Meta {
             resumed: Some(start.time.clone()),
+            experiment_file: plan.file.display().to_string(),
+            experiment_hash: plan.file_hash.clone(),
+            scenes,
+            gpu: old
+                .gpu
+                .or_else(|| plan.gpu.as_ref().map(|g| g.info.clone())),
             ..old
         }
     } else {
@@ -225,7 +234,7 @@ pub fn run_experiment_with(
         None => open_results(plan, &dir, fresh)?,
         Some(_) => RunsFile::open(&dir.join("runs.csv"), false)?,
     };
-    let serial = check_old_rows(plan, &runs, &old_rows)?;
+    let serial = check_old_rows(plan, &runs.path, &old_rows)?;
     let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
     todo.update_done(plan);
     let predictions = match child {
@@ -295,6 +304,8 @@ pub(super) fn open_results(
 ) -> Result<(RunsFile, Vec<RunRow>), RunError> {
     prepare_dir(plan, dir, fresh)?;
     let old = RunsFile::read(&dir.join("runs.csv"), fresh)?;
+    // The rows are checked before meta.toml is touched: a refused resume changes nothing.
+    check_old_rows(plan, &dir.join("runs.csv"), &old.rows)?;
     prepare_meta(plan, dir, fresh, old.rows.len())?;
     Ok(old.open()?)
 }
@@ -314,40 +325,76 @@ fn prepare_dir(plan: &ExperimentPlan, dir: &Path, fresh: bool) -> Result<(), Run
     Ok(())
 }
 
-/// Resume: old rows must belong to this plan's scenes as they are now.
+/// Resume: old rows must still be valid measurements of this plan's scenes as they are now.
 pub(super) fn validate_old_rows(
     plan: &ExperimentPlan,
     runs: &RunsFile,
     old_rows: &[RunRow],
 ) -> Result<(), RunError> {
-    check_old_rows(plan, runs, old_rows).map(drop)
+    check_old_rows(plan, &runs.path, old_rows).map(drop)
 }
 
-/// [`validate_old_rows`], returning what the serial baselines measured so far.
+/// [`validate_old_rows`], returning what the serial baselines measured so far. A row of a
+/// configuration the plan still has must match its scene's hash. A row of one it lacks is a
+/// grid value since removed, kept and not measured again, unless its scene file is still in
+/// the plan at other settings or content (spp, size, an edit): those rows no longer describe
+/// the scene as planned, and the resume is refused.
 fn check_old_rows(
     plan: &ExperimentPlan,
-    runs: &RunsFile,
+    runs: &Path,
     old_rows: &[RunRow],
 ) -> Result<HashMap<usize, SerialInfo>, RunError> {
     let by_id: HashMap<&str, &RunConfig> =
         plan.configs.iter().map(|c| (c.id.as_str(), c)).collect();
+    let changed = |r: &RunRow, what: String| {
+        RunError::Refused(format!(
+            "{}: scene {} {what} since these rows were measured; {KEEP_OR_FRESH}",
+            runs.display(),
+            r.scene_file
+        ))
+    };
     let mut serial: HashMap<usize, SerialInfo> = HashMap::new();
     for r in old_rows {
         let Some(c) = by_id.get(r.config.as_str()) else {
-            return Err(RunError::Refused(format!(
-                "{}: row for config {} is not in this experiment; rerun with --fresh",
-                runs.path.display(),
-                r.config
-            )));
+            let same_file: Vec<&crate::scene::Scene> = plan
+                .scenes
+                .iter()
+                .filter(|s| s.file == r.scene_file)
+                .map(|s| s.scene.as_ref())
+                .collect();
+            let settings = |s: &crate::scene::Scene| {
+                (s.width(), s.height(), s.settings.spp, s.settings.max_depth)
+            };
+            let row_settings = (r.width, r.height, r.spp, r.max_depth);
+            let kept = same_file.is_empty()
+                || same_file
+                    .iter()
+                    .any(|s| hex(s.hash) == r.scene_hash && settings(s) == row_settings);
+            if kept {
+                continue;
+            }
+            let s = same_file
+                .iter()
+                .find(|s| hex(s.hash) == r.scene_hash)
+                .unwrap_or(&same_file[0]);
+            let (w, h, spp, depth) = settings(s);
+            let what = if spp != r.spp {
+                format!("spp changed ({} → {spp})", r.spp)
+            } else if (w, h) != (r.width, r.height) {
+                format!("size changed ({}×{} → {w}×{h})", r.width, r.height)
+            } else if depth != r.max_depth {
+                format!("max_depth changed ({} → {depth})", r.max_depth)
+            } else {
+                format!("changed (hash {} → {})", r.scene_hash, hex(s.hash))
+            };
+            return Err(changed(r, what));
         };
         let now = hex(plan.scene_of(c).scene.hash);
         if r.scene_hash != now {
-            return Err(RunError::Refused(format!(
-                "{}: scene {} changed since these rows were measured (hash {} → {now}); rerun with --fresh",
-                runs.path.display(),
-                r.scene_file,
-                r.scene_hash
-            )));
+            return Err(changed(
+                r,
+                format!("changed (hash {} → {now})", r.scene_hash),
+            ));
         }
         if c.spec.is_none() {
             let s = serial.entry(c.baseline).or_default();

@@ -60,7 +60,8 @@ struct Material {
     kind: vec4<u32>,
 }
 
-// kind: (LIGHT_*, first light-prim entry, count, 0). Point: p = position, c = intensity.
+// kind: (LIGHT_*, first light-prim entry, count, 0). Point: p = position, c = intensity, and
+// (p.w, c.w, bitcast kind.w) = what the position lost to f32 rounding (Light::Point).
 // Area: c = radiance, c.w = area. Environment: c = radiance.
 struct Light {
     p: vec4<f32>,
@@ -568,7 +569,9 @@ fn direct(it: Inter, f: vec3<f32>, s: ptr<function, Sampler>, rays: ptr<function
     let sel = 1.0 / f32(n_lights);
     let light = lights[idx];
     if light.kind.x == LIGHT_POINT {
-        let to = light.p.xyz - it.p;
+        // From the hit point, plus the position's rounding residual (integrator.rs, `direct`).
+        let lo = vec3<f32>(light.p.w, light.c.w, bitcast<f32>(light.kind.w));
+        let to = (light.p.xyz - it.p) + lo;
         let dist2 = dot(to, to);
         if dist2 == 0.0 {
             return vec3<f32>(0.0);

@@ -164,11 +164,17 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
     let mut entries: Vec<u8> = Vec::new();
     let mut n_entries = 0u32;
     for l in &scene.lights {
+        // A point light's position residual rides in its unused lanes: p.w, c.w, kind.w.
+        let mut lo = glam::Vec3::ZERO;
         let (kind, p, c, first, count) = match l {
             Light::Point {
                 position,
+                position_lo,
                 intensity,
-            } => (LIGHT_POINT, *position, (*intensity, 0.0), 0, 0),
+            } => {
+                lo = *position_lo;
+                (LIGHT_POINT, *position, (*intensity, lo.y), 0, 0)
+            }
             Light::Area {
                 prims,
                 cdf,
@@ -193,9 +199,9 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
                 (LIGHT_ENV, glam::Vec3::ZERO, (*radiance, 0.0), 0, 0)
             }
         };
-        v4(&mut out.lights, p.to_array(), 0.0);
+        v4(&mut out.lights, p.to_array(), lo.x);
         v4(&mut out.lights, c.0.to_array(), c.1);
-        for x in [kind, first, count, 0] {
+        for x in [kind, first, count, lo.z.to_bits()] {
             u(&mut out.lights, x);
         }
     }

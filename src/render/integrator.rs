@@ -247,12 +247,14 @@ fn direct<T: Tracer + ?Sized, F: FeatureSet>(
     match &scene.lights[idx] {
         Light::Point {
             position,
+            position_lo,
             intensity,
         } if F::POINT => {
             // Geometry from the hit point itself: the offset origin is only where the shadow ray
             // starts. Near a light (1e-4 above a plane seen from 30 units) the offset is a few
-            // per cent of the distance, so measuring from it would bias cosθ/r².
-            let to = *position - it.p;
+            // per cent of the distance, so measuring from it would bias cosθ/r². `position − p`
+            // is exact there (Sterbenz), and the residual restores the height f32 rounded off.
+            let to = (*position - it.p) + *position_lo;
             let dist2 = to.length_squared();
             if dist2 == 0.0 {
                 return Vec3::ZERO;

@@ -61,6 +61,18 @@ pub fn load_scene_str(
     };
     // Syntax first, then vector lengths (serde would cut or blame the table), then types.
     let raw: toml::Value = toml::from_str(text).map_err(toml_error)?;
+    // An experiment file where a scene is expected: say so, not `unknown field 'scenes'`.
+    let has = |k: &str| raw.get(k).is_some();
+    if (has("scenes") || has("schedulers")) && !has("camera") {
+        return Err(SceneError {
+            path: display.to_string(),
+            line: None,
+            field: String::new(),
+            msg: "is an experiment file, not a scene: measure it with `raysched run`, or give \
+                  one of its [[scenes]] paths here"
+                .into(),
+        });
+    }
     super::check::vector_lengths(&raw, "").map_err(|(field, msg)| SceneError {
         path: display.to_string(),
         line: None,
@@ -286,8 +298,10 @@ fn file_lights(
                 let field = format!("{at}.position");
                 let p = cx.vec3(&field, *position)?;
                 let i = cx.non_negative3(&format!("{at}.intensity"), *intensity)?;
+                let position = cx.placed(&field, p - origin)?;
                 lights.push(Light::Point {
-                    position: cx.placed(&field, p - origin)?,
+                    position,
+                    position_lo: (p - origin - position.as_dvec3()).as_vec3(),
                     intensity: i.as_vec3(),
                 });
             }

@@ -231,8 +231,12 @@ pub fn point_lit_plane(scene: &Scene) -> Option<Box<ClosedForm<'_>>> {
         .map(|l| match l {
             Light::Point {
                 position,
+                position_lo,
                 intensity,
-            } => Some((position.as_dvec3(), intensity.as_dvec3())),
+            } => Some((
+                position.as_dvec3() + position_lo.as_dvec3(),
+                intensity.as_dvec3(),
+            )),
             _ => None,
         })
         .collect::<Option<Vec<_>>>()?

@@ -380,9 +380,13 @@ fn killed_runs_resume_without_lost_or_duplicated_rows() {
     assert!(run(&args, dir.path()).status.success());
     assert_eq!(std::fs::read(&csv).unwrap().len(), before);
 
-    // A changed experiment file is refused (exit 2) unless --fresh.
+    // A changed experiment file that keeps every row valid resumes, measuring nothing; one
+    // that invalidates them (spp) is refused (exit 2) unless --fresh.
     let text = std::fs::read_to_string(&exp).unwrap();
     std::fs::write(&exp, text.replace("warmup = 0", "warmup = 1")).unwrap();
+    assert!(run(&args, dir.path()).status.success());
+    assert_eq!(std::fs::read(&csv).unwrap().len(), before);
+    std::fs::write(&exp, text.replace("spp = 2", "spp = 3")).unwrap();
     let out = run(&args, dir.path());
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--fresh"));
@@ -860,6 +864,220 @@ fn the_readme_command_measures_and_a_second_run_resumes_without_touching_old_rec
     assert_ok(&out);
 }
 
+/// The class "growing a sweep forces `--fresh`": adding grid values (chunks, workers, a
+/// scene) resumes and measures only the new configurations, every old row kept byte for byte
+/// and the first start's provenance as it was. A change that invalidates old rows (spp, the
+/// scene's content) is refused in one line that names `--out`, leaving `meta.toml` and
+/// `runs.csv` byte-identical.
+#[test]
+fn growing_a_sweep_resumes_and_measures_only_new_configurations() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(scene_path(), dir.path().join("scene.toml")).unwrap();
+    let exp = dir.path().join("grow.toml");
+    let write = |chunks: &str, workers: &str, extra_scene: bool, spp: u32| {
+        let mut text = format!(
+            "name = \"grow\"\nrepetitions = 1\nci_target = 0\nmin_sample_s = 0\nwarmup = 0\n\
+             workers = {workers}\n[[scenes]]\npath = \"scene.toml\"\nwidth = 16\nheight = 16\n\
+             spp = {spp}\n[[schedulers]]\nkind = \"master\"\nchunk = {chunks}\n"
+        );
+        if extra_scene {
+            text.push_str("[[scenes]]\npath = \"scene.toml\"\nwidth = 8\nheight = 8\nspp = 1\n");
+        }
+        std::fs::write(&exp, text).unwrap();
+    };
+    let res = dir.path().join("res/grow");
+    let go = || run(&["run", "grow.toml", "--quiet", "--out", "res"], dir.path());
+    let ids =
+        |rows: &[raysched::experiment::results::RunRow]| -> std::collections::BTreeSet<String> {
+            rows.iter().map(|r| r.config.clone()).collect()
+        };
+    write("[\"1\"]", "[2]", false, 1);
+    assert_ok(&go());
+    let csv1 = std::fs::read(res.join("runs.csv")).unwrap();
+    let meta1: raysched::experiment::meta::Meta =
+        toml::from_str(&std::fs::read_to_string(res.join("meta.toml")).unwrap()).unwrap();
+    let (rows1, _) = read_runs(&res.join("runs.csv")).unwrap();
+    assert_eq!(rows1.len(), 2, "serial + master chunk 1 on 2 workers");
+
+    // More chunks, more workers and another scene: only the new configurations are measured.
+    write("[\"1\", \"4\"]", "[2, 3]", true, 1);
+    let out = go();
+    assert_ok(&out);
+    let csv2 = std::fs::read(res.join("runs.csv")).unwrap();
+    assert_eq!(&csv2[..csv1.len()], &csv1[..], "old rows rewritten");
+    let (rows2, _) = read_runs(&res.join("runs.csv")).unwrap();
+    // Scene 16²: serial + 2 chunks × 2 worker counts; scene 8²: the same again.
+    assert_eq!(rows2.len(), 10);
+    let new_ids = ids(&rows2[2..]);
+    assert!(
+        new_ids.is_disjoint(&ids(&rows1)),
+        "an old configuration measured again"
+    );
+    assert_eq!(new_ids.len(), 8);
+    let meta2: raysched::experiment::meta::Meta =
+        toml::from_str(&std::fs::read_to_string(res.join("meta.toml")).unwrap()).unwrap();
+    assert_eq!(meta2.history.len(), 2);
+    assert_eq!(
+        meta2.history[0], meta1.history[0],
+        "the first start's provenance"
+    );
+    assert_eq!(meta2.started, meta1.started);
+    assert_eq!(meta2.scenes[0], meta1.scenes[0]);
+    assert_eq!(meta2.scenes.len(), 2, "the added scene recorded");
+    assert_ne!(meta2.experiment_hash, meta1.experiment_hash);
+    assert_eq!(
+        meta2.history[1].experiment_hash.as_deref(),
+        Some(meta2.experiment_hash.as_str())
+    );
+
+    // Changes that invalidate old rows are refused, changing nothing.
+    let refused = |what: &str| {
+        let (csv, meta) = (
+            std::fs::read(res.join("runs.csv")).unwrap(),
+            std::fs::read(res.join("meta.toml")).unwrap(),
+        );
+        let out = go();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{what}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
+        assert!(err.contains(what) && err.contains("--out"), "{what}: {err}");
+        assert_eq!(std::fs::read(res.join("runs.csv")).unwrap(), csv, "{what}");
+        assert_eq!(
+            std::fs::read(res.join("meta.toml")).unwrap(),
+            meta,
+            "{what}"
+        );
+    };
+    write("[\"1\", \"4\"]", "[2, 3]", true, 2);
+    refused("spp");
+    write("[\"1\", \"4\"]", "[2, 3]", true, 1);
+    let scene = std::fs::read_to_string(dir.path().join("scene.toml")).unwrap();
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        scene.replace("[0.7, 0.7, 0.7]", "[0.6, 0.6, 0.6]"),
+    )
+    .unwrap();
+    refused("changed (hash");
+    // Dropping a grid value keeps its rows and measures nothing.
+    std::fs::write(dir.path().join("scene.toml"), &scene).unwrap();
+    write("[\"1\"]", "[2, 3]", true, 1);
+    assert_ok(&go());
+    assert_eq!(std::fs::read(res.join("runs.csv")).unwrap(), csv2);
+}
+
+/// The class "a scene file where an experiment is expected, and the reverse": each command
+/// says in one line which kind of file it got and what to do with it, not `unknown field`.
+/// An experiment's scene override out of range blames the experiment's field.
+#[test]
+fn a_scene_given_for_an_experiment_and_the_reverse_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = write_tiny(dir.path(), 1);
+    let scene = scene_path();
+    let one_line_2 = |out: &std::process::Output, want: &[&str]| {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(!err.contains("unknown field"), "{err}");
+        for w in want {
+            assert!(err.contains(w), "{w}: {err}");
+        }
+    };
+    let out = run(
+        &["run", scene.to_str().unwrap(), "--quiet", "--out", "res"],
+        dir.path(),
+    );
+    one_line_2(
+        &out,
+        &[
+            "simple.toml",
+            "scene file, not an experiment",
+            "raysched render",
+        ],
+    );
+    assert!(!dir.path().join("res").exists(), "wrote a results folder");
+    let out = run(
+        &["render", exp.to_str().unwrap(), "-o", "x.exr", "--spp", "1"],
+        dir.path(),
+    );
+    one_line_2(
+        &out,
+        &["tiny.toml", "experiment file, not a scene", "raysched run"],
+    );
+    assert!(!dir.path().join("x.exr").exists());
+
+    // `width = 0` in the experiment: its field, scenes[0].width, in the experiment file.
+    let text = std::fs::read_to_string(&exp).unwrap();
+    for (from, to, key) in [
+        ("width = 16", "width = 0", "scenes[0].width"),
+        ("spp = 2", "spp = 0", "scenes[1].spp"),
+    ] {
+        std::fs::write(&exp, text.replacen(from, to, 1)).unwrap();
+        let out = run(
+            &["run", exp.to_str().unwrap(), "--quiet", "--out", "res"],
+            dir.path(),
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        one_line_2(&out, &["tiny.toml", key]);
+        assert!(
+            !err.contains("simple.toml") && !err.contains("camera."),
+            "{err}"
+        );
+    }
+}
+
+/// The class "`plot` on a runs.csv whose number column holds text": exit 2 naming the file,
+/// the line and the column, and nothing written, wherever the bad row is (the last one too).
+#[test]
+fn plot_on_text_in_a_number_column_exits_2_naming_line_and_column() {
+    let (dir, _) = run_tiny(1);
+    let res = dir.path().join("res/tiny");
+    let csv = std::fs::read_to_string(res.join("runs.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = header.iter().position(|c| *c == "wall_s").unwrap();
+    let lines = csv.lines().count();
+    for line in [2, lines] {
+        std::fs::remove_dir_all(res.join("plots")).unwrap_or(());
+        for f in ["summary.csv", "report.md", "summary.json", "runs.json"] {
+            let _ = std::fs::remove_file(res.join(f));
+        }
+        let bad: Vec<String> = csv
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                if i + 1 != line {
+                    return l.to_string();
+                }
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells[col] = "fast";
+                cells.join(",")
+            })
+            .collect();
+        std::fs::write(res.join("runs.csv"), bad.join("\n") + "\n").unwrap();
+        let listing = |d: &Path| -> Vec<String> {
+            let mut v: Vec<String> = std::fs::read_dir(d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            v.sort();
+            v
+        };
+        let before = listing(&res);
+        let out = run(&["plot", res.to_str().unwrap()], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "line {line}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("runs.csv")
+                && err.contains(&format!("line {line}"))
+                && err.contains(&format!("column {}", col + 1))
+                && err.contains("wall_s")
+                && err.contains("fast"),
+            "line {line}: {err}"
+        );
+        assert_eq!(listing(&res), before, "line {line}: wrote something");
+    }
+}
+
 /// Adaptive repetitions: a configuration stops early only with its median's interval within
 /// the target (the summary shows the same interval), else at its run cap; short renders are
 /// repeated inside one sample; every row records its timestamp, CPU time and load.
@@ -1000,6 +1218,59 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
             .code(),
         Some(2)
     );
+}
+
+/// The class "`compare` that compares nothing": folders without a configuration in common
+/// (another experiment, other scenes, another grid) exit 2 with one line saying which, and how
+/// to compare across them, `--fail-on-regression` or not.
+#[test]
+fn compare_that_compares_nothing_exits_2_saying_why() {
+    use raysched::experiment::results::RunsFile;
+    let (dir, _) = run_tiny(1);
+    let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
+    let cases: [(&str, fn(&mut raysched::experiment::results::RunRow), &str); 3] = [
+        (
+            "exp",
+            |r| r.experiment = "other".into(),
+            "different experiments",
+        ),
+        (
+            "scene",
+            |r| r.scene = "elsewhere".into(),
+            "different scenes",
+        ),
+        ("grid", |_| {}, "different grids"),
+    ];
+    for (name, edit, why) in cases {
+        let d = dir.path().join(name).join("tiny");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
+        for r in &rows {
+            let mut r = r.clone();
+            edit(&mut r);
+            // Another configuration id: what another scene or grid gives.
+            r.config = format!("{:016x}", u64::from_str_radix(&r.config, 16).unwrap() ^ 1);
+            f.append(&r).unwrap();
+        }
+        let b = format!("{name}/tiny");
+        for extra in [&[][..], &["--fail-on-regression"], &["--json"]] {
+            let mut args = vec!["compare", "res/tiny", b.as_str()];
+            args.extend(extra);
+            let out = run(&args, dir.path());
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{name} {extra:?}: {err}");
+            assert_eq!(err.trim_end().lines().count(), 1, "{name}: {err}");
+            assert!(
+                err.contains("no configuration in common") && err.contains(why),
+                "{name}: {err}"
+            );
+            assert!(err.contains("--out"), "{name}: says how to compare: {err}");
+            assert!(out.stdout.is_empty(), "{name}: wrote a report anyway");
+        }
+    }
+    // One configuration in common is a comparison.
+    assert_ok(&run(&["compare", "res/tiny", "res/tiny"], dir.path()));
 }
 
 /// `run --dry-run` prints the plan and measures nothing.
