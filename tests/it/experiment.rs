@@ -1228,7 +1228,8 @@ fn compare_that_compares_nothing_exits_2_saying_why() {
     use raysched::experiment::results::RunsFile;
     let (dir, _) = run_tiny(1);
     let (rows, _) = read_runs(&dir.path().join("res/tiny/runs.csv")).unwrap();
-    let cases: [(&str, fn(&mut raysched::experiment::results::RunRow), &str); 3] = [
+    type Edit = fn(&mut raysched::experiment::results::RunRow);
+    let cases: [(&str, Edit, &str); 3] = [
         (
             "exp",
             |r| r.experiment = "other".into(),
