@@ -18,6 +18,7 @@ mod experiment;
 mod fuzz;
 mod gpu;
 mod hostile;
+mod html;
 mod models;
 mod mpi;
 mod schedulers;
