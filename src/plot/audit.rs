@@ -12,20 +12,20 @@ use std::rc::Rc;
 
 /// One drawn text and its box, (left, top, right, bottom) in pixels.
 #[derive(Clone, Debug)]
-pub struct Placed {
-    pub text: String,
-    pub bbox: (i32, i32, i32, i32),
+pub(super) struct Placed {
+    pub(super) text: String,
+    pub(super) bbox: (i32, i32, i32, i32),
 }
 
 /// See the module docs.
-pub struct Audit {
+pub(super) struct Audit {
     size: (u32, u32),
     /// Shared with the test: a drawing area keeps its backend to itself.
-    pub texts: Rc<RefCell<Vec<Placed>>>,
+    pub(super) texts: Rc<RefCell<Vec<Placed>>>,
 }
 
 #[derive(Debug)]
-pub struct NoError;
+pub(super) struct NoError;
 impl std::fmt::Display for NoError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("audit")
@@ -35,7 +35,7 @@ impl std::error::Error for NoError {}
 
 impl Audit {
     /// Pairs of non-empty texts whose boxes intersect (touching edges do not count).
-    pub fn overlaps(&self) -> Vec<(Placed, Placed)> {
+    pub(super) fn overlaps(&self) -> Vec<(Placed, Placed)> {
         let all = self.texts.borrow();
         let t: Vec<&Placed> = all.iter().filter(|p| !p.text.trim().is_empty()).collect();
         let mut out = Vec::new();
@@ -51,7 +51,7 @@ impl Audit {
     }
 
     /// Texts reaching outside the canvas.
-    pub fn outside(&self) -> Vec<Placed> {
+    pub(super) fn outside(&self) -> Vec<Placed> {
         let (w, h) = (self.size.0 as i32, self.size.1 as i32);
         self.texts
             .borrow()
@@ -170,7 +170,7 @@ impl DrawingBackend for Audit {
 }
 
 /// Render `draw` on an audit canvas of `size` and fail with every overlap and overflow.
-pub fn check<F>(what: &str, size: (u32, u32), draw: F)
+pub(super) fn check<F>(what: &str, size: (u32, u32), draw: F)
 where
     F: FnOnce(&DrawingArea<Audit, plotters::coord::Shift>) -> Result<(), String>,
 {
