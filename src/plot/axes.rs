@@ -218,10 +218,11 @@ pub fn fit_ticks(
 ) -> Vec<(f64, String)> {
     let extent = |s: &str| {
         let (w, h) = text_size(s, TICK_FONT);
+        // Room to breathe: a label's width plus a gap across, two lines' height down.
         if horizontal {
-            w
+            w + 2 * GAP
         } else {
-            h
+            2 * h
         }
     };
     let fits = |t: &[(f64, String)]| {

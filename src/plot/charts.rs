@@ -199,6 +199,7 @@ fn range_of(data: &Series, f: impl Fn(&Pt) -> f64) -> Option<(f64, f64)> {
 }
 
 /// A line chart: its title, axes, scales and reference lines.
+#[derive(Clone, Copy)]
 pub(crate) struct Lines<'a> {
     pub title: &'a str,
     pub x_desc: &'a str,
@@ -213,6 +214,8 @@ pub(crate) struct Lines<'a> {
     pub refs: &'a [(f64, &'a str)],
     /// The y range in values, shared by the panels of one figure; `None`: from the data.
     pub y_range: Option<(f64, f64)>,
+    /// The legend's width, so stacked panels line up; 0: from its labels.
+    pub legend_w: i32,
 }
 
 /// The y range a chart of `data` under `scale` shows, in values: from 0 (linear) or just
@@ -286,7 +289,12 @@ pub(crate) fn line_chart<DB: DrawingBackend>(
     }
     names = keys.iter().map(|k| k.0.clone()).collect();
     let body = axes::titled(area, c.title)?;
-    let (plot, legend_area) = axes::with_legend(&body, &names);
+    let (plot, legend_area) = if c.legend_w > 0 {
+        let w = body.dim_in_pixel().0 as i32;
+        body.split_horizontally(w - c.legend_w.min(w / 3))
+    } else {
+        axes::with_legend(&body, &names)
+    };
     let xs = AxisSpec {
         desc: c.x_desc.into(),
         range: (x0 - pad, x1 + pad),
@@ -362,8 +370,34 @@ fn two_charts<DB: DrawingBackend>(
     bottom: (&Lines, &Series),
 ) -> R {
     let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
-    line_chart(&upper, top.0, top.1)?;
-    line_chart(&lower, bottom.0, bottom.1)
+    // One legend width for both, so their x axes line up.
+    let mut labels: Vec<String> = [top.1, bottom.1]
+        .iter()
+        .flat_map(|d| d.iter().map(|l| l.0.clone()))
+        .collect();
+    for c in [top.0, bottom.0] {
+        labels.extend(c.refs.iter().map(|r| r.1.to_string()));
+        if c.ideal {
+            labels.push("ideal (speedup = workers)".into());
+        }
+    }
+    let w = axes::legend_width(&labels, root.dim_in_pixel().0 as i32 / 3);
+    line_chart(
+        &upper,
+        &Lines {
+            legend_w: w,
+            ..*top.0
+        },
+        top.1,
+    )?;
+    line_chart(
+        &lower,
+        &Lines {
+            legend_w: w,
+            ..*bottom.0
+        },
+        bottom.1,
+    )
 }
 
 /// Stacked bars: work, imbalance, other idle, dispatch; a dashed line at the serial time.
@@ -836,6 +870,7 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
         ideal: true,
         refs: &[(1.0, "speedup 1 (serial)")],
         y_range: None,
+        legend_w: 0,
     };
     both!(out.bitmap, stem, SIZE, line_chart(&lines, &data));
     out.push(&stem, title, "Speedup (median serial / median wall, paired by round) of each scheduler's best configuration per worker count, with its 95 % interval; the black diagonal is ideal linear speedup, the dashed grey line speedup 1 (as fast as serial).");
@@ -879,6 +914,7 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
         ideal: false,
         refs: &[],
         y_range: None,
+        legend_w: 0,
     };
     let bottom = Lines {
         title: "Speedup vs chunk size",
@@ -889,6 +925,7 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
         ideal: false,
         refs: &refs,
         y_range: None,
+        legend_w: 0,
     };
     both!(
         out.bitmap,
@@ -1101,6 +1138,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
         ideal: false,
         refs: &[(1.0, "speedup 1 (serial)")],
         y_range: None,
+        legend_w: 0,
     };
     both!(out.bitmap, stem, SIZE, line_chart(&lines, &data));
     out.push(&stem, title, "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.");
@@ -1291,6 +1329,7 @@ fn mpi_throughput(
         ideal: false,
         refs: &[],
         y_range: None,
+        legend_w: 0,
     };
     let bottom = Lines {
         title: "Items handed out per second vs chunk size",
@@ -1301,6 +1340,7 @@ fn mpi_throughput(
         ideal: false,
         refs: &[],
         y_range: None,
+        legend_w: 0,
     };
     both!(
         bitmap,
@@ -1443,6 +1483,7 @@ mod layout_tests {
             ideal: false,
             refs: &[],
             y_range: None,
+            legend_w: 0,
         };
         let bottom = Lines {
             title: "Speedup vs chunk size",
@@ -1453,6 +1494,7 @@ mod layout_tests {
             ideal: false,
             refs: &[(1.0, "speedup 1 (serial)"), (64.0, "ideal (speedup 64)")],
             y_range: None,
+            legend_w: 0,
         };
         for size in [(900, 820), (640, 600)] {
             check("granularity", size, |a| {
@@ -1476,6 +1518,7 @@ mod layout_tests {
             ideal: true,
             refs: &[(1.0, "speedup 1 (serial)")],
             y_range: None,
+            legend_w: 0,
         };
         check("speedup vs workers", SIZE, |a| line_chart(a, &lines, &by_w));
         // Pixels per item from 1 to 65536 on a log₂ axis: "65536" beside "32768".

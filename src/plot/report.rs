@@ -749,7 +749,6 @@ pub fn full_table(sums: &[&Summary]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::experiment::results::RunRow;
 
     /// `reps` rows of one configuration; round r scales every wall time by the same drift.

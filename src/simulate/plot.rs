@@ -55,6 +55,7 @@ fn chart(
         ideal: false,
         refs: &refs,
         y_range: None,
+        legend_w: 0,
     };
     let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
