@@ -99,11 +99,10 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", dir.display())))?;
     }
-    p.heat_map()
-        .save_with_format(&args.output, image::ImageFormat::Png)
-        .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
+    p.save_heat_map(&args.output)
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
     out!(
-        "wrote {} (cost per pixel, log scale: black cheapest … white costliest)",
+        "wrote {} (cost per pixel on a log scale; the colour bar beside the image gives µs per pixel)",
         args.output.display()
     );
     Ok(())

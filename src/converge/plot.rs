@@ -18,21 +18,6 @@ fn register_font() {
     });
 }
 
-/// Strong, distinct colours (matplotlib's tab10): Palette99's first entries are too pale to
-/// tell apart on white.
-const COLOURS: [(u8, u8, u8); 10] = [
-    (31, 119, 180),
-    (255, 127, 14),
-    (44, 160, 44),
-    (214, 39, 40),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-    (127, 127, 127),
-    (188, 189, 34),
-    (23, 190, 207),
-];
-
 const PANEL: (u32, u32) = (1000, 560);
 
 /// Log-log plot of RMSE against wall time, one panel per scene and one series per
@@ -83,75 +68,63 @@ fn draw<DB: DrawingBackend>(
     rows: &[ConvergenceRow],
     scenes: &[&str],
 ) -> anyhow::Result<()> {
+    use crate::plot::axes::{self, AxisSpec, Key, Scale};
+    use crate::plot::style::{self, Dash};
     root.fill(&WHITE).map_err(e)?;
     let mut configs: Vec<String> = rows.iter().map(|r| config_key(r).1).collect();
     configs.sort();
     configs.dedup();
+    let styles = style::for_names(&configs);
     let summary = summarise(rows);
+    let usable = |r: &&ConvergenceRow| r.wall_s > 0.0 && r.rmse > 0.0;
+    // One x and one y range for every panel, so panels compare at a glance.
+    let (x0, x1, y0, y1) = rows.iter().filter(usable).fold(
+        (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64),
+        |(a, b, c, d), r| {
+            (
+                a.min(r.wall_s),
+                b.max(r.wall_s),
+                c.min(r.rmse),
+                d.max(r.rmse),
+            )
+        },
+    );
+    let (cx0, cx1) = ((x0 / 1.3).log10(), (x1 * 1.3).log10());
+    let (cy0, cy1) = ((y0 / 1.3).log10(), (y1 * 1.3).log10());
     for (panel, scene) in root.split_evenly((scenes.len(), 1)).iter().zip(scenes) {
         let mut groups: BTreeMap<String, Vec<&ConvergenceRow>> = BTreeMap::new();
-        for r in rows
-            .iter()
-            .filter(|r| r.scene == *scene && r.wall_s > 0.0 && r.rmse > 0.0)
-        {
+        for r in rows.iter().filter(|r| r.scene == *scene).filter(usable) {
             groups.entry(config_key(r).1).or_default().push(r);
         }
-        let all = groups.values().flatten();
-        let (x0, x1, y0, y1) = all.fold(
-            (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64),
-            |(a, b, c, d), r| {
-                (
-                    a.min(r.wall_s),
-                    b.max(r.wall_s),
-                    c.min(r.rmse),
-                    d.max(r.rmse),
-                )
-            },
-        );
-        let mut chart = ChartBuilder::on(panel)
-            .caption(format!("RMSE vs wall time: {scene}"), ("sans-serif", 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(
-                (x0 / 1.5..x1 * 1.5).log_scale(),
-                (y0 / 1.5..y1 * 1.5).log_scale(),
-            )
-            .map_err(e)?;
-        chart
-            .configure_mesh()
-            .x_desc("wall time [s]")
-            .y_desc("RMSE")
-            .x_label_formatter(&|v| format!("{v:.2e}"))
-            .y_label_formatter(&|v| format!("{v:.2e}"))
-            .draw()
-            .map_err(e)?;
+        let mut keys: Vec<(String, Key)> = Vec::new();
         for (config, g) in &groups {
             let k = configs.iter().position(|c| c == config).unwrap_or(0);
-            let (r, gr, b) = COLOURS[k % COLOURS.len()];
-            let colour = RGBColor(r, gr, b);
-            let series: Vec<(f64, f64)> = g.iter().map(|r| (r.wall_s, r.rmse)).collect();
             let owned: Vec<ConvergenceRow> = g.iter().map(|r| (*r).clone()).collect();
             let slope = fitted_slope(&owned).map_or("n/a".into(), |s| format!("{s:.2}"));
-            let style = colour.stroke_width(2);
-            let label = format!("{config}: slope {slope}");
-            // Past ten configurations the colours repeat; dash the second round.
-            if k < COLOURS.len() {
-                chart
-                    .draw_series(LineSeries::new(series.clone(), style))
-                    .map_err(e)?
-                    .label(label)
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], style));
-            } else {
-                chart
-                    .draw_series(DashedLineSeries::new(series.clone(), 4, 3, style))
-                    .map_err(e)?
-                    .label(label)
-                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], style));
-            }
-            chart
-                .draw_series(series.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .map_err(e)?;
+            keys.push((format!("{config}: slope {slope}"), Key::Series(styles[k])));
+        }
+        keys.push(("slope −½ guide".into(), Key::Line(BLACK, Dash::Dashed)));
+        let body = axes::titled(panel, &format!("RMSE vs wall time: {scene}")).map_err(e)?;
+        let labels: Vec<String> = keys.iter().map(|k| k.0.clone()).collect();
+        let (plot, legend_area) = axes::with_legend(&body, &labels);
+        let xs = AxisSpec {
+            desc: "wall time (s), log scale".into(),
+            range: (cx0, cx1),
+            scale: Scale::Log10,
+        };
+        let ys = AxisSpec {
+            desc: "RMSE, log scale".into(),
+            range: (cy0, cy1),
+            scale: Scale::Log10,
+        };
+        let mut chart = axes::chart(&plot, &xs, &ys).map_err(e)?;
+        for (config, g) in &groups {
+            let k = configs.iter().position(|c| c == config).unwrap_or(0);
+            let pts: Vec<(f64, f64)> = g
+                .iter()
+                .map(|r| (r.wall_s.log10(), r.rmse.log10()))
+                .collect();
+            axes::draw_line(&mut chart, &pts, styles[k], 2).map_err(e)?;
         }
         // The −½ guide through the final point of the scene's lowest-error configuration.
         let best = summary
@@ -161,27 +134,25 @@ fn draw<DB: DrawingBackend>(
             .and_then(|g| g.last());
         if let Some(anchor) = best {
             let (gx, gy) = (anchor.wall_s, anchor.rmse);
-            let guide: Vec<(f64, f64)> = (0..=20)
+            let pa = chart.plotting_area().strip_coord_spec();
+            let o = pa.get_base_pixel();
+            let guide: Vec<(i32, i32)> = (0..=20)
                 .map(|i| {
                     let x = x0 * (x1 / x0).powf(i as f64 / 20.0);
-                    (x, gy * (x / gx).powf(-0.5))
+                    (x.log10(), (gy * (x / gx).powf(-0.5)).log10())
                 })
-                .filter(|&(_, y)| y >= y0 / 1.5 && y <= y1 * 1.5)
+                .filter(|&(_, y)| y >= cy0 && y <= cy1)
+                .map(|p| {
+                    let b = chart.backend_coord(&p);
+                    (b.0 - o.0, b.1 - o.1)
+                })
                 .collect();
-            chart
-                .draw_series(DashedLineSeries::new(guide, 6, 4, BLACK.stroke_width(1)))
-                .map_err(e)?
-                .label("slope −½ guide")
-                .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], BLACK));
+            for piece in axes::dashed(&guide, Dash::Dashed) {
+                pa.draw(&PathElement::new(piece, BLACK.stroke_width(1)))
+                    .map_err(e)?;
+            }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(e)?;
+        axes::legend(&legend_area, &keys).map_err(e)?;
     }
     root.present().map_err(e)?;
     Ok(())

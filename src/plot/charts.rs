@@ -1,12 +1,14 @@
 //! The figures: speedup vs workers, granularity (wall and speedup vs chunk size), buffer size,
 //! overhead breakdown and Gantt timelines.
 
+use super::axes::{self, AxisSpec, Key, Scale};
+use super::style::{self, Dash};
 use crate::experiment::run::{slug, timeline_path};
 use crate::experiment::summary::Summary;
 use crate::metrics::MASTER_LANE;
-use crate::sched::SchedulerKind;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// A drawn figure: `file` is the PNG relative to the experiment folder (an SVG lies beside it).
@@ -49,36 +51,17 @@ macro_rules! both {
     }};
 }
 
-/// The Okabe–Ito colours every chart draws its lines in: distinguishable with colour
-/// blindness and readable on white.
-pub const PALETTE: [RGBColor; 7] = [
-    RGBColor(213, 94, 0),
-    RGBColor(0, 114, 178),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(86, 180, 233),
-    RGBColor(230, 159, 0),
-    RGBColor(120, 120, 120),
-];
-
-/// Line `i`'s colour, cycling through [`PALETTE`].
+/// Line `i`'s colour ([`style::nth`]).
 pub fn palette(i: usize) -> RGBColor {
-    PALETTE[i % PALETTE.len()]
+    style::nth(i).colour
 }
 
-/// A stable colour per scheduler kind (serial and unknown ids get black).
-fn colour(kind: &str) -> RGBColor {
-    match SchedulerKind::ALL.iter().position(|k| k.id() == kind) {
-        Some(i) => palette(i),
-        None => BLACK,
-    }
-}
-
-/// One point of a line: x, y and the 95 % interval of y (both equal to y without one).
+/// One point of a line: x, y and the 95 % interval of y (both equal to y without one), in the
+/// values' own units (the chart applies its scales).
 type Pt = (f64, f64, f64, f64);
 
 /// (name, points) lines: for each scheduler kind, the best config at each x.
-type Series = Vec<(String, Vec<Pt>)>;
+pub(crate) type Series = Vec<(String, Vec<Pt>)>;
 
 /// A value without an interval.
 fn point(y: f64) -> (f64, f64, f64) {
@@ -98,23 +81,56 @@ fn speed_ci(s: &Summary) -> (f64, f64, f64) {
     }
 }
 
-/// A tick label without exponent clutter: 3 significant digits, trailing zeros dropped.
-fn tidy(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return "0".into();
-    }
-    let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 9) as usize;
-    let t = format!("{v:.digits$}");
-    if t.contains('.') {
-        t.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        t
-    }
+/// The unit of a granularity chart's x axis: the one its configurations are written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ChunkUnit {
+    /// `chunk = "4"`: a 4 × 4 tile; x is the side.
+    Side,
+    /// Rows, frames and w×h tiles only: x is pixels per item.
+    Pixels,
 }
 
-/// x of the granularity charts: log₂ of the pixels per item.
-fn log2_chunk(s: &Summary) -> Option<f64> {
-    s.row.chunk_px.map(|c| (c as f64).log2())
+impl ChunkUnit {
+    /// Side where any configuration names a square tile by its side, else pixels.
+    pub(crate) fn of(sums: &[&Summary]) -> Self {
+        let square = |s: &&&Summary| {
+            s.row
+                .chunk
+                .as_deref()
+                .is_some_and(|c| c.parse::<u64>().is_ok())
+        };
+        if sums.iter().any(|s| square(&s)) {
+            Self::Side
+        } else {
+            Self::Pixels
+        }
+    }
+
+    /// The x value of a configuration: its tile side (√ pixels for rows and frames).
+    pub(crate) fn x(self, s: &Summary) -> Option<f64> {
+        let px = s.row.chunk_px? as f64;
+        Some(match self {
+            Self::Side => px.sqrt(),
+            Self::Pixels => px,
+        })
+    }
+
+    /// The axis description, said once.
+    pub(crate) fn desc(self, sums: &[&Summary]) -> String {
+        let other = sums.iter().any(|s| {
+            s.row
+                .chunk
+                .as_deref()
+                .is_some_and(|c| c.parse::<u64>().is_err())
+        });
+        match (self, other) {
+            (Self::Side, false) => "chunk: tile side in px (an item is side × side), log₂".into(),
+            (Self::Side, true) => {
+                "chunk: tile side in px (rows, frame: √ of their pixels), log₂".into()
+            }
+            (Self::Pixels, _) => "chunk: pixels per item, log₂".into(),
+        }
+    }
 }
 
 /// `better` of [`series`] for speedup and throughput.
@@ -170,210 +186,217 @@ fn series(
     out
 }
 
-fn range(series: &Series, f: impl Fn(&Pt) -> f64) -> (f64, f64) {
-    let v = series.iter().flat_map(|(_, l)| l.iter().map(&f));
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-        (a.min(x), b.max(x))
+/// The (min, max) of `f` over every finite point, `None` without one.
+fn range_of(data: &Series, f: impl Fn(&Pt) -> f64) -> Option<(f64, f64)> {
+    let (lo, hi) = data
+        .iter()
+        .flat_map(|(_, l)| l.iter().map(&f))
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+    lo.is_finite().then_some((lo, hi))
+}
+
+/// A line chart: its title, axes, scales and reference lines.
+#[derive(Clone, Copy)]
+pub(crate) struct Lines<'a> {
+    pub title: &'a str,
+    pub x_desc: &'a str,
+    pub y_desc: &'a str,
+    /// Linear or log₂.
+    pub x: Scale,
+    /// Linear or log₁₀.
+    pub y: Scale,
+    /// Draw the diagonal y = x (ideal speedup).
+    pub ideal: bool,
+    /// Horizontal reference lines (value, legend text).
+    pub refs: &'a [(f64, &'a str)],
+    /// The y range in values, shared by the panels of one figure; `None`: from the data.
+    pub y_range: Option<(f64, f64)>,
+    /// The legend's width, so stacked panels line up; 0: from its labels.
+    pub legend_w: i32,
+}
+
+/// The y range a chart of `data` under `scale` shows, in values: from 0 (linear) or just
+/// below the lowest interval end (log), to just above the highest one and the references.
+pub(crate) fn y_extent(data: &Series, scale: Scale, refs: &[(f64, &str)]) -> (f64, f64) {
+    let pos = |v: f64| scale != Scale::Log10 || v > 0.0;
+    let lo = range_of(data, |p| if pos(p.2) { p.2 } else { p.1 }).map_or(1.0, |r| r.0);
+    let hi = range_of(data, |p| p.3).map_or(1.0, |r| r.1);
+    let hi = refs.iter().map(|r| r.0).fold(hi, f64::max);
+    match scale {
+        Scale::Log10 => {
+            let lo = refs
+                .iter()
+                .map(|r| r.0)
+                .filter(|v| *v > 0.0)
+                .fold(lo, f64::min);
+            let (l, h) = (lo.max(1e-300).log10(), hi.max(1e-300).log10());
+            let pad = ((h - l) * 0.06).max(0.02);
+            (10f64.powf(l - pad), 10f64.powf(h + pad))
+        }
+        _ => (0.0f64.min(lo), (hi * 1.08).max(1e-9)),
+    }
+}
+
+pub(crate) fn line_chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    c: &Lines,
+    data: &Series,
+) -> R {
+    let (sx, sy) = (c.x, c.y);
+    let tx = |v: f64| sx.to(v);
+    let ty = |v: f64| sy.to(v);
+    let (x0, x1) = range_of(data, |p| tx(p.0)).unwrap_or((0.0, 1.0));
+    let (v0, v1) = c.y_range.unwrap_or_else(|| {
+        let mut refs: Vec<(f64, &str)> = c.refs.to_vec();
+        if c.ideal {
+            refs.push((range_of(data, |p| p.0).map_or(1.0, |r| r.1), ""));
+        }
+        y_extent(data, sy, &refs)
     });
-    if lo.is_finite() {
-        (lo, hi)
+    let (y0, y1) = (ty(v0), ty(v1));
+    let (y0, y1) = if y0.is_finite() && y1.is_finite() && y1 > y0 {
+        (y0, y1)
     } else {
         (0.0, 1.0)
+    };
+    let pad = match sx {
+        Scale::Linear => ((x1 - x0) * 0.04).max(0.5),
+        _ => ((x1 - x0) * 0.04).max(0.3),
+    };
+    let mut names: Vec<String> = data.iter().map(|d| d.0.clone()).collect();
+    let styles = style::for_names(&names);
+    let mut keys: Vec<(String, Key)> = names
+        .iter()
+        .cloned()
+        .zip(styles.iter().map(|s| Key::Series(*s)))
+        .collect();
+    if c.ideal {
+        keys.push((
+            "ideal (speedup = workers)".into(),
+            Key::Line(BLACK, Dash::Solid),
+        ));
     }
-}
-
-fn kind_of(name: &str) -> &str {
-    name.split_whitespace().next().unwrap_or(name)
-}
-
-fn line_chart<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    title: &str,
-    x_desc: &str,
-    y_desc: &str,
-    data: &Series,
-    // (x on a log₂ scale, draw the ideal diagonal, y on a log₁₀ scale)
-    (log2_x, ideal, log10_y): (bool, bool, bool),
-    refs: &[(f64, &str)],
-) -> R {
-    // A log y axis is drawn as log₁₀ of the values on a linear axis (labels 10^k): rates that
-    // span decades (items/s from per-ray to whole-frame items) stay readable.
-    let logged: Series;
-    let data = if log10_y {
-        let l = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
-        logged = data
-            .iter()
-            .map(|(n, pts)| {
-                let pts = pts
-                    .iter()
-                    .filter(|p| p.1 > 0.0)
-                    .map(|p| (p.0, l(p.1), l(p.2.max(p.1 * 1e-3)), l(p.3)))
-                    .collect();
-                (n.clone(), pts)
-            })
-            .collect();
-        &logged
-    } else {
-        data
-    };
-    let (x0, x1) = range(data, |p| p.0);
-    let (_, y1) = range(data, |p| p.3);
-    let y1 = if ideal { y1.max(x1) } else { y1 };
-    let y1 = refs.iter().map(|r| r.0).fold(y1, f64::max);
-    let pad = ((x1 - x0) * 0.05).max(0.5);
-    let y_range = if log10_y {
-        let (y0, _) = range(data, |p| p.2);
-        // Head room above the data for the legend: a decade and a half.
-        y0.floor()..(y1 + 1.5).ceil()
-    } else {
-        // Head room above the data for the legend.
-        0.0..(y1 * 1.5).max(1e-9)
-    };
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d((x0 - pad)..(x1 + pad), y_range)
-        .map_err(e)?;
-    let fmt_y = |v: &f64| {
-        if !log10_y {
-            tidy(*v)
-        } else if (v - v.round()).abs() < 1e-6 {
-            tidy(10f64.powf(v.round()))
-        } else {
-            String::new()
-        }
-    };
-    let fmt_x = |v: &f64| {
-        if log2_x {
-            if (v - v.round()).abs() < 1e-6 {
-                format!("{}", 2f64.powf(v.round()) as u64)
-            } else {
-                String::new()
-            }
-        } else if (v - v.round()).abs() < 1e-6 {
-            format!("{}", v.round())
-        } else {
-            format!("{v:.1}")
-        }
-    };
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
-        .y_desc(y_desc)
-        .x_label_formatter(&fmt_x)
-        .y_label_formatter(&fmt_y)
-        .x_labels(((x1 - x0) as usize + 3).min(16))
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
-    if ideal {
-        let ideal_pts = vec![(x0.min(1.0), x0.min(1.0)), (x1, x1)];
-        chart
-            .draw_series(LineSeries::new(ideal_pts, BLACK.stroke_width(1)))
-            .map_err(e)?
-            .label("ideal (speedup = workers)")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-    }
-    for (k, &(y, name)) in refs.iter().enumerate() {
-        let c = if k == 0 {
-            RGBColor(120, 120, 120)
+    for (k, (_, name)) in c.refs.iter().enumerate() {
+        let col = if k == 0 {
+            RGBColor(110, 110, 110)
         } else {
             BLACK
         };
-        chart
-            .draw_series(LineSeries::new(
-                vec![(x0 - pad, y), (x1 + pad, y)],
-                c.stroke_width(1),
-            ))
-            .map_err(e)?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        keys.push((name.to_string(), Key::Line(col, Dash::Dashed)));
     }
-    for (i, (name, pts)) in data.iter().enumerate() {
-        let mut c = colour(kind_of(name));
-        if c == BLACK
-            || data
-                .iter()
-                .filter(|(n, _)| kind_of(n) == kind_of(name))
-                .count()
-                > 1
-        {
-            // Several lines of one kind (the buffer plot): tell them apart by index.
-            c = colour(SchedulerKind::ALL[i % SchedulerKind::ALL.len()].id());
-        }
+    names = keys.iter().map(|k| k.0.clone()).collect();
+    let body = axes::titled(area, c.title)?;
+    let (plot, legend_area) = if c.legend_w > 0 {
+        let w = body.dim_in_pixel().0 as i32;
+        body.split_horizontally(w - c.legend_w.min(w / 3))
+    } else {
+        axes::with_legend(&body, &names)
+    };
+    let xs = AxisSpec {
+        desc: c.x_desc.into(),
+        range: (x0 - pad, x1 + pad),
+        scale: sx,
+    };
+    let ys = AxisSpec {
+        desc: c.y_desc.into(),
+        range: (y0, y1),
+        scale: sy,
+    };
+    let mut chart = axes::chart(&plot, &xs, &ys)?;
+    if c.ideal {
+        let top = range_of(data, |p| p.0).map_or(1.0, |r| r.1);
+        let ideal = [(tx(1.0), ty(1.0)), (tx(top), ty(top))];
         chart
-            .draw_series(LineSeries::new(
-                pts.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>(),
-                c.stroke_width(2),
-            ))
-            .map_err(e)?
-            .label(name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            .draw_series(std::iter::once(PathElement::new(
+                ideal.to_vec(),
+                BLACK.stroke_width(1),
+            )))
+            .map_err(e)?;
+    }
+    for (k, &(y, _)) in c.refs.iter().enumerate() {
+        let col = if k == 0 {
+            RGBColor(110, 110, 110)
+        } else {
+            BLACK
+        };
+        let (a, b) = (
+            chart.backend_coord(&(x0 - pad, ty(y))),
+            chart.backend_coord(&(x1 + pad, ty(y))),
+        );
+        let pa = chart.plotting_area().strip_coord_spec();
+        let base = pa.get_base_pixel();
+        if ty(y).is_finite() && ty(y) >= y0 && ty(y) <= y1 {
+            for piece in axes::dashed(
+                &[(a.0 - base.0, a.1 - base.1), (b.0 - base.0, b.1 - base.1)],
+                Dash::Dashed,
+            ) {
+                pa.draw(&PathElement::new(piece, col.stroke_width(1)))
+                    .map_err(e)?;
+            }
+        }
+    }
+    for ((_, pts), st) in data.iter().zip(&styles) {
+        let t: Vec<Pt> = pts
+            .iter()
+            .map(|p| (tx(p.0), ty(p.1), ty(p.2), ty(p.3)))
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .collect();
         // 95 % intervals, where the summary has them.
         chart
             .draw_series(
-                pts.iter().filter(|p| p.3 > p.2).map(|&(x, _, lo, hi)| {
-                    PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(2))
-                }),
+                t.iter()
+                    .filter(|p| p.2.is_finite() && p.3.is_finite() && p.3 > p.2)
+                    .map(|&(x, _, lo, hi)| {
+                        PathElement::new(
+                            vec![(x, lo.max(y0)), (x, hi.min(y1))],
+                            st.colour.stroke_width(1),
+                        )
+                    }),
             )
             .map_err(e)?;
-        // A marker shape per line, larger for a line of one point, so none hides another.
-        let size = if pts.len() == 1 { 7 } else { 4 };
-        let xy = pts.iter().map(|p| (p.0, p.1));
-        match i % 3 {
-            0 => chart
-                .draw_series(xy.map(|p| Circle::new(p, size, c.filled())))
-                .map(|_| ()),
-            1 => chart
-                .draw_series(xy.map(|p| TriangleMarker::new(p, size + 2, c.filled())))
-                .map(|_| ()),
-            _ => chart
-                .draw_series(xy.map(|p| Cross::new(p, size + 1, c.stroke_width(3))))
-                .map(|_| ()),
-        }
-        .map_err(e)?;
+        let xy: Vec<(f64, f64)> = t.iter().map(|p| (p.0, p.1)).collect();
+        axes::draw_line(&mut chart, &xy, *st, 2)?;
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    axes::legend(&legend_area, &keys)
 }
 
+/// Two charts over one x axis, one above the other.
 fn two_charts<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    titles: (&str, &str),
-    x_desc: &str,
-    top: (&str, &Series),
-    bottom: (&str, &Series),
-    bottom_refs: &[(f64, &str)],
-    bottom_log_y: bool,
+    top: (&Lines, &Series),
+    bottom: (&Lines, &Series),
 ) -> R {
     let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 as i32 / 2);
+    // One legend width for both, so their x axes line up.
+    let mut labels: Vec<String> = [top.1, bottom.1]
+        .iter()
+        .flat_map(|d| d.iter().map(|l| l.0.clone()))
+        .collect();
+    for c in [top.0, bottom.0] {
+        labels.extend(c.refs.iter().map(|r| r.1.to_string()));
+        if c.ideal {
+            labels.push("ideal (speedup = workers)".into());
+        }
+    }
+    let w = axes::legend_width(&labels, root.dim_in_pixel().0 as i32 / 3);
     line_chart(
         &upper,
-        titles.0,
-        x_desc,
-        top.0,
+        &Lines {
+            legend_w: w,
+            ..*top.0
+        },
         top.1,
-        (true, false, false),
-        &[],
     )?;
     line_chart(
         &lower,
-        titles.1,
-        x_desc,
-        bottom.0,
+        &Lines {
+            legend_w: w,
+            ..*bottom.0
+        },
         bottom.1,
-        (true, false, bottom_log_y),
-        bottom_refs,
     )
 }
 
@@ -391,82 +414,98 @@ fn overhead_chart<DB: DrawingBackend>(
         "dispatch (master)",
     ];
     let cols = [
-        RGBColor(90, 140, 200),
-        RGBColor(230, 150, 60),
-        RGBColor(200, 200, 200),
-        RGBColor(200, 70, 70),
+        RGBColor(0, 114, 178),
+        RGBColor(230, 159, 0),
+        RGBColor(190, 190, 190),
+        RGBColor(213, 94, 0),
     ];
     let top = bars
         .iter()
         .map(|(_, v)| v.iter().sum::<f64>())
         .fold(serial_s, f64::max)
-        * 1.25;
-    let n = bars.len();
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(
-            (0..(n as i32 - 1).max(0)).into_segmented(),
-            0.0..top.max(1e-9),
-        )
-        .map_err(e)?;
+        * 1.08;
+    let n = bars.len().max(1);
+    let mut keys: Vec<(String, Key)> = parts
+        .iter()
+        .zip(cols)
+        .map(|(p, c)| (p.to_string(), Key::Box(c)))
+        .collect();
+    keys.push((
+        "serial time (no overhead)".into(),
+        Key::Line(BLACK, Dash::Dashed),
+    ));
+    let body = axes::titled(root, title)?;
+    let labels: Vec<String> = keys.iter().map(|k| k.0.clone()).collect();
+    let (plot, legend_area) = axes::with_legend(&body, &labels);
+    // Schedulers down the y axis: fifteen names fit one under another, not side by side.
     let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
-    let fmt = |v: &SegmentValue<i32>| match v {
-        SegmentValue::CenterOf(i) => names.get(*i as usize).cloned().unwrap_or_default(),
-        _ => String::new(),
+    let xs = AxisSpec {
+        desc: "Σ over workers of wall-clock spans (s)".into(),
+        range: (0.0, top.max(1e-9)),
+        scale: Scale::Linear,
     };
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_desc("scheduler (its fastest configuration, named in the caption)")
-        .y_desc("Σ over workers of wall-clock spans (s)")
-        .x_label_formatter(&fmt)
-        .x_labels(n + 1)
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
-    for (p, (&name, &c)) in parts.iter().zip(cols.iter()).enumerate() {
-        let rects = bars.iter().enumerate().map(move |(i, (_, v))| {
-            let y0: f64 = v[..p].iter().sum();
-            let mut r = Rectangle::new(
-                [
-                    (SegmentValue::Exact(i as i32), y0),
-                    (SegmentValue::Exact(i as i32 + 1), y0 + v[p]),
-                ],
-                c.filled(),
-            );
-            r.set_margin(0, 0, 12, 12);
-            r
-        });
-        chart
-            .draw_series(rects)
-            .map_err(e)?
-            .label(name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
+    let ys = AxisSpec {
+        desc: String::new(),
+        range: (-0.5, n as f64 - 0.5),
+        scale: Scale::Linear,
+    };
+    let label_w = names
+        .iter()
+        .map(|s| axes::text_size(s, axes::TICK_FONT).0)
+        .max()
+        .unwrap_or(0)
+        + 12;
+    let (labels_area, chart_area) =
+        plot.split_horizontally(label_w.min(plot.dim_in_pixel().0 as i32 / 3));
+    let mut chart = axes::chart_without_y_ticks(&chart_area, &xs, &ys)?;
+    let row_h = {
+        let a = chart.backend_coord(&(0.0, 0.0)).1;
+        let b = chart.backend_coord(&(0.0, 1.0)).1;
+        (a - b).abs()
+    };
+    // Every k-th name where rows are thinner than a line of text.
+    let need = axes::text_size("Ag", axes::TICK_FONT).1 + 2;
+    let every = ((need + row_h - 1) / row_h.max(1)).max(1) as usize;
+    let base = labels_area.get_base_pixel();
+    let lw = labels_area.dim_in_pixel().0 as i32;
+    for (i, name) in names.iter().enumerate().step_by(every) {
+        let y = chart.backend_coord(&(0.0, i as f64)).1 - base.1;
+        labels_area
+            .draw(&Text::new(
+                axes::fit_text(name, axes::TICK_FONT, lw - 8),
+                (lw - 4, y),
+                ("sans-serif", axes::TICK_FONT)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(HPos::Right, VPos::Center)),
+            ))
+            .map_err(e)?;
     }
-    chart
-        .draw_series(LineSeries::new(
-            vec![
-                (SegmentValue::Exact(0), serial_s),
-                (SegmentValue::Exact(n as i32), serial_s),
-            ],
-            BLACK.stroke_width(2),
-        ))
-        .map_err(e)?
-        .label("serial time (no overhead)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    for (p, &c) in cols.iter().enumerate() {
+        chart
+            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+                let x0: f64 = v[..p].iter().sum();
+                Rectangle::new(
+                    [(x0, i as f64 - 0.35), (x0 + v[p], i as f64 + 0.35)],
+                    c.filled(),
+                )
+            }))
+            .map_err(e)?;
+    }
+    let (a, b) = (
+        chart.backend_coord(&(serial_s, -0.5)),
+        chart.backend_coord(&(serial_s, n as f64 - 0.5)),
+    );
+    let pa = chart.plotting_area().strip_coord_spec();
+    let o = pa.get_base_pixel();
+    for piece in axes::dashed(
+        &[(a.0 - o.0, a.1 - o.1), (b.0 - o.0, b.1 - o.1)],
+        Dash::Dashed,
+    ) {
+        pa.draw(&PathElement::new(piece, BLACK.stroke_width(2)))
+            .map_err(e)?;
+    }
+    axes::legend(&legend_area, &keys)
 }
 
 /// One line of a timeline file (`source` is absent in files written before it).
@@ -557,47 +596,9 @@ fn gantt_lanes(tl: &Timeline) -> (Vec<(u32, String)>, Vec<usize>) {
 fn gantt_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, tl: &Timeline) -> R {
     let spans = &tl.spans[..];
     let (lane_list, group_starts) = gantt_lanes(tl);
-    let lanes = lane_list.len().max(1) as u32;
+    let lanes = lane_list.len().max(1);
     let lane = |w: u32| lane_list.iter().position(|l| l.0 == w).unwrap_or(0) as f64;
     let end_ms = spans.iter().map(|s| s.3).max().unwrap_or(1) as f64 / 1e6;
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(80)
-        // One empty lane of head room at the top for the legend.
-        .build_cartesian_2d(0.0..end_ms * 1.02, -0.5..lanes as f64 + 0.5)
-        .map_err(e)?;
-    let fmt_y = |v: &f64| {
-        if (v - v.round()).abs() > 1e-6 || *v < 0.0 {
-            String::new()
-        } else {
-            lane_list
-                .get(v.round() as usize)
-                .map_or(String::new(), |l| l.1.clone())
-        }
-    };
-    chart
-        .configure_mesh()
-        .disable_y_mesh()
-        .x_desc("time since the run started (ms)")
-        .y_desc("lane")
-        .y_labels((lanes as usize + 1) * 2 + 1)
-        .y_label_formatter(&fmt_y)
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
-    // A line between lane groups: threads below, the GPU above, the master on top.
-    for &g in &group_starts {
-        let y = g as f64 - 0.5;
-        chart
-            .draw_series(LineSeries::new(
-                [(0.0, y), (end_ms * 1.02, y)],
-                BLACK.mix(0.6).stroke_width(1),
-            ))
-            .map_err(e)?;
-    }
     // Colour = the item's duration, in five bins of a colour-blind-safe sequential scale
     // (viridis), log-spaced when durations spread over more than a decade.
     const BINS: [RGBColor; 5] = [
@@ -629,6 +630,84 @@ fn gantt_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, t
             v
         }
     };
+    let used: Vec<usize> = (0..5)
+        .filter(|k| spans.iter().any(|s| bin_of(dur(s)) == *k))
+        .collect();
+    let keys: Vec<(String, Key)> = used
+        .iter()
+        .map(|&k| {
+            (
+                format!(
+                    "item {}–{} ms",
+                    axes::tidy(edge(k)),
+                    axes::tidy(edge(k + 1))
+                ),
+                Key::Box(BINS[k]),
+            )
+        })
+        .collect();
+    let body = axes::titled(root, title)?;
+    let labels: Vec<String> = keys.iter().map(|k| k.0.clone()).collect();
+    let (plot, legend_area) = axes::with_legend(&body, &labels);
+    let label_w = lane_list
+        .iter()
+        .map(|l| axes::text_size(&l.1, axes::TICK_FONT).0)
+        .max()
+        .unwrap_or(0)
+        + 12;
+    let (labels_area, chart_area) =
+        plot.split_horizontally(label_w.min(plot.dim_in_pixel().0 as i32 / 4));
+    let xs = AxisSpec {
+        desc: "time since the run started (ms)".into(),
+        range: (0.0, end_ms * 1.02),
+        scale: Scale::Linear,
+    };
+    let ys = AxisSpec {
+        desc: String::new(),
+        range: (-0.5, lanes as f64 - 0.5),
+        scale: Scale::Linear,
+    };
+    let mut chart = axes::chart_without_y_ticks(&chart_area, &xs, &ys)?;
+    // Lane labels, every k-th where 64 workers' labels would not fit one per lane.
+    let row_h = (chart.backend_coord(&(0.0, 0.0)).1 - chart.backend_coord(&(0.0, 1.0)).1).abs();
+    let need = axes::text_size("Ag", axes::TICK_FONT).1 + 2;
+    let every = (need + row_h - 1) / row_h.max(1);
+    let base = labels_area.get_base_pixel();
+    let lw = labels_area.dim_in_pixel().0 as i32;
+    let font = ("sans-serif", axes::TICK_FONT)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Right, VPos::Center));
+    let n = lane_list.len();
+    let mut shown: Vec<usize> = (0..n).step_by(every.max(1) as usize).collect();
+    // The master's lane (the top one) is always named; its labelled neighbour gives way.
+    if lane_list.last().is_some_and(|l| l.0 == MASTER_LANE) && shown.last() != Some(&(n - 1)) {
+        if shown.last().is_some_and(|&l| n - 1 - l < every as usize) {
+            shown.pop();
+        }
+        shown.push(n - 1);
+    }
+    for i in shown {
+        let label = &lane_list[i].1;
+        let y = chart.backend_coord(&(0.0, i as f64)).1 - base.1;
+        labels_area
+            .draw(&Text::new(
+                axes::fit_text(label, axes::TICK_FONT, lw - 8),
+                (lw - 4, y),
+                font.clone(),
+            ))
+            .map_err(axes::e)?;
+    }
+    // A line between lane groups: threads below, the GPU above, the master on top.
+    for &g in &group_starts {
+        let y = g as f64 - 0.5;
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, y), (end_ms * 1.02, y)],
+                BLACK.mix(0.6).stroke_width(1),
+            ))
+            .map_err(e)?;
+    }
     for (k, &c) in BINS.iter().enumerate() {
         let mine: Vec<_> = spans.iter().filter(|s| bin_of(dur(s)) == k).collect();
         if mine.is_empty() {
@@ -642,19 +721,9 @@ fn gantt_chart<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str, t
                     c.filled(),
                 )
             }))
-            .map_err(e)?
-            .label(format!("item {}–{} ms", tidy(edge(k)), tidy(edge(k + 1))))
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
+            .map_err(e)?;
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    axes::legend(&legend_area, &keys)
 }
 
 /// Every figure of every group (scene + settings + tracer) into `plots`, in a fixed order: MPI
@@ -792,20 +861,19 @@ fn speedup_vs_workers(out: &mut Drawn, gr: &Group) -> R {
     );
     let stem = out.plots.join(format!("speedup_vs_workers_{}", gr.slug));
     let title = format!("Speedup vs workers — {}", gr.name);
-    both!(
-        out.bitmap,
-        stem,
-        SIZE,
-        line_chart(
-            &title,
-            "worker threads",
-            "speedup (t_serial / t)",
-            &data,
-            (false, true, false),
-            &[(1.0, "speedup 1 (serial)")]
-        )
-    );
-    out.push(&stem, title, "Speedup (median serial / median wall, paired by round) of each scheduler's best configuration per worker count, with its 95 % interval; the black diagonal is ideal linear speedup, the grey line speedup 1 (as fast as serial).");
+    let lines = Lines {
+        title: &title,
+        x_desc: "worker threads",
+        y_desc: "speedup (t_serial / t)",
+        x: Scale::Linear,
+        y: Scale::Linear,
+        ideal: true,
+        refs: &[(1.0, "speedup 1 (serial)")],
+        y_range: None,
+        legend_w: 0,
+    };
+    both!(out.bitmap, stem, SIZE, line_chart(&lines, &data));
+    out.push(&stem, title, "Speedup (median serial / median wall, paired by round) of each scheduler's best configuration per worker count, with its 95 % interval; the black diagonal is ideal linear speedup, the dashed grey line speedup 1 (as fast as serial).");
     Ok(())
 }
 
@@ -816,92 +884,203 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
         return Ok(());
     }
     let (g, max_w) = (gr.name, gr.max_w);
-    let wall = series(&gr.at_max, kind, log2_chunk, wall_ci, lower);
-    let speed = series(&gr.at_max, kind, log2_chunk, speed_ci, higher);
+    let unit = ChunkUnit::of(&gr.at_max);
+    let x = |s: &Summary| unit.x(s);
+    let wall = series(&gr.at_max, kind, x, wall_ci, lower);
+    let speed = series(&gr.at_max, kind, x, speed_ci, higher);
+    let wall_scale = axes::auto_scale(
+        wall.iter()
+            .flat_map(|l| l.1.iter().flat_map(|p| [p.1, p.2, p.3])),
+    );
     let ideal_label = format!("ideal (speedup {max_w})");
+    let refs = [
+        (1.0, "speedup 1 (serial)"),
+        (max_w as f64, ideal_label.as_str()),
+    ];
     let stem = out.plots.join(format!("granularity_{}", gr.slug));
     let title = format!("Granularity, {max_w} workers — {g}");
+    let x_desc = unit.desc(&gr.at_max);
+    let top_title = format!("Wall time vs chunk size, {max_w} workers — {g}");
+    let top = Lines {
+        title: &top_title,
+        x_desc: &x_desc,
+        y_desc: if wall_scale == Scale::Log10 {
+            "median wall time (s), log scale"
+        } else {
+            "median wall time (s)"
+        },
+        x: Scale::Log2,
+        y: wall_scale,
+        ideal: false,
+        refs: &[],
+        y_range: None,
+        legend_w: 0,
+    };
+    let bottom = Lines {
+        title: "Speedup vs chunk size",
+        x_desc: &x_desc,
+        y_desc: "speedup (t_serial / t)",
+        x: Scale::Log2,
+        y: Scale::Linear,
+        ideal: false,
+        refs: &refs,
+        y_range: None,
+        legend_w: 0,
+    };
     both!(
         out.bitmap,
         stem,
         (900, 820),
-        two_charts(
-            (
-                &format!("Wall time vs chunk size, {max_w} workers — {g}"),
-                "Speedup vs chunk size"
-            ),
-            "pixels per work item (log₂ scale)",
-            ("median wall time (s)", &wall),
-            ("speedup (t_serial / t)", &speed),
-            &[(1.0, "speedup 1 (serial)"), (max_w as f64, &ideal_label)],
-            false
-        )
+        two_charts((&top, &wall), (&bottom, &speed))
     );
-    out.push(&stem, title, "Left end = per-ray items (1 pixel), right end = the whole image as one item. Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve. Bars: 95 % intervals of the median (top) and of the paired speedup (bottom).");
+    let left = match unit {
+        ChunkUnit::Side => {
+            "Left end = per-ray items (a 1 × 1 tile), right end = the whole image as one item."
+        }
+        ChunkUnit::Pixels => {
+            "Left end = per-ray items (1 pixel), right end = the whole image as one item."
+        }
+    };
+    out.push(&stem, title, &format!("{left} Dispatch cost dominates on the left, load imbalance on the right; the best granularity is the valley of the wall-time curve{}. Bars: 95 % intervals of the median (top) and of the paired speedup (bottom).", if wall_scale == Scale::Log10 { " (log scale: equal heights are equal ratios)" } else { "" }));
     Ok(())
 }
 
-/// One panel per scheduler with predictions: measured median wall (with its interval) and the
-/// cost model's prediction against chunk size.
-fn prediction_panels<DB: DrawingBackend>(
+/// Predicted against measured wall time, a point per configuration marked by its scheduler,
+/// around the line y = x (dashed: ±25 %). Both axes log when the times span more than 5×.
+/// Shared with the simulation's validation plot.
+pub(crate) fn scatter_vs<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    g: &str,
-    panels: &[(String, Series)],
+    title: &str,
+    (x_desc, y_desc): (&str, &str),
+    // (name, [(x, x_lo, x_hi, y)]) per scheduler or group
+    groups: &[(String, Vec<(f64, f64, f64, f64)>)],
 ) -> R {
-    let cols = panels.len().clamp(1, 3);
-    let rows = panels.len().div_ceil(cols);
-    let areas = root.split_evenly((rows, cols));
-    for ((name, data), area) in panels.iter().zip(areas.iter()) {
-        line_chart(
-            area,
-            &format!("{name} — {g}"),
-            "pixels per item (log₂)",
-            "wall time (s)",
-            data,
-            (true, false, false),
-            &[],
-        )?;
+    let all = groups.iter().flat_map(|g| g.1.iter());
+    let vals: Vec<f64> = all
+        .flat_map(|p| [p.0, p.1, p.2, p.3])
+        .filter(|v| v.is_finite())
+        .collect();
+    let scale = axes::auto_scale(vals.iter().copied());
+    let t = |v: f64| scale.to(v);
+    let (lo, hi) = vals
+        .iter()
+        .filter(|v| scale != Scale::Log10 || **v > 0.0)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo, hi)
+    } else {
+        (0.0, 1.0)
+    };
+    let (c0, c1) = match scale {
+        Scale::Log10 => {
+            let (a, b) = (lo.log10(), hi.log10());
+            let pad = (b - a) * 0.06;
+            (a - pad, b + pad)
+        }
+        _ => (0.0, hi * 1.08),
+    };
+    let styles = style::for_names(&groups.iter().map(|g| g.0.clone()).collect::<Vec<_>>());
+    let mut keys: Vec<(String, Key)> = groups
+        .iter()
+        .zip(&styles)
+        .map(|(g, s)| (g.0.clone(), Key::Point(*s)))
+        .collect();
+    keys.push(("y = x (exact)".into(), Key::Line(BLACK, Dash::Solid)));
+    keys.push((
+        "±25 %".into(),
+        Key::Line(RGBColor(110, 110, 110), Dash::Dashed),
+    ));
+    let body = axes::titled(root, title)?;
+    let labels: Vec<String> = keys.iter().map(|k| k.0.clone()).collect();
+    let (plot, legend_area) = axes::with_legend(&body, &labels);
+    let log_note = if scale == Scale::Log10 {
+        ", log scale"
+    } else {
+        ""
+    };
+    let xs = AxisSpec {
+        desc: format!("{x_desc}{log_note}"),
+        range: (c0, c1),
+        scale,
+    };
+    let ys = AxisSpec {
+        desc: format!("{y_desc}{log_note}"),
+        range: (c0, c1),
+        scale,
+    };
+    let mut chart = axes::chart(&plot, &xs, &ys)?;
+    let pa = chart.plotting_area().strip_coord_spec();
+    let o = pa.get_base_pixel();
+    for (k, col, dash) in [
+        (1.0, BLACK, Dash::Solid),
+        (1.25, RGBColor(110, 110, 110), Dash::Dashed),
+        (0.8, RGBColor(110, 110, 110), Dash::Dashed),
+    ] {
+        // y = k·x sampled, so it is straight on either scale.
+        let pts: Vec<(i32, i32)> = (0..=40)
+            .map(|i| {
+                let c = c0 + (c1 - c0) * i as f64 / 40.0;
+                let v = match scale {
+                    Scale::Log10 => 10f64.powf(c),
+                    _ => c,
+                };
+                (c, t(v * k))
+            })
+            .filter(|p| p.1.is_finite() && p.1 >= c0 && p.1 <= c1)
+            .map(|p| {
+                let b = chart.backend_coord(&p);
+                (b.0 - o.0, b.1 - o.1)
+            })
+            .collect();
+        for piece in axes::dashed(&pts, dash) {
+            pa.draw(&PathElement::new(piece, col.stroke_width(1)))
+                .map_err(e)?;
+        }
     }
-    Ok(())
+    for ((_, pts), st) in groups.iter().zip(&styles) {
+        for &(x, xlo, xhi, y) in pts {
+            let (cx, cy) = (t(x), t(y));
+            if !cx.is_finite() || !cy.is_finite() {
+                continue;
+            }
+            if t(xlo).is_finite() && t(xhi).is_finite() && xhi > xlo {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        vec![(t(xlo).max(c0), cy), (t(xhi).min(c1), cy)],
+                        st.colour.stroke_width(1),
+                    )))
+                    .map_err(e)?;
+            }
+            let b = chart.backend_coord(&(cx, cy));
+            pa.draw(&axes::marker(
+                (b.0 - o.0, b.1 - o.1),
+                st.marker,
+                st.colour,
+                5,
+            ))
+            .map_err(e)?;
+        }
+    }
+    axes::legend(&legend_area, &keys)
 }
 
 fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
-    let with: Vec<&Summary> = gr
-        .at_max
-        .iter()
-        .copied()
-        .filter(|s| s.row.predicted_wall_s.is_some())
-        .collect();
-    let mut kinds: Vec<String> = Vec::new();
-    for s in &with {
-        if !kinds.contains(&s.row.scheduler) {
-            kinds.push(s.row.scheduler.clone());
+    let mut groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = Vec::new();
+    for s in gr.at_max.iter().copied() {
+        let Some(p) = s.row.predicted_wall_s else {
+            continue;
+        };
+        let pt = (s.wall_median, s.wall_median_ci.0, s.wall_median_ci.1, p);
+        match groups.iter_mut().find(|g| g.0 == s.row.scheduler) {
+            Some(g) => g.1.push(pt),
+            None => groups.push((s.row.scheduler.clone(), vec![pt])),
         }
     }
-    if kinds.is_empty() {
+    if groups.is_empty() {
         return Ok(());
     }
-    let panels: Vec<(String, Series)> = kinds
-        .iter()
-        .map(|k| {
-            let of: Vec<&Summary> = with
-                .iter()
-                .copied()
-                .filter(|s| &s.row.scheduler == k)
-                .collect();
-            let mut data = series(&of, |_| Some("measured".into()), log2_chunk, wall_ci, lower);
-            data.extend(series(
-                &of,
-                |_| Some("predicted".into()),
-                log2_chunk,
-                |s| point(s.row.predicted_wall_s.unwrap_or(f64::NAN)),
-                lower,
-            ));
-            (k.clone(), data)
-        })
-        .collect();
-    let cols = panels.len().clamp(1, 3) as u32;
-    let rows = panels.len().div_ceil(3) as u32;
     let stem = out.plots.join(format!("predicted_{}", gr.slug));
     let title = format!(
         "Predicted vs measured wall time, {} workers — {}",
@@ -910,10 +1089,14 @@ fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
     both!(
         out.bitmap,
         stem,
-        (520 * cols, 420 * rows),
-        prediction_panels(gr.name, &panels)
+        (900, 700),
+        scatter_vs(
+            &title,
+            ("measured median wall time (s)", "predicted wall time (s)"),
+            &groups
+        )
     );
-    out.push(&stem, title, "One panel per scheduler: the measured median wall time (with its 95 % interval) and the cost model's prediction made before the first round, against pixels per item; where a scheduler has several configurations at one chunk, the fastest of each.");
+    out.push(&stem, title, "One point per configuration, marked by its scheduler: the cost model's prediction made before the first round against the measured median (horizontal bar: its 95 % interval). Points on the black line y = x are exact; the dashed lines are ±25 %; above the line the model is pessimistic.");
     Ok(())
 }
 
@@ -937,7 +1120,7 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
                 s.row.chunk.clone().unwrap_or_default()
             ))
         },
-        |s| s.row.buffer().map(|b| (b as f64).log2()),
+        |s| s.row.buffer().map(|b| b as f64),
         speed_ci,
         higher,
     );
@@ -946,19 +1129,18 @@ fn buffer_sizes(out: &mut Drawn, gr: &Group) -> R {
         "Master: speedup vs buffer size, {} workers — {}",
         gr.max_w, gr.name
     );
-    both!(
-        out.bitmap,
-        stem,
-        SIZE,
-        line_chart(
-            &title,
-            "items outstanding per worker, B (log₂ scale)",
-            "speedup (t_serial / t)",
-            &data,
-            (true, false, false),
-            &[(1.0, "speedup 1 (serial)")]
-        )
-    );
+    let lines = Lines {
+        title: &title,
+        x_desc: "items outstanding per worker, B (log₂)",
+        y_desc: "speedup (t_serial / t)",
+        x: Scale::Log2,
+        y: Scale::Linear,
+        ideal: false,
+        refs: &[(1.0, "speedup 1 (serial)")],
+        y_range: None,
+        legend_w: 0,
+    };
+    both!(out.bitmap, stem, SIZE, line_chart(&lines, &data));
     out.push(&stem, title, "Each line is one chunk size. A small buffer leaves workers waiting for the master; a large one hands out the tail of the image too early.");
     Ok(())
 }
@@ -1130,37 +1312,41 @@ fn mpi_throughput(
     if !rows.iter().any(|s| s.row.on_mpi()) {
         return Ok(None);
     }
-    let rays = series(
-        &rows,
-        mpi_line,
-        log2_chunk,
-        |s| point(throughput(s).0),
-        higher,
-    );
-    let items = series(
-        &rows,
-        mpi_line,
-        log2_chunk,
-        |s| point(throughput(s).1),
-        higher,
-    );
+    let unit = ChunkUnit::of(&rows);
+    let x = |s: &Summary| unit.x(s);
+    let rays = series(&rows, mpi_line, x, |s| point(throughput(s).0), higher);
+    let items = series(&rows, mpi_line, x, |s| point(throughput(s).1), higher);
     let stem = plots.join(format!("mpi_throughput_{gs}"));
     let title = format!("MPI ranks vs local threads — {g}");
+    let x_desc = unit.desc(&rows);
+    let top_title = format!("Throughput vs chunk size — {g}");
+    let top = Lines {
+        title: &top_title,
+        x_desc: &x_desc,
+        y_desc: "Mrays/s (median run)",
+        x: Scale::Log2,
+        y: Scale::Linear,
+        ideal: false,
+        refs: &[],
+        y_range: None,
+        legend_w: 0,
+    };
+    let bottom = Lines {
+        title: "Items handed out per second vs chunk size",
+        x_desc: &x_desc,
+        y_desc: "items/s (median run), log scale",
+        x: Scale::Log2,
+        y: Scale::Log10,
+        ideal: false,
+        refs: &[],
+        y_range: None,
+        legend_w: 0,
+    };
     both!(
         bitmap,
         stem,
         (900, 820),
-        two_charts(
-            (
-                &format!("Throughput vs chunk size — {g}"),
-                "Items handed out per second vs chunk size"
-            ),
-            "pixels per work item (log₂ scale)",
-            ("Mrays/s (median run)", &rays),
-            ("items/s (median run, log scale)", &items),
-            &[],
-            true
-        )
+        two_charts((&top, &rays), (&bottom, &items))
     );
     let stem = final_plots.join(stem.strip_prefix(plots).unwrap_or(&stem));
     Ok(Some(Figure {
@@ -1203,5 +1389,265 @@ mod gantt_tests {
         let labels: Vec<&str> = lanes.iter().map(|l| l.1.as_str()).collect();
         assert_eq!(labels, ["worker 0", "worker 1", "worker 2", "master"]);
         assert_eq!(starts, [3]);
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    //! Every chart kind rendered with many series, long names and wide ranges on an audit
+    //! canvas: no two labels may overlap and none may leave the canvas.
+    use super::*;
+    use crate::experiment::results::RunRow;
+    use crate::experiment::summary::summarize;
+    use crate::plot::audit::check;
+    use crate::sched::SchedulerKind;
+
+    const SCENE: &str = "a_scene_whose_name_goes_on_and_on_and_on";
+
+    fn row(kind: &str, chunk: &str, px: u64, workers: usize, rep: u32, wall: f64) -> RunRow {
+        let mut r = RunRow::example();
+        r.experiment = "layout".into();
+        r.scene = SCENE.into();
+        r.width = 256;
+        r.height = 256;
+        r.spp = 8;
+        r.tracer = "bvh".into();
+        r.config = format!("{kind} {chunk} {workers}");
+        r.scheduler = kind.into();
+        r.label = format!("{kind} chunk={chunk} order=scatter_with_a_long_name");
+        r.chunk = (kind != "serial").then(|| chunk.to_string());
+        r.chunk_px = (kind != "serial").then_some(px);
+        r.workers = workers;
+        r.repetition = rep;
+        r.wall_s = wall * (1.0 + 0.01 * rep as f64);
+        r.serial_s = 2.0;
+        r.rays = 1_000_000;
+        r.items = 65536 / px.max(1);
+        r.work_s = 1.9 * workers as f64;
+        r.idle_s = 0.1;
+        r.predicted_wall_s = Some(wall * 1.2);
+        r
+    }
+
+    /// 15 kinds × 17 chunk sizes (1 to 65536 px) at 64 workers, 7 worker counts at one chunk,
+    /// and the serial baseline; wall times over three decades.
+    fn sums() -> Vec<Summary> {
+        let mut rows = Vec::new();
+        for rep in 0..3 {
+            rows.push(row("serial", "", 0, 1, rep, 2.0));
+            for (k, kind) in SchedulerKind::ALL.iter().enumerate() {
+                for p in 0..=8u32 {
+                    let side = 1u64 << p;
+                    let wall = 0.03 + 3.0 / (side * side) as f64 + 0.001 * (side * k as u64) as f64;
+                    rows.push(row(
+                        kind.id(),
+                        &side.to_string(),
+                        side * side,
+                        64,
+                        rep,
+                        wall,
+                    ));
+                }
+                for w in [1, 2, 4, 8, 16, 32] {
+                    rows.push(row(kind.id(), "16", 256, w, rep, 2.0 / w as f64));
+                }
+            }
+        }
+        summarize(&rows)
+    }
+
+    #[test]
+    fn no_label_of_any_chart_kind_overlaps_another_or_leaves_the_canvas() {
+        let sums = sums();
+        let g = crate::experiment::summary::group_of(&sums[0].row);
+        let gr = Group::of(&g, &sums).expect("thread rows");
+        let unit = ChunkUnit::of(&gr.at_max);
+        assert_eq!(unit, ChunkUnit::Side);
+        let x = |s: &Summary| unit.x(s);
+        let wall = series(&gr.at_max, kind, x, wall_ci, lower);
+        let speed = series(&gr.at_max, kind, x, speed_ci, higher);
+        let xd = unit.desc(&gr.at_max);
+        let scale = axes::auto_scale(wall.iter().flat_map(|l| l.1.iter().map(|p| p.1)));
+        assert_eq!(
+            scale,
+            Scale::Log10,
+            "wall times over decades go on a log axis"
+        );
+        let title = format!("Wall time vs chunk size, 64 workers — {g}");
+        let top = Lines {
+            title: &title,
+            x_desc: &xd,
+            y_desc: "median wall time (s), log scale",
+            x: Scale::Log2,
+            y: scale,
+            ideal: false,
+            refs: &[],
+            y_range: None,
+            legend_w: 0,
+        };
+        let bottom = Lines {
+            title: "Speedup vs chunk size",
+            x_desc: &xd,
+            y_desc: "speedup (t_serial / t)",
+            x: Scale::Log2,
+            y: Scale::Linear,
+            ideal: false,
+            refs: &[(1.0, "speedup 1 (serial)"), (64.0, "ideal (speedup 64)")],
+            y_range: None,
+            legend_w: 0,
+        };
+        for size in [(900, 820), (640, 600)] {
+            check("granularity", size, |a| {
+                two_charts(a, (&top, &wall), (&bottom, &speed))
+            });
+        }
+        let by_w = series(
+            &gr.all,
+            kind,
+            |s| Some(s.row.workers as f64),
+            speed_ci,
+            higher,
+        );
+        let t = format!("Speedup vs workers — {g}");
+        let lines = Lines {
+            title: &t,
+            x_desc: "worker threads",
+            y_desc: "speedup (t_serial / t)",
+            x: Scale::Linear,
+            y: Scale::Linear,
+            ideal: true,
+            refs: &[(1.0, "speedup 1 (serial)")],
+            y_range: None,
+            legend_w: 0,
+        };
+        check("speedup vs workers", SIZE, |a| line_chart(a, &lines, &by_w));
+        // Pixels per item from 1 to 65536 on a log₂ axis: "65536" beside "32768".
+        let px = series(
+            &gr.at_max,
+            kind,
+            |s| s.row.chunk_px.map(|p| p as f64),
+            wall_ci,
+            lower,
+        );
+        let lines = Lines {
+            x_desc: "chunk: pixels per item, log₂",
+            ..top
+        };
+        check("pixels axis", (520, 420), |a| line_chart(a, &lines, &px));
+        let mut groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = Vec::new();
+        for s in &gr.at_max {
+            let pt = (
+                s.wall_median,
+                s.wall_median_ci.0,
+                s.wall_median_ci.1,
+                s.row.predicted_wall_s.unwrap_or(0.0),
+            );
+            match groups.iter_mut().find(|g| g.0 == s.row.scheduler) {
+                Some(g) => g.1.push(pt),
+                None => groups.push((s.row.scheduler.clone(), vec![pt])),
+            }
+        }
+        check("predicted vs measured", (900, 700), |a| {
+            scatter_vs(
+                a,
+                &format!("Predicted vs measured wall time, 64 workers — {g}"),
+                ("measured median wall time (s)", "predicted wall time (s)"),
+                &groups,
+            )
+        });
+        let bars: Vec<(String, [f64; 4])> = SchedulerKind::ALL
+            .iter()
+            .map(|k| (k.id().to_string(), [1.0, 0.2, 0.1, 0.05]))
+            .collect();
+        for size in [SIZE, (600, 300)] {
+            check("overhead", size, |a| {
+                overhead_chart(
+                    a,
+                    &format!("Where the time goes, 64 workers — {g}"),
+                    &bars,
+                    1.0,
+                )
+            });
+        }
+        let mut tl = Timeline::default();
+        for w in 0..64u32 {
+            for i in 0..20u64 {
+                tl.spans.push((
+                    w,
+                    i as u32,
+                    i * 1_000_000 * (w as u64 % 7 + 1),
+                    (i + 1) * 1_000_000 * (w as u64 % 7 + 1),
+                ));
+            }
+            tl.kinds
+                .push((w, if w < 60 { "threads" } else { "gpu" }.into()));
+        }
+        tl.spans.push((MASTER_LANE, 0, 0, 5_000_000));
+        check("gantt", SIZE, |a| {
+            gantt_chart(a, &format!("Timeline: {} ×64 — {g}", "x".repeat(120)), &tl)
+        });
+    }
+
+    #[test]
+    #[should_panic(expected = "overlapping labels")]
+    fn the_audit_catches_plotters_own_crowded_ticks() {
+        // What the charts did before: plotters' mesh with 16 x labels on a narrow panel.
+        check("plotters mesh", (300, 200), |a| {
+            let mut c = ChartBuilder::on(a)
+                .x_label_area_size(30)
+                .y_label_area_size(40)
+                .build_cartesian_2d(0.0..16.0, 0.0..1.0)
+                .map_err(e)?;
+            c.configure_mesh()
+                .x_labels(17)
+                .x_label_formatter(&|v| format!("{}", 2f64.powf(*v) as u64))
+                .label_style(("sans-serif", 14))
+                .draw()
+                .map_err(e)
+        });
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the canvas")]
+    fn the_audit_catches_a_title_wider_than_the_canvas() {
+        check("wide caption", (300, 200), |a| {
+            a.titled(&"x".repeat(80), ("sans-serif", 20))
+                .map(|_| ())
+                .map_err(e)
+        });
+    }
+
+    #[test]
+    fn draw_all_writes_every_chart_kind() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let sums = sums();
+        crate::plot::register_font();
+        let plots = dir.path().join("plots");
+        std::fs::create_dir_all(&plots).expect("plots dir");
+        let figs = draw_all(dir.path(), &plots, &plots, true, &sums).expect("drawn");
+        let names: Vec<&str> = figs.iter().map(|f| f.file.as_str()).collect();
+        for want in [
+            "speedup_vs_workers_",
+            "granularity_",
+            "predicted_",
+            "overhead_",
+        ] {
+            assert!(
+                names.iter().any(|n| n.contains(want)),
+                "{want} missing from {names:?}"
+            );
+        }
+        for f in &figs {
+            assert!(dir.path().join(&f.file).exists(), "{}", f.file);
+        }
+        if let Ok(keep) = std::env::var("RAYSCHED_KEEP_PLOTS") {
+            let _ = std::fs::create_dir_all(&keep);
+            for f in &figs {
+                let _ = std::fs::copy(
+                    dir.path().join(&f.file),
+                    Path::new(&keep).join(Path::new(&f.file).file_name().unwrap_or_default()),
+                );
+            }
+        }
     }
 }

@@ -2,14 +2,20 @@
 //! old run can be re-plotted with `raysched plot results/<experiment>`. Every figure is written
 //! as PNG (bitmap backend) and SVG, with the bundled DejaVu Sans (no system fonts needed).
 
+#[cfg(test)]
+mod audit;
+pub mod axes;
 mod charts;
 pub mod compare;
+pub mod html;
 pub mod prediction;
 pub mod raster;
 pub mod report;
 pub mod self_tuning;
+pub mod style;
 
-pub use charts::{mpi_line, palette, throughput, Figure, PALETTE};
+pub(crate) use charts::{line_chart, scatter_vs, Lines, Series};
+pub use charts::{mpi_line, palette, throughput, Figure};
 
 use crate::experiment::summary::{self, Summary};
 use crate::experiment::{convergence, meta, results};
@@ -173,8 +179,21 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     }
     std::fs::write(staging.path("report.md"), report)
         .map_err(|e| format!("{}: {e}", dir.join("report.md").display()))?;
+    let html = html::render(
+        dir,
+        &plots,
+        &report::warnings(meta.as_ref(), &sums),
+        &sums,
+        &figs,
+    );
+    std::fs::write(staging.path("report.html"), html)
+        .map_err(|e| format!("{}: {e}", dir.join("report.html").display()))?;
     commit(staging)?;
-    let mut out = vec![dir.join("summary.csv"), dir.join("report.md")];
+    let mut out = vec![
+        dir.join("summary.csv"),
+        dir.join("report.md"),
+        dir.join("report.html"),
+    ];
     out.extend(json);
     out.extend(figs.iter().map(|f| dir.join(&f.file)));
     Ok(out)

@@ -349,24 +349,28 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         let _ = writeln!(md);
     }
     md += &shares_section(sums);
-    let _ = writeln!(md, "## Result\n");
-    let mut any = false;
+    let _ = writeln!(md, "## Answer\n");
     for g in &groups {
         // Thread schedulers only: MPI rows have their own section.
         let in_g: Vec<&Summary> = sums
             .iter()
             .filter(|s| &s.group() == g && !s.row.on_mpi())
             .collect();
+        if let Some(a) = answer(g, &in_g) {
+            let _ = writeln!(md, "{a}\n");
+        }
+        let curves = chunk_curves(&in_g);
+        if !curves.is_empty() {
+            let _ = writeln!(md, "Wall time against chunk size, per scheduler (its fastest configuration at each chunk; flat = tied with its best at 95 %):\n");
+            for c in curves {
+                let _ = writeln!(md, "{c}");
+            }
+            let _ = writeln!(md);
+        }
+        // Only where a per-ray master ran.
         if let Some(sentence) = per_ray_sentence(g, &in_g) {
             let _ = writeln!(md, "{sentence}\n");
-            any = true;
         }
-    }
-    if !any {
-        let _ = writeln!(
-            md,
-            "(No per-ray master configuration in this experiment, so no per-ray comparison.)\n"
-        );
     }
     md += &mpi_section(&groups, sums);
     let mut model = String::new();
@@ -449,6 +453,19 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
                 b.n
             );
         }
+        let _ = writeln!(md);
+    }
+    let _ = writeln!(md, "## Every configuration\n");
+    for g in &groups {
+        let in_g: Vec<&Summary> = sums
+            .iter()
+            .filter(|s| &s.group() == g && !s.row.on_mpi() && !s.row.is_serial())
+            .collect();
+        if in_g.is_empty() {
+            continue;
+        }
+        let _ = writeln!(md, "### {g}\n");
+        md += &full_table(&in_g);
         let _ = writeln!(md);
     }
     let _ = writeln!(md, "## Plots\n");
@@ -551,4 +568,294 @@ pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
         let _ = writeln!(md);
     }
     md
+}
+
+/// "chunk 4 (16 px)", "frame (65536 px)": a configuration's chunk as its file wrote it.
+pub fn chunk_words_pub(s: &Summary) -> String {
+    chunk_words(s)
+}
+
+fn chunk_words(s: &Summary) -> String {
+    match (&s.row.chunk, s.row.chunk_px) {
+        (Some(c), Some(px)) if c.parse::<u64>().is_ok() => format!("chunk {c} ({px} px)"),
+        (Some(c), Some(px)) => format!("{c} ({px} px)"),
+        (Some(c), None) => c.clone(),
+        _ => "—".into(),
+    }
+}
+
+/// Per scene: the fastest configuration at the most workers and every one not shown slower.
+pub fn answer(group: &str, sums: &[&Summary]) -> Option<String> {
+    let max_w = sums
+        .iter()
+        .filter(|s| !s.row.is_serial())
+        .map(|s| s.row.workers)
+        .max()?;
+    let at: Vec<&Summary> = sums
+        .iter()
+        .copied()
+        .filter(|s| s.row.workers == max_w && !s.row.is_serial())
+        .collect();
+    let (best, tied) = tied_with_best(&at)?;
+    let mut md = format!(
+        "**{group}, {max_w} workers:** fastest `{}` ({}), median {:.4} s (95 % CI {:.4}–{:.4}), speedup {}.",
+        best.row.label,
+        chunk_words(best),
+        best.wall_median,
+        best.wall_median_ci.0,
+        best.wall_median_ci.1,
+        speedup_text(best)
+    );
+    if tied.is_empty() {
+        md += " No other configuration is statistically tied with it.";
+    } else {
+        let _ = write!(
+            md,
+            " Tied with it (not shown slower at 95 %), {} of {}: {}.",
+            tied.len(),
+            at.len() - 1,
+            tied.iter()
+                .map(|s| format!("`{}` ({:.4} s)", s.row.label, s.wall_median))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Some(md)
+}
+
+/// Each scheduler's wall time against its chunk in words, at the most workers: where its
+/// optimum lies and over which chunks it is flat (tied with its own best), from its fastest
+/// configuration at each chunk. Schedulers with one chunk are left out.
+pub fn chunk_curves(sums: &[&Summary]) -> Vec<String> {
+    let Some(max_w) = sums
+        .iter()
+        .filter(|s| !s.row.is_serial())
+        .map(|s| s.row.workers)
+        .max()
+    else {
+        return vec![];
+    };
+    let at: Vec<&Summary> = sums
+        .iter()
+        .copied()
+        .filter(|s| s.row.workers == max_w && !s.row.is_serial() && s.row.chunk_px.is_some())
+        .collect();
+    let mut kinds: Vec<&str> = Vec::new();
+    for s in &at {
+        if !kinds.contains(&s.row.scheduler.as_str()) {
+            kinds.push(&s.row.scheduler);
+        }
+    }
+    let mut out = Vec::new();
+    for k in kinds {
+        // The fastest configuration of `k` at each chunk, smallest chunk first.
+        let mut curve: Vec<&Summary> = Vec::new();
+        for s in at.iter().copied().filter(|s| s.row.scheduler == k) {
+            match curve.iter_mut().find(|c| c.row.chunk_px == s.row.chunk_px) {
+                Some(c) if s.wall_median < c.wall_median => *c = s,
+                Some(_) => {}
+                None => curve.push(s),
+            }
+        }
+        if curve.len() < 2 {
+            continue;
+        }
+        curve.sort_by_key(|s| s.row.chunk_px);
+        let Some(bi) =
+            (0..curve.len()).min_by(|&a, &b| curve[a].wall_median.total_cmp(&curve[b].wall_median))
+        else {
+            continue;
+        };
+        let best = curve[bi];
+        let tied = |s: &Summary| s.row.config == best.row.config || wall_ratio(s, best).lo <= 1.0;
+        // The run of chunks around the optimum tied with it.
+        let (mut lo, mut hi) = (bi, bi);
+        while lo > 0 && tied(curve[lo - 1]) {
+            lo -= 1;
+        }
+        while hi + 1 < curve.len() && tied(curve[hi + 1]) {
+            hi += 1;
+        }
+        let shape = if lo == hi {
+            format!("optimum at {}", chunk_words(best))
+        } else if lo == 0 && hi == curve.len() - 1 {
+            format!(
+                "flat: every chunk from {} to {} is tied with its best, {}",
+                chunk_words(curve[lo]),
+                chunk_words(curve[hi]),
+                chunk_words(best)
+            )
+        } else {
+            format!(
+                "flat from {} to {} (fastest at {})",
+                chunk_words(curve[lo]),
+                chunk_words(curve[hi]),
+                chunk_words(best)
+            )
+        };
+        let ends: Vec<String> = [0, curve.len() - 1]
+            .into_iter()
+            .filter(|&i| i < lo || i > hi)
+            .map(|i| {
+                format!(
+                    "{:.1}× slower at {}",
+                    curve[i].wall_median / best.wall_median,
+                    chunk_words(curve[i])
+                )
+            })
+            .collect();
+        let ends = if ends.is_empty() {
+            String::new()
+        } else {
+            format!("; {}", ends.join(", "))
+        };
+        out.push(format!(
+            "- **{k}**: {shape}, median {:.4} s{ends}.",
+            best.wall_median
+        ));
+    }
+    out
+}
+
+/// Every configuration of a group: median wall time with its interval, speedup, efficiency,
+/// runs; sorted by workers, then wall time.
+pub fn full_table(sums: &[&Summary]) -> String {
+    let mut v: Vec<&Summary> = sums.to_vec();
+    v.sort_by(|a, b| {
+        a.row
+            .workers
+            .cmp(&b.row.workers)
+            .then(a.wall_median.total_cmp(&b.wall_median))
+    });
+    let mut md = String::from("| configuration | scheduler | chunk | workers | median wall (s) | 95 % CI of median (s) | speedup (95 % CI) | efficiency | runs |\n|---|---|---|---|---|---|---|---|---|\n");
+    for s in v {
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | {} | {} | {:.4} | {:.4} – {:.4} | {} | {:.0} % | {} |",
+            s.row.label,
+            s.row.scheduler,
+            chunk_words(s),
+            s.row.workers,
+            s.wall_median,
+            s.wall_median_ci.0,
+            s.wall_median_ci.1,
+            speedup_text(s),
+            s.efficiency_median * 100.0,
+            s.n
+        );
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::experiment::results::RunRow;
+
+    /// `reps` rows of one configuration; round r scales every wall time by the same drift.
+    fn rows(kind: &str, chunk: &str, px: u64, wall: f64) -> Vec<RunRow> {
+        (0..12u32)
+            .map(|rep| {
+                let mut r = RunRow::example();
+                r.experiment = "synthetic".into();
+                r.scene = "box".into();
+                r.width = 64;
+                r.height = 64;
+                r.spp = 1;
+                r.tracer = "bvh".into();
+                r.config = format!("{kind}-{chunk}");
+                r.scheduler = kind.into();
+                r.label = if kind == "serial" {
+                    "serial".into()
+                } else {
+                    format!("{kind} chunk={chunk}")
+                };
+                r.chunk = (kind != "serial").then(|| chunk.into());
+                r.chunk_px = (kind != "serial").then_some(px);
+                r.workers = if kind == "serial" { 1 } else { 4 };
+                r.repetition = rep;
+                let drift = 1.0 + 0.05 * ((rep * 7 % 5) as f64 - 2.0);
+                r.wall_s = wall * drift;
+                r.serial_s = 1.0;
+                r.rays = 4096;
+                r.items = 4096 / px.max(1);
+                r
+            })
+            .collect()
+    }
+
+    /// Writes `rows` as runs.csv in a fresh folder and redraws it; returns report.md.
+    fn report_of(rows: &[RunRow]) -> (tempfile::TempDir, String) {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut csv = RunRow::header().join(",").into_bytes();
+        csv.push(b'\n');
+        for r in rows {
+            csv.extend(r.to_line());
+        }
+        std::fs::write(dir.path().join("runs.csv"), csv).expect("written");
+        crate::plot::redraw(dir.path()).expect("redrawn");
+        let md = std::fs::read_to_string(dir.path().join("report.md")).expect("report.md");
+        (dir, md)
+    }
+
+    #[test]
+    fn report_answers_without_a_per_ray_master() {
+        let mut all = rows("serial", "", 0, 1.0);
+        // self_scheduling: a clear optimum at chunk 4; static: flat from 4 to 16, slower at 1.
+        for (c, px, w) in [("1", 1, 0.9), ("4", 16, 0.30), ("16", 256, 0.6)] {
+            all.extend(rows("self_scheduling", c, px, w));
+        }
+        for (c, px, w) in [("1", 1, 0.8), ("4", 16, 0.40), ("16", 256, 0.40)] {
+            all.extend(rows("static", c, px, w));
+        }
+        let (dir, md) = report_of(&all);
+        assert!(
+            !md.contains("the per-ray master"),
+            "no per-ray master ran:\n{md}"
+        );
+        assert!(
+            md.contains("fastest `self_scheduling chunk=4` (chunk 4 (16 px))"),
+            "{md}"
+        );
+        assert!(
+            md.contains("- **self_scheduling**: optimum at chunk 4 (16 px)"),
+            "{md}"
+        );
+        assert!(
+            md.contains("- **static**: flat from chunk 4 (16 px) to chunk 16 (256 px)"),
+            "{md}"
+        );
+        assert!(md.contains("2.0× slower at chunk 1 (1 px)"), "{md}");
+        // The full table: every configuration with its median and interval.
+        let table = &md[md.find("## Every configuration").expect("full table")..];
+        for label in [
+            "self_scheduling chunk=1",
+            "static chunk=16",
+            "static chunk=1",
+        ] {
+            assert!(
+                table.contains(&format!("| `{label}` |")),
+                "{label}: {table}"
+            );
+        }
+        assert!(dir.path().join("report.html").exists());
+    }
+
+    #[test]
+    fn warnings_come_first_and_the_per_ray_master_is_compared_where_it_ran() {
+        let mut all = rows("serial", "", 0, 1.0);
+        // Every configuration slower than serial: a warning.
+        all.extend(rows("master", "1", 1, 3.0));
+        for r in all.iter_mut().filter(|r| r.scheduler == "master") {
+            r.params = crate::sched::param_columns()
+                .iter()
+                .map(|p| (p.name == "buffer").then(|| "2".to_string()))
+                .collect();
+        }
+        all.extend(rows("self_scheduling", "4", 16, 1.5));
+        let (_dir, md) = report_of(&all);
+        let warn = md.find("## Warnings").expect("a warning");
+        let answer = md.find("## Answer").expect("an answer");
+        assert!(warn < answer, "{md}");
+        assert!(md.contains("the per-ray master"), "{md}");
+    }
 }

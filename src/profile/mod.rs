@@ -188,6 +188,90 @@ impl Profile {
     }
 }
 
+/// Width of the colour bar's column beside the heat map (px).
+const BAR_AREA: u32 = 130;
+
+impl Profile {
+    /// The cheapest and costliest positive pixel cost, seconds (the heat map's ends).
+    fn cost_range(&self) -> (f64, f64) {
+        let pos = self.pixel_s.iter().copied().filter(|c| *c > 0.0);
+        let lo = pos.clone().fold(f64::INFINITY, f64::min).max(1e-12);
+        let hi = pos.fold(0.0, f64::max).max(lo * 1.000_001);
+        (lo, hi)
+    }
+
+    /// [`Profile::heat_map`] with a colour bar on its right labelled in µs per pixel (log
+    /// scale), enlarged by a whole factor when the image is under 240 px high, as a PNG.
+    ///
+    /// # Errors
+    /// Drawing or writing `path` failed.
+    pub fn save_heat_map(&self, path: &std::path::Path) -> Result<(), String> {
+        use crate::plot::axes::{self, Scale};
+        use plotters::prelude::*;
+        use plotters::style::text_anchor::{HPos, Pos, VPos};
+        crate::plot::register_font();
+        let img = self.heat_map();
+        let k = 240u32.div_ceil(self.height.max(1)).max(1);
+        let (w, h) = (self.width * k, (self.height * k).max(240));
+        let root = BitMapBackend::new(path, (w + BAR_AREA, h)).into_drawing_area();
+        let e = |err: DrawingAreaErrorKind<_>| format!("{}: {err}", path.display());
+        root.fill(&WHITE).map_err(e)?;
+        for (x, y, p) in img.enumerate_pixels() {
+            let c = RGBColor(p.0[0], p.0[1], p.0[2]);
+            let (x0, y0) = ((x * k) as i32, (y * k) as i32);
+            root.draw(&Rectangle::new(
+                [(x0, y0), (x0 + k as i32, y0 + k as i32)],
+                c.filled(),
+            ))
+            .map_err(e)?;
+        }
+        // The bar: 16 px wide, costliest at the top, 12 px from the image.
+        let (top, bottom) = (16i32, h as i32 - 16);
+        let bx = w as i32 + 12;
+        for y in top..bottom {
+            let t = (bottom - y) as f64 / (bottom - top) as f64;
+            let [r, g, b] = heat(t);
+            root.draw(&PathElement::new(
+                vec![(bx, y), (bx + 16, y)],
+                RGBColor(r, g, b),
+            ))
+            .map_err(e)?;
+        }
+        root.draw(&PathElement::new(
+            vec![
+                (bx, top),
+                (bx + 16, top),
+                (bx + 16, bottom),
+                (bx, bottom),
+                (bx, top),
+            ],
+            BLACK,
+        ))
+        .map_err(e)?;
+        let (lo, hi) = self.cost_range();
+        let (llo, lhi) = ((lo * 1e6).log10(), (hi * 1e6).log10());
+        let py = |c: f64| bottom - ((c - llo) / (lhi - llo) * (bottom - top) as f64).round() as i32;
+        let font = ("sans-serif", axes::TICK_FONT)
+            .into_font()
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Left, VPos::Center));
+        for (c, label) in axes::fit_ticks(Scale::Log10, (llo, lhi), false, py) {
+            let y = py(c);
+            root.draw(&PathElement::new(vec![(bx + 16, y), (bx + 20, y)], BLACK))
+                .map_err(e)?;
+            root.draw(&Text::new(label, (bx + 23, y), font.clone()))
+                .map_err(e)?;
+        }
+        root.draw(&Text::new(
+            "µs per pixel",
+            (bx - 4, 1),
+            ("sans-serif", 12).into_font().color(&BLACK),
+        ))
+        .map_err(e)?;
+        root.present().map_err(e)
+    }
+}
+
 /// Black → red → yellow → white over t ∈ [0, 1].
 fn heat(t: f64) -> [u8; 3] {
     let ch = |a: f64| (a.clamp(0.0, 1.0) * 255.0).round() as u8;

@@ -3,7 +3,7 @@
 
 use super::sweep::{Inputs, SimRow};
 use super::validate::Validation;
-use crate::plot::palette;
+use crate::plot::axes::Scale;
 use crate::sched::{Chunk, Policy};
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -15,7 +15,8 @@ fn e<T: std::fmt::Display>(err: T) -> String {
     err.to_string()
 }
 
-/// A line chart; `hlines` are dashed horizontal references (the analytic limits).
+/// A line chart; `hlines` are dashed horizontal references (the analytic limits). `data`'s x
+/// is log₂ of the value where `log2_x` holds.
 #[allow(
     clippy::too_many_arguments,
     reason = "one call per figure, each naming its axes"
@@ -31,95 +32,34 @@ fn chart(
     log_y: bool,
 ) -> Result<(), String> {
     crate::plot::register_font();
-    let pts = data.iter().flat_map(|(_, p)| p.iter()).chain([]);
-    let (mut x0, mut x1, mut y1, mut y0) = (f64::MAX, f64::MIN, f64::MIN, f64::MAX);
-    for &(a, b) in pts {
-        x0 = x0.min(a);
-        x1 = x1.max(a);
-        y0 = y0.min(b);
-        y1 = y1.max(b);
-    }
-    for (h, _) in hlines {
-        y1 = y1.max(*h);
-        y0 = y0.min(*h);
-    }
-    if x0 > x1 {
+    if data.iter().all(|d| d.1.is_empty()) {
         return Ok(());
     }
+    let lines: crate::plot::Series = data
+        .iter()
+        .map(|(n, pts)| {
+            let pts = pts
+                .iter()
+                .map(|&(a, b)| (if log2_x { a.exp2() } else { a }, b, b, b))
+                .collect();
+            (n.clone(), pts)
+        })
+        .collect();
+    let refs: Vec<(f64, &str)> = hlines.iter().map(|(v, n)| (*v, n.as_str())).collect();
+    let spec = crate::plot::Lines {
+        title,
+        x_desc: x,
+        y_desc: y,
+        x: if log2_x { Scale::Log2 } else { Scale::Linear },
+        y: if log_y { Scale::Log10 } else { Scale::Linear },
+        ideal: false,
+        refs: &refs,
+        y_range: None,
+        legend_w: 0,
+    };
     let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
-    let pad = ((x1 - x0) * 0.05).max(0.5);
-    let fmt_x = |v: &f64| {
-        if log2_x && (v - v.round()).abs() < 1e-6 {
-            format!("{}", 2f64.powf(v.round()) as u64)
-        } else if log2_x {
-            String::new()
-        } else {
-            format!("{v:.3}")
-        }
-    };
-    macro_rules! draw {
-        ($chart:expr) => {{
-            let mut c = $chart;
-            c.configure_mesh()
-                .x_desc(x)
-                .y_desc(y)
-                .x_label_formatter(&fmt_x)
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 16))
-                .draw()
-                .map_err(e)?;
-            for (i, (name, p)) in data.iter().enumerate() {
-                let col = palette(i);
-                c.draw_series(LineSeries::new(p.clone(), col.stroke_width(2)))
-                    .map_err(e)?
-                    .label(name.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                    });
-                c.draw_series(p.iter().map(|&q| Circle::new(q, 3, col.filled())))
-                    .map_err(e)?;
-            }
-            for (h, name) in hlines {
-                c.draw_series(DashedLineSeries::new(
-                    vec![(x0 - pad, *h), (x1 + pad, *h)],
-                    6,
-                    4,
-                    BLACK.stroke_width(1),
-                ))
-                .map_err(e)?
-                .label(name.clone())
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
-            }
-            c.configure_series_labels()
-                .label_font(("sans-serif", 12))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperLeft)
-                .draw()
-                .map_err(e)?;
-        }};
-    }
-    let mut builder = ChartBuilder::on(&root);
-    builder
-        .caption(title, ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(75);
-    if log_y {
-        let c = builder
-            .build_cartesian_2d(
-                (x0 - pad)..(x1 + pad),
-                (y0.max(1e-12) / 1.5..y1 * 1.5).log_scale(),
-            )
-            .map_err(e)?;
-        draw!(c);
-    } else {
-        let c = builder
-            .build_cartesian_2d((x0 - pad)..(x1 + pad), 0.0..(y1 * 1.15).max(1e-9))
-            .map_err(e)?;
-        draw!(c);
-    }
+    crate::plot::line_chart(&root, &spec, &lines)?;
     root.present().map_err(e)?;
     Ok(())
 }
@@ -282,66 +222,29 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
     crate::plot::register_font();
     let f = "validation.png".to_string();
     let path = dir.join(&f);
-    let hi = v
-        .rows
-        .iter()
-        .map(|c| c.measured.2.max(c.simulated))
-        .fold(0.0, f64::max)
-        * 1.1;
-    let root = BitMapBackend::new(&path, (700, 640)).into_drawing_area();
+    let groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = by_workers
+        .keys()
+        .map(|w| {
+            let pts = v
+                .rows
+                .iter()
+                .filter(|r| group(r) == *w)
+                .map(|r| (r.measured.0, r.measured.1, r.measured.2, r.simulated))
+                .collect();
+            (format!("{}, {} worker(s)", w.0, w.1), pts)
+        })
+        .collect();
+    let root = BitMapBackend::new(&path, (900, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
-    let mut c = ChartBuilder::on(&root)
-        .caption(
-            format!("simulated ({}) vs measured wall time", v.platform),
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..hi, 0.0..hi)
-        .map_err(e)?;
-    c.configure_mesh()
-        .x_desc("measured wall, s (median; bar: min–max)")
-        .y_desc("simulated wall, s")
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
-    for (k, band) in [
-        (1.0, BLACK),
-        (1.05, RGBColor(160, 160, 160)),
-        (0.95, RGBColor(160, 160, 160)),
-    ] {
-        c.draw_series(LineSeries::new(
-            vec![(0.0, 0.0), (hi, hi * k)],
-            band.stroke_width(1),
-        ))
-        .map_err(e)?;
-    }
-    for (i, (w, pts)) in by_workers.iter().enumerate() {
-        let col = palette(i);
-        c.draw_series(pts.iter().map(|&p| Circle::new(p, 5, col.filled())))
-            .map_err(e)?
-            .label(format!("{}, {} worker(s)", w.0, w.1))
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
-    }
-    for (i, (w, _)) in by_workers.iter().enumerate() {
-        let col = palette(i);
-        for r in v.rows.iter().filter(|r| group(r) == *w) {
-            c.draw_series(LineSeries::new(
-                vec![(r.measured.1, r.simulated), (r.measured.2, r.simulated)],
-                col.stroke_width(1),
-            ))
-            .map_err(e)?;
-        }
-    }
-    c.configure_series_labels()
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e)?;
+    crate::plot::scatter_vs(
+        &root,
+        &format!("simulated ({}) vs measured wall time", v.platform),
+        (
+            "measured wall, s (median; bar: min–max)",
+            "simulated wall, s",
+        ),
+        &groups,
+    )?;
     root.present().map_err(e)?;
     Ok(vec![f])
 }

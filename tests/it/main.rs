@@ -22,6 +22,7 @@ mod fuzz;
 mod getting_started;
 mod gpu;
 mod hostile;
+mod html;
 mod models;
 mod mpi;
 mod reference;
