@@ -43,12 +43,10 @@ pub fn decomposition(s: &Summary) -> Option<String> {
 /// `with`'s configurations without a slow worker (with one, the work part is not W / P).
 ///
 /// The probe times the image in a few seconds before the first round, while a 2-core VM
-/// drifts ±10 % from second to second: on the one-sphere scene of `quick` (2026-12-05, AMD
-/// EPYC guest) one probe put the work 23 % above the serial median measured in the rounds and
-/// every shared-counter prediction came out 5–18 % high, while a probe of the same scene a
-/// minute later was within 2 % of it. Set to the serial level, the rest of an error is the
-/// model's shape. The serial render runs on one core and the probe on P, so where busy cores
-/// slow each other the two levels also differ for that reason.
+/// drifts from second to second, so one probe's level can sit well off the rounds' (M-133).
+/// Set to the serial level, the rest of an error is the model's shape. The serial render runs
+/// on one core and the probe on P, so where busy cores slow each other the two levels also
+/// differ for that reason.
 pub fn level(with: &[&Summary], serial_median: f64) -> Option<f64> {
     let mut k: Vec<f64> = with
         .iter()
