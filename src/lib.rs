@@ -77,4 +77,5 @@ pub mod simulate;
 pub mod source;
 pub mod stability;
 pub mod staging;
+pub mod suggest;
 pub mod tracer;

@@ -11,13 +11,26 @@ use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Who renders: only local threads are modelled.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+/// Who renders: only local threads are modelled. The words are `render --sources`' words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum AdviseSources {
     /// Worker threads of this process.
-    Local,
+    Threads,
     /// MPI ranks (not modelled: refused).
     Mpi,
+}
+
+/// `--sources`: `threads` or `mpi`, parsed as `render --sources` is (`local` is refused there
+/// too, with a did-you-mean).
+fn parse_advise_sources(s: &str) -> Result<AdviseSources, String> {
+    let set = super::render::parse_sources(s)?;
+    if set.has(raysched::sched::SourceKind::Mpi) {
+        Ok(AdviseSources::Mpi)
+    } else if *set.kinds() == [raysched::sched::SourceKind::Threads] {
+        Ok(AdviseSources::Threads)
+    } else {
+        Err(format!("'{s}': the cost model covers threads only"))
+    }
 }
 
 const DEFAULT_SCHEDULERS: &str = "static,self_scheduling,guided,factoring,trapezoid,fixed_size,\
@@ -40,13 +53,13 @@ pub(crate) struct AdviseArgs {
     chunks: Vec<Chunk>,
     /// The master's buffer B (items outstanding per source).
     #[arg(long, default_value_t = MasterParams::DEFAULT.buffer,
-          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=65536))]
+          value_parser = super::whole::<usize>(1, 65536))]
     buffer: usize,
     /// Who runs the master's passes: thread (its own) or workers (each for itself, under a lock).
     #[arg(long, default_value = MasterParams::DEFAULT.passes.id(), value_parser = |s: &str| Passes::from_id(s).map_err(|e| e.msg))]
     passes: Passes,
-    /// Compute sources (only local threads are modelled).
-    #[arg(long, value_enum, default_value_t = AdviseSources::Local)]
+    /// Compute sources: threads (the only ones modelled).
+    #[arg(long, default_value = "threads", value_parser = parse_advise_sources)]
     sources: AdviseSources,
     /// Workers slowed by a known factor, K:F (K workers F× slower), or none.
     #[arg(long, default_value = "none", value_parser = |s: &str| Slow::parse(s).map_err(|e| e.msg))]
@@ -62,7 +75,7 @@ pub(crate) struct AdviseArgs {
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
     tracer: TracerKind,
     /// Configurations within this many per cent of the fastest count as tied with it.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::real::<f64>())]
     tolerance_pct: f64,
 }
 

@@ -11,10 +11,10 @@ pub(crate) struct CompareArgs {
     /// The results folder compared with it.
     pub(crate) b: PathBuf,
     /// Smallest relative change of a median that counts, in percent.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = super::real::<f64>())]
     pub(crate) threshold_pct: f64,
     /// Largest p-value that counts as significant.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::real::<f64>())]
     pub(crate) alpha: f64,
     /// JSON on stdout instead of markdown.
     #[arg(long)]

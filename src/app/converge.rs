@@ -38,6 +38,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
             "--threads, --max-spp and --ref-spp must be ≥ 1"
         )));
     }
+    super::out_path::check("--output", &args.output, super::out_path::Kind::Folder)?;
     let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
     let kinds = args
         .tracers

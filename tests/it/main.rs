@@ -9,6 +9,8 @@ mod advise;
 mod analytic;
 mod animation;
 mod bad_input;
+mod cli_edges;
+mod cli_fuzz;
 mod determinism;
 mod embree;
 mod embree4;
