@@ -49,7 +49,7 @@ pub(crate) struct AdviseArgs {
     schedulers: Vec<SchedulerKind>,
     /// Chunks to consider, comma-separated (N = N×N tiles, WxH, rows:N, frame).
     #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,rows:4,frame", value_delimiter = ',',
-          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+          value_parser = super::parse_chunk)]
     chunks: Vec<Chunk>,
     /// The master's buffer B (items outstanding per source).
     #[arg(long, default_value_t = MasterParams::DEFAULT.buffer,
@@ -129,6 +129,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         })?;
     }
     let kind = args.tracer.available().map_err(CliError::input)?;
+    super::out_path::check_input("SCENE", &args.scene)?;
     let full = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
     if full.frames() > 1 {
         return Err(CliError::message(format!(

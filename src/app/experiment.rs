@@ -131,6 +131,7 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
     if !args.dry_run {
         super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
     }
+    super::out_path::check_input("EXPERIMENT", &args.experiment)?;
     let mut plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
     apply_stats_flags(&mut plan, &args)?;
     if plan.mpi.is_some() {

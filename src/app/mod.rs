@@ -216,6 +216,15 @@ where
     }
 }
 
+/// A `--chunk` value; a misspelt word gets the nearest (`frmae`: did you mean frame?).
+pub(crate) fn parse_chunk(s: &str) -> Result<raysched::sched::Chunk, String> {
+    raysched::sched::Chunk::parse(s).map_err(|e| {
+        let word = s.split(':').next().unwrap_or_default().trim();
+        let near = raysched::suggest::did_you_mean(word, ["frame", "frames", "rows"]);
+        format!("{}{near}", e.msg)
+    })
+}
+
 /// A decimal-number flag (its range is checked where it is used, with the range in the error).
 pub(crate) fn real<T>() -> impl clap::builder::TypedValueParser<Value = T>
 where

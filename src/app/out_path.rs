@@ -92,6 +92,19 @@ fn check_path(path: &Path, kind: Kind) -> Result<(), String> {
     }
 }
 
+/// An input file named on the command line (`name`: the flag, or the positional's name) must
+/// be a regular file: a device (`/dev/full`, `/dev/zero`) or a FIFO would be read forever. A
+/// missing file is left to the loader, which says so in its own words.
+pub(crate) fn check_input(name: &str, path: &Path) -> Result<(), CliError> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => Err(CliError::message(format!(
+            "{name} {}: not a regular file",
+            shown(path)
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// The folder a file path is written into (`.` for a bare name).
 fn parent_of(path: &Path) -> PathBuf {
     match path.parent() {

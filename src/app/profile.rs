@@ -21,7 +21,7 @@ pub(crate) struct ProfileArgs {
     tracer: TracerKind,
     /// Granularities whose per-item distribution to show, comma-separated.
     #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,frame", value_delimiter = ',',
-          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+          value_parser = super::parse_chunk)]
     chunks: Vec<Chunk>,
     /// Renders of the image; each pixel keeps its cheapest (drops preemption spikes).
     #[arg(long, default_value_t = 3, value_parser = super::whole::<u32>(1, 100))]
@@ -62,6 +62,7 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
         )));
     }
     super::out_path::check("--output", &args.output, super::out_path::Kind::File)?;
+    super::out_path::check_input("SCENE", &args.scene)?;
     let overrides = SceneOverrides {
         spp: args.spp,
         ..Default::default()

@@ -111,6 +111,7 @@ impl RenderArgs {
                 raysched::one_line::escape_controls(&self.output.to_string_lossy())
             )));
         }
+        super::out_path::check_input("SCENE", &self.scene)?;
         let linear = linear_path(&self.output);
         for p in [linear.clone(), linear.with_extension("png")] {
             super::out_path::check("--output", &p, super::out_path::Kind::File)?;

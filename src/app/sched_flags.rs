@@ -90,7 +90,7 @@ impl Args for SchedulerFlags {
                 Arg::new("chunk")
                     .long("chunk")
                     .value_name("CHUNK")
-                    .value_parser(|s: &str| Chunk::parse(s).map_err(|e| e.msg))
+                    .value_parser(super::parse_chunk)
                     .help(format!(
                         "Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias \
                          frames: one whole frame per item; an animation is cut frame by frame \
