@@ -111,7 +111,7 @@ pub(crate) struct PlotArgs {
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
     let scale = raysched::plot::raster::PngScale::new(args.png_scale)
         .map_err(|m| CliError::input(anyhow::anyhow!("--png-scale: {m}")))?;
-    if args.dir.is_dir() {
+    if args.dir.exists() {
         super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;
     }
     let written = raysched::plot::redraw_scaled(&args.dir, scale).map_err(CliError::message)?;

@@ -93,7 +93,13 @@ pub(crate) struct RenderArgs {
 impl RenderArgs {
     /// The scheduler spec for `workers`, every value checked; errors name the flag.
     pub(crate) fn scheduler_spec(&self, workers: usize) -> Result<SchedulerSpec, CliError> {
-        self.scheduler
+        let flags = if self.sources.has(SourceKind::Threads) && self.sources.kinds().len() == 1 {
+            self.scheduler.clone()
+        } else {
+            self.scheduler
+                .defaulting_to(raysched::sched::SchedulerKind::Master)
+        };
+        flags
             .spec(workers, self.timeline)
             .map_err(CliError::message)
     }

@@ -15,6 +15,8 @@ use raysched::sched::{
 #[derive(Clone, Debug)]
 pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
+    /// Was `--scheduler` given (not its default)?
+    named: bool,
     /// `None`: the kind's own default item size.
     chunk: Option<Chunk>,
     /// `None`: the kind's own default order.
@@ -25,6 +27,16 @@ pub(crate) struct SchedulerFlags {
 }
 
 impl SchedulerFlags {
+    /// `kind` in place of the default when `--scheduler` was not given (a GPU or MPI source
+    /// runs under the master: asking for one picks it).
+    pub(crate) fn defaulting_to(&self, kind: SchedulerKind) -> Self {
+        let mut f = self.clone();
+        if !f.named {
+            f.kind = kind;
+        }
+        f
+    }
+
     /// The scheduler spec for `workers` workers; errors name the flag.
     pub(crate) fn spec(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
         let mut spec = SchedulerSpec {
@@ -84,7 +96,10 @@ impl Args for SchedulerFlags {
                     .value_name("SCHEDULER")
                     .default_value(SchedulerKind::WorkStealing.id())
                     .value_parser(|s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))
-                    .help(format!("Scheduler: {}", ids(&kinds))),
+                    .help(format!(
+                        "Scheduler: {} [default: master with gpu or mpi among --sources]",
+                        ids(&kinds)
+                    )),
             )
             .arg(
                 Arg::new("chunk")
@@ -146,6 +161,7 @@ impl FromArgMatches for SchedulerFlags {
         let get = |id: &str| m.get_one::<String>(id).cloned();
         Ok(Self {
             kind: *m.get_one("scheduler").expect("has a default"),
+            named: m.value_source("scheduler") != Some(clap::parser::ValueSource::DefaultValue),
             chunk: m.get_one("chunk").copied(),
             order: m.get_one("order").copied(),
             slow: *m.get_one("slow").expect("has a default"),

@@ -30,6 +30,12 @@ pub(crate) fn one_line(e: &clap::Error, cmd: &Command, argv: &[OsString]) -> Str
             if let Some(line) = hyphen_value(sub.unwrap_or(cmd), argv) {
                 line
             } else {
+                // clap names `-n` of `-nan`: the whole argument is what the user wrote.
+                let arg = argv
+                    .iter()
+                    .filter_map(|a| a.to_str())
+                    .find(|a| a.starts_with(arg.as_str()) && arg.starts_with('-'))
+                    .map_or(arg.clone(), str::to_string);
                 let name = arg.split('=').next().unwrap_or_default();
                 let longs: Vec<String> = sub
                     .unwrap_or(cmd)
