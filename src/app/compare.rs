@@ -40,6 +40,16 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
             args.alpha
         )));
     }
+    // Named here, quoted: the library's message names the folder bare, and a name of spaces
+    // would vanish from the one-line error.
+    for (name, dir) in [("A", &args.a), ("B", &args.b)] {
+        if !dir.is_dir() {
+            return Err(CliError::message(format!(
+                "{name} '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
+                raysched::one_line::escape_controls(&dir.to_string_lossy())
+            )));
+        }
+    }
     let crit = Criteria {
         threshold: args.threshold_pct / 100.0,
         alpha: args.alpha,

@@ -4,7 +4,8 @@
 //!
 //! The commands and their arguments come from clap's own definition (`raysched cli-spec`,
 //! hidden), so a new flag is fuzzed without a change here. Each invocation changes one argument
-//! of a base invocation that is cheap and, where the inputs exist, succeeds; it must:
+//! of a base invocation that is cheap and, where the inputs exist, succeeds (once every case
+//! was tried, pairs of changed flags of one command follow, at random); it must:
 //! - end in time (no hang) and by an exit, not a signal;
 //! - not panic (no "panicked", no "internal error" on stderr);
 //! - exit 0 or 2 (bad input), never 1: the value given is the only thing changed;
@@ -241,6 +242,24 @@ struct Case {
     /// How the changed argument is named in an error: `--spp`, or a positional's id and value.
     names: Vec<String>,
     argv: Vec<OsString>,
+    /// The changed flag's own arguments at the end of `argv` (empty for a positional).
+    tail: usize,
+}
+
+/// Two flag cases of one command at once: `a` with `b`'s flag and value appended; an error
+/// may name either.
+fn pair(a: &Case, b: &Case) -> Option<Case> {
+    if a.cmd != b.cmd || a.tail == 0 || b.tail == 0 || a.names == b.names {
+        return None;
+    }
+    let mut argv = a.argv.clone();
+    argv.extend_from_slice(&b.argv[b.argv.len() - b.tail..]);
+    Some(Case {
+        cmd: a.cmd.clone(),
+        names: [a.names.clone(), b.names.clone()].concat(),
+        argv,
+        tail: 0,
+    })
 }
 
 fn base(cmd: &CmdSpec, skip: Option<&str>) -> Vec<OsString> {
@@ -303,6 +322,7 @@ fn cases(spec: &[CmdSpec]) -> Vec<Case> {
                         cmd: cmd.name.clone(),
                         names: vec![arg.id.clone(), v.to_string_lossy().into_owned()],
                         argv,
+                        tail: 0,
                     });
                 }
                 continue;
@@ -316,11 +336,13 @@ fn cases(spec: &[CmdSpec]) -> Vec<Case> {
             let mut with = |tail: Vec<OsString>| {
                 let mut argv = base(cmd, None);
                 argv.extend(cheap_without(&cmd.name, &flag, short));
+                let n = tail.len();
                 argv.extend(tail);
                 out.push(Case {
                     cmd: cmd.name.clone(),
                     names: vec![flag.clone()],
                     argv,
+                    tail: n,
                 });
             };
             if arg.takes_value {
@@ -498,10 +520,29 @@ fn cli_fuzz() {
     let mut per_cmd = std::collections::BTreeMap::<String, usize>::new();
     // One line per (command, argument, kind of failure), with its first example.
     let mut groups = std::collections::BTreeMap::<(String, String, String), (usize, String)>::new();
-    for case in &all {
-        if t0.elapsed() >= budget {
-            break;
-        }
+    // Every case once, then pairs of flags of one command at random until the budget ends.
+    let mut rng = seed;
+    let mut next = |k: usize| {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng % k as u64) as usize
+    };
+    let mut i = 0;
+    while t0.elapsed() < budget {
+        let paired;
+        let case = if i < all.len() {
+            &all[i]
+        } else {
+            match pair(&all[next(all.len())], &all[next(all.len())]) {
+                Some(p) => {
+                    paired = p;
+                    &paired
+                }
+                None => continue,
+            }
+        };
+        i += 1;
         let o = invoke(&bin, d, &case.argv, limit);
         n += 1;
         *per_cmd.entry(case.cmd.clone()).or_default() += 1;
@@ -520,7 +561,7 @@ fn cli_fuzz() {
         }
     }
     eprintln!(
-        "cli_fuzz: {n} of {} cases in {:.0} s (seed {seed}), {} failures; per command {per_cmd:?}",
+        "cli_fuzz: {n} invocations ({} single-flag cases, then pairs) in {:.0} s (seed {seed}), {} failures; per command {per_cmd:?}",
         all.len(),
         t0.elapsed().as_secs_f64(),
         failures.len()
