@@ -111,9 +111,14 @@ pub(crate) struct PlotArgs {
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
     let scale = raysched::plot::raster::PngScale::new(args.png_scale)
         .map_err(|m| CliError::input(anyhow::anyhow!("--png-scale: {m}")))?;
-    if args.dir.exists() {
-        super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;
+    // Quoted: a name of spaces would vanish from the library's one-line message.
+    if !args.dir.is_dir() {
+        return Err(CliError::message(format!(
+            "DIR '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
+            raysched::one_line::escape_controls(&args.dir.to_string_lossy())
+        )));
     }
+    super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;
     let written = raysched::plot::redraw_scaled(&args.dir, scale).map_err(CliError::message)?;
     out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
