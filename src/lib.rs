@@ -78,4 +78,5 @@ pub mod simulate;
 pub mod source;
 pub mod stability;
 pub mod staging;
+pub mod suggest;
 pub mod tracer;

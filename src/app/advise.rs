@@ -11,11 +11,11 @@ use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Who renders: only local threads are modelled.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+/// Who renders: only local threads are modelled. The words are `render --sources`' words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum AdviseSources {
     /// Worker threads of this process.
-    Local,
+    Threads,
     /// MPI ranks (not modelled: refused).
     Mpi,
 }
@@ -32,6 +32,18 @@ fn default_schedulers() -> &'static str {
         ids.join(",")
     })
 }
+/// `--sources`: `threads` or `mpi`, parsed as `render --sources` is (`local` is refused there
+/// too, with a did-you-mean).
+fn parse_advise_sources(s: &str) -> Result<AdviseSources, String> {
+    let set = super::render::parse_sources(s)?;
+    if set.has(raysched::sched::SourceKind::Mpi) {
+        Ok(AdviseSources::Mpi)
+    } else if *set.kinds() == [raysched::sched::SourceKind::Threads] {
+        Ok(AdviseSources::Threads)
+    } else {
+        Err(format!("'{s}': the cost model covers threads only"))
+    }
+}
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct AdviseArgs {
@@ -46,17 +58,17 @@ pub(crate) struct AdviseArgs {
     schedulers: Vec<SchedulerKind>,
     /// Chunks to consider, comma-separated (N = N×N tiles, WxH, rows:N, frame).
     #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,rows:4,frame", value_delimiter = ',',
-          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+          value_parser = super::parse_chunk)]
     chunks: Vec<Chunk>,
     /// The master's buffer B (items outstanding per source).
     #[arg(long, default_value_t = MasterParams::DEFAULT.buffer,
-          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=65536))]
+          value_parser = super::whole::<usize>(1, 65536))]
     buffer: usize,
     /// Who runs the master's passes: thread (its own) or workers (each for itself, under a lock).
     #[arg(long, default_value = MasterParams::DEFAULT.passes.id(), value_parser = |s: &str| Passes::from_id(s).map_err(|e| e.msg))]
     passes: Passes,
-    /// Compute sources (only local threads are modelled).
-    #[arg(long, value_enum, default_value_t = AdviseSources::Local)]
+    /// Compute sources: threads (the only ones modelled).
+    #[arg(long, default_value = "threads", value_parser = parse_advise_sources)]
     sources: AdviseSources,
     /// Workers slowed by a known factor, K:F (K workers F× slower), or none.
     #[arg(long, default_value = "none", value_parser = |s: &str| Slow::parse(s).map_err(|e| e.msg))]
@@ -72,7 +84,7 @@ pub(crate) struct AdviseArgs {
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
     tracer: TracerKind,
     /// Configurations within this many per cent of the fastest count as tied with it.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, value_parser = super::real::<f64>())]
     tolerance_pct: f64,
 }
 
@@ -126,6 +138,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         })?;
     }
     let kind = args.tracer.available().map_err(CliError::input)?;
+    super::out_path::check_input("SCENE", &args.scene)?;
     let full = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
     if full.frames() > 1 {
         return Err(CliError::message(format!(

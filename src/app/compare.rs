@@ -11,10 +11,10 @@ pub(crate) struct CompareArgs {
     /// The results folder compared with it.
     pub(crate) b: PathBuf,
     /// Smallest relative change of a median that counts, in percent.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = super::real::<f64>())]
     pub(crate) threshold_pct: f64,
     /// Largest p-value that counts as significant.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::real::<f64>())]
     pub(crate) alpha: f64,
     /// JSON on stdout instead of markdown.
     #[arg(long)]
@@ -39,6 +39,16 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
             "--alpha: must be in (0, 1) (got {})",
             args.alpha
         )));
+    }
+    // Named here, quoted: the library's message names the folder bare, and a name of spaces
+    // would vanish from the one-line error.
+    for (name, dir) in [("A", &args.a), ("B", &args.b)] {
+        if !dir.is_dir() {
+            return Err(CliError::message(format!(
+                "{name} '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
+                raysched::one_line::escape_controls(&dir.to_string_lossy())
+            )));
+        }
     }
     let crit = Criteria {
         threshold: args.threshold_pct / 100.0,

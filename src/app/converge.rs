@@ -38,6 +38,11 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
             "--threads, --max-spp and --ref-spp must be ≥ 1"
         )));
     }
+    super::out_path::check("--output", &args.output, super::out_path::Kind::Folder)?;
+    super::out_path::check_input("SCENE", &args.scene)?;
+    if let Some(r) = &args.reference {
+        super::out_path::check_input("--ref", r)?;
+    }
     let scene = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
     let kinds = args
         .tracers
@@ -48,7 +53,8 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     let first = AnyTracer::build(kinds[0], &scene, args.threads).map_err(CliError::input)?;
     let reference = match &args.reference {
         Some(p) => {
-            let image = raysched::render::Image::load_exr(p).map_err(CliError::input)?;
+            let image = raysched::render::Image::load_exr(p)
+                .map_err(|e| CliError::input(anyhow::anyhow!("--ref: {e}")))?;
             if image.width != scene.width() || image.height != scene.height() {
                 return Err(CliError::input(anyhow::anyhow!(
                     "--ref {}: {}×{} does not match the scene's {}×{}",

@@ -26,13 +26,13 @@ pub(crate) struct RunArgs {
     pub(crate) dry_run: bool,
     /// Relative 95 % CI half-width of each median to reach (overrides ci_target; 0: fixed
     /// `repetitions`).
-    #[arg(long)]
+    #[arg(long, value_parser = super::real::<f64>())]
     pub(crate) ci_target: Option<f64>,
     /// Most timed runs per configuration (overrides max_repetitions).
-    #[arg(long)]
+    #[arg(long, value_parser = super::whole::<u32>(1, 10_000))]
     pub(crate) max_runs: Option<u32>,
     /// Most seconds of timed runs per configuration (overrides budget_s).
-    #[arg(long)]
+    #[arg(long, value_parser = super::real::<f64>())]
     pub(crate) budget_s: Option<f64>,
     /// Which process takes the timed samples: `round` (a fresh one per round) or `none` (this
     /// one); overrides isolation.
@@ -104,13 +104,21 @@ pub(crate) struct PlotArgs {
     /// A results folder, e.g. results/runs/quick.
     pub(crate) dir: PathBuf,
     /// Rasterise every PNG from its SVG at this scale (1–8; 2 or 3 for print).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::real::<f32>())]
     pub(crate) png_scale: f32,
 }
 
 pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
     let scale = raysched::plot::raster::PngScale::new(args.png_scale)
         .map_err(|m| CliError::input(anyhow::anyhow!("--png-scale: {m}")))?;
+    // Quoted: a name of spaces would vanish from the library's one-line message.
+    if !args.dir.is_dir() {
+        return Err(CliError::message(format!(
+            "DIR '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
+            raysched::one_line::escape_controls(&args.dir.to_string_lossy())
+        )));
+    }
+    super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;
     let written = raysched::plot::redraw_scaled(&args.dir, scale).map_err(CliError::message)?;
     out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
@@ -125,6 +133,10 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
         )));
     }
     super::gpu::quiet_vulkan_loader();
+    if !args.dry_run {
+        super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
+    }
+    super::out_path::check_input("EXPERIMENT", &args.experiment)?;
     let mut plan = experiment::load_plan(&args.experiment).map_err(CliError::input)?;
     apply_stats_flags(&mut plan, &args)?;
     if plan.mpi.is_some() {

@@ -21,11 +21,13 @@ mod gpu;
 mod mpi_render;
 #[cfg(feature = "mpi")]
 mod mpi_run;
+mod out_path;
 mod profile;
 mod render;
 mod sched_flags;
 mod simulate;
 mod stability;
+mod usage;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;
@@ -75,6 +77,9 @@ enum Command {
     /// Run one SimGrid simulation (what `simulate` starts in a child process).
     #[command(name = "simgrid-child", hide = true)]
     SimgridChild(simulate::ChildArgs),
+    /// Print every command and its arguments as JSON (what the CLI fuzzer enumerates).
+    #[command(name = "cli-spec", hide = true)]
+    CliSpec,
 }
 
 /// `raysched --version`: the version and the build's provenance.
@@ -97,8 +102,10 @@ pub(crate) fn main() -> ExitCode {
     for name in names {
         cmd = cmd.mut_subcommand(name, |c| c.allow_negative_numbers(true));
     }
+    let argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
     let parsed = cmd
-        .try_get_matches()
+        .clone()
+        .try_get_matches_from(&argv)
         .and_then(|m| Cli::from_arg_matches(&m));
     let cli = match parsed {
         Ok(cli) => cli,
@@ -109,8 +116,7 @@ pub(crate) fn main() -> ExitCode {
             e.exit()
         }
         Err(e) => {
-            let text = e.to_string();
-            eprintln!("{}", text.lines().next().unwrap_or("error: bad arguments"));
+            eprintln!("{}", usage::one_line(&e, &cmd, &argv));
             return ExitCode::from(2);
         }
     };
@@ -164,6 +170,10 @@ fn run(cli: Cli) -> Result<(), CliError> {
         Command::Simulate(args) => simulate::simulate(args),
         Command::SimgridChild(args) => simulate::child(args),
         Command::RoundChild(args) => experiment::round_child(args),
+        Command::CliSpec => {
+            out!("{}", usage::spec_json(&Cli::command()));
+            Ok(())
+        }
     }
 }
 
@@ -181,13 +191,50 @@ pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>) {
 }
 
 /// A thread-count flag: `min..=`[`MAX_THREADS`], the limit named in the error.
-pub(crate) fn threads_arg(min: u64) -> clap::builder::RangedU64ValueParser<usize> {
-    clap::builder::RangedU64ValueParser::<usize>::new().range(min..=MAX_THREADS as u64)
+pub(crate) fn threads_arg(min: u64) -> impl clap::builder::TypedValueParser<Value = usize> {
+    whole(min, MAX_THREADS as u64)
 }
 
 /// A samples-per-pixel flag: `1..=`[`MAX_SPP`].
-pub(crate) fn spp_arg() -> clap::builder::RangedU64ValueParser<u32> {
-    clap::builder::RangedU64ValueParser::<u32>::new().range(1..=MAX_SPP as u64)
+pub(crate) fn spp_arg() -> impl clap::builder::TypedValueParser<Value = u32> {
+    whole(1, MAX_SPP as u64)
+}
+
+/// A whole-number flag in `min..=max`. The error says what the flag takes: clap's own parser
+/// answers `--spp -4` with "invalid digit found in string".
+pub(crate) fn whole<T>(min: u64, max: u64) -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: TryFrom<u64> + Clone + Send + Sync + 'static,
+{
+    move |s: &str| -> Result<T, String> {
+        let takes = format!("expected a whole number from {min} to {max}");
+        match s.trim().parse::<u64>() {
+            Ok(v) if (min..=max).contains(&v) => T::try_from(v).map_err(|_| takes),
+            Ok(v) => Err(format!("{takes} (got {v})")),
+            Err(_) => Err(takes),
+        }
+    }
+}
+
+/// A `--chunk` value; a misspelt word gets the nearest (`frmae`: did you mean frame?).
+pub(crate) fn parse_chunk(s: &str) -> Result<raysched::sched::Chunk, String> {
+    raysched::sched::Chunk::parse(s).map_err(|e| {
+        let word = s.split(':').next().unwrap_or_default().trim();
+        let near = raysched::suggest::did_you_mean(word, ["frame", "frames", "rows"]);
+        format!("{}{near}", e.msg)
+    })
+}
+
+/// A decimal-number flag (its range is checked where it is used, with the range in the error).
+pub(crate) fn real<T>() -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: std::str::FromStr + Clone + Send + Sync + 'static,
+{
+    |s: &str| -> Result<T, String> {
+        s.trim()
+            .parse::<T>()
+            .map_err(|_| "expected a number, e.g. 2.5".to_string())
+    }
 }
 
 /// Refuse to replace `csv` (a result with more rows than the `new_rows` about to be written)

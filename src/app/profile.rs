@@ -14,21 +14,29 @@ pub(crate) struct ProfileArgs {
     /// Scene file (TOML), see scenes/.
     scene: PathBuf,
     /// Samples per pixel (overrides the scene's render.spp).
-    #[arg(long)]
+    #[arg(long, value_parser = super::spp_arg())]
     spp: Option<u32>,
     /// Tracer id (bvh, brute, embree, embree_robust).
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
     tracer: TracerKind,
     /// Granularities whose per-item distribution to show, comma-separated.
     #[arg(long, default_value = "1,2,4,8,16,32,64,rows:1,frame", value_delimiter = ',',
-          value_parser = |s: &str| Chunk::parse(s).map_err(|e| e.msg))]
+          value_parser = super::parse_chunk)]
     chunks: Vec<Chunk>,
-    /// Passes over the image; each pixel keeps its cheapest (drops preemption spikes).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
-    passes: u32,
+    /// Renders of the image; each pixel keeps its cheapest (drops preemption spikes).
+    #[arg(long, default_value_t = 3, value_parser = super::whole::<u32>(1, 100))]
+    repeats: u32,
+    /// Renamed --repeats (`--passes` names who runs the master's passes in render and advise).
+    #[arg(long = "passes", hide = true, value_name = "N", value_parser = renamed_passes)]
+    passes: Option<u32>,
     /// The heat map of cost per pixel (PNG).
     #[arg(short, long, default_value = "results/profile.png")]
     output: PathBuf,
+}
+
+/// The old spelling of `--repeats`: refused with the new one.
+fn renamed_passes(_: &str) -> Result<u32, String> {
+    Err("profile's count is now --repeats (--passes is who runs the master's passes, in render and advise), did you mean --repeats?".into())
 }
 
 fn line(what: &str, s: &CostStats) -> String {
@@ -50,9 +58,11 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     if args.output.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(CliError::message(format!(
             "--output {}: the heat map is a .png",
-            args.output.display()
+            raysched::one_line::escape_controls(&args.output.to_string_lossy())
         )));
     }
+    super::out_path::check("--output", &args.output, super::out_path::Kind::File)?;
+    super::out_path::check_input("SCENE", &args.scene)?;
     let overrides = SceneOverrides {
         spp: args.spp,
         ..Default::default()
@@ -60,17 +70,17 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
     let tracer = Arc::new(AnyTracer::build(kind, &scene, 1).map_err(CliError::input)?);
-    let p = Profile::measure_min(&scene, &tracer, args.passes).map_err(CliError::runtime)?;
+    let p = Profile::measure_min(&scene, &tracer, args.repeats).map_err(CliError::runtime)?;
     out!(
         "scene {} ({}×{}, {} spp, max_depth {}), tracer {}, one worker, one pixel per item, \
-         cheapest of {} passes per pixel",
+         cheapest of {} renders per pixel",
         scene.name,
         scene.width(),
         scene.height(),
         scene.settings.spp,
         scene.settings.max_depth,
         args.tracer,
-        args.passes
+        args.repeats
     );
     out!(
         "{:>10} {:>8} {:>10} {:>10} {:>6} {:>10} {:>9}",

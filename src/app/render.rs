@@ -3,6 +3,7 @@
 
 use super::error::CliError;
 use super::sched_flags::SchedulerFlags;
+use raysched::limits::{MAX_DEPTH, MAX_IMAGE_SIDE};
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::sched::{
@@ -14,9 +15,27 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// `--sources`: the library's parser and its one-line error.
-fn parse_sources(s: &str) -> Result<SourceSet, String> {
+/// `--sources`: the library's parser and its one-line error. `local`, which the library reads
+/// back from old CSV files, is not a second name on the command line: `threads` is the one
+/// word for local threads in every command.
+pub(crate) fn parse_sources(s: &str) -> Result<SourceSet, String> {
+    if s.split([',', '+']).any(|k| k.trim() == "local") {
+        return Err("unknown compute source 'local', did you mean threads?".into());
+    }
     SourceSet::parse(s).map_err(|e| e.msg)
+}
+
+/// Longest `--deadline-ms`: a year (a deadline past the clock's range would overflow it).
+const MAX_DEADLINE_MS: u64 = 365 * 86_400_000;
+
+/// `--max-depth`: -1 (unlimited, capped at [`MAX_DEPTH`]) or 1 … [`MAX_DEPTH`], as `render.max_depth`.
+fn parse_max_depth(s: &str) -> Result<i32, String> {
+    match s.trim().parse::<i64>() {
+        Ok(d) if d == -1 || (1..=i64::from(MAX_DEPTH)).contains(&d) => Ok(d as i32),
+        _ => Err(format!(
+            "expected -1 (unlimited) or a whole number from 1 to {MAX_DEPTH}"
+        )),
+    }
 }
 
 #[derive(clap::Args, Debug)]
@@ -26,6 +45,15 @@ pub(crate) struct RenderArgs {
     /// Samples per pixel (overrides the scene's render.spp).
     #[arg(long, value_parser = super::spp_arg())]
     pub(crate) spp: Option<u32>,
+    /// Image width in pixels (overrides the scene's camera.width).
+    #[arg(long, value_parser = super::whole::<u32>(1, MAX_IMAGE_SIDE as u64))]
+    pub(crate) width: Option<u32>,
+    /// Image height in pixels (overrides the scene's camera.height).
+    #[arg(long, value_parser = super::whole::<u32>(1, MAX_IMAGE_SIDE as u64))]
+    pub(crate) height: Option<u32>,
+    /// Path segments, -1 for unlimited (overrides the scene's render.max_depth).
+    #[arg(long, value_parser = parse_max_depth, allow_negative_numbers = true)]
+    pub(crate) max_depth: Option<i32>,
     /// Worker threads.
     #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
@@ -33,7 +61,8 @@ pub(crate) struct RenderArgs {
     /// embree_robust (feature `embree`, Embree 3), embree4 and embree4_robust (feature `embree4`).
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = parse_tracer)]
     pub(crate) tracer: TracerKind,
-    /// Output image; the format follows the extension (.exr or .pfm).
+    /// Output image; the format follows the extension: .exr or .pfm (linear), with an sRGB
+    /// .png preview beside it; or .png, with the linear .exr beside it (both are written).
     #[arg(short, long, default_value = "results/runs/render.exr")]
     pub(crate) output: PathBuf,
     #[command(flatten)]
@@ -44,10 +73,10 @@ pub(crate) struct RenderArgs {
     /// Do not time items (busy/idle and master times read 0).
     #[arg(long)]
     pub(crate) stats_off: bool,
-    /// Master: give up after this many milliseconds.
-    #[arg(long)]
+    /// Master: give up after this many milliseconds (≥ 1).
+    #[arg(long, value_parser = super::whole::<u64>(1, MAX_DEADLINE_MS))]
     pub(crate) deadline_ms: Option<u64>,
-    /// Compute sources: threads (alias local), gpu (feature `gpu`), threads,gpu (a
+    /// Compute sources: threads, gpu (feature `gpu`), threads,gpu (a
     /// heterogeneous run under the master), or mpi (feature `mpi`, under mpirun).
     #[arg(long, default_value = "threads", value_parser = parse_sources)]
     pub(crate) sources: SourceSet,
@@ -67,35 +96,61 @@ impl RenderArgs {
     /// GPU among the sources and no `--scheduler`, the master: it gives each kind of source
     /// its own buffer and grain.
     pub(crate) fn scheduler_spec(&self, workers: usize) -> Result<SchedulerSpec, CliError> {
-        let default = if self.sources.has(SourceKind::Gpu) {
-            raysched::sched::SchedulerKind::Master
+        let flags = if self.sources.has(SourceKind::Threads) && self.sources.kinds().len() == 1 {
+            self.scheduler.clone()
         } else {
-            raysched::sched::SchedulerKind::WorkStealing
+            self.scheduler
+                .defaulting_to(raysched::sched::SchedulerKind::Master)
         };
-        self.scheduler
-            .spec_or(default, workers, self.timeline)
+        flags
+            .spec(workers, self.timeline)
             .map_err(CliError::message)
     }
 
-    /// The checks every render makes before loading anything: output format and sample count.
+    /// The checks every render makes before loading anything: output format and paths (the
+    /// image and its companion can be written), sample count; the scene overrides.
     pub(crate) fn check_output(&self) -> Result<SceneOverrides, CliError> {
         let ext = self
             .output
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if !matches!(ext.as_deref(), Some("exr" | "pfm")) {
+        if !matches!(ext.as_deref(), Some("exr" | "pfm" | "png")) {
             return Err(CliError::message(format!(
-                "--output {}: unsupported extension (use .exr or .pfm)",
-                self.output.display()
+                "--output {}: unsupported extension (use .exr, .pfm or .png)",
+                raysched::one_line::escape_controls(&self.output.to_string_lossy())
             )));
+        }
+        super::out_path::check_input("SCENE", &self.scene)?;
+        let linear = linear_path(&self.output);
+        for p in [linear.clone(), linear.with_extension("png")] {
+            super::out_path::check("--output", &p, super::out_path::Kind::File)?;
         }
         if self.spp == Some(0) {
             return Err(CliError::message("--spp: must be ≥ 1 (got 0)"));
         }
         Ok(SceneOverrides {
             spp: self.spp,
+            width: self.width,
+            height: self.height,
+            max_depth: self.max_depth,
             ..Default::default()
         })
+    }
+
+    /// A scene error caused by an override names the flag rather than the scene's field.
+    pub(crate) fn blame_overrides(&self, e: raysched::scene::SceneError) -> CliError {
+        let flag = match e.field.as_str() {
+            "camera.width" if self.width.is_some() => "--width",
+            "camera.height" if self.height.is_some() => "--height",
+            "camera.width" | "camera.height" | "animation.frames"
+                if self.width.is_some() || self.height.is_some() =>
+            {
+                "--width/--height"
+            }
+            "render.spp" if self.spp.is_some() => "--spp",
+            _ => return CliError::input(e),
+        };
+        CliError::message(format!("{flag}: {} ({})", e.msg, e.path))
     }
 
     /// `--sources` with the per-source flags; errors name the flag.
@@ -146,7 +201,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     let overrides = args.check_output()?;
     let spec = args.scheduler_spec(threads.max(1))?;
     let kind = args.tracer.available().map_err(CliError::input)?;
-    let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(CliError::input)?);
+    let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(|e| args.blame_overrides(e))?);
     if let Some(w) = scene.depth_warning() {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
@@ -155,6 +210,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         args.gpu_adapter.as_deref(),
         (&scene, &args.scene),
     )?;
+    warn_few_items(&spec, &scene, args.threads);
     let t0 = Instant::now();
     let tracer = Arc::new(AnyTracer::build(kind, &scene, threads.max(1)).map_err(CliError::input)?);
     let build = t0.elapsed();
@@ -200,14 +256,13 @@ pub(crate) fn print_render_footer(
     accelerated: bool,
     wrote: &str,
 ) {
+    // The summary's first line holds the wall time and the rays: said once.
+    super::write_stdout(format_args!("{}", stats.summary()));
     out!(
-        "wall {:.3} s, rays {}, {:.2} Mrays/s, non-finite samples {}",
-        stats.wall_s,
-        stats.rays,
+        "{:.2} Mrays/s, non-finite samples {}",
         stats.rays as f64 / stats.wall_s / 1e6,
         stats.nonfinite
     );
-    super::write_stdout(format_args!("{}", stats.summary()));
     let (used, left_out) = scene.feature_report(accelerated);
     out!(
         "features used: {}; left out: {}",
@@ -215,6 +270,35 @@ pub(crate) fn print_render_footer(
         left_out.join(",")
     );
     out!("wrote {wrote}");
+}
+
+/// The linear image of a render to `output`: itself, or for `-o c.png` the `c.exr` beside
+/// it (the PNG preview is always written beside the linear image).
+fn linear_path(output: &Path) -> PathBuf {
+    let png = output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if png {
+        output.with_extension("exr")
+    } else {
+        output.to_path_buf()
+    }
+}
+
+/// A warning when the run has fewer items than workers (`--chunk 512` on a 128² image is one
+/// item: one worker renders, the others wait). The run is valid, just not parallel.
+pub(crate) fn warn_few_items(spec: &SchedulerSpec, scene: &Scene, workers: usize) {
+    if spec.kind().picks_own_layout() || workers < 2 {
+        return;
+    }
+    let (w, h, frames) = (scene.width(), scene.height(), scene.frames());
+    let items = raysched::experiment::dry_run::item_count(spec, w, h, frames);
+    if items < workers as u64 {
+        let (chunk, _) = spec.layout(w, h);
+        eprintln!(
+            "warning: --chunk {chunk} cuts the {w}×{h} image into {items} item(s): {items} of {workers} workers busy, the rest wait (a smaller --chunk gives each one work)"
+        );
+    }
 }
 
 /// `name_fNNNN.ext` beside `output = name.ext`: the file of frame `frame` of an animation.
@@ -233,6 +317,7 @@ pub(crate) fn save_render(
     image: &Image,
     frames: u32,
 ) -> Result<String, anyhow::Error> {
+    let output = &linear_path(output);
     let root = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

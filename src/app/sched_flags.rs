@@ -15,7 +15,7 @@ use raysched::sched::{
 #[derive(Clone, Debug)]
 pub(crate) struct SchedulerFlags {
     kind: SchedulerKind,
-    /// Whether `--scheduler` was given (not its default).
+    /// Was `--scheduler` given (not its default)?
     named: bool,
     /// `None`: the kind's own default item size.
     chunk: Option<Chunk>,
@@ -27,22 +27,18 @@ pub(crate) struct SchedulerFlags {
 }
 
 impl SchedulerFlags {
-    /// The scheduler spec for `workers` workers, with `default` as the kind when
-    /// `--scheduler` was not given; errors name the flag.
-    pub(crate) fn spec_or(
-        &self,
-        default: SchedulerKind,
-        workers: usize,
-        timeline: bool,
-    ) -> Result<SchedulerSpec, String> {
-        let mut flags = self.clone();
-        if !self.named {
-            flags.kind = default;
+    /// `kind` in place of the default when `--scheduler` was not given (a GPU or MPI source
+    /// runs under the master: asking for one picks it).
+    pub(crate) fn defaulting_to(&self, kind: SchedulerKind) -> Self {
+        let mut f = self.clone();
+        if !f.named {
+            f.kind = kind;
         }
-        flags.spec_of(workers, timeline)
+        f
     }
 
-    fn spec_of(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
+    /// The scheduler spec for `workers` workers; errors name the flag.
+    pub(crate) fn spec(&self, workers: usize, timeline: bool) -> Result<SchedulerSpec, String> {
         let mut spec = SchedulerSpec {
             timeline,
             slow: self.slow,
@@ -100,13 +96,16 @@ impl Args for SchedulerFlags {
                     .value_name("SCHEDULER")
                     .default_value(SchedulerKind::WorkStealing.id())
                     .value_parser(|s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))
-                    .help(format!("Scheduler: {}", ids(&kinds))),
+                    .help(format!(
+                        "Scheduler: {} [default: master with gpu or mpi among --sources]",
+                        ids(&kinds)
+                    )),
             )
             .arg(
                 Arg::new("chunk")
                     .long("chunk")
                     .value_name("CHUNK")
-                    .value_parser(|s: &str| Chunk::parse(s).map_err(|e| e.msg))
+                    .value_parser(super::parse_chunk)
                     .help(format!(
                         "Work item size: N (N×N tile; 1 = per ray), WxH, rows:N, frame (alias \
                          frames: one whole frame per item; an animation is cut frame by frame \
@@ -162,7 +161,7 @@ impl FromArgMatches for SchedulerFlags {
         let get = |id: &str| m.get_one::<String>(id).cloned();
         Ok(Self {
             kind: *m.get_one("scheduler").expect("has a default"),
-            named: m.value_source("scheduler") == Some(clap::parser::ValueSource::CommandLine),
+            named: m.value_source("scheduler") != Some(clap::parser::ValueSource::DefaultValue),
             chunk: m.get_one("chunk").copied(),
             order: m.get_one("order").copied(),
             slow: *m.get_one("slow").expect("has a default"),

@@ -41,6 +41,8 @@ pub(crate) fn child(_: ChildArgs) -> Result<(), CliError> {
 #[cfg(feature = "simgrid")]
 pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
     use raysched::simulate;
+    super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
+    super::out_path::check_input("EXPERIMENT", &args.experiment)?;
     let exe = std::env::current_exe().map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
     let plan = simulate::config::load(&args.experiment, &exe).map_err(CliError::input)?;
     let dir =

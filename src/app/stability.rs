@@ -9,7 +9,7 @@ pub(crate) struct StabilityArgs {
     #[arg(long)]
     pub(crate) quick: bool,
     /// Image side of every case.
-    #[arg(long, default_value_t = 48, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, default_value_t = 48, value_parser = super::whole::<u32>(1, 4096))]
     pub(crate) size: u32,
     #[arg(long, default_value_t = 32, value_parser = super::spp_arg())]
     pub(crate) spp: u32,
@@ -43,6 +43,7 @@ pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
             quick: false,
         }
     };
+    super::out_path::check("--output", &args.output, super::out_path::Kind::Folder)?;
     let rows = st::cases::run_suite(&budget);
     let table = st::markdown(&rows);
     let csv = args.output.join("stability.csv");

@@ -1,7 +1,8 @@
 //! `raysched run --dry-run`: what a run would do (configurations, samples, time) without timing
 //! anything. The time estimate rests on one untimed serial render per (scene, tracer), of at
 //! most [`PROBE_SPP`] samples per pixel scaled to the scene's: a configuration with w workers
-//! is guessed at serial / min(w, cores), the guess a real run replaces with its own samples.
+//! is guessed at serial / min(w, cores, items), the guess a real run replaces with its own
+//! samples (a chunk as large as the image is one item: serial, however many workers).
 
 use super::meta::{self, Meta};
 use super::plan::ExperimentPlan;
@@ -38,6 +39,19 @@ pub(crate) fn probe_render_s<T: Tracer + ?Sized>(scene: &Scene, tracer: &T) -> f
         }
     }
     t0.elapsed().as_secs_f64() * f64::from(spp) / f64::from(probe)
+}
+
+/// How many items `spec` cuts `frames` frames of a `width`×`height` image into (counted, not
+/// listed: the image may hold 2²⁵ pixels).
+pub fn item_count(spec: &crate::sched::SchedulerSpec, width: u32, height: u32, frames: u32) -> u64 {
+    use crate::sched::Chunk;
+    let (chunk, _) = spec.layout(width, height);
+    let per_frame = match chunk {
+        Chunk::Tile { w, h } => u64::from(width.div_ceil(w)) * u64::from(height.div_ceil(h)),
+        Chunk::Rows(n) => u64::from(height.div_ceil(n)),
+        Chunk::Frame => 1,
+    };
+    per_frame * u64::from(frames.max(1))
 }
 
 /// The plan as text, ending with the estimated total.
@@ -103,7 +117,12 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
         let t_serial = probes[c.baseline];
         let t = match &c.spec {
             None => t_serial,
-            Some(s) => t_serial / s.workers.min(cores).max(1) as f64,
+            Some(s) => {
+                let sc = plan.scenes[plan.baselines[c.baseline].scene].scene.as_ref();
+                let items = item_count(s, sc.width(), sc.height(), sc.frames());
+                let busy = (s.workers.min(cores) as u64).min(items).max(1);
+                t_serial / busy as f64
+            }
         };
         let inner = if st.min_sample_s > 0.0 {
             inner_count(t, st.min_sample_s)

@@ -945,6 +945,9 @@ fn granularity(out: &mut Drawn, gr: &Group) -> R {
     Ok(())
 }
 
+/// One group of a scatter: its name and its points (x, x_lo, x_hi, y).
+pub(crate) type ScatterGroup = (String, Vec<(f64, f64, f64, f64)>);
+
 /// Predicted against measured wall time, a point per configuration marked by its scheduler,
 /// around the line y = x (dashed: ±25 %). Both axes log when the times span more than 5×.
 /// Shared with the simulation's validation plot.
@@ -953,7 +956,7 @@ pub(crate) fn scatter_vs<DB: DrawingBackend>(
     title: &str,
     (x_desc, y_desc): (&str, &str),
     // (name, [(x, x_lo, x_hi, y)]) per scheduler or group
-    groups: &[(String, Vec<(f64, f64, f64, f64)>)],
+    groups: &[ScatterGroup],
 ) -> R {
     let all = groups.iter().flat_map(|g| g.1.iter());
     let vals: Vec<f64> = all
@@ -1067,7 +1070,7 @@ pub(crate) fn scatter_vs<DB: DrawingBackend>(
 }
 
 fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
-    let mut groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = Vec::new();
+    let mut groups: Vec<ScatterGroup> = Vec::new();
     for s in gr.at_max.iter().copied() {
         let Some(p) = s.row.predicted_wall_s else {
             continue;
@@ -1534,7 +1537,7 @@ mod layout_tests {
             ..top
         };
         check("pixels axis", (520, 420), |a| line_chart(a, &lines, &px));
-        let mut groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = Vec::new();
+        let mut groups: Vec<ScatterGroup> = Vec::new();
         for s in &gr.at_max {
             let pt = (
                 s.wall_median,

@@ -14,7 +14,7 @@ pub mod report;
 pub mod self_tuning;
 pub mod style;
 
-pub(crate) use charts::{line_chart, scatter_vs, Lines, Series};
+pub(crate) use charts::{line_chart, scatter_vs, Lines, ScatterGroup, Series};
 pub use charts::{mpi_line, palette, throughput, Figure};
 
 use crate::experiment::summary::{self, Summary};

@@ -97,6 +97,7 @@ impl Ctx<'_> {
 /// `toml` crate's messages for syntax errors span several lines).
 pub fn toml_error_at(text: &str, e: &toml::de::Error) -> (Option<(usize, usize)>, String, String) {
     let msg = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    let msg = with_suggestion(msg);
     let Some(span) = e.span() else {
         return (None, String::new(), msg);
     };
@@ -105,6 +106,28 @@ pub fn toml_error_at(text: &str, e: &toml::de::Error) -> (Option<(usize, usize)>
     let line = text[..at].matches('\n').count() + 1;
     let col = text[line_start..at].chars().count() + 1;
     (Some((line, col)), key_at(text, line_start), msg)
+}
+
+/// serde's "unknown field `samles`, expected one of `spp`, …" (or variant) with the nearest
+/// expected name after the unknown one: "unknown field `samles` (did you mean `samples`?), …".
+fn with_suggestion(msg: String) -> String {
+    let Some(rest) = ["unknown field `", "unknown variant `"]
+        .iter()
+        .find_map(|p| msg.find(p).map(|i| i + p.len()))
+    else {
+        return msg;
+    };
+    let Some(end) = msg[rest..].find('`').map(|i| rest + i) else {
+        return msg;
+    };
+    let Some(expected) = msg[end..].find("expected").map(|i| end + i) else {
+        return msg;
+    };
+    let names: Vec<&str> = msg[expected..].split('`').skip(1).step_by(2).collect();
+    match crate::suggest::nearest(&msg[rest..end], names) {
+        Some(n) => format!("{} (did you mean `{n}`?){}", &msg[..=end], &msg[end + 1..]),
+        None => msg,
+    }
 }
 
 fn floor_char_boundary(text: &str, mut i: usize) -> usize {

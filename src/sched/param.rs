@@ -252,8 +252,9 @@ macro_rules! id_enum {
                     err(
                         $field,
                         format!(
-                            concat!("unknown ", $what, " '{}' (expected {})"),
+                            concat!("unknown ", $what, " '{}'{} (expected {})"),
                             s,
+                            $crate::suggest::did_you_mean(s, Self::ALL.iter().map(|v| v.id())),
                             one_of(&Self::ALL.iter().map(|v| v.id()).collect::<Vec<_>>())
                         ),
                     )

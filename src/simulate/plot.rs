@@ -222,7 +222,7 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
     crate::plot::register_font();
     let f = "validation.png".to_string();
     let path = dir.join(&f);
-    let groups: Vec<(String, Vec<(f64, f64, f64, f64)>)> = by_workers
+    let groups: Vec<crate::plot::ScatterGroup> = by_workers
         .keys()
         .map(|w| {
             let pts = v

@@ -45,7 +45,8 @@ pub trait Tracer: Send + Sync {
 /// Why a tracer could not be chosen or built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TracerError {
-    #[error("unknown tracer '{0}' (expected one of: {ids})", ids = TracerKind::id_list())]
+    #[error("unknown tracer '{0}'{near} (expected one of: {ids})", ids = TracerKind::id_list(),
+            near = crate::suggest::did_you_mean(.0, TracerKind::ALL.iter().map(|k| k.id())))]
     /// The id names no tracer; holds the id as given.
     Unknown(String),
     #[error("tracer '{id}' needs cargo feature '{feature}', which this build was compiled without (rebuild with --features {feature})")]

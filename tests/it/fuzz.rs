@@ -550,7 +550,7 @@ fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
         "--tracer",
         "--tolerance-pct",
     ];
-    const PROFILE: &[&str] = &["--spp", "--tracer", "--chunks", "--passes"];
+    const PROFILE: &[&str] = &["--spp", "--tracer", "--chunks", "--repeats"];
     let (cases, time) = budget(64, 3);
     let command = prop_oneof![
         prop::collection::vec(
@@ -572,7 +572,7 @@ fn advise_and_profile_flags_exit_0_or_2_with_one_line_errors() {
             let base: &[&str] = if sub == "advise" {
                 &["advise", "s.toml", "--probe-spp", "1", "--spp", "1"]
             } else {
-                &["profile", "s.toml", "-o", "p.png", "--passes", "1"]
+                &["profile", "s.toml", "-o", "p.png", "--repeats", "1"]
             };
             exits_0_or_2_in_one_line(&dir, base, &flags)
         },

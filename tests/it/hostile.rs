@@ -472,14 +472,14 @@ fn a_closed_stdout_ends_quietly_and_write_errors_are_one_line_without_partial_fi
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.is_empty(), "{stderr}");
-    // An output folder that is a file: one line, exit 1, nothing written.
+    // An output folder that is a file: one line, exit 2 (checked before the render).
     std::fs::write(dir.path().join("file"), "").unwrap();
     let out = raysched(
         &["render", "s.toml", "-o", "file/o.exr", "--threads", "1"],
         dir.path(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
     // The preview's name is taken by a folder: neither the image nor the preview is written.
@@ -489,7 +489,7 @@ fn a_closed_stdout_ends_quietly_and_write_errors_are_one_line_without_partial_fi
         dir.path(),
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     assert!(
         !dir.path().join("p.exr").exists(),

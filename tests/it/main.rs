@@ -9,6 +9,8 @@ mod advise;
 mod analytic;
 mod animation;
 mod bad_input;
+mod cli_edges;
+mod cli_fuzz;
 mod comments;
 mod determinism;
 mod docs;
