@@ -54,6 +54,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     }
     quiet_vulkan_loader();
     let ctx = GpuContext::open(args.gpu_adapter.as_deref()).map_err(CliError::input)?;
+    if args.gpu_counters {
+        let r = raysched::gpu::counters::report(&scene, Some(&ctx))
+            .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.scene.display())))?;
+        print!("{r}");
+    }
     let t0 = Instant::now();
     let gpu = Arc::new(
         GpuRenderer::new(ctx, &scene)

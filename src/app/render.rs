@@ -54,6 +54,11 @@ pub(crate) struct RenderArgs {
     /// high-performance one, discrete before integrated before a CPU implementation).
     #[arg(long, value_name = "NAME")]
     pub(crate) gpu_adapter: Option<String>,
+    /// With gpu among --sources: first print per-ray traversal counters (node fetches, bytes,
+    /// box and triangle tests, stack depth) of the binary and the wide BVH over the primary
+    /// rays, from the kernel's debug pipeline and from the CPU walk of the same structure.
+    #[arg(long)]
+    pub(crate) gpu_counters: bool,
     #[command(flatten)]
     pub(crate) source_flags: super::sched_flags::SourceFlags,
     /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
@@ -125,6 +130,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     if args.gpu_adapter.is_some() {
         return Err(CliError::message(
             "--gpu-adapter: needs gpu among --sources",
+        ));
+    }
+    if args.gpu_counters {
+        return Err(CliError::message(
+            "--gpu-counters: needs gpu among --sources",
         ));
     }
     // The per-source flags (--gpu-chunk, --gpu-buffer, --balance) say why they do not apply.
