@@ -16,14 +16,15 @@ const NODE_BYTES: u32 = 32u;
 const PRIM_BYTES: u32 = 48u;
 
 // obvhs' CwBvhNode: p = origin; e_imask = exponents of x, y, z (bytes 0-2) and the inner-child
-// mask (byte 3); meta: per child slot, 0 = empty, leaf = (unary count << 5) | offset from
-// prim_base, inner = 0b001_11xxx (24 + slot); q: per axis (min bytes, max bytes) of the 8 slots.
+// mask (byte 3); cm (child meta; `meta` is reserved): per child slot, 0 = empty, leaf = (unary
+// count << 5) | offset from prim_base, inner = 0b001_11xxx (24 + slot); q: per axis (min
+// bytes, max bytes) of the 8 slots.
 struct WNode {
     p: vec3<f32>,
     e_imask: u32,
     child_base: u32,
     prim_base: u32,
-    meta: vec2<u32>,
+    cm: vec2<u32>,
     q: array<vec4<u32>, 3>,
 }
 
@@ -113,8 +114,8 @@ fn wide_hits(n: WNode, o: vec3<f32>, inv: vec3<f32>, oct: u32, t_max: f32) -> Wi
     var hits = 0u;
     var t_in = inf();
     for (var c = 0u; c < 8u; c++) {
-        let meta = byte8(n.meta, c);
-        if meta == 0u {
+        let cm = byte8(n.cm, c);
+        if cm == 0u {
             continue;
         }
         if COUNT {
@@ -129,11 +130,11 @@ fn wide_hits(n: WNode, o: vec3<f32>, inv: vec3<f32>, oct: u32, t_max: f32) -> Wi
         let t0 = max(max(near.x, near.y), max(near.z, 0.0));
         let t1 = min(min(far.x, far.y) * FAR_SCALE, min(far.z * FAR_SCALE, t_max));
         if t0 <= t1 {
-            if (meta & 0x18u) == 0x18u {
-                hits |= 1u << (24u + ((meta & 7u) ^ oct));
+            if (cm & 0x18u) == 0x18u {
+                hits |= 1u << (24u + ((cm & 7u) ^ oct));
                 t_in = min(t_in, t0);
             } else {
-                hits |= (meta >> 5u) << (meta & 0x1fu);
+                hits |= (cm >> 5u) << (cm & 0x1fu);
             }
         }
     }
