@@ -69,9 +69,10 @@ if [ "$part" != validation ]; then
 # them is short.
 for sc in complex cornell_box; do
   log "gpu-counters $sc $(size 1024 32)² primary rays"
-  timeout 60 $B/raysched render scenes/$sc.toml --sources gpu --gpu-counters --scheduler master \
-    --width "$(size 1024 32)" --height "$(size 1024 32)" --spp 1 --max-depth 1 -o /tmp/counters.exr \
-    >"$W/gpu/counters_$sc.txt" 2>&1
+  sed "s/^width = 128/width = $(size 1024 32)/; s/^height = 128/height = $(size 1024 32)/; s/^max_depth = .*/max_depth = 1/" \
+    scenes/$sc.toml >/tmp/counters_$sc.toml
+  timeout 60 $B/raysched render /tmp/counters_$sc.toml --sources gpu --gpu-counters --scheduler master \
+    --spp 1 -o /tmp/counters.exr >"$W/gpu/counters_$sc.txt" 2>&1
   grep '^gpu-counters' "$W/gpu/counters_$sc.txt" | tee -a "$W/summary.txt"
   snap
 done

@@ -854,7 +854,7 @@ fn cli_prints_gpu_counters_of_both_layouts_and_refuses_them_without_a_gpu() {
     for layout in ["binary", "wide"] {
         let line = stdout
             .lines()
-            .find(|l| l.starts_with(&format!("gpu-counters {layout} gpu rays 256 ")))
+            .find(|l| l.starts_with(&format!("gpu-counters {layout} gpu rays 16384 ")))
             .unwrap_or_else(|| panic!("{stdout}"));
         assert!(line.ends_with("mismatched_rays 0"), "{line}");
     }
