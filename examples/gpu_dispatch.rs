@@ -12,10 +12,11 @@
 //!
 //! ```sh
 //! cargo run --release --features gpu --example gpu_dispatch -- --scene scenes/cornell_box.toml \
-//!     --width 64 --spp 1 [--max-depth 1] [--adapter NAME] [--min-s 0.3] [--out gpu.csv]
+//!     --width 64 --spp 1 [--max-depth 1] [--adapter NAME] [--min-s 0.3] [--out gpu.csv] \
+//!     [--bvh wide|binary]
 //! ```
 
-use raysched::gpu::{Entry, GpuContext, GpuRenderer};
+use raysched::gpu::{BvhLayout, Entry, GpuContext, GpuRenderer};
 use raysched::scene::{load_scene, SceneOverrides};
 use std::collections::VecDeque;
 use std::io::Write;
@@ -30,6 +31,7 @@ struct Args {
     min_s: f64,
     depth_batch: usize,
     out: Option<String>,
+    bvh: BvhLayout,
 }
 
 fn parse() -> Result<Args, String> {
@@ -42,6 +44,7 @@ fn parse() -> Result<Args, String> {
         min_s: 0.3,
         depth_batch: 1024,
         out: None,
+        bvh: BvhLayout::Wide,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -66,6 +69,13 @@ fn parse() -> Result<Args, String> {
                 a.depth_batch = val()?.parse().map_err(|e| format!("--depth-batch: {e}"))?
             }
             "--out" => a.out = Some(val()?),
+            "--bvh" => {
+                a.bvh = match val()?.as_str() {
+                    "wide" => BvhLayout::Wide,
+                    "binary" => BvhLayout::Binary,
+                    v => return Err(format!("--bvh: wide or binary, not {v}")),
+                }
+            }
             f => return Err(format!("unknown flag {f}")),
         }
     }
@@ -98,22 +108,24 @@ fn main() {
         std::process::exit(2)
     });
     let t0 = Instant::now();
-    let r = GpuRenderer::new(ctx, &scene).unwrap_or_else(|e| {
+    let r = GpuRenderer::with_layout(ctx, &scene, args.bvh).unwrap_or_else(|e| {
         eprintln!("error: {e}");
         std::process::exit(2)
     });
     let info = r.info().clone();
-    let mut rows: Vec<String> =
-        vec!["measure,param,value,unit,adapter,driver,backend,scene,width,spp,max_depth".into()];
+    let mut rows: Vec<String> = vec![
+        "measure,param,value,unit,adapter,driver,backend,scene,width,spp,max_depth,bvh".into(),
+    ];
     let tail = format!(
-        "\"{}\",\"{}\",{},{},{},{},{}",
+        "\"{}\",\"{}\",{},{},{},{},{},{}",
         info.name,
         info.driver,
         info.backend,
         scene.name,
         scene.width(),
         scene.settings.spp,
-        scene.settings.max_depth
+        scene.settings.max_depth,
+        args.bvh.id()
     );
     let mut row = |m: &str, p: String, v: f64, unit: &str| {
         let line = format!("{m},{p},{v:.6},{unit},{tail}");

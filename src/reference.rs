@@ -5,7 +5,7 @@
 //! these functions, so the pages cannot drift from the code; `RAYSCHED_BLESS=1` rewrites them.
 
 use crate::experiment::results::RunRow;
-use crate::sched::rule::{hand_out, HandOut, Steal, WorkerRule};
+use crate::sched::rule::{hand_out, over_sources, HandOut, Steal, WorkerRule};
 use crate::sched::{
     param_columns, source_params, Order, Passes, Policy, SchedulerKind, Slow, SourceKind, Weights,
 };
@@ -88,7 +88,7 @@ pub fn schedulers() -> String {
             } else {
                 params.join(", ")
             },
-            if k.over_sources() { "yes" } else { "no" },
+            if over_sources(k) { "yes" } else { "no" },
         );
     }
     for k in SchedulerKind::ALL {

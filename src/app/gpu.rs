@@ -26,7 +26,7 @@ pub(crate) struct OpenGpu {
 #[cfg(feature = "gpu")]
 pub(crate) fn open(
     sources: &SourceSet,
-    adapter: Option<&str>,
+    (adapter, counters): (Option<&str>, bool),
     (scene, path): (&Scene, &Path),
 ) -> Result<Option<OpenGpu>, CliError> {
     use raysched::gpu::{GpuContext, GpuRenderer};
@@ -35,6 +35,12 @@ pub(crate) fn open(
     }
     quiet_vulkan_loader();
     let ctx = GpuContext::open(adapter).map_err(CliError::input)?;
+    if counters {
+        // Per-ray traversal counters of both BVH layouts, before the render (`--gpu-counters`).
+        let r = raysched::gpu::counters::report(scene, Some(&ctx))
+            .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", path.display())))?;
+        print!("{r}");
+    }
     let t0 = std::time::Instant::now();
     let renderer = GpuRenderer::new(ctx, scene)
         .map_err(|e| CliError::input(anyhow::anyhow!("{}: {e}", path.display())))?;
@@ -58,7 +64,7 @@ pub(crate) fn open(
 #[cfg(not(feature = "gpu"))]
 pub(crate) fn open(
     sources: &SourceSet,
-    _adapter: Option<&str>,
+    _adapter: (Option<&str>, bool),
     _scene: (&Scene, &Path),
 ) -> Result<Option<OpenGpu>, CliError> {
     if sources.has(SourceKind::Gpu) {

@@ -84,6 +84,11 @@ pub(crate) struct RenderArgs {
     /// high-performance one, discrete before integrated before a CPU implementation).
     #[arg(long, value_name = "NAME")]
     pub(crate) gpu_adapter: Option<String>,
+    /// With gpu among --sources: first print per-ray traversal counters (node fetches, bytes,
+    /// box and triangle tests, stack depth) of the binary and the wide BVH over the primary
+    /// rays, from the kernel's debug pipeline and from the CPU walk of the same structure.
+    #[arg(long)]
+    pub(crate) gpu_counters: bool,
     #[command(flatten)]
     pub(crate) source_flags: super::sched_flags::SourceFlags,
     /// With --sources mpi: worker threads on rank 0 besides the ranks (a heterogeneous run).
@@ -188,6 +193,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
             "--gpu-adapter: needs gpu among --sources",
         ));
     }
+    if args.gpu_counters && !gpu_asked {
+        return Err(CliError::message(
+            "--gpu-counters: needs gpu among --sources",
+        ));
+    }
     // The per-source flags (--gpu-chunk, --gpu-buffer, --balance) say why they do not apply.
     let setup = args.source_setup()?;
     let threads = if args.sources.has(SourceKind::Threads) {
@@ -207,7 +217,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     }
     let gpu = super::gpu::open(
         &args.sources,
-        args.gpu_adapter.as_deref(),
+        (args.gpu_adapter.as_deref(), args.gpu_counters),
         (&scene, &args.scene),
     )?;
     warn_few_items(&spec, &scene, args.threads);

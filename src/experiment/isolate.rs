@@ -9,10 +9,8 @@
 use super::plan::{ExperimentPlan, StatsSettings};
 use super::progress::Progress;
 use super::results::{read_runs, RunRow};
-use super::run::{self, RunError, RunOptions, RunOutcome, Todo};
-use crate::model::Prediction;
+use super::run::{self, predictions_path, RunError, RunOptions, RunOutcome, Todo, SAMPLE};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -21,8 +19,6 @@ use std::process::{Command, Stdio};
 /// [`RoundJob`] as JSON.
 pub const ROUND_CHILD_COMMAND: &str = "round-child";
 
-/// A child's line after each sample: the prefix, then the configuration's label.
-const SAMPLE: &str = "sample\t";
 /// A child's last line: the prefix, then its untimed renders (warm-ups and inner probes).
 const UNTIMED: &str = "untimed\t";
 
@@ -39,24 +35,6 @@ pub struct RoundJob {
     pub round: u64,
     /// The parent's statistics settings (the file's, with the command line's overrides).
     pub stats: StatsSettings,
-}
-
-/// The cost model's predictions, computed once by the parent for every child to record.
-fn predictions_path(dir: &Path) -> PathBuf {
-    dir.join(".predictions.json")
-}
-
-/// The predictions the parent left for the children (none when the plan records none).
-pub(super) fn read_predictions(
-    plan: &ExperimentPlan,
-    dir: &Path,
-) -> Result<HashMap<String, Prediction>, RunError> {
-    if !plan.predict {
-        return Ok(HashMap::new());
-    }
-    let path = predictions_path(dir);
-    let text = std::fs::read_to_string(&path).map_err(|e| run::io_err(&path, e))?;
-    serde_json::from_str(&text).map_err(|e| run::io_err(&path, e))
 }
 
 /// Run `plan` with a fresh process of `exe` per round, or in this process where the plan asks
@@ -205,9 +183,4 @@ pub fn child_main(job: &RoundJob) -> Result<(), RunError> {
     let outcome = run::run_experiment(&plan, &opts)?;
     println!("{UNTIMED}{}", outcome.untimed);
     Ok(())
-}
-
-/// A child's line for one sample of the configuration labelled `label`.
-pub(super) fn sample_line(label: &str) -> String {
-    format!("{SAMPLE}{label}")
 }

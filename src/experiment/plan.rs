@@ -995,7 +995,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
     };
     for (i, s) in file.schedulers.iter().enumerate() {
         if let Ok(k) = SchedulerKind::from_id(&s.kind) {
-            if !k.over_sources() {
+            if !crate::sched::rule::over_sources(k) {
                 return Err((
                     format!("schedulers[{i}].kind"),
                     format!(

@@ -238,7 +238,7 @@ pub fn run_experiment_with(
     let mut todo = Todo::of(plan, &old_rows, launch.as_ref());
     todo.update_done(plan);
     let predictions = match child {
-        Some(_) => super::isolate::read_predictions(plan, &dir)?,
+        Some(_) => read_predictions(plan, &dir)?,
         None if plan.predict => predictions(plan, &todo)?,
         None => HashMap::new(),
     };
@@ -721,7 +721,7 @@ impl Session<'_, '_> {
         self.measured += 1;
         self.progress.inc();
         if self.child {
-            println!("{}", super::isolate::sample_line(&label_of(plan, c)));
+            println!("{}", sample_line(&label_of(plan, c)));
         }
         Ok(())
     }
@@ -1020,4 +1020,31 @@ pub fn slug(s: &str) -> String {
         out = out.replace("__", "_");
     }
     out.trim_matches('_').to_string()
+}
+
+/// A round's process's line after each sample: the prefix, then the configuration's label
+/// (`isolate` reads it).
+pub(super) const SAMPLE: &str = "sample\t";
+
+/// A child's line for one sample of the configuration labelled `label`.
+fn sample_line(label: &str) -> String {
+    format!("{SAMPLE}{label}")
+}
+
+/// The cost model's predictions, computed once by the parent for every child to record.
+pub(super) fn predictions_path(dir: &Path) -> PathBuf {
+    dir.join(".predictions.json")
+}
+
+/// The predictions the parent left for the children (none when the plan records none).
+fn read_predictions(
+    plan: &ExperimentPlan,
+    dir: &Path,
+) -> Result<HashMap<String, Prediction>, RunError> {
+    if !plan.predict {
+        return Ok(HashMap::new());
+    }
+    let path = predictions_path(dir);
+    let text = std::fs::read_to_string(&path).map_err(|e| io_err(&path, e))?;
+    serde_json::from_str(&text).map_err(|e| io_err(&path, e))
 }

@@ -3,7 +3,10 @@
 //!
 //! - [`device`]: adapter choice (high-performance first, or `--gpu-adapter NAME`) and what a
 //!   run records about it ([`GpuInfo`]).
-//! - [`upload`]: the scene as the kernel's buffers (the native tracer's BVH build, kept binary).
+//! - [`upload`]: the scene as the kernel's buffers (the native tracer's BVH build, as a
+//!   compressed 8-wide BVH or the binary baseline: [`BvhLayout`]).
+//! - [`counters`]: per-ray traversal work (node fetches, bytes, box and primitive tests, stack
+//!   depth), counted by the kernel's debug pipeline and by the same traversal on the CPU.
 //! - [`GpuRenderer`]: the scene on one device; [`GpuRenderer::submit`] encodes a set of pixel
 //!   tasks as one dispatch and returns a [`Dispatch`] whose results arrive when its readback
 //!   buffer is mapped.
@@ -13,15 +16,17 @@
 //! differently (FMA contraction, transcendental functions, spheres in f32 instead of f64), so
 //! a GPU image estimates the same samples without being bit-identical to the CPU image.
 
+pub mod counters;
 pub mod device;
 pub mod upload;
 
 pub use device::{GpuContext, GpuInfo};
+pub use upload::BvhLayout;
 
 use crate::render::{TileResult, WorkItem};
 use crate::scene::Scene;
 use std::sync::mpsc;
-use upload::{scene_buffers, PIXEL_OUT_BYTES};
+use upload::{scene_buffers_with, SceneBuffers, PIXEL_OUT_BYTES};
 use wgpu::util::DeviceExt;
 
 /// Why the GPU path cannot run: every variant prints as one line.
@@ -68,6 +73,9 @@ pub enum Entry {
     RngProbe,
     /// Nothing: the fixed cost of one dispatch.
     Empty,
+    /// The debug pipeline: one CPU-made ray per task, traced with counters
+    /// ([`GpuRenderer::count_rays`]).
+    Count,
 }
 
 /// One pixel's result from the kernel: the sum of its finite samples and its counters.
@@ -111,6 +119,10 @@ impl PixelOut {
     }
 }
 
+/// The kernel: the path tracer and its traversals, one WGSL module.
+pub const KERNEL_SOURCE: &str =
+    concat!(include_str!("path.wgsl"), "\n", include_str!("cwbvh.wgsl"));
+
 const WORKGROUP: u32 = 64;
 const MAX_GROUPS_X: u32 = 65_535;
 
@@ -122,7 +134,9 @@ pub struct GpuRenderer {
     render: wgpu::ComputePipeline,
     probe: wgpu::ComputePipeline,
     empty: wgpu::ComputePipeline,
-    scene_bufs: [wgpu::Buffer; 6],
+    count: wgpu::ComputePipeline,
+    scene_bufs: [wgpu::Buffer; 8],
+    layout_kind: BvhLayout,
     width: u32,
     height: u32,
     spp: u32,
@@ -154,10 +168,28 @@ impl Dispatch {
 }
 
 impl GpuRenderer {
-    /// Upload `scene` to the device of `ctx` and build the kernel's pipelines. Errors are one
-    /// line; nothing is allocated on the device before the sizes are checked.
+    /// Upload `scene` to the device of `ctx` with the default (wide) BVH and build the
+    /// kernel's pipelines. Errors are one line; nothing is allocated on the device before the
+    /// sizes are checked.
     pub fn new(ctx: GpuContext, scene: &Scene) -> Result<Self, GpuError> {
-        let bufs = scene_buffers(scene)?;
+        Self::with_layout(ctx, scene, BvhLayout::default())
+    }
+
+    /// [`GpuRenderer::new`] with the BVH layout `layout`.
+    pub fn with_layout(
+        ctx: GpuContext,
+        scene: &Scene,
+        layout: BvhLayout,
+    ) -> Result<Self, GpuError> {
+        Self::with_buffers(ctx, scene, &scene_buffers_with(scene, layout)?)
+    }
+
+    /// [`GpuRenderer::new`] from buffers laid out already (`bufs` must be of `scene`).
+    pub fn with_buffers(
+        ctx: GpuContext,
+        scene: &Scene,
+        bufs: &SceneBuffers,
+    ) -> Result<Self, GpuError> {
         let limits = ctx.device.limits();
         let bind_limit = limits
             .max_storage_buffer_binding_size
@@ -167,6 +199,7 @@ impl GpuRenderer {
             ("the primitives", &bufs.prims),
             ("the area-light table", &bufs.light_prims),
             ("the cameras", &bufs.cams),
+            ("the wide primitives", &bufs.wide_prims),
         ] {
             if b.len() as u64 > bind_limit {
                 return Err(GpuError::TooLarge {
@@ -180,7 +213,7 @@ impl GpuRenderer {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("raysched path tracer"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("path.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(KERNEL_SOURCE.into()),
         });
         let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
             binding,
@@ -205,6 +238,8 @@ impl GpuRenderer {
         entries.extend((1..=6).map(|b| storage(b, true)));
         entries.push(storage(7, false));
         entries.push(storage(8, false));
+        entries.push(storage(9, true));
+        entries.push(storage(10, true));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("raysched kernel"),
             entries: &entries,
@@ -214,17 +249,30 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |entry: &str| {
+        let wide = if bufs.layout == BvhLayout::Wide {
+            1.0
+        } else {
+            0.0
+        };
+        let pipeline = |entry: &str, count: f64| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&pipeline_layout),
                 module: &module,
                 entry_point: Some(entry),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &[("WIDE", wide), ("COUNT", count)],
+                    ..Default::default()
+                },
                 cache: None,
             })
         };
-        let (render, probe, empty) = (pipeline("render"), pipeline("rng_probe"), pipeline("empty"));
+        let (render, probe, empty) = (
+            pipeline("render", 0.0),
+            pipeline("rng_probe", 0.0),
+            pipeline("empty", 0.0),
+        );
+        let count = pipeline("count_rays", 1.0);
         let init = |label: &str, contents: &[u8]| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -232,13 +280,21 @@ impl GpuRenderer {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
+        // The layout not traversed gets a placeholder: every binding needs a buffer.
+        let placeholder = [0u8; 480];
+        let (binary_nodes, wide_nodes) = match bufs.layout {
+            BvhLayout::Binary => (&bufs.nodes[..], &placeholder[..]),
+            BvhLayout::Wide => (&placeholder[..], &bufs.nodes[..]),
+        };
         let scene_bufs = [
-            init("nodes", &bufs.nodes),
+            init("nodes", binary_nodes),
             init("prims", &bufs.prims),
             init("materials", &bufs.materials),
             init("lights", &bufs.lights),
             init("light_prims", &bufs.light_prims),
             init("cams", &bufs.cams),
+            init("wide nodes", wide_nodes),
+            init("wide prims", &bufs.wide_prims),
         ];
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Runtime(first_line(&e.to_string())));
@@ -255,7 +311,9 @@ impl GpuRenderer {
             render,
             probe,
             empty,
+            count,
             scene_bufs,
+            layout_kind: bufs.layout,
             width: scene.width(),
             height: scene.height(),
             spp: scene.settings.spp,
@@ -269,6 +327,11 @@ impl GpuRenderer {
             max_tasks,
             ctx,
         })
+    }
+
+    /// The BVH layout the kernel traverses.
+    pub fn layout(&self) -> BvhLayout {
+        self.layout_kind
     }
 
     /// The adapter this renderer runs on.
@@ -305,13 +368,19 @@ impl GpuRenderer {
                 )));
             }
         }
+        // A count dispatch's tasks are rays: four (u32, u32) pairs each.
+        let n_tasks = if entry == Entry::Count {
+            tasks.len() / 4
+        } else {
+            tasks.len()
+        };
         let device = &self.ctx.device;
         let mut params = Vec::with_capacity(64);
         for w in [
             self.width,
             self.spp,
             self.max_depth,
-            tasks.len() as u32,
+            n_tasks as u32,
             self.n_lights,
             self.has_env as u32,
             self.n_nodes,
@@ -344,7 +413,7 @@ impl GpuRenderer {
             contents: &task_bytes,
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let out_size = n as u64 * PIXEL_OUT_BYTES;
+        let out_size = n_tasks.max(1) as u64 * PIXEL_OUT_BYTES;
         let out = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("out"),
             size: out_size,
@@ -363,7 +432,8 @@ impl GpuRenderer {
         }];
         for (k, b) in self.scene_bufs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
+                // The wide nodes and primitives, last of the scene's buffers, are bindings 9, 10.
+                binding: if k >= 6 { k as u32 + 3 } else { k as u32 + 1 },
                 resource: b.as_entire_binding(),
             });
         }
@@ -392,9 +462,10 @@ impl GpuRenderer {
                 Entry::Render => &self.render,
                 Entry::RngProbe => &self.probe,
                 Entry::Empty => &self.empty,
+                Entry::Count => &self.count,
             });
             pass.set_bind_group(0, &bind, &[]);
-            let groups = (tasks.len() as u32).div_ceil(WORKGROUP).max(1);
+            let groups = (n_tasks as u32).div_ceil(WORKGROUP).max(1);
             let (x, y) = if entry == Entry::Empty {
                 (1, 1)
             } else if groups <= MAX_GROUPS_X {
@@ -414,7 +485,7 @@ impl GpuRenderer {
             readback,
             mapped: rx,
             submission,
-            tasks: tasks.len(),
+            tasks: n_tasks,
         })
     }
 
@@ -488,6 +559,32 @@ impl GpuRenderer {
             .collect()
     }
 
+    /// Trace `rays` with the kernel's debug pipeline (`COUNT = true`): each ray's counts and
+    /// hit, in ray order, to compare with [`counters::cpu_counts`]. Large sets go in several
+    /// dispatches.
+    pub fn count_rays(
+        &self,
+        rays: &[counters::CountRay],
+    ) -> Result<Vec<counters::Counted>, GpuError> {
+        let mut out = Vec::with_capacity(rays.len());
+        let per = (self.max_tasks as usize / 4).clamp(1, 1 << 18);
+        for chunk in rays.chunks(per) {
+            let words: Vec<[u32; 2]> = chunk.iter().flat_map(|r| r.words()).collect();
+            let d = self.submit(&words, Entry::Count)?;
+            out.extend(self.wait(d)?.iter().map(|p| counters::Counted {
+                counts: counters::RayCounts {
+                    node_fetches: p.nonfinite,
+                    bytes: p.rays,
+                    box_tests: p.finite,
+                    tri_tests: p.extra[0],
+                    max_stack: p.extra[1],
+                },
+                hit: (p.sum[1] > 0.0).then(|| (p.sum[0], p.sum[1] as u32 - 1)),
+            }));
+        }
+        Ok(out)
+    }
+
     /// The first 8 random numbers of each stream (pixel, sample) of `keys` under frame 0's
     /// seed, as f32 bits: what the RNG identity test compares with `rng::Sampler`.
     pub fn rng_probe(&self, keys: &[[u32; 2]]) -> Result<Vec<[u32; 8]>, GpuError> {
@@ -502,4 +599,24 @@ fn first_line(s: &str) -> String {
         .find(|l| !l.is_empty())
         .unwrap_or("unknown error")
         .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use wgpu::naga;
+
+    /// The kernel parses and validates without a device (a shader error reads in full here;
+    /// the device's error scope keeps one line).
+    #[test]
+    fn the_kernel_parses_and_validates() {
+        let src = super::KERNEL_SOURCE;
+        let module = naga::front::wgsl::parse_str(src)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::empty(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
+    }
 }

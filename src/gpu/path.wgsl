@@ -1,9 +1,9 @@
 // The path tracer of render/integrator.rs, ported to WGSL: one invocation per pixel task, every
 // sample of that pixel in order. Same random numbers (SplitMix64 emulated in u32 pairs, keyed
 // by (frame seed, pixel, sample, dimension)), same max_depth and Russian-roulette rules, same
-// watertight triangle test over the native tracer's binary BVH (obvhs, leaf order). Spheres are
-// intersected in f32 (the CPU uses f64) and rays leave them through the error-box offset, so a
-// GPU pixel estimates the same sample as the CPU pixel without being bit-identical.
+// watertight triangle test over a BVH of the native tracer's build (traversals: cwbvh.wgsl).
+// Spheres are intersected in f32 (the CPU uses f64) and rays leave them through the error-box
+// offset, so a GPU pixel estimates the same sample as the CPU pixel without being bit-identical.
 
 const PI: f32 = 3.14159265358979;
 const FRAC_1_PI: f32 = 0.318309886183791;
@@ -405,8 +405,8 @@ fn box_hit(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, inv: vec3<f32>, t_max: f3
     return select(-1.0, t0, t0 <= t1);
 }
 
-// Closest hit (shadow = false) or any hit (shadow = true) with 0 < t < t_max; slot = NO_LIGHT: none.
-fn trace(o: vec3<f32>, d: vec3<f32>, t_max0: f32, shadow: bool) -> Hit {
+// The binary baseline of `trace` (cwbvh.wgsl): closest or any hit over `nodes`.
+fn trace_binary(o: vec3<f32>, d: vec3<f32>, t_max0: f32, shadow: bool) -> Hit {
     var best = Hit(0.0, NO_LIGHT, 0.0, 0.0);
     if params.n_nodes == 0u {
         return best;
@@ -419,8 +419,14 @@ fn trace(o: vec3<f32>, d: vec3<f32>, t_max0: f32, shadow: bool) -> Hit {
     var node = 0u;
     loop {
         let n = nodes[node];
+        if COUNT {
+            count_node(NODE_BYTES);
+        }
         if n.count > 0u {
             for (var k = 0u; k < n.count; k++) {
+                if COUNT {
+                    count_prim(PRIM_BYTES);
+                }
                 let h = prim_hit(n.a + k, o, d, sh, t_max);
                 if h.w > 0.0 {
                     best = Hit(h.x, n.a + k, h.y, h.z);
@@ -433,6 +439,11 @@ fn trace(o: vec3<f32>, d: vec3<f32>, t_max0: f32, shadow: bool) -> Hit {
         } else {
             let l = nodes[n.a];
             let r = nodes[n.a + 1u];
+            if COUNT {
+                count_node(NODE_BYTES);
+                count_node(NODE_BYTES);
+                ctr.boxes += 2u;
+            }
             let tl = box_hit(l.lo, l.hi, o, inv, t_max);
             let tr = box_hit(r.lo, r.hi, o, inv, t_max);
             if tl >= 0.0 && tr >= 0.0 {
@@ -445,6 +456,9 @@ fn trace(o: vec3<f32>, d: vec3<f32>, t_max0: f32, shadow: bool) -> Hit {
                     node = n.a + 1u;
                 }
                 sp += 1u;
+                if COUNT {
+                    count_stack(sp);
+                }
                 continue;
             }
             if tl >= 0.0 {

@@ -1,23 +1,76 @@
 //! The scene as the kernel reads it: byte images of every storage buffer of `path.wgsl`, built
 //! on the CPU (no device needed, so the layout is unit-tested everywhere).
 //!
-//! The BVH is the native tracer's own build (obvhs `build_bvh2` with [`BUILD_PARAMS`], leaves
-//! capped at [`MAX_LEAF_PRIMS`] as `Bvh4` caps them), kept binary: a GPU lane walks one ray, so
-//! the 4-wide collapse that pays for SIMD on the CPU would only lengthen its node fetches.
+//! Two BVH layouts ([`BvhLayout`]), both from the native tracer's build parameters:
+//! - [`BvhLayout::Wide`] (the default): obvhs' binary build with one primitive per leaf
+//!   ([`BUILD_PARAMS_LARGE`]), collapsed by obvhs into a compressed 8-wide BVH (Ylitie et al.
+//!   2017: 80-byte nodes, child boxes quantised to 8 bits against the node's origin and
+//!   power-of-two scales, children placed by ray octant, leaves of at most 3 primitives), the
+//!   primitives gathered into its leaf order. Traversed by `cwbvh.wgsl`.
+//! - [`BvhLayout::Binary`]: `build_bvh2` with [`BUILD_PARAMS`], leaves capped at
+//!   [`MAX_LEAF_PRIMS`] as `Bvh4` caps them, 32-byte nodes: the baseline, traversed by
+//!   `trace_binary` in `path.wgsl`.
 
 use super::GpuError;
 use crate::hash::mix64;
 use crate::rng::frame_seed;
 use crate::scene::{Light, Material, Scene, Texture, NO_LIGHT};
-use crate::tracer::bvh::BUILD_PARAMS;
+use crate::tracer::bvh::{BUILD_PARAMS, BUILD_PARAMS_LARGE};
 use crate::tracer::bvh4::MAX_LEAF_PRIMS;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::builder::build_bvh2;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use std::time::Duration;
 
 /// Entries of the kernel's traversal stack (`STACK` in `path.wgsl`): a BVH deeper than this is
 /// refused, since the kernel would silently drop subtrees.
 pub const STACK_DEPTH: usize = 64;
+
+/// Entries of the wide traversal's stack (`WSTACK` in `cwbvh.wgsl`, 8 bytes each): it holds
+/// at most one group per inner level below the root, so a wide BVH deeper than this is refused.
+pub const WIDE_STACK_DEPTH: usize = 24;
+
+/// Bytes of one binary node (`Node` of `path.wgsl`).
+pub const BINARY_NODE_BYTES: usize = 32;
+/// Bytes of one wide node (`WNode` of `cwbvh.wgsl`, obvhs' `CwBvhNode`).
+pub const WIDE_NODE_BYTES: usize = 80;
+/// Bytes of one primitive (`Prim` of `path.wgsl`).
+pub const PRIM_BYTES: usize = 48;
+/// Bytes of one primitive of the wide walk (`wtris` of `cwbvh.wgsl`): geometry only.
+pub const WIDE_PRIM_BYTES: usize = 36;
+/// `wtris` word 4 of a sphere: a NaN, which no triangle's v1.y is.
+pub const SPHERE_TAG: u32 = 0xffff_ffff;
+
+/// Which BVH the kernel traverses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhLayout {
+    /// The binary BVH, 32-byte nodes: the baseline.
+    Binary,
+    /// The compressed 8-wide BVH, 80-byte nodes.
+    #[default]
+    Wide,
+}
+
+impl BvhLayout {
+    /// Both layouts, baseline first.
+    pub const ALL: [BvhLayout; 2] = [BvhLayout::Binary, BvhLayout::Wide];
+
+    /// `binary` or `wide`.
+    pub fn id(self) -> &'static str {
+        match self {
+            BvhLayout::Binary => "binary",
+            BvhLayout::Wide => "wide",
+        }
+    }
+
+    /// Bytes one node fetch reads.
+    pub fn node_bytes(self) -> usize {
+        match self {
+            BvhLayout::Binary => BINARY_NODE_BYTES,
+            BvhLayout::Wide => WIDE_NODE_BYTES,
+        }
+    }
+}
 
 /// Bytes of one `PixelOut` of the kernel.
 pub const PIXEL_OUT_BYTES: u64 = 32;
@@ -36,10 +89,15 @@ const GOLDEN: u64 = 0x9e37_79b9_7f4a_7c15;
 /// Every buffer of the kernel's bind group except the per-dispatch ones, as bytes.
 #[derive(Clone, Debug, Default)]
 pub struct SceneBuffers {
-    /// `array<Node>`: the binary BVH (empty geometry: none).
+    /// The layout of `nodes` and of the primitive order.
+    pub layout: BvhLayout,
+    /// `array<Node>` (binary) or `array<WNode>` (wide); empty geometry: none.
     pub nodes: Vec<u8>,
     /// `array<Prim>` in leaf-slot order.
     pub prims: Vec<u8>,
+    /// Wide layout: `wtris`, the primitives' geometry alone in the same slots (empty for the
+    /// binary layout).
+    pub wide_prims: Vec<u8>,
     /// `array<Material>`.
     pub materials: Vec<u8>,
     /// `array<Light>`.
@@ -50,7 +108,7 @@ pub struct SceneBuffers {
     pub cams: Vec<u8>,
     /// BVH nodes (the kernel's `params.n_nodes`).
     pub n_nodes: u32,
-    /// Depth of the BVH in inner nodes (≤ [`STACK_DEPTH`]).
+    /// Depth of the BVH in inner nodes (≤ [`STACK_DEPTH`], wide: ≤ [`WIDE_STACK_DEPTH`]).
     pub depth: usize,
     /// Lights (`params.n_lights`).
     pub n_lights: u32,
@@ -76,9 +134,14 @@ pub fn seed_mix(seed: u64) -> [u32; 2] {
     [m as u32, (m >> 32) as u32]
 }
 
-/// Lay `scene` out for the kernel. Errors (before any device memory is touched): a BVH deeper
-/// than the kernel's stack, or a primitive count past the kernel's 32-bit ids.
+/// Lay `scene` out for the kernel with the binary BVH (the baseline layout).
 pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
+    scene_buffers_with(scene, BvhLayout::Binary)
+}
+
+/// Lay `scene` out for the kernel with `layout`. Errors (before any device memory is touched):
+/// a BVH deeper than the kernel's stack, or a primitive count past the kernel's 32-bit ids.
+pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffers, GpuError> {
     let g = &scene.geometry;
     let n = g.len();
     if n >= (u32::MAX as usize) / 2 {
@@ -86,10 +149,35 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
             "{n} primitives: more than the kernel's 32-bit slot ids hold"
         )));
     }
-    let mut out = SceneBuffers::default();
+    let mut out = SceneBuffers {
+        layout,
+        ..Default::default()
+    };
     // Leaf order: slot k holds scene primitive `order[k]`.
     let mut order: Vec<u32> = Vec::new();
-    if n > 0 {
+    if n > 0 && layout == BvhLayout::Wide {
+        let aabbs: Vec<Aabb> = (0..n as u32)
+            .map(|p| {
+                let (lo, hi) = g.prim_bounds(p);
+                Aabb::new(lo.into(), hi.into())
+            })
+            .collect();
+        // obvhs' collapse needs one primitive per binary leaf; it forms leaves of up to 3.
+        let bvh2 = build_bvh2(&aabbs, BUILD_PARAMS_LARGE, &mut Duration::default());
+        let cw = bvh2_to_cwbvh(&bvh2, 3, true, false);
+        for node in &cw.nodes {
+            out.nodes.extend_from_slice(&wide_node_bytes(node));
+        }
+        out.n_nodes = cw.nodes.len() as u32;
+        out.depth = wide_depth(&cw.nodes);
+        if out.depth > WIDE_STACK_DEPTH {
+            return Err(GpuError::Unsupported(format!(
+                "wide BVH depth {} exceeds the kernel's traversal stack of {WIDE_STACK_DEPTH}",
+                out.depth
+            )));
+        }
+        order = cw.primitive_indices;
+    } else if n > 0 {
         let aabbs: Vec<Aabb> = (0..n as u32)
             .map(|p| {
                 let (lo, hi) = g.prim_bounds(p);
@@ -137,6 +225,23 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
         v4(&mut out.prims, a, f32::from_bits(info.material));
         v4(&mut out.prims, b, f32::from_bits(info.light));
         v4(&mut out.prims, c, f32::from_bits(flags));
+        if layout == BvhLayout::Wide {
+            let w = &mut out.wide_prims;
+            for x in a {
+                f(w, x);
+            }
+            if p < ns {
+                f(w, b[0]);
+                u(w, SPHERE_TAG);
+                for _ in 0..4 {
+                    f(w, 0.0);
+                }
+            } else {
+                for x in b.into_iter().chain(c) {
+                    f(w, x);
+                }
+            }
+        }
     }
     for m in &scene.materials {
         let (kind, a, b) = match *m {
@@ -222,17 +327,57 @@ pub fn scene_buffers(scene: &Scene) -> Result<SceneBuffers, GpuError> {
     for buf in [
         &mut out.nodes,
         &mut out.prims,
+        &mut out.wide_prims,
         &mut out.materials,
         &mut out.lights,
         &mut out.light_prims,
         &mut out.cams,
     ] {
         if buf.is_empty() {
-            buf.resize(48, 0);
+            // 480: a whole number of every element size (32, 48, 80, ...).
+            buf.resize(480, 0);
         }
     }
     debug_assert!(scene.lights.len() < NO_LIGHT as usize);
     Ok(out)
+}
+
+/// The 80 bytes of a wide node as `WNode` reads them: p, (e, imask), child and primitive
+/// bases, child meta, then the quantised planes (min x, max x, min y, max y, min z, max z).
+fn wide_node_bytes(n: &obvhs::cwbvh::node::CwBvhNode) -> [u8; WIDE_NODE_BYTES] {
+    let mut b = Vec::with_capacity(WIDE_NODE_BYTES);
+    for x in n.p.to_array() {
+        f(&mut b, x);
+    }
+    b.extend_from_slice(&[n.e[0], n.e[1], n.e[2], n.imask]);
+    u(&mut b, n.child_base_idx);
+    u(&mut b, n.primitive_base_idx);
+    b.extend_from_slice(&n.child_meta);
+    for q in [
+        &n.child_min_x,
+        &n.child_max_x,
+        &n.child_min_y,
+        &n.child_max_y,
+        &n.child_min_z,
+        &n.child_max_z,
+    ] {
+        b.extend_from_slice(q);
+    }
+    b.try_into().expect("80 bytes")
+}
+
+/// Inner levels on the longest root-to-leaf path of a wide BVH (the root counts).
+fn wide_depth(nodes: &[obvhs::cwbvh::node::CwBvhNode]) -> usize {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        deepest = deepest.max(d);
+        let node = &nodes[i];
+        for k in 0..node.imask.count_ones() {
+            stack.push((node.child_base_idx as usize + k as usize, d + 1));
+        }
+    }
+    deepest
 }
 
 /// Inner nodes on the longest root-to-leaf path of an obvhs binary BVH.

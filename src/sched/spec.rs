@@ -66,17 +66,6 @@ impl SchedulerKind {
         )
     }
 
-    /// Can this scheduler hand items to sources behind the source interface (MPI ranks, a
-    /// GPU, a researcher's own)? Every rule but stealing, which needs workers that share
-    /// memory ([`super::run`]).
-    pub fn over_sources(self) -> bool {
-        use super::rule::{hand_out, HandOut, WorkerRule};
-        !matches!(
-            hand_out(&Policy::defaults(self), 1, 1, Slow::NONE),
-            HandOut::ByWorkers(WorkerRule::Steal(_))
-        )
-    }
-
     /// Does this scheduler choose its own tile size and order from the image and the thread
     /// count (the production renderers' policies)? Its `chunk` and `order` are then ignored.
     pub fn picks_own_layout(self) -> bool {

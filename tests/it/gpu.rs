@@ -785,3 +785,130 @@ fn a_gpu_source_refuses_the_masters_passes_on_the_workers() {
     );
     assert!(!dir.path().join("out.exr").exists());
 }
+
+/// The kernel's debug pipeline and the CPU walk of the same buffers count the same work and
+/// find the same hits (t within rounding), ray for ray, for both BVH layouts: primary rays (closest hit) and the
+/// same rays as shadow rays (any hit), on a triangle scene and one with spheres.
+#[test]
+fn gpu_and_cpu_counters_agree_ray_for_ray_on_both_layouts() {
+    use raysched::gpu::counters::{cpu_counts, primary_rays, Summary};
+    use raysched::gpu::upload::scene_buffers_with;
+    use raysched::gpu::BvhLayout;
+    let Some(ctx) = context() else { return };
+    for name in ["cornell_box.toml", "glass_checker.toml"] {
+        let scene = load(name, small(24, 1));
+        let mut rays = primary_rays(&scene, 0);
+        let shadow: Vec<_> = rays
+            .iter()
+            .map(|r| raysched::gpu::counters::CountRay {
+                shadow: true,
+                t_max: 3.0,
+                ..*r
+            })
+            .collect();
+        rays.extend(shadow);
+        for layout in BvhLayout::ALL {
+            let bufs = scene_buffers_with(&scene, layout).unwrap();
+            let cpu = cpu_counts(&bufs, &rays);
+            let gpu = GpuRenderer::with_buffers(ctx.clone(), &scene, &bufs)
+                .unwrap()
+                .count_rays(&rays)
+                .unwrap();
+            assert_eq!(gpu.len(), rays.len());
+            let bad: Vec<_> = (0..rays.len())
+                .filter(|&k| !gpu[k].agrees(&cpu[k]))
+                .collect();
+            assert!(
+                bad.is_empty(),
+                "{name} {layout:?}: {} of {} rays differ, first {:?}: gpu {:?} cpu {:?}",
+                bad.len(),
+                rays.len(),
+                rays[bad[0]],
+                gpu[bad[0]],
+                cpu[bad[0]]
+            );
+            let s = Summary::of(&cpu);
+            assert!(
+                s.hits > 0 && s.node_fetches > 0 && s.tri_tests > 0,
+                "{name}: {s:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_wide_upload_gives_every_primitive_one_leaf_slot() {
+    use raysched::gpu::upload::{scene_buffers_with, WIDE_STACK_DEPTH};
+    use raysched::gpu::BvhLayout;
+    for name in [
+        "cornell_box.toml",
+        "furnace.toml",
+        "interior_sphere.toml",
+        "complex.toml",
+    ] {
+        let scene = load(
+            name,
+            SceneOverrides {
+                generator_count: Some(5000),
+                ..Default::default()
+            },
+        );
+        let b = scene_buffers_with(&scene, BvhLayout::Wide).unwrap();
+        assert!(
+            b.depth >= 1 && b.depth <= WIDE_STACK_DEPTH,
+            "{name}: {}",
+            b.depth
+        );
+        let mut seen = vec![0u32; scene.geometry.len()];
+        for k in 0..b.n_nodes as usize {
+            let n = &b.nodes[k * 80..k * 80 + 80];
+            let base = u32::from_le_bytes(n[20..24].try_into().unwrap());
+            for &meta in &n[24..32] {
+                // A leaf child: its unary count above its offset; inner children are 24 + slot.
+                if meta != 0 && meta & 0x18 != 0x18 {
+                    for s in 0..(meta >> 5).count_ones() {
+                        seen[(base + (meta & 0x1f) as u32 + s) as usize] += 1;
+                    }
+                }
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1), "{name}: {seen:?}");
+    }
+}
+
+#[test]
+fn cli_prints_gpu_counters_of_both_layouts_and_refuses_them_without_a_gpu() {
+    let scene = crate::support::scene_path("cornell_box.toml");
+    let scene = scene.to_str().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let out = out.to_str().unwrap();
+    let (code, _, stderr) = cli(&[scene, "--gpu-counters", "--spp", "1", "-o", out]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--gpu-counters: needs gpu"), "{stderr}");
+    let Some(_) = context() else { return };
+    let (code, stdout, stderr) = cli(&[
+        scene,
+        "--sources",
+        "gpu",
+        "--scheduler",
+        "master",
+        "--gpu-counters",
+        "--spp",
+        "1",
+        "-o",
+        out,
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    for layout in ["binary", "wide"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(&format!("gpu-counters {layout} gpu rays 16384 ")))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        assert!(line.ends_with("mismatched_rays 0"), "{line}");
+    }
+    assert!(
+        stdout.contains("gpu-counters wide/binary node_fetches"),
+        "{stdout}"
+    );
+}

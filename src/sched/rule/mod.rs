@@ -200,6 +200,15 @@ pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOu
     }
 }
 
+/// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a
+/// researcher's own)? Every rule but stealing, which needs workers that share memory.
+pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
+    !matches!(
+        hand_out(&Policy::defaults(kind), 1, 1, Slow::NONE),
+        HandOut::ByWorkers(WorkerRule::Steal(_))
+    )
+}
+
 /// The chunk sizes a pool rule hands out over `n` items when `p` workers ask in turn (0, 1,
 /// …, P−1, 0, …), none reporting: what a rule does before any measurement.
 pub fn chunk_sequence(rule: &mut dyn ChunkRule, n: usize, p: usize) -> Vec<usize> {
