@@ -106,18 +106,16 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
         args.local_threads
     );
     super::render::print_render_header(&scene, &tracer_line, &spec, &image);
-    // Same definition as the local path (the scheduler's wall time), so the two compare; the
-    // total adds stopping the ranks and writing the image.
+    // The summary's first line holds the scheduler's wall time, as on the local path, so the
+    // two compare: said once. The total adds stopping the ranks and writing the image.
+    super::write_stdout(format_args!("{}", stats.summary()));
     out!(
-        "wall {:.3} s, rays {}, {:.2} Mrays/s, MPI messages {}, total {:.3} s",
-        stats.wall_s,
-        stats.rays,
+        "{:.2} Mrays/s, items/s {:.0}, MPI messages {}, total {:.3} s",
         stats.rays as f64 / stats.wall_s / 1e6,
+        stats.items as f64 / stats.wall_s,
         hub_report.messages,
         wall
     );
-    out!("items/s {:.0}", stats.items as f64 / stats.wall_s);
-    super::write_stdout(format_args!("{}", stats.summary()));
     for (i, l) in labels.iter().enumerate() {
         out!("  source {i} = {l}");
     }

@@ -524,7 +524,7 @@ mod tests {
 
     #[test]
     fn the_master_fills_one_source_before_the_next() {
-        // As `run_master` tops lanes up in turn, source 0 starts with items 0 and 1 at B = 2,
+        // As the master (`sched::master`) tops lanes up in turn, source 0 starts with items 0 and 1 at B = 2,
         // source 1 with 2 and 3. Two dear items first: both go to source 0 (4 + 4), which at
         // t = 4 (a tie, lower source first) is also given the last cheap item: wall 9. Dealt
         // out one by one in turn, each source would get one dear item: wall 7.

@@ -475,19 +475,10 @@ impl Progress {
     }
 }
 
-/// Run `items` on `sources` under the master with `params` (buffer, re-queue policy, wait).
-pub fn run_master(
-    params: &MasterParams,
-    items: &[WorkItem],
-    sources: Vec<Box<dyn ComputeSource>>,
-    opts: &RunOptions,
-    probe: Probe,
-) -> Result<(Results, RunStats), SchedError> {
-    run_master_hetero(params, &Hetero::default(), items, sources, opts, probe)
-}
-
-/// [`run_master`] with per-source buffers and, optionally, the time-equalising balancer.
-pub fn run_master_hetero(
+/// The master over `sources` with `params` (buffer, re-queue policy, wait), per-source
+/// buffers and grains and, optionally, the time-equalising balancer: the executor
+/// [`super::run`] plays a master rule on.
+pub(crate) fn run_master_hetero(
     params: &MasterParams,
     hetero: &Hetero,
     items: &[WorkItem],
@@ -823,8 +814,15 @@ mod staleness_tests {
             requeue: Requeue::Never,
             ..MasterParams::DEFAULT
         };
-        let (_, stats) =
-            run_master(&params, &items, sources, &RunOptions::default(), probe).unwrap();
+        let (_, stats) = run_master_hetero(
+            &params,
+            &Hetero::default(),
+            &items,
+            sources,
+            &RunOptions::default(),
+            probe,
+        )
+        .unwrap();
         let per_source: Vec<u64> = stats.workers.iter().map(|w| w.items).collect();
         assert_eq!(per_source, vec![2, u64::from(N) - 2]);
     }

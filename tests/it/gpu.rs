@@ -12,7 +12,7 @@ use raysched::gpu::{GpuContext, GpuError, GpuRenderer};
 use raysched::render::{render_item, Image, WorkItem};
 use raysched::rng::Sampler;
 use raysched::scene::{Scene, SceneOverrides};
-use raysched::sched::{assemble, master::run_master, MasterParams, RunOptions};
+use raysched::sched::{assemble, MasterParams, RunOptions};
 use raysched::source::{ComputeSource, GpuSource, LocalThreadSource};
 use raysched::tracer::BvhTracer;
 use std::sync::{Arc, OnceLock};
@@ -360,8 +360,19 @@ fn the_master_over_threads_and_a_gpu_source_returns_every_item() {
         buffer: 8,
         ..Default::default()
     };
-    let (results, stats) = run_master(&params, &items, sources, &RunOptions::default(), probe)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let opts = RunOptions::default();
+    let plan = raysched::sched::RunPlan {
+        scheduler: &raysched::sched::Policy::Master(params),
+        slow: raysched::sched::Slow::NONE,
+        opts: &opts,
+        probe,
+    };
+    let (results, stats) = raysched::sched::run(
+        &plan,
+        &items,
+        raysched::sched::Sources::Boxed(sources, Default::default()),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let img = assemble(scene.width(), scene.height(), &items, &results).unwrap();
     assert_eq!(stats.items, items.len() as u64);
     let per: u64 = stats.workers.iter().map(|w| w.items).sum();
