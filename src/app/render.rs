@@ -210,6 +210,21 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     };
     let overrides = args.check_output()?;
     let spec = args.scheduler_spec(threads.max(1))?;
+    if setup.set != SourceSet::threads() {
+        if !raysched::sched::rule::over_sources(spec.kind()) {
+            return Err(CliError::message(format!(
+                "--scheduler {}: stealing needs workers that share memory, not a GPU (use \
+                 master or a scheduler without stealing)",
+                spec.kind().id()
+            )));
+        }
+        if let Some(r) = gpu_asked
+            .then(|| raysched::sched::Runner::Gpu.refuses(&spec.policy))
+            .flatten()
+        {
+            return Err(CliError::message(r.as_flag()));
+        }
+    }
     let kind = args.tracer.available().map_err(CliError::input)?;
     let scene = Arc::new(load_scene(&args.scene, &overrides).map_err(|e| args.blame_overrides(e))?);
     if let Some(w) = scene.depth_warning() {

@@ -469,8 +469,8 @@ fn cli_renders_on_threads_and_gpu_and_refuses_bad_gpu_flags_in_one_line() {
             "--gpu-adapter no-such-adapter: no Vulkan adapter matches",
         ),
         (
-            vec!["--sources", "gpu", "--scheduler", "static"],
-            "a GPU source runs under the master only",
+            vec!["--sources", "gpu", "--scheduler", "work_stealing"],
+            "--scheduler work_stealing: stealing needs workers that share memory",
         ),
         (
             vec!["--gpu-buffer", "4"],

@@ -229,7 +229,7 @@ fn experiment_counts_beyond_the_limits_are_refused() {
                 "workers = [1]\n{}",
                 EXP_TAIL.replace("path = \"s.toml\"", "path = \"s.toml\"\nwidth = 4000000000")
             ),
-            "camera.width",
+            "scenes[0].width",
         ),
         (
             "scene override generator count",
@@ -237,7 +237,7 @@ fn experiment_counts_beyond_the_limits_are_refused() {
                 "workers = [1]\n{}",
                 EXP_TAIL.replace("path = \"s.toml\"", "path = \"s.toml\"\nspp = 0")
             ),
-            "render.spp",
+            "scenes[0].spp",
         ),
     ];
     for (what, body, needle) in cases {
