@@ -11,20 +11,27 @@ use std::fmt::Write;
 /// How the model's inputs were measured, for the report.
 const PROBE_NOTE: &str = "probe of per-pixel costs at ≤ 4 spp on the run's workers and zero-work hand-outs per scheduler";
 
-/// The comparison sentence for one group at its largest worker count, if it has a per-ray
-/// master (master with 1-pixel items) and some other configuration: the fastest one, those
-/// statistically tied with it, and the ratio to the per-ray master with its interval.
-pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
+/// The parallel configurations at the group's largest worker count (`None`: only serial rows).
+fn at_most_workers<'a>(sums: &[&'a Summary]) -> Option<Vec<&'a Summary>> {
     let max_w = sums
         .iter()
         .filter(|s| !s.row.is_serial())
         .map(|s| s.row.workers)
         .max()?;
-    let at: Vec<&Summary> = sums
-        .iter()
-        .copied()
-        .filter(|s| s.row.workers == max_w && !s.row.is_serial())
-        .collect();
+    Some(
+        sums.iter()
+            .copied()
+            .filter(|s| s.row.workers == max_w && !s.row.is_serial())
+            .collect(),
+    )
+}
+
+/// The comparison sentence for one group at its largest worker count, if it has a per-ray
+/// master (master with 1-pixel items) and some other configuration: the fastest one, those
+/// statistically tied with it, and the ratio to the per-ray master with its interval.
+pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
+    let at = at_most_workers(sums)?;
+    let max_w = at.first()?.row.workers;
     let per_ray = best_by(at.iter().copied().filter(|s| {
         s.row.scheduler == crate::sched::SchedulerKind::Master.id() && s.row.chunk_px == Some(1)
     }))?;
@@ -586,16 +593,8 @@ fn chunk_words(s: &Summary) -> String {
 
 /// Per scene: the fastest configuration at the most workers and every one not shown slower.
 pub fn answer(group: &str, sums: &[&Summary]) -> Option<String> {
-    let max_w = sums
-        .iter()
-        .filter(|s| !s.row.is_serial())
-        .map(|s| s.row.workers)
-        .max()?;
-    let at: Vec<&Summary> = sums
-        .iter()
-        .copied()
-        .filter(|s| s.row.workers == max_w && !s.row.is_serial())
-        .collect();
+    let at = at_most_workers(sums)?;
+    let max_w = at.first()?.row.workers;
     let (best, tied) = tied_with_best(&at)?;
     let mut md = format!(
         "**{group}, {max_w} workers:** fastest `{}` ({}), median {:.4} s (95 % CI {:.4}–{:.4}), speedup {}.",
