@@ -9,5 +9,6 @@ pub mod config;
 pub mod inputs;
 pub mod job;
 pub mod plot;
+pub mod rows;
 pub mod sweep;
 pub mod validate;

@@ -1,7 +1,7 @@
 //! Plots of a simulation: speedup against simulated workers, efficiency against chunk size per
 //! worker count, the master's saturation against its analytic limit 1/h, and the validation.
 
-use super::sweep::{Inputs, SimRow};
+use super::rows::{Inputs, SimRow};
 use super::validate::Validation;
 use crate::plot::axes::Scale;
 use crate::sched::{Chunk, Policy};
@@ -302,7 +302,7 @@ pub fn summary_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
         inputs.pixels.height,
         inputs.pixels.serial_s(),
         inputs.counter_s * 1e9,
-        super::sweep::master_h_text(&inputs.master_h_s)
+        super::rows::master_h_text(&inputs.master_h_s)
     );
     for r in rows {
         s += &format!(

@@ -2,7 +2,7 @@
 //! simulated on the validation platform with the same scheduler, chunk and worker count.
 
 use super::config::{Platform, SimPlan};
-use super::sweep::{simulate_one, Inputs};
+use super::rows::{simulate_one, Inputs};
 use crate::experiment::results::{read_runs, RunRow};
 use crate::scene::SceneOverrides;
 use crate::sched::{param_columns, Chunk, Order, SchedulerKind, SchedulerSpec};
@@ -351,7 +351,7 @@ pub fn compare(
         platform: platforms.join(", "),
         rows,
         ranking,
-        load: super::sweep::load_average(),
+        load: super::rows::load_average(),
         serial: (serial_s, inputs.pixels.serial_s(), inputs.pixels.timed_s),
         refill: inputs.refills(),
         concurrent: inputs
