@@ -43,10 +43,10 @@ pub fn build_sources(
     for &kind in set.kinds() {
         match kind {
             SourceKind::Threads => {
-                for job in worker_jobs(ctx.job, ctx.threads, ctx.slow) {
-                    let id = out.len() as u32;
-                    out.push((kind, thread_source(&job, id, ctx.faults, ctx.probe)));
-                }
+                let jobs = worker_jobs(ctx.job, ctx.threads, ctx.slow);
+                let first = out.len() as u32;
+                let threads = thread_sources(&jobs, first, ctx.faults, ctx.probe);
+                out.extend(threads.into_iter().map(|s| (kind, s)));
             }
             SourceKind::Gpu => out.push((kind, gpu_source(out.len() as u32, ctx)?)),
             SourceKind::Mpi => {
@@ -60,6 +60,20 @@ pub fn build_sources(
         }
     }
     Ok(out)
+}
+
+/// One local thread source per job, ids `first`, `first + 1`, …, source i running `jobs[i]`
+/// (inside a fault injector when `faults` says).
+pub fn thread_sources(
+    jobs: &[Job],
+    first: u32,
+    faults: Option<&FaultPlan>,
+    probe: Probe,
+) -> Vec<Box<dyn ComputeSource>> {
+    (first..)
+        .zip(jobs)
+        .map(|(id, j)| thread_source(j, id, faults, probe))
+        .collect()
 }
 
 /// A local thread running `job`, inside a fault injector when `faults` says.

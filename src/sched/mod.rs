@@ -45,7 +45,7 @@ pub use spec::{
 use crate::metrics::{Probe, RunStats};
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
-use crate::source::{slowed_job, ComputeSource, FaultPlan, Job};
+use crate::source::{slowed_job, FaultPlan, Job};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;
@@ -252,19 +252,6 @@ pub fn run_items(
 pub fn worker_jobs(job: &Job, workers: usize, slow: Slow) -> Vec<Job> {
     (0..workers)
         .map(|i| slowed_job(job.clone(), slow.factor_of(i)))
-        .collect()
-}
-
-/// One local thread source per job, source i running `jobs[i]` (fault-injecting ones when
-/// `faults` is given).
-fn make_sources_of(
-    jobs: &[Job],
-    faults: Option<&FaultPlan>,
-    probe: Probe,
-) -> Vec<Box<dyn ComputeSource>> {
-    jobs.iter()
-        .enumerate()
-        .map(|(id, j)| factory::thread_source(j, id as u32, faults, probe))
         .collect()
 }
 

@@ -10,8 +10,8 @@
 use super::master::{self, Hetero};
 use super::rule::{HandOut, Scheduler};
 use super::{
-    locked_master, make_sources_of, pull, shared, Passes, Policy, Results, RunOptions, Runner,
-    SchedError, Slow, SpecError,
+    factory, locked_master, pull, shared, Passes, Policy, Results, RunOptions, Runner, SchedError,
+    Slow, SpecError,
 };
 use crate::metrics::{Probe, RunStats};
 use crate::render::WorkItem;
@@ -91,7 +91,7 @@ pub fn run(
             "workers: the passes run by the workers need local threads alone (use thread)".into(),
         )),
         (HandOut::ByMaster(m), Sources::Threads(jobs)) => {
-            let sources = make_sources_of(&jobs, opts.faults.as_ref(), probe);
+            let sources = factory::thread_sources(&jobs, 0, opts.faults.as_ref(), probe);
             master::run_master_hetero(&m, &Hetero::default(), items, sources, opts, probe)
         }
         (HandOut::ByMaster(m), Sources::Boxed(sources, hetero)) => {

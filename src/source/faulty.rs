@@ -128,18 +128,6 @@ impl ComputeSource for FaultySource {
     }
 }
 
-/// `workers` local thread sources running `job` under `plan`.
-pub fn faulty_sources(
-    job: &Job,
-    workers: usize,
-    plan: &FaultPlan,
-    probe: Probe,
-) -> Vec<Box<dyn ComputeSource>> {
-    (0..workers as u32)
-        .map(|id| faulty_source(job, id, plan, probe))
-        .collect()
-}
-
 /// Local thread source `id` running `job` under `plan`.
 pub fn faulty_source(job: &Job, id: u32, plan: &FaultPlan, probe: Probe) -> Box<dyn ComputeSource> {
     let local = LocalThreadSource::spawn(id, faulty_job(job.clone(), plan, id), probe);
