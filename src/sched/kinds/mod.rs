@@ -168,4 +168,5 @@ builtin_schedulers! {
     Awf = "awf" in awf::AwfParams,
     Pbrt = "pbrt" in pbrt::PbrtParams,
     Mitsuba = "mitsuba" in mitsuba::MitsubaParams,
+    TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
 }
