@@ -5,7 +5,8 @@
 //! these functions, so the pages cannot drift from the code; `RAYSCHED_BLESS=1` rewrites them.
 
 use crate::experiment::results::RunRow;
-use crate::sched::rule::{hand_out, over_sources, HandOut, Steal, WorkerRule};
+use crate::sched::kinds::{hand_out, over_sources};
+use crate::sched::rule::{HandOut, Steal, WorkerRule};
 use crate::sched::{
     param_columns, source_params, Order, Passes, Policy, SchedulerKind, Slow, SourceKind, Weights,
 };

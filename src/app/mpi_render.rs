@@ -132,7 +132,7 @@ fn prepare(
     args: &RenderArgs,
 ) -> Result<(Scene, ScenePackage, SchedulerSpec), CliError> {
     let mut spec = args.scheduler_spec(args.threads)?;
-    if !raysched::sched::rule::over_sources(spec.kind()) {
+    if !raysched::sched::kinds::over_sources(spec.kind()) {
         return Err(input(format!(
             "--scheduler {}: stealing needs workers that share memory, not MPI ranks (use master or a scheduler without stealing)",
             spec.kind().id()

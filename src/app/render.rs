@@ -210,7 +210,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
     let overrides = args.check_output()?;
     let spec = args.scheduler_spec(threads.max(1))?;
     if setup.set != SourceSet::threads() {
-        if !raysched::sched::rule::over_sources(spec.kind()) {
+        if !raysched::sched::kinds::over_sources(spec.kind()) {
             return Err(CliError::message(format!(
                 "--scheduler {}: stealing needs workers that share memory, not a GPU (use \
                  master or a scheduler without stealing)",

@@ -995,7 +995,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
     };
     for (i, s) in file.schedulers.iter().enumerate() {
         if let Ok(k) = SchedulerKind::from_id(&s.kind) {
-            if !crate::sched::rule::over_sources(k) {
+            if !crate::sched::kinds::over_sources(k) {
                 return Err((
                     format!("schedulers[{i}].kind"),
                     format!(

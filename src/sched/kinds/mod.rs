@@ -11,7 +11,7 @@
 //! [`Scheduler`](super::rule::Scheduler) instead.
 
 use super::param::{err, id_enum, one_of, Chunk, Order, ParamValue, Params, Slow, SpecError};
-use super::rule::HandOut;
+use super::rule::{HandOut, Scheduler, WorkerRule};
 use serde::{Deserialize, Serialize};
 
 /// A policy's own layout: the tile side and order for a `width`×`height` image on `workers`
@@ -173,4 +173,81 @@ builtin_schedulers! {
     Pbrt = "pbrt" in pbrt::PbrtParams,
     Mitsuba = "mitsuba" in mitsuba::MitsubaParams,
     TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
+}
+
+impl Scheduler for Policy {
+    fn id(&self) -> String {
+        self.kind().id().to_string()
+    }
+
+    fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut {
+        hand_out(self, n, workers, slow)
+    }
+}
+
+/// The rule of a built-in `policy` over `n` items on `workers` workers (slowed as `slow`
+/// says, which weighted factoring's known weights read).
+pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOut {
+    policy.rule(n, workers, slow)
+}
+
+/// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a
+/// researcher's own)? Every rule but stealing, which needs workers that share memory.
+pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
+    !matches!(
+        hand_out(&Policy::defaults(kind), 1, 1, Slow::NONE),
+        HandOut::ByWorkers(WorkerRule::Steal(_))
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sched::rule::{chunk_sequence, Grab};
+
+    #[test]
+    fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
+        for kind in SchedulerKind::ALL {
+            let policy = Policy::defaults(kind);
+            match hand_out(&policy, 1000, 4, Slow::NONE) {
+                HandOut::ByMaster(m) => assert_eq!(kind, SchedulerKind::Master, "{m:?}"),
+                HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
+                    let seq = chunk_sequence(pool.rule.as_mut(), 1000, 4);
+                    assert_eq!(seq.iter().sum::<usize>(), 1000, "{kind:?}");
+                    assert_eq!(pool.locked, kind == SchedulerKind::Pbrt);
+                    assert_eq!(pool.scanline, kind.runs_hand_outs_in_scanline(), "{kind:?}");
+                }
+                HandOut::ByWorkers(WorkerRule::Own(o)) => {
+                    let total: usize = (0..4).map(|k| o.items(k, 1000, 4).count()).sum();
+                    assert_eq!(total, 1000, "{kind:?}");
+                }
+                HandOut::ByWorkers(WorkerRule::Steal(s)) => assert!(s.grab() >= 1),
+            }
+        }
+    }
+
+    #[test]
+    fn guided_and_mitsuba_chunks_follow_their_formulas() {
+        // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, ⌈875/8⌉ = 110, ⌈765/8⌉ = 96.
+        let HandOut::ByWorkers(WorkerRule::Pool(mut g)) = hand_out(
+            &Policy::defaults(SchedulerKind::Guided),
+            1000,
+            4,
+            Slow::NONE,
+        ) else {
+            panic!("guided is a pool")
+        };
+        assert_eq!(
+            &chunk_sequence(g.rule.as_mut(), 1000, 4)[..3],
+            [125, 110, 96]
+        );
+        // Mitsuba's grain: max(blocks / (4·threads), 1) = 64 / 8 = 8.
+        let HandOut::ByWorkers(WorkerRule::Pool(mut m)) =
+            hand_out(&Policy::defaults(SchedulerKind::Mitsuba), 64, 2, Slow::NONE)
+        else {
+            panic!("mitsuba is a pool")
+        };
+        assert_eq!(chunk_sequence(m.rule.as_mut(), 64, 2), [8; 8]);
+        assert_eq!(m.rule.as_grab(), Some(Grab::fixed(8)));
+    }
 }

@@ -11,9 +11,31 @@
 //! the simulated master (`simgrid::protocols`) all take their items from this queue. Times
 //! are durations since the run's start, whatever clock the executor reads.
 
-use crate::sched::param::Requeue;
+use crate::sched::param::{scheduler_params, Passes, Requeue, Returns, Wait};
+use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::time::Duration;
+
+scheduler_params! {
+    /// The master's parameters.
+    pub struct MasterParams {
+        /// Items outstanding per compute source (B).
+        buffer: usize = 2, label Some("B");
+        /// When a handed-out, unfinished item is handed out again: seed (when it comes round
+        /// in the queue), never or timeout:<ms>.
+        requeue: Requeue = Requeue::Never, label Some("requeue");
+        /// How the master waits for results: spin, yield or block.
+        wait: Wait = Wait::Block, label Some("wait");
+        /// How local threads hand results back: item (each as soon as it is rendered) or
+        /// hand_out (a hand-out's together, when its last item is done; the master then hands
+        /// out at most ⌈B/2⌉ items at a time, so a source has the next one queued).
+        returns: Returns = Returns::Item, label Some("returns");
+        /// Who runs the master's passes: thread (a thread of its own that renders nothing; any
+        /// source) or workers (each local thread for itself under one lock when it reports,
+        /// the queue and re-queue rules unchanged; local threads only, no fault injection).
+        passes: Passes = Passes::Thread, label Some("passes");
+    }
+}
 
 /// What the queue's front gave.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

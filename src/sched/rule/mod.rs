@@ -5,33 +5,31 @@
 //! no scheduler arithmetic of its own.
 //!
 //! Each built-in scheduler states its rule in its own file under [`super::kinds`]
-//! ([`BuiltIn::hand_out`](super::kinds::BuiltIn::hand_out)); [`hand_out`] reaches it through
-//! [`Policy`]. A scheduler from outside the crate implements [`Scheduler`] and returns a
-//! [`HandOut`] of its own (see `examples/custom_scheduler.rs`).
+//! ([`BuiltIn::hand_out`](super::kinds::BuiltIn::hand_out)); `Policy::rule` reaches it. A
+//! scheduler from outside the crate implements [`Scheduler`] and returns a [`HandOut`] of its
+//! own (see `examples/custom_scheduler.rs`). This module names no scheduler: the kinds build
+//! on it, not it on them.
 //!
 //! # Examples
 //!
 //! ```
-//! use raysched::sched::rule::{hand_out, HandOut, WorkerRule};
+//! use raysched::sched::rule::{HandOut, WorkerRule};
 //! use raysched::sched::{Policy, SchedulerKind, Slow};
 //!
 //! // Guided self-scheduling over 100 items on 2 workers: chunks of max(grab, ⌈R/(k·P)⌉).
 //! let HandOut::ByWorkers(WorkerRule::Pool(mut pool)) =
-//!     hand_out(&Policy::defaults(SchedulerKind::Guided), 100, 2, Slow::NONE)
+//!     Policy::defaults(SchedulerKind::Guided).rule(100, 2, Slow::NONE)
 //! else {
 //!     unreachable!()
 //! };
 //! assert_eq!(pool.rule.next(0, 100), 25);
 //! ```
 
-mod grab;
 mod master;
 
-pub use super::dls::{ChunkRule, ItemTimes, Report, Timing};
-pub use grab::Grab;
-pub use master::{MasterQueue, Take};
+pub use super::dls::{ChunkRule, Grab, ItemTimes, Report, Timing};
+pub use master::{MasterParams, MasterQueue, Take};
 
-use super::kinds::{MasterParams, Policy};
 use super::param::Slow;
 use std::ops::Range;
 
@@ -165,31 +163,6 @@ pub trait Scheduler: Send + Sync {
     fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
 }
 
-impl Scheduler for Policy {
-    fn id(&self) -> String {
-        self.kind().id().to_string()
-    }
-
-    fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut {
-        hand_out(self, n, workers, slow)
-    }
-}
-
-/// The rule of a built-in `policy` over `n` items on `workers` workers (slowed as `slow`
-/// says, which weighted factoring's known weights read).
-pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOut {
-    policy.rule(n, workers, slow)
-}
-
-/// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a
-/// researcher's own)? Every rule but stealing, which needs workers that share memory.
-pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
-    !matches!(
-        hand_out(&Policy::defaults(kind), 1, 1, Slow::NONE),
-        HandOut::ByWorkers(WorkerRule::Steal(_))
-    )
-}
-
 /// The chunk sizes a pool rule hands out over `n` items when `p` workers ask in turn (0, 1,
 /// …, P−1, 0, …), none reporting: what a rule does before any measurement.
 pub fn chunk_sequence(rule: &mut dyn ChunkRule, n: usize, p: usize) -> Vec<usize> {
@@ -206,7 +179,6 @@ pub fn chunk_sequence(rule: &mut dyn ChunkRule, n: usize, p: usize) -> Vec<usize
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sched::SchedulerKind;
 
     #[test]
     fn bands_cover_every_item_once_in_order_even_with_more_workers_than_items() {
@@ -228,51 +200,5 @@ mod tests {
         assert_eq!(k1, [1, 4, 7]);
         assert_eq!(Ownership::Cyclic.items(4, 3, 5).count(), 0);
         assert_eq!(Ownership::Cyclic.owner(8, 10, 3), 2);
-    }
-
-    #[test]
-    fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
-        for kind in SchedulerKind::ALL {
-            let policy = Policy::defaults(kind);
-            match hand_out(&policy, 1000, 4, Slow::NONE) {
-                HandOut::ByMaster(m) => assert_eq!(kind, SchedulerKind::Master, "{m:?}"),
-                HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
-                    let seq = chunk_sequence(pool.rule.as_mut(), 1000, 4);
-                    assert_eq!(seq.iter().sum::<usize>(), 1000, "{kind:?}");
-                    assert_eq!(pool.locked, kind == SchedulerKind::Pbrt);
-                    assert_eq!(pool.scanline, kind.runs_hand_outs_in_scanline(), "{kind:?}");
-                }
-                HandOut::ByWorkers(WorkerRule::Own(o)) => {
-                    let total: usize = (0..4).map(|k| o.items(k, 1000, 4).count()).sum();
-                    assert_eq!(total, 1000, "{kind:?}");
-                }
-                HandOut::ByWorkers(WorkerRule::Steal(s)) => assert!(s.grab() >= 1),
-            }
-        }
-    }
-
-    #[test]
-    fn guided_and_mitsuba_chunks_follow_their_formulas() {
-        // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, ⌈875/8⌉ = 110, ⌈765/8⌉ = 96.
-        let HandOut::ByWorkers(WorkerRule::Pool(mut g)) = hand_out(
-            &Policy::defaults(SchedulerKind::Guided),
-            1000,
-            4,
-            Slow::NONE,
-        ) else {
-            panic!("guided is a pool")
-        };
-        assert_eq!(
-            &chunk_sequence(g.rule.as_mut(), 1000, 4)[..3],
-            [125, 110, 96]
-        );
-        // Mitsuba's grain: max(blocks / (4·threads), 1) = 64 / 8 = 8.
-        let HandOut::ByWorkers(WorkerRule::Pool(mut m)) =
-            hand_out(&Policy::defaults(SchedulerKind::Mitsuba), 64, 2, Slow::NONE)
-        else {
-            panic!("mitsuba is a pool")
-        };
-        assert_eq!(chunk_sequence(m.rule.as_mut(), 64, 2), [8; 8]);
-        assert_eq!(m.rule.as_grab(), Some(Grab::fixed(8)));
     }
 }
