@@ -2,21 +2,10 @@
 //! scheduler, workers) with its fitted slope in the legend, and the dashed slope −½ guide.
 
 use super::{config_key, fitted_slope, summarise, ConvergenceRow};
+use crate::plot::font::register_font;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-static FONT: std::sync::Once = std::sync::Once::new();
-
-fn register_font() {
-    FONT.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            plotters::style::FontStyle::Normal,
-            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
-}
 
 const PANEL: (u32, u32) = (1000, 560);
 

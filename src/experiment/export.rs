@@ -90,7 +90,7 @@ pub fn write_json(dir: &Path, rows: &[RunRow], sums: &[Summary]) -> Result<Vec<P
     for (name, v) in [("runs.json", runs), ("summary.json", summary)] {
         let p = dir.join(name);
         let text = serde_json::to_string_pretty(&v).map_err(|e| format!("{}: {e}", p.display()))?;
-        super::run::write_atomic(&p, text.as_bytes()).map_err(|e| e.to_string())?;
+        crate::util::fs::write_atomic(&p, text.as_bytes()).map_err(|e| e.to_string())?;
         out.push(p);
     }
     Ok(out)

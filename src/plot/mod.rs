@@ -7,6 +7,7 @@ mod audit;
 pub mod axes;
 mod charts;
 pub mod compare;
+pub mod font;
 pub mod html;
 pub mod prediction;
 pub mod raster;
@@ -16,22 +17,11 @@ pub mod style;
 
 pub(crate) use charts::{line_chart, scatter_vs, Lines, ScatterGroup, Series};
 pub use charts::{mpi_line, palette, throughput, Figure};
+pub use font::register_font;
 
 use crate::experiment::summary::{self, Summary};
 use crate::experiment::{convergence, meta, results};
 use std::path::{Path, PathBuf};
-use std::sync::Once;
-
-static FONT: Once = Once::new();
-
-/// Register the bundled font as "sans-serif" (once per process).
-pub fn register_font() {
-    FONT.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
-        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes)
-            .unwrap_or_else(|_| panic!("the bundled DejaVuSans.ttf is a valid font"));
-    });
-}
 
 /// Draw every figure the data supports into `dir/plots/`; returns them for `report.md`.
 pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {

@@ -537,7 +537,7 @@ pub fn write_rows(path: &Path, rows: &[SimRow]) -> anyhow::Result<()> {
         w.write_record(r.record())?;
     }
     let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-    crate::experiment::run::write_atomic(path, &bytes)?;
+    crate::util::fs::write_atomic(path, &bytes)?;
     Ok(())
 }
 

@@ -127,7 +127,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         inputs.master_h_s.iter().map(|(b, h)| format!("B{b} = {h}\n")).collect::<String>()
     ) + &layout_toml("layout_factor", &inputs.layout_factors())
         + &layout_toml("validation_layout_factor", &v_layouts);
-    crate::experiment::run::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
+    crate::util::fs::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
     let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(anyhow::Error::msg)?;
     let mut report = format!(
         "# {} (simulated with SimGrid)\n\n{}\n\n",
@@ -143,7 +143,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     for f in &figures {
         report += &format!("\n![{f}](plots/{f})\n");
     }
-    crate::experiment::run::write_atomic(&dir.join("report.md"), report.as_bytes())?;
+    crate::util::fs::write_atomic(&dir.join("report.md"), report.as_bytes())?;
     Ok(dir)
 }
 

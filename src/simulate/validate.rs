@@ -416,7 +416,7 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
         ])?;
     }
     let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-    crate::experiment::run::write_atomic(&dir.join("validation.csv"), &bytes)?;
+    crate::util::fs::write_atomic(&dir.join("validation.csv"), &bytes)?;
     Ok(())
 }
 
