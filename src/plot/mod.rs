@@ -79,7 +79,9 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
 pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
     // At scale 1 every PNG is drawn as a bitmap; otherwise it is rasterised from its SVG only.
     let bitmap = png_scale == raster::PngScale::ONE;
-    let rescale = |svg: &Path, staged_png: &Path| raster::svg_to_png(svg, staged_png, png_scale);
+    let rescale = |svg: &Path, staged_png: &Path| {
+        raster::svg_to_png(svg, staged_png, png_scale).map_err(|e| e.to_string())
+    };
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     let staging =
@@ -138,7 +140,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     let plots = staging
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
-    let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
+    let json =
+        crate::experiment::export::write_json(dir, &rows, &sums).map_err(|e| e.to_string())?;
     let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
     let rescaled = if bitmap { &[][..] } else { &figs[..] };
     for f in rescaled {
