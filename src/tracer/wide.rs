@@ -173,7 +173,8 @@ impl Avx2 {
 
 /// A wide tree's traversals with a given node test: what [`super::simd`] compiles a copy of
 /// for AVX2. A trait, so that the SIMD module runs the tree's traversal without importing the
-/// tree; its `#[inline(always)]` implementation is inlined into that copy as a method was.
+/// tree; its `#[inline(always)]` implementation is inlined into that copy as a method was
+/// (render time unchanged: M-160).
 pub(super) trait Traverse {
     /// The closest hit below `t_max`, the nodes tested by `slabs`, the leaves by `leaves`.
     fn closest_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> Option<Hit>;
