@@ -80,3 +80,4 @@ pub mod stability;
 pub mod staging;
 pub mod suggest;
 pub mod tracer;
+pub mod util;

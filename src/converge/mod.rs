@@ -10,10 +10,11 @@ pub mod exact;
 mod plot;
 pub mod reference;
 
-pub use plot::plot;
+pub use plot::{plot, PlotError};
 
 pub use reference::{Reference, ReferenceKind};
 
+use crate::csv_out::CsvError;
 use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
 use crate::sched::{decompose, run, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
@@ -420,7 +421,7 @@ pub fn budget_winners(rows: &[ConvergenceRow]) -> Vec<String> {
 ///
 /// # Errors
 /// I/O or CSV errors.
-pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
+pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> Result<(), CsvError> {
     crate::csv_out::write_rows(path, rows)
 }
 
@@ -428,7 +429,7 @@ pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
 ///
 /// # Errors
 /// I/O or CSV errors.
-pub fn read_csv(path: &Path) -> anyhow::Result<Vec<ConvergenceRow>> {
+pub fn read_csv(path: &Path) -> Result<Vec<ConvergenceRow>, CsvError> {
     let mut r = csv::Reader::from_path(path)?;
     Ok(r.deserialize().collect::<Result<_, _>>()?)
 }

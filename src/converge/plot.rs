@@ -2,23 +2,26 @@
 //! scheduler, workers) with its fitted slope in the legend, and the dashed slope −½ guide.
 
 use super::{config_key, fitted_slope, summarise, ConvergenceRow};
+use crate::plot::font::register_font;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-static FONT: std::sync::Once = std::sync::Once::new();
-
-fn register_font() {
-    FONT.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            plotters::style::FontStyle::Normal,
-            include_bytes!("../../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
-}
-
 const PANEL: (u32, u32) = (1000, 560);
+
+/// Why a convergence plot was not drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// Nothing to draw on log axes.
+    #[error("no rows with positive wall time and error to plot")]
+    NoRows,
+    /// Creating the plot's folder.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The drawing backend, as its text.
+    #[error("{0}")]
+    Draw(String),
+}
 
 /// Log-log plot of RMSE against wall time, one panel per scene and one series per
 /// configuration (the same colour in every panel), each with its fitted slope in the legend,
@@ -27,13 +30,12 @@ const PANEL: (u32, u32) = (1000, 560);
 ///
 /// # Errors
 /// Drawing errors, or no rows with positive time and error.
-pub fn plot(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
+pub fn plot(path: &Path, rows: &[ConvergenceRow]) -> Result<(), PlotError> {
     register_font();
     let usable = |r: &&ConvergenceRow| r.wall_s > 0.0 && r.rmse > 0.0;
-    anyhow::ensure!(
-        rows.iter().any(|r| usable(&r)),
-        "no rows with positive wall time and error to plot"
-    );
+    if !rows.iter().any(|r| usable(&r)) {
+        return Err(PlotError::NoRows);
+    }
     if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d)?;
     }
@@ -59,15 +61,15 @@ pub fn plot(path: &Path, rows: &[ConvergenceRow]) -> anyhow::Result<()> {
     }
 }
 
-fn e<E: std::fmt::Display>(err: E) -> anyhow::Error {
-    anyhow::anyhow!("{err}")
+fn e<E: std::fmt::Display>(err: E) -> PlotError {
+    PlotError::Draw(err.to_string())
 }
 
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     rows: &[ConvergenceRow],
     scenes: &[&str],
-) -> anyhow::Result<()> {
+) -> Result<(), PlotError> {
     use crate::plot::axes::{self, AxisSpec, Key, Scale};
     use crate::plot::style::{self, Dash};
     root.fill(&WHITE).map_err(e)?;

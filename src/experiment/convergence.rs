@@ -21,16 +21,50 @@ use std::path::{Path, PathBuf};
 /// The plots written beside `convergence.csv` (and redrawn from it by `raysched plot`).
 pub const PLOTS: [&str; 2] = ["convergence.png", "convergence.svg"];
 
+/// Why a convergence experiment stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvergenceError {
+    /// The plan is of another kind.
+    #[error("{0} is not a convergence experiment")]
+    NotConvergence(String),
+    /// A scene's reference could not be rendered or cached.
+    #[error("reference for {scene}: {msg}")]
+    Reference {
+        /// The scene.
+        scene: String,
+        /// The reference's error.
+        msg: String,
+    },
+    /// A configuration's scheduler failed: `<scene> <tracer> <label>: <error>`, one message
+    /// (the error is shown in it, not chained below it).
+    #[error("{config}: {error}")]
+    Sched {
+        /// The scene, tracer and configuration label.
+        config: String,
+        /// The scheduler's error.
+        error: crate::sched::SchedError,
+    },
+    /// Writing or reading `convergence.csv`.
+    #[error(transparent)]
+    Csv(#[from] crate::csv_out::CsvError),
+    /// Drawing a plot.
+    #[error(transparent)]
+    Plot(#[from] converge::PlotError),
+    /// Creating the folder or writing `report.md`.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
+
 /// Run a convergence plan; returns the results folder. References that are not analytic are
 /// rendered once and cached under `<out>/refs/`, keyed by the scene's hash.
 ///
 /// # Errors
 /// A reference that cannot be rendered or cached, a scheduler failure, or an I/O error
 /// writing the outputs.
-pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
+pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceError> {
     let settings = plan
         .convergence
-        .ok_or_else(|| anyhow::anyhow!("{} is not a convergence experiment", plan.name))?;
+        .ok_or_else(|| ConvergenceError::NotConvergence(plan.name.clone()))?;
     let dir = out.join(&plan.name);
     std::fs::create_dir_all(&dir)?;
     let load_start = load_average();
@@ -46,7 +80,10 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
             plan.max_workers,
             &mut |_, _| {},
         )
-        .map_err(|e| anyhow::anyhow!("reference for {}: {e}", scene.name))?;
+        .map_err(|msg| ConvergenceError::Reference {
+            scene: scene.name.clone(),
+            msg,
+        })?;
         let line = format!("{}: {}", scene.name, r.kind.label());
         if !refs.contains(&line) {
             refs.push(line);
@@ -64,8 +101,9 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<PathBuf> {
         for spec in specs {
             rows.extend(
                 converge::run_convergence_scheduled(scene, &b.tracer, &r, settings.max_spp, spec)
-                    .map_err(|e| {
-                    anyhow::anyhow!("{} {} {}: {e}", scene.name, b.tracer_id, spec.label())
+                    .map_err(|error| ConvergenceError::Sched {
+                    config: format!("{} {} {}", scene.name, b.tracer_id, spec.label()),
+                    error,
                 })?,
             );
         }
@@ -141,10 +179,10 @@ fn specs_of(plan: &ExperimentPlan, bi: usize) -> Vec<&crate::sched::SchedulerSpe
 /// cached under `<out>/refs/` or to be rendered) and every configuration, with a time estimate
 /// from one probe render per (scene, tracer) ([`super::dry_run::probe_render_s`]) scaled to a
 /// sample per pixel (a configuration of w workers at 1 / min(w, cores) of it). Writes no file.
-pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> anyhow::Result<String> {
+pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> Result<String, ConvergenceError> {
     let settings = plan
         .convergence
-        .ok_or_else(|| anyhow::anyhow!("{} is not a convergence experiment", plan.name))?;
+        .ok_or_else(|| ConvergenceError::NotConvergence(plan.name.clone()))?;
     let steps = settings.max_spp.ilog2() + 1;
     // 1 + 2 + 4 + … + max_spp samples per pixel, the progression's last step included.
     let samples = 2.0 * f64::from(settings.max_spp) - 1.0;

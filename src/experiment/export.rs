@@ -4,6 +4,7 @@
 use super::results::RunRow;
 use super::summary::Summary;
 use crate::sched::param_columns;
+use crate::util::fs::{write_atomic, WriteError};
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
 
@@ -79,7 +80,14 @@ pub fn summary_json(s: &Summary) -> Value {
 }
 
 /// Write `dir/runs.json` and `dir/summary.json`; returns their paths.
-pub fn write_json(dir: &Path, rows: &[RunRow], sums: &[Summary]) -> Result<Vec<PathBuf>, String> {
+///
+/// # Errors
+/// Writing either file failed (the file named).
+pub fn write_json(
+    dir: &Path,
+    rows: &[RunRow],
+    sums: &[Summary],
+) -> Result<Vec<PathBuf>, WriteError> {
     let runs =
         json!({"schema": RUNS_SCHEMA, "rows": rows.iter().map(row_json).collect::<Vec<_>>()});
     let summary = json!({
@@ -89,8 +97,11 @@ pub fn write_json(dir: &Path, rows: &[RunRow], sums: &[Summary]) -> Result<Vec<P
     let mut out = Vec::new();
     for (name, v) in [("runs.json", runs), ("summary.json", summary)] {
         let p = dir.join(name);
-        let text = serde_json::to_string_pretty(&v).map_err(|e| format!("{}: {e}", p.display()))?;
-        super::run::write_atomic(&p, text.as_bytes()).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&v).map_err(|e| WriteError {
+            path: p.clone(),
+            io: e.into(),
+        })?;
+        write_atomic(&p, text.as_bytes())?;
         out.push(p);
     }
     Ok(out)

@@ -69,7 +69,7 @@ pub fn run_experiment_isolated(
     if plan.predict {
         let p = run::predictions(plan, &todo)?;
         let text = serde_json::to_string(&p).map_err(|e| run::io_err(&pred_path, e))?;
-        run::write_atomic(&pred_path, text.as_bytes())?;
+        crate::util::fs::write_atomic(&pred_path, text.as_bytes())?;
     }
     let mut progress = Progress::new(opts.quiet, todo.upper_bound_now(plan));
     let (mut measured, mut untimed) = (0u64, 0usize);

@@ -200,6 +200,11 @@ fn params_at(cols: &[String]) -> usize {
 /// renders the rows in order.
 pub const SERIAL: &str = "serial";
 
+/// Where configuration `config`'s Gantt timeline goes: `dir/timelines/<config>.csv`.
+pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
+    dir.join("timelines").join(format!("{config}.csv"))
+}
+
 impl RunRow {
     /// Is this a row of the serial baseline?
     pub fn is_serial(&self) -> bool {

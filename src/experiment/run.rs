@@ -5,7 +5,7 @@
 use super::meta::{self, Meta};
 use super::plan::{ExperimentPlan, Launch, RunConfig, Sources};
 use super::progress::Progress;
-use super::results::{ResultsError, RunRow, RunsFile};
+use super::results::{timeline_path, ResultsError, RunRow, RunsFile};
 use super::stats::{median, relative_half_width, shuffle};
 use crate::hash::hex;
 use crate::metrics::{RunStats, WorkerStats};
@@ -14,8 +14,9 @@ use crate::model::Prediction;
 use crate::render::{render_serial, Image};
 use crate::sched::{render_scene, RenderOn, SchedError, SchedulerSpec};
 use crate::tracer::Tracer;
+use crate::util::fs::{write_atomic, WriteError};
+use crate::util::text::slug;
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -107,18 +108,10 @@ pub(super) fn io_err(path: &Path, e: impl std::fmt::Display) -> RunError {
     }
 }
 
-/// Write via a temporary file and a rename, so a kill never leaves a half-written file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunError> {
-    let tmp = path.with_extension("tmp");
-    let mut f = std::fs::File::create(&tmp).map_err(|e| io_err(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| io_err(&tmp, e))?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, e))
-}
-
-/// Where configuration `config`'s Gantt timeline goes: `dir/timelines/<config>.csv`.
-pub fn timeline_path(dir: &Path, config: &str) -> PathBuf {
-    dir.join("timelines").join(format!("{config}.csv"))
+impl From<WriteError> for RunError {
+    fn from(e: WriteError) -> Self {
+        io_err(&e.path, e.io)
+    }
 }
 
 /// How a refusal to resume ends: both ways out, `--out` keeping the old folder as it is.
@@ -1019,24 +1012,6 @@ fn fill_stats(row: &mut RunRow, s: &RunStats) {
     row.nonfinite = s.nonfinite;
     row.features_used = s.features_used.join("+");
     row.features_left_out = s.features_left_out.join("+");
-}
-
-/// A file-name-safe form of a label.
-pub fn slug(s: &str) -> String {
-    let mut out: String = s
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '.' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    while out.contains("__") {
-        out = out.replace("__", "_");
-    }
-    out.trim_matches('_').to_string()
 }
 
 /// A round's process's line after each sample: the prefix, then the configuration's label

@@ -4,8 +4,26 @@
 
 use super::wire::ScenePackage;
 use crate::scene::format::ShapeSpec;
-use crate::scene::{load_scene_str, Scene, SceneFile, SceneOverrides};
+use crate::scene::{load_scene_str, Scene, SceneError, SceneFile, SceneOverrides};
 use std::path::{Component, Path, PathBuf};
+
+/// Why a scene could not be packaged on rank 0 or rebuilt on another rank.
+#[derive(Debug, thiserror::Error)]
+pub enum PackError {
+    /// A file that cannot be read or shipped, or a rebuilt scene that differs, in one message
+    /// naming it.
+    #[error("{0}")]
+    Refused(String),
+    /// The scene loader refused the scene, naming its field.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The scene text is no scene file.
+    #[error(transparent)]
+    Toml(#[from] toml::de::Error),
+    /// Writing a mesh under the rank's temporary folder.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+}
 
 /// Read the scene file and its meshes on rank 0 and load the scene; the package carries
 /// what every other rank needs to load the same scene.
@@ -13,10 +31,10 @@ pub fn package(
     path: &Path,
     overrides: &SceneOverrides,
     tracer: &str,
-) -> anyhow::Result<(Scene, ScenePackage)> {
+) -> Result<(Scene, ScenePackage), PackError> {
     let display = path.display().to_string();
     let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow::anyhow!("{display}: cannot read scene file: {e}"))?;
+        .map_err(|e| PackError::Refused(format!("{display}: cannot read scene file: {e}")))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let name = path
         .file_stem()
@@ -31,16 +49,17 @@ pub fn package(
             continue;
         };
         if Path::new(rel).is_absolute() {
-            anyhow::bail!(
+            return Err(PackError::Refused(format!(
                 "{display}: shapes[{i}].path: '{rel}' is absolute; MPI ranks get meshes by path relative to the scene file"
-            );
+            )));
         }
         let mut files = vec![rel.to_string()];
         if let ShapeSpec::Gltf { .. } = shape {
             // A .gltf's buffers travel too, at their place beside it.
             let dir = Path::new(rel).parent().unwrap_or(Path::new(""));
-            let uris = crate::scene::gltf::external_buffers(&base.join(rel))
-                .map_err(|e| anyhow::anyhow!("{display}: shapes[{i}].path: '{rel}': {e}"))?;
+            let uris = crate::scene::gltf::external_buffers(&base.join(rel)).map_err(|e| {
+                PackError::Refused(format!("{display}: shapes[{i}].path: '{rel}': {e}"))
+            })?;
             files.extend(
                 uris.iter()
                     .map(|u| dir.join(u).to_string_lossy().into_owned()),
@@ -48,7 +67,9 @@ pub fn package(
         }
         for f in files {
             let bytes = std::fs::read(base.join(&f)).map_err(|e| {
-                anyhow::anyhow!("{display}: shapes[{i}].path: cannot read '{f}': {e}")
+                PackError::Refused(format!(
+                    "{display}: shapes[{i}].path: cannot read '{f}': {e}"
+                ))
             })?;
             meshes.push((f, bytes));
         }
@@ -67,7 +88,7 @@ pub fn package(
 
 /// Rebuild the scene of `pkg` on this rank: meshes are written under a private temporary
 /// folder (deep enough for `../` paths), loaded, and the folder removed again.
-pub fn unpack(pkg: &ScenePackage, rank: i32) -> anyhow::Result<Scene> {
+pub fn unpack(pkg: &ScenePackage, rank: i32) -> Result<Scene, PackError> {
     let ups = pkg
         .meshes
         .iter()
@@ -88,7 +109,9 @@ pub fn unpack(pkg: &ScenePackage, rank: i32) -> anyhow::Result<Scene> {
         for (rel, bytes) in &pkg.meshes {
             let full: PathBuf = base.join(rel);
             if !normalise(&full).starts_with(&root) {
-                anyhow::bail!("mesh path '{rel}' leaves the scene folder");
+                return Err(PackError::Refused(format!(
+                    "mesh path '{rel}' leaves the scene folder"
+                )));
             }
             if let Some(dir) = full.parent() {
                 std::fs::create_dir_all(dir)?;
@@ -98,11 +121,11 @@ pub fn unpack(pkg: &ScenePackage, rank: i32) -> anyhow::Result<Scene> {
         std::fs::create_dir_all(&base)?;
         let scene = load_scene_str(&pkg.text, &pkg.display, &base, &pkg.name, &pkg.overrides)?;
         if scene.hash != pkg.hash {
-            anyhow::bail!(
+            return Err(PackError::Refused(format!(
                 "scene hash {:016x} differs from rank 0's {:016x}: the ranks would render different scenes",
                 scene.hash,
                 pkg.hash
-            );
+            )));
         }
         Ok(scene)
     })();

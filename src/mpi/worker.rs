@@ -31,7 +31,24 @@ pub const ENV_ZERO_WORK: &str = "RAYSCHED_MPI_ZERO_WORK";
 /// known cost (the simulation's MPI refill period, `experiments/mpi_sweep.py --spin`).
 pub const ENV_SPIN_NS_PER_PX: &str = "RAYSCHED_MPI_SPIN_NS_PER_PX";
 
-fn build(rank: i32, bytes: &[u8]) -> anyhow::Result<(crate::scene::Scene, AnyTracer)> {
+/// Why a rank has no scene to render: shown to rank 0 as one line.
+#[derive(Debug, thiserror::Error)]
+enum BuildError {
+    /// Nothing received yet, or the build panicked.
+    #[error("{0}")]
+    Failed(String),
+    /// The package did not decode.
+    #[error(transparent)]
+    Wire(#[from] super::wire::WireError),
+    /// The scene did not rebuild.
+    #[error(transparent)]
+    Pack(#[from] super::scene::PackError),
+    /// The tracer did not build.
+    #[error(transparent)]
+    Tracer(#[from] crate::tracer::TracerError),
+}
+
+fn build(rank: i32, bytes: &[u8]) -> Result<(crate::scene::Scene, AnyTracer), BuildError> {
     let mut pkg = ScenePackage::decode(bytes)?;
     if std::env::var(ENV_CORRUPT_RANK)
         .ok()
@@ -75,8 +92,8 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
         .ok()
         .and_then(|v| v.parse::<f64>().ok())
         .filter(|v| *v > 0.0);
-    let mut built: anyhow::Result<(crate::scene::Scene, AnyTracer)> =
-        Err(anyhow::anyhow!("no scene received yet"));
+    let mut built: Result<(crate::scene::Scene, AnyTracer), BuildError> =
+        Err(BuildError::Failed("no scene received yet".into()));
     let mut served = 0u64;
     for job in jobs {
         match job {
@@ -85,10 +102,10 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                 built =
                     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| build(rank, &bytes)))
                         .unwrap_or_else(|p| {
-                            Err(anyhow::anyhow!(
+                            Err(BuildError::Failed(format!(
                                 "panicked: {}",
                                 crate::source::local::panic_message(&p)
-                            ))
+                            )))
                         });
                 let ready = Ready {
                     pid: std::process::id(),
@@ -96,7 +113,7 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                     error: built
                         .as_ref()
                         .err()
-                        .map(|e| format!("{e:#}"))
+                        .map(ToString::to_string)
                         .unwrap_or_default(),
                 };
                 if out.send((tag::READY, ready.encode())).is_err() {

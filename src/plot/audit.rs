@@ -174,7 +174,7 @@ pub(super) fn check<F>(what: &str, size: (u32, u32), draw: F)
 where
     F: FnOnce(&DrawingArea<Audit, plotters::coord::Shift>) -> Result<(), String>,
 {
-    super::register_font();
+    super::font::register_font();
     let texts = Rc::new(RefCell::new(Vec::new()));
     let root = Audit {
         size,

@@ -28,7 +28,7 @@ pub(crate) fn e<T: std::fmt::Display>(err: T) -> String {
 
 /// (width, height) of `text` in the bundled font at `size` px.
 pub fn text_size(text: &str, size: u32) -> (i32, i32) {
-    super::register_font();
+    super::font::register_font();
     ("sans-serif", size).into_font().box_size(text).map_or(
         (
             text.chars().count() as i32 * size as i32 * 6 / 10,

@@ -3,9 +3,10 @@
 
 use super::axes::{self, AxisSpec, Key, Scale};
 use super::style::{self, Dash};
-use crate::experiment::run::{slug, timeline_path};
+use crate::experiment::results::timeline_path;
 use crate::experiment::summary::Summary;
 use crate::metrics::MASTER_LANE;
+use crate::util::text::slug;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};

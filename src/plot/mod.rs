@@ -7,6 +7,7 @@ mod audit;
 pub mod axes;
 mod charts;
 pub mod compare;
+pub mod font;
 pub mod html;
 pub mod prediction;
 pub mod raster;
@@ -16,22 +17,11 @@ pub mod style;
 
 pub(crate) use charts::{line_chart, scatter_vs, Lines, ScatterGroup, Series};
 pub use charts::{mpi_line, palette, throughput, Figure};
+pub use font::register_font;
 
 use crate::experiment::summary::{self, Summary};
 use crate::experiment::{convergence, meta, results};
 use std::path::{Path, PathBuf};
-use std::sync::Once;
-
-static FONT: Once = Once::new();
-
-/// Register the bundled font as "sans-serif" (once per process).
-pub fn register_font() {
-    FONT.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
-        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes)
-            .unwrap_or_else(|_| panic!("the bundled DejaVuSans.ttf is a valid font"));
-    });
-}
 
 /// Draw every figure the data supports into `dir/plots/`; returns them for `report.md`.
 pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
@@ -89,7 +79,9 @@ pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
 pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
     // At scale 1 every PNG is drawn as a bitmap; otherwise it is rasterised from its SVG only.
     let bitmap = png_scale == raster::PngScale::ONE;
-    let rescale = |svg: &Path, staged_png: &Path| raster::svg_to_png(svg, staged_png, png_scale);
+    let rescale = |svg: &Path, staged_png: &Path| {
+        raster::svg_to_png(svg, staged_png, png_scale).map_err(|e| e.to_string())
+    };
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     let staging =
@@ -148,7 +140,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     let plots = staging
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
-    let json = crate::experiment::export::write_json(dir, &rows, &sums)?;
+    let json =
+        crate::experiment::export::write_json(dir, &rows, &sums).map_err(|e| e.to_string())?;
     let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
     let rescaled = if bitmap { &[][..] } else { &figs[..] };
     for f in rescaled {

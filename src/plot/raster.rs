@@ -2,11 +2,49 @@
 //! stay sharp at 2×–4× where the bitmap backend would only give a bigger canvas with the same
 //! pixel-sized fonts.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// PNG scales `plot --png-scale` accepts: 8× of the largest figure (900 × 640) is 37 M pixels,
 /// 147 MB of pixmap.
 pub const PNG_SCALE_RANGE: std::ops::RangeInclusive<f32> = 1.0..=8.0;
+
+/// A PNG scale outside [`PNG_SCALE_RANGE`] (or NaN).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("must be in {lo}–{hi} (got {got})", lo = PNG_SCALE_RANGE.start(), hi = PNG_SCALE_RANGE.end(), got = .0)]
+pub struct ScaleError(pub f32);
+
+/// Why an SVG was not rasterised: the file at fault first, on one line.
+#[derive(Debug, thiserror::Error)]
+pub enum RasterError {
+    /// Reading the SVG or writing the PNG.
+    #[error("{}: {msg}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error's text.
+        msg: String,
+    },
+    /// The SVG does not parse.
+    #[error("{}: not a readable SVG ({msg})", path.display())]
+    Svg {
+        /// The SVG.
+        path: PathBuf,
+        /// The parser's error.
+        msg: String,
+    },
+    /// The PNG would be empty or too large to allocate.
+    #[error("{}: {w} × {h} pixels at scale {scale} is outside 1 … 40 M pixels", path.display())]
+    Size {
+        /// The SVG.
+        path: PathBuf,
+        /// Width in pixels.
+        w: u32,
+        /// Height in pixels.
+        h: u32,
+        /// The scale asked for.
+        scale: f32,
+    },
+}
 
 /// A PNG scale checked against [`PNG_SCALE_RANGE`] once, where it enters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -17,15 +55,11 @@ impl PngScale {
     pub const ONE: Self = Self(1.0);
 
     /// `scale` if it is in [`PNG_SCALE_RANGE`]; otherwise why not.
-    pub fn new(scale: f32) -> Result<Self, String> {
+    pub fn new(scale: f32) -> Result<Self, ScaleError> {
         if PNG_SCALE_RANGE.contains(&scale) {
             Ok(Self(scale))
         } else {
-            Err(format!(
-                "must be in {}–{} (got {scale})",
-                PNG_SCALE_RANGE.start(),
-                PNG_SCALE_RANGE.end()
-            ))
+            Err(ScaleError(scale))
         }
     }
 
@@ -37,16 +71,25 @@ impl PngScale {
 
 /// Rasterise `svg` at `scale` into `png` (1 = the SVG's own pixel size), with the bundled
 /// DejaVu Sans as the SVG's "sans-serif", the font the PNG backend draws with.
-pub fn svg_to_png(svg: &Path, png: &Path, scale: PngScale) -> Result<(), String> {
+pub fn svg_to_png(svg: &Path, png: &Path, scale: PngScale) -> Result<(), RasterError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |e: std::io::Error| RasterError::Io {
+            path,
+            msg: e.to_string(),
+        }
+    };
     let scale = scale.get();
-    let text = std::fs::read_to_string(svg).map_err(|e| format!("{}: {e}", svg.display()))?;
+    let text = std::fs::read_to_string(svg).map_err(io(svg))?;
     let mut opt = resvg::usvg::Options::default();
     let db = opt.fontdb_mut();
     db.load_font_data(include_bytes!("../../assets/fonts/DejaVuSans.ttf").to_vec());
     db.set_sans_serif_family("DejaVu Sans");
     opt.font_family = "DejaVu Sans".into();
-    let tree = resvg::usvg::Tree::from_str(&text, &opt)
-        .map_err(|e| format!("{}: not a readable SVG ({e})", svg.display()))?;
+    let tree = resvg::usvg::Tree::from_str(&text, &opt).map_err(|e| RasterError::Svg {
+        path: svg.to_path_buf(),
+        msg: e.to_string(),
+    })?;
     let size = tree.size();
     let (w, h) = (
         (size.width() * scale).ceil() as u32,
@@ -54,23 +97,28 @@ pub fn svg_to_png(svg: &Path, png: &Path, scale: PngScale) -> Result<(), String>
     );
     // Sizes checked before the pixmap is allocated.
     if w == 0 || h == 0 || u64::from(w) * u64::from(h) > 40_000_000 {
-        return Err(format!(
-            "{}: {w} × {h} pixels at scale {scale} is outside 1 … 40 M pixels",
-            svg.display()
-        ));
+        return Err(RasterError::Size {
+            path: svg.to_path_buf(),
+            w,
+            h,
+            scale,
+        });
     }
-    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h)
-        .ok_or_else(|| format!("{}: cannot allocate {w} × {h}", png.display()))?;
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(w, h).ok_or_else(|| RasterError::Io {
+        path: png.to_path_buf(),
+        msg: format!("cannot allocate {w} × {h}"),
+    })?;
     pixmap.fill(resvg::tiny_skia::Color::WHITE);
     resvg::render(
         &tree,
         resvg::tiny_skia::Transform::from_scale(scale, scale),
         &mut pixmap.as_mut(),
     );
-    let bytes = pixmap
-        .encode_png()
-        .map_err(|e| format!("{}: {e}", png.display()))?;
-    std::fs::write(png, bytes).map_err(|e| format!("{}: {e}", png.display()))
+    let bytes = pixmap.encode_png().map_err(|e| RasterError::Io {
+        path: png.to_path_buf(),
+        msg: e.to_string(),
+    })?;
+    std::fs::write(png, bytes).map_err(io(png))
 }
 
 #[cfg(test)]

@@ -216,7 +216,7 @@ impl Profile {
         use crate::plot::axes::{self, Scale};
         use plotters::prelude::*;
         use plotters::style::text_anchor::{HPos, Pos, VPos};
-        crate::plot::register_font();
+        crate::plot::font::register_font();
         let img = self.heat_map();
         let k = 240u32.div_ceil(self.height.max(1)).max(1);
         let (w, h) = (self.width * k, (self.height * k).max(240));

@@ -202,17 +202,47 @@ impl SimPlan {
 /// The most simulated workers accepted.
 pub const MAX_SIM_WORKERS: i64 = 1 << 16;
 
-fn field(path: &Path, name: &str, msg: impl std::fmt::Display) -> anyhow::Error {
-    anyhow::anyhow!("{}: {name}: {msg}", path.display())
+/// Why a simulation file was refused: its path first, then what is wrong, on one line.
+#[derive(Debug, thiserror::Error)]
+pub enum SimConfigError {
+    /// The file could not be read or is no TOML of this format: `path: error`.
+    #[error("{path}: {msg}")]
+    File {
+        /// The simulation file.
+        path: String,
+        /// The error's first line.
+        msg: String,
+    },
+    /// A field's value is refused: `path: field: why`.
+    #[error("{path}: {field}: {msg}")]
+    Field {
+        /// The simulation file.
+        path: String,
+        /// The field, e.g. `schedulers[0].chunk`.
+        field: String,
+        /// Why it is refused.
+        msg: String,
+    },
+}
+
+fn field(path: &Path, name: &str, msg: impl std::fmt::Display) -> SimConfigError {
+    SimConfigError::Field {
+        path: path.display().to_string(),
+        field: name.to_string(),
+        msg: msg.to_string(),
+    }
 }
 
 /// Read and check `path`; `exe` is the raysched binary that loads platforms in a child.
-pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+pub fn load(path: &Path, exe: &Path) -> Result<SimPlan, SimConfigError> {
+    let file_error = |msg: String| SimConfigError::File {
+        path: path.display().to_string(),
+        msg,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| file_error(e.to_string()))?;
     let file: SimFile = toml::from_str(&text).map_err(|e| {
         let msg = e.message().to_string();
-        anyhow::anyhow!("{}: {}", path.display(), msg.lines().next().unwrap_or(""))
+        file_error(msg.lines().next().unwrap_or("").to_string())
     })?;
     if file.kind != "simulation" {
         return Err(field(
@@ -273,7 +303,7 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
     for (i, s) in file.schedulers.iter().enumerate() {
         specs.extend(expand(s).map_err(|(f, m)| field(path, &format!("schedulers[{i}].{f}"), m))?);
     }
-    let load_platform = |what: &str, p: &str| -> anyhow::Result<Platform> {
+    let load_platform = |what: &str, p: &str| -> Result<Platform, SimConfigError> {
         let full = base.join(p);
         let info = child::inspect(exe, &full)
             .map_err(|m| field(path, what, format!("{}: {m}", full.display())))?;
@@ -371,7 +401,7 @@ pub fn load(path: &Path, exe: &Path) -> anyhow::Result<SimPlan> {
             "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1",
         ));
     }
-    let existing = |what: &str, p: &str| -> anyhow::Result<PathBuf> {
+    let existing = |what: &str, p: &str| -> Result<PathBuf, SimConfigError> {
         let full = base.join(p);
         std::fs::metadata(&full)
             .map_err(|e| field(path, what, format!("{}: {e}", full.display())))?;

@@ -31,7 +31,7 @@ fn chart(
     hlines: &[(f64, String)],
     log_y: bool,
 ) -> Result<(), String> {
-    crate::plot::register_font();
+    crate::plot::font::register_font();
     if data.iter().all(|d| d.1.is_empty()) {
         return Ok(());
     }
@@ -219,7 +219,7 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
             .or_default()
             .push((c.measured.0, c.simulated));
     }
-    crate::plot::register_font();
+    crate::plot::font::register_font();
     let f = "validation.png".to_string();
     let path = dir.join(&f);
     let groups: Vec<crate::plot::ScatterGroup> = by_workers

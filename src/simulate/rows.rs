@@ -3,6 +3,7 @@
 
 use super::child;
 use super::config::{Platform, SimPlan};
+use super::error::SimError;
 use super::inputs::{self, ItemInputs, PixelCosts};
 use super::job::{SimJob, SimOutcome};
 use crate::sched::{param_columns, Chunk, Order, Policy, SchedulerSpec};
@@ -72,15 +73,15 @@ impl Inputs {
         specs: &[SchedulerSpec],
         concurrency: &[usize],
         quiet: bool,
-    ) -> anyhow::Result<Self> {
+    ) -> Result<Self, SimError> {
         let scene = Arc::new(
             crate::scene::load_scene(&plan.scene, overrides)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", plan.scene.display()))?,
+                .map_err(|e| SimError::Failed(format!("{}: {e}", plan.scene.display())))?,
         );
         let tracer = Arc::new(crate::tracer::AnyTracer::build(plan.tracer, &scene, 1)?);
         let reps = (plan.probe_repetitions, plan.probe_level_repetitions);
         let pixels =
-            PixelCosts::probe(&scene, &tracer, reps.0, reps.1, 1).map_err(anyhow::Error::msg)?;
+            PixelCosts::probe(&scene, &tracer, reps.0, reps.1, 1).map_err(SimError::Failed)?;
         if !quiet {
             println!(
                 "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %; {} bulk passes {:.4}–{:.4} s): the costs sum to the bulk render",
@@ -94,8 +95,8 @@ impl Inputs {
         }
         let mut concurrent = BTreeMap::new();
         for &t in concurrency.iter().filter(|&&t| t > 1) {
-            let px = PixelCosts::probe(&scene, &tracer, reps.0, reps.1, t)
-                .map_err(anyhow::Error::msg)?;
+            let px =
+                PixelCosts::probe(&scene, &tracer, reps.0, reps.1, t).map_err(SimError::Failed)?;
             if !quiet {
                 println!(
                     "probe on {t} threads at once: Σ pixels {:.4} s ({:+.1} % against one thread; bulk passes {:.4}–{:.4} s)",
@@ -114,13 +115,13 @@ impl Inputs {
             if let Policy::Master(p) = s.policy {
                 if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
                     let z = inputs::master_zero_work(p.buffer, n, workers, reps)
-                        .map_err(anyhow::Error::msg)?;
+                        .map_err(SimError::Failed)?;
                     e.insert(z.per_item_s);
                     master_fixed_s.insert(p.buffer, z.fixed_s);
                 }
             }
         }
-        let counter = inputs::counter_zero_work(n, workers, reps).map_err(anyhow::Error::msg)?;
+        let counter = inputs::counter_zero_work(n, workers, reps).map_err(SimError::Failed)?;
         let counter_s = counter.per_item_s;
         if !quiet {
             println!(
@@ -188,7 +189,7 @@ impl Inputs {
     /// the zero-work runs', M-129): the sleeping master's wake-up and its round trip per
     /// item, which zero-work items never show. Measured once per configuration; 0 for other
     /// schedulers.
-    pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> anyhow::Result<f64> {
+    pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> Result<f64, SimError> {
         if !matches!(spec.policy, Policy::Master(_)) {
             return Ok(0.0);
         }
@@ -216,7 +217,7 @@ impl Inputs {
     /// ([`hidden_refill`]; the floor below is then 0, no zero-work run over MPI being
     /// measured); else 0 (a cluster's master, whose round trip is the simulated network's)
     /// (M-130).
-    pub fn source_floor(&mut self, spec: &SchedulerSpec, cost_s: &[f64]) -> anyhow::Result<f64> {
+    pub fn source_floor(&mut self, spec: &SchedulerSpec, cost_s: &[f64]) -> Result<f64, SimError> {
         if cost_s.is_empty() || !matches!(spec.policy, Policy::Master(_)) {
             return Ok(0.0);
         }
@@ -238,7 +239,7 @@ impl Inputs {
     }
 
     /// The cost factor of `chunk` in `order` on `threads` threads, measured once.
-    fn layout(&mut self, chunk: Chunk, order: Order, threads: usize) -> anyhow::Result<f64> {
+    fn layout(&mut self, chunk: Chunk, order: Order, threads: usize) -> Result<f64, SimError> {
         let key = (chunk.to_string(), order.id().to_string(), threads);
         if let Some(k) = self.layouts.get(&key) {
             return Ok(*k);
@@ -264,7 +265,7 @@ impl Inputs {
         (chunk, order): (Chunk, Order),
         workers: usize,
         cost_order: Order,
-    ) -> anyhow::Result<Arc<ItemInputs>> {
+    ) -> Result<Arc<ItemInputs>, SimError> {
         let threads = if self.concurrent.contains_key(&workers) {
             workers
         } else {
@@ -292,7 +293,7 @@ impl Inputs {
         spec: &SchedulerSpec,
         platform: &Path,
         plan: &SimPlan,
-    ) -> anyhow::Result<SimJob> {
+    ) -> Result<SimJob, SimError> {
         // pbrt and mitsuba choose their own tiles, as in a measured run.
         let (chunk, order) = spec.layout(self.pixels.width, self.pixels.height);
         // Workers that run each hand-out in scanline order pay the layout's scanline cost (an
@@ -494,7 +495,7 @@ pub fn simulate_one(
     exe: &Path,
     platform: &Platform,
     spec: &SchedulerSpec,
-) -> anyhow::Result<SimRow> {
+) -> Result<SimRow, SimError> {
     let job = inputs.job(spec, &platform.path, plan)?;
     let limit = plan.run_limit_s.map(std::time::Duration::from_secs_f64);
     let out = match child::simulate(exe, &job, limit) {
@@ -508,12 +509,14 @@ pub fn simulate_one(
             host_s: plan.run_limit_s.unwrap_or_default(),
             ..Default::default()
         },
-        Err(child::Failure::Error(m)) => anyhow::bail!(
-            "simulating {} on {} workers of {}: {m}",
-            spec.label(),
-            spec.workers,
-            platform.name
-        ),
+        Err(child::Failure::Error(m)) => {
+            return Err(SimError::Failed(format!(
+                "simulating {} on {} workers of {}: {m}",
+                spec.label(),
+                spec.workers,
+                platform.name
+            )))
+        }
     };
     Ok(SimRow {
         platform: platform.name.clone(),
@@ -530,14 +533,16 @@ pub fn simulate_one(
 }
 
 /// Write `rows` as CSV (atomically: a failed run leaves no partial file).
-pub fn write_rows(path: &Path, rows: &[SimRow]) -> anyhow::Result<()> {
+pub fn write_rows(path: &Path, rows: &[SimRow]) -> Result<(), SimError> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(SimRow::header())?;
     for r in rows {
         w.write_record(r.record())?;
     }
-    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-    crate::experiment::run::write_atomic(path, &bytes)?;
+    let bytes = w
+        .into_inner()
+        .map_err(|e| SimError::Failed(format!("{e}")))?;
+    crate::util::fs::write_atomic(path, &bytes)?;
     Ok(())
 }
 

@@ -2,6 +2,7 @@
 //! count in a child process each, write `sim_runs.csv`, `inputs.toml`, plots and `report.md`.
 
 use super::config::{Platform, SimPlan};
+use super::error::SimError;
 pub use super::rows::{
     hidden_refill, load_average, master_h_text, simulate_one, write_rows, Inputs, SimRow,
 };
@@ -10,7 +11,7 @@ use crate::sched::SchedulerSpec;
 use std::path::{Path, PathBuf};
 
 /// Run the whole experiment; returns its results folder.
-pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Result<PathBuf> {
+pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> Result<PathBuf, SimError> {
     // The validation's measured runs are read first: a bad file fails before any measurement.
     let measured = match &plan.validation {
         Some((csv, _)) => Some(validate::measured_configs(csv)?),
@@ -26,22 +27,22 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
                 .iter()
                 .find(|m| !platforms.contains_key(m.transport.as_deref().unwrap_or_default()))
             {
-                anyhow::bail!(
+                return Err(SimError::Failed(format!(
                     "{}: validation.mpi_platforms: no platform for transport '{}' of {}",
                     plan.file.display(),
                     m.transport.as_deref().unwrap_or_default(),
                     csv.display()
-                );
+                )));
             }
             if measured.as_ref().is_some_and(|(_, o)| *o != overrides) {
-                anyhow::bail!(
+                return Err(SimError::Failed(format!(
                     "{}: the MPI runs render another scene setting than {}",
                     csv.display(),
                     plan.validation
                         .as_ref()
                         .map(|v| v.0.display().to_string())
                         .unwrap_or_default()
-                );
+                )));
             }
             Some((configs, overrides))
         }
@@ -127,15 +128,15 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
         inputs.master_h_s.iter().map(|(b, h)| format!("B{b} = {h}\n")).collect::<String>()
     ) + &layout_toml("layout_factor", &inputs.layout_factors())
         + &layout_toml("validation_layout_factor", &v_layouts);
-    crate::experiment::run::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
-    let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(anyhow::Error::msg)?;
+    crate::util::fs::write_atomic(&dir.join("inputs.toml"), inputs_toml.as_bytes())?;
+    let mut figures = plot::draw(&dir.join("plots"), &rows, &inputs).map_err(SimError::Failed)?;
     let mut report = format!(
         "# {} (simulated with SimGrid)\n\n{}\n\n",
         plan.name, plan.description
     );
     if let Some(v) = &validation {
         validate::write(&dir, v)?;
-        figures.extend(plot::validation(&dir.join("plots"), v).map_err(anyhow::Error::msg)?);
+        figures.extend(plot::validation(&dir.join("plots"), v).map_err(SimError::Failed)?);
         report += &validate::markdown(v);
     }
     report += &plot::saturation_markdown(&rows, &inputs);
@@ -143,7 +144,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> anyhow::Resul
     for f in &figures {
         report += &format!("\n![{f}](plots/{f})\n");
     }
-    crate::experiment::run::write_atomic(&dir.join("report.md"), report.as_bytes())?;
+    crate::util::fs::write_atomic(&dir.join("report.md"), report.as_bytes())?;
     Ok(dir)
 }
 

@@ -2,6 +2,7 @@
 //! simulated on the validation platform with the same scheduler, chunk and worker count.
 
 use super::config::{Platform, SimPlan};
+use super::error::SimError;
 use super::rows::{simulate_one, Inputs};
 use crate::experiment::results::{read_runs, RunRow};
 use crate::scene::SceneOverrides;
@@ -60,9 +61,9 @@ fn spec_of(r: &RunRow) -> Result<SchedulerSpec, String> {
 
 /// The local-thread configurations of `csv`, and the scene settings they were measured with
 /// (one size for all: the validation's probe renders the scene at it).
-pub fn measured_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)> {
+pub fn measured_configs(csv: &Path) -> Result<(Vec<Measured>, SceneOverrides), SimError> {
     let (rows, _) = read_runs(csv)?;
-    configs_of(&rows).map_err(|m| anyhow::anyhow!("{}: {m}", csv.display()))
+    configs_of(&rows).map_err(|m| SimError::Failed(format!("{}: {m}", csv.display())))
 }
 
 /// [`measured_configs`] of rows already read. The serial time is the median of every serial
@@ -79,9 +80,9 @@ pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), St
 /// transport) and their scene settings. Their level is every serial render's median: a
 /// launch sequence measures the serial once, in its first launch, so rounds of different
 /// launches share repetition numbers and no serial of their own.
-pub fn mpi_configs(csv: &Path) -> anyhow::Result<(Vec<Measured>, SceneOverrides)> {
+pub fn mpi_configs(csv: &Path) -> Result<(Vec<Measured>, SceneOverrides), SimError> {
     let (rows, _) = read_runs(csv)?;
-    configs_where(&rows, true).map_err(|m| anyhow::anyhow!("{}: {m}", csv.display()))
+    configs_where(&rows, true).map_err(|m| SimError::Failed(format!("{}: {m}", csv.display())))
 }
 
 fn configs_where(rows: &[RunRow], mpi: bool) -> Result<(Vec<Measured>, SceneOverrides), String> {
@@ -270,7 +271,7 @@ pub fn compare(
     plan: &SimPlan,
     exe: &Path,
     quiet: bool,
-) -> anyhow::Result<Validation> {
+) -> Result<Validation, SimError> {
     let serial_s = measured.first().map_or(f64::NAN, |m| m.0.serial_s);
     let mut rows = Vec::new();
     for (m, platform) in measured {
@@ -363,7 +364,7 @@ pub fn compare(
 }
 
 /// `validation.csv` in `dir`.
-pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
+pub fn write(dir: &Path, v: &Validation) -> Result<(), SimError> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "platform",
@@ -415,8 +416,10 @@ pub fn write(dir: &Path, v: &Validation) -> anyhow::Result<()> {
             format!("{:.6}", c.idle.1),
         ])?;
     }
-    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-    crate::experiment::run::write_atomic(&dir.join("validation.csv"), &bytes)?;
+    let bytes = w
+        .into_inner()
+        .map_err(|e| SimError::Failed(format!("{e}")))?;
+    crate::util::fs::write_atomic(&dir.join("validation.csv"), &bytes)?;
     Ok(())
 }
 

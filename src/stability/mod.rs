@@ -334,7 +334,7 @@ fn failed(group: &str, case: &str, msg: String) -> CaseResult {
 ///
 /// # Errors
 /// I/O or CSV errors.
-pub fn write_csv(path: &Path, rows: &[CaseResult]) -> anyhow::Result<()> {
+pub fn write_csv(path: &Path, rows: &[CaseResult]) -> Result<(), crate::csv_out::CsvError> {
     crate::csv_out::write_rows(path, rows)
 }
 

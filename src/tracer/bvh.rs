@@ -5,7 +5,8 @@
 //! one by one, with the shared routines of [`crate::geometry`], so hits agree bit for bit with
 //! `brute`.
 
-use super::bvh4::{CollapseCosts, Leaves, Wide, WideBvh, PACKET, PAD};
+use super::bvh4::{CollapseCosts, WideBvh, PACKET, PAD};
+use super::wide::{Leaves, Wide};
 use super::Tracer;
 use crate::geometry::{Hit, Hit4, Ray, ShearedRay, Sphere, Triangle4};
 use crate::scene::Geometry;
@@ -215,7 +216,7 @@ impl BvhTracer {
     #[inline(always)]
     fn packets8(
         &self,
-        avx2: super::simd::Avx2,
+        avx2: super::wide::Avx2,
         k: usize,
         ray: &Ray,
         sheared: &ShearedRay,
@@ -442,7 +443,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn eight_lane_leaf_test_is_bit_identical_to_two_four_lane_tests() {
-        let Some(avx2) = super::super::simd::Avx2::detect() else {
+        let Some(avx2) = super::super::wide::Avx2::detect() else {
             eprintln!("no AVX2 on this CPU: the 8-lane test never runs here");
             return;
         };

@@ -11,7 +11,10 @@
 //! Eight children rather than four (with the inline stack and the inlined leaf tests below):
 //! faster on primary and incoherent rays of the 1 M-triangle scene. Measured: M-021.
 
-use crate::geometry::{gamma, Hit, Ray};
+#[cfg(target_arch = "x86_64")]
+use super::wide::Avx2;
+use super::wide::{Entered, Leaves, Node, NodeTest, RaySlabs, Traverse, EMPTY, WIDTH};
+use crate::geometry::{Hit, Ray};
 use glam::Vec4;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{builder::build_bvh2, Bvh2};
@@ -19,8 +22,6 @@ use obvhs::BvhBuildParams;
 use std::ops::Range;
 use std::time::Duration;
 
-/// Children per inner node.
-pub const WIDTH: usize = 8;
 /// Child reference: an inner node index, or a leaf (high bit) with
 /// `first_packet << LEAF_BITS | packets`.
 const LEAF: u32 = 1 << 31;
@@ -32,150 +33,6 @@ pub const MAX_LEAF_PRIMS: u32 = 8;
 pub const PACKET: usize = 4;
 /// The scene id of a padding slot in [`WideBvh::order`].
 pub const PAD: u32 = u32::MAX;
-const EMPTY: u32 = u32::MAX;
-
-/// One inner node: [`WIDTH`] child boxes side by side (one lane per child, eight `f32` per
-/// plane: one AVX register or two SSE ones) and the children. Plane `a` (x, y, z) holds the
-/// lower bounds on axis `a`, plane `3 + a` the upper ones; an empty lane holds an inverted box
-/// (+∞ … −∞) and is never entered. 224 bytes of boxes and children, padded to 256 to start on
-/// a cache line.
-#[derive(Clone, Copy)]
-#[repr(C, align(64))]
-pub(super) struct Node {
-    pub(super) planes: [[f32; WIDTH]; 6],
-    child: [u32; WIDTH],
-}
-
-impl Node {
-    const EMPTY: Self = Self {
-        planes: [
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-            [f32::NEG_INFINITY; WIDTH],
-        ],
-        child: [EMPTY; WIDTH],
-    };
-
-    fn set(&mut self, lane: usize, aabb: &Aabb) {
-        for a in 0..3 {
-            self.planes[a][lane] = aabb.min[a];
-            self.planes[3 + a][lane] = aabb.max[a];
-        }
-    }
-}
-
-/// A ray's slab test against the eight child boxes of a node: the portable one below
-/// ([`RaySlabs`], SSE through glam) or the AVX one of [`super::simd`], which computes the same
-/// IEEE operations lane by lane, so both enter the same children in the same order.
-pub(super) trait NodeTest {
-    /// Entry distance of every child and the mask of those entered before `t_max`.
-    fn hit(&self, n: &Node, t_max: f32) -> Entered;
-    /// The 8-lane leaf test's token where this test runs in a traversal compiled for AVX2.
-    fn wide(&self) -> Wide {
-        None
-    }
-}
-
-/// What [`NodeTest::hit`] finds: each child's entry distance and the mask of the children
-/// entered.
-pub(super) type Entered = ([f32; WIDTH], u32);
-
-/// Proof that the 8-lane leaf test of [`super::simd`] may run (x86-64 with AVX2); `None`
-/// elsewhere, where leaves are tested four lanes at a time.
-#[cfg(target_arch = "x86_64")]
-pub(super) type Wide = Option<super::simd::Avx2>;
-/// No 8-lane leaf test off x86-64.
-#[cfg(not(target_arch = "x86_64"))]
-pub(super) type Wide = Option<std::convert::Infallible>;
-
-/// The traversal-side copy of a ray: origin, reciprocal direction, the reciprocal direction
-/// scaled by [`FAR_SCALE`] for the far planes, and per axis the plane entered first (`near`:
-/// the upper one where the direction is negative) and the one left by.
-pub(super) struct RaySlabs<V> {
-    pub(super) o: [V; 3],
-    pub(super) inv: [V; 3],
-    /// `inv · FAR_SCALE`: the far distances come out scaled, one multiply fewer on the path
-    /// from a node's memory to its mask. Measured: M-106.
-    pub(super) inv_far: [V; 3],
-    pub(super) near: [usize; 3],
-    pub(super) far: [usize; 3],
-}
-
-/// `t_far` is scaled by this so that rounding in the slab test never culls a box the ray
-/// touches (pbrt-v4, `Bounds3::IntersectP`). Folded into the reciprocal direction
-/// ([`RaySlabs::inv_far`]): `(far − o) · (inv · s)` rounds four times, as `((far − o) · inv) · s`
-/// did, so the bound holds alike; the two can differ only on a box the ray passes within the
-/// margin.
-pub(super) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
-
-impl<V> RaySlabs<V> {
-    /// The slabs of `ray`, each origin and reciprocal direction coordinate broadcast by
-    /// `splat` to the lanes of `V`.
-    #[inline(always)]
-    pub(super) fn with(ray: &Ray, splat: impl Fn(f32) -> V) -> Self {
-        // A zero (or subnormal) component would make 1/d infinite and 0·∞ a NaN in the slab
-        // test; 1e-30 keeps every product finite or ±∞ and moves the ray by < 1e-30·t.
-        let inv = [ray.d.x, ray.d.y, ray.d.z].map(|d| {
-            1.0 / if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            }
-        });
-        // Indexing by a per-ray plane instead of branching per node: the index is `a` or
-        // `3 + a`, which the compiler sees, so the plane lookups carry no bounds check.
-        let neg = inv.map(|i| i < 0.0);
-        Self {
-            o: [ray.o.x, ray.o.y, ray.o.z].map(&splat),
-            inv: inv.map(&splat),
-            inv_far: inv.map(|i| splat(i * FAR_SCALE)),
-            near: [0, 1, 2].map(|a| if neg[a] { 3 + a } else { a }),
-            far: [0, 1, 2].map(|a| if neg[a] { a } else { 3 + a }),
-        }
-    }
-}
-
-impl NodeTest for RaySlabs<Vec4> {
-    /// Two 4-lane halves per plane.
-    #[inline(always)]
-    fn hit(&self, n: &Node, t_max: f32) -> ([f32; WIDTH], u32) {
-        let mut t0 = [Vec4::ZERO; 2];
-        let mut t1 = [Vec4::INFINITY; 2];
-        for a in 0..3 {
-            let (near, far) = (&n.planes[self.near[a]], &n.planes[self.far[a]]);
-            for h in 0..2 {
-                let (near, far) = (
-                    Vec4::from_slice(&near[4 * h..]),
-                    Vec4::from_slice(&far[4 * h..]),
-                );
-                t0[h] = t0[h].max((near - self.o[a]) * self.inv[a]);
-                t1[h] = t1[h].min((far - self.o[a]) * self.inv_far[a]);
-            }
-        }
-        let t_max = Vec4::splat(t_max);
-        let inside = |h: usize| t0[h].cmple(t1[h].min(t_max)).bitmask();
-        let mut entry = [0.0; WIDTH];
-        t0[0].write_to_slice(&mut entry[..4]);
-        t0[1].write_to_slice(&mut entry[4..]);
-        (entry, inside(0) | inside(1) << 4)
-    }
-}
-
-/// What a traversal asks of the leaves: the caller's primitive tests on a leaf's packets
-/// (packet `k` holds slots `PACKET·k ..` of [`WideBvh::order`]). A trait rather than a closure
-/// so that `#[inline(always)]` puts the tests into the traversal loop (and into its AVX2 copy).
-/// `wide` is [`NodeTest::wide`] of the traversal's node test.
-pub(super) trait Leaves {
-    /// The nearest hit below `t_max` among the packets `packets`.
-    fn closest(&self, packets: Range<usize>, t_max: f32, wide: Wide) -> Option<Hit>;
-    /// Whether a primitive of the packets `packets` blocks the ray.
-    fn any(&self, packets: Range<usize>, wide: Wide) -> bool;
-    /// Ask for the packets' cache lines ahead of their test (see [`PREFETCH_FROM_BYTES`]).
-    fn prefetch(&self, _packets: Range<usize>) {}
-}
 
 /// From this many bytes of nodes and leaf packets on, a traversal asks for the cache lines of
 /// every child it enters as soon as the node test has found them ([`super::simd::prefetch`]),
@@ -195,7 +52,7 @@ pub struct WideBvh {
     pub order: Vec<u32>,
     /// Set where the CPU has AVX2: nodes are then tested 8 lanes at once.
     #[cfg(target_arch = "x86_64")]
-    avx2: Option<super::simd::Avx2>,
+    avx2: Option<Avx2>,
     /// Set (x86-64) where the tree has [`PREFETCH_FROM_BYTES`] or more: traversals then ask
     /// for the cache lines of the children they find.
     prefetch: bool,
@@ -215,7 +72,7 @@ impl WideBvh {
             root: 0,
             order: Vec::new(),
             #[cfg(target_arch = "x86_64")]
-            avx2: super::simd::Avx2::detect(),
+            avx2: Avx2::detect(),
             prefetch: false,
         };
         let plan = costs.map(|c| Collapse::plan(&bvh2, c));
@@ -347,14 +204,32 @@ impl WideBvh {
         self.any_with(&RaySlabs::with(ray, Vec4::splat), t_max, leaves)
     }
 
+    /// Ask for the cache lines of child `c`: a node's planes, a leaf's packets. A hint only:
+    /// no result depends on it.
+    #[inline(always)]
+    fn prefetch_child(&self, c: u32, leaves: &impl Leaves) {
+        if c & LEAF != 0 {
+            leaves.prefetch(leaf_range(c));
+        } else {
+            #[cfg(target_arch = "x86_64")]
+            super::simd::prefetch(&self.nodes[c as usize]);
+        }
+    }
+
+    /// [`Self::prefetch_child`] for every child of `n` in `mask`.
+    #[inline(always)]
+    fn prefetch_children(&self, n: &Node, mut mask: u32, leaves: &impl Leaves) {
+        while mask != 0 {
+            self.prefetch_child(n.child[mask.trailing_zeros() as usize], leaves);
+            mask &= mask - 1;
+        }
+    }
+}
+
+impl Traverse for WideBvh {
     /// [`Self::closest`] with node test `slabs`.
     #[inline(always)]
-    pub(super) fn closest_with(
-        &self,
-        slabs: &impl NodeTest,
-        t_max: f32,
-        leaves: &impl Leaves,
-    ) -> Option<Hit> {
+    fn closest_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
         let mut stack = Stack::new();
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
@@ -388,33 +263,12 @@ impl WideBvh {
         best
     }
 
-    /// Ask for the cache lines of child `c`: a node's planes, a leaf's packets. A hint only:
-    /// no result depends on it.
-    #[inline(always)]
-    fn prefetch_child(&self, c: u32, leaves: &impl Leaves) {
-        if c & LEAF != 0 {
-            leaves.prefetch(leaf_range(c));
-        } else {
-            #[cfg(target_arch = "x86_64")]
-            super::simd::prefetch(&self.nodes[c as usize]);
-        }
-    }
-
-    /// [`Self::prefetch_child`] for every child of `n` in `mask`.
-    #[inline(always)]
-    fn prefetch_children(&self, n: &Node, mut mask: u32, leaves: &impl Leaves) {
-        while mask != 0 {
-            self.prefetch_child(n.child[mask.trailing_zeros() as usize], leaves);
-            mask &= mask - 1;
-        }
-    }
-
     /// [`Self::any`] with node test `slabs`. Children are visited without sorting: a node's
     /// hit leaves are tested at once, in lane order, and of its hit inner children the
     /// highest is entered at once while the others wait on the stack; any blocker ends the
     /// query. Measured: M-108.
     #[inline(always)]
-    pub(super) fn any_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> bool {
+    fn any_with(&self, slabs: &impl NodeTest, t_max: f32, leaves: &impl Leaves) -> bool {
         let mut stack = Stack::new();
         stack.push((self.root, 0.0));
         while let Some((mut r, _)) = stack.pop() {

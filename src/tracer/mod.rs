@@ -14,6 +14,7 @@ mod embree4;
 pub mod kind;
 #[cfg(target_arch = "x86_64")]
 mod simd;
+mod wide;
 
 pub use brute::BruteTracer;
 pub use bvh::BvhTracer;

@@ -3,13 +3,13 @@
 //! traversal copies compiled for AVX2 that run them, and a cache hint ([`prefetch`], SSE:
 //! every x86-64 CPU has it). The AVX2 code is chosen at run time ([`Avx2::detect`],
 //! `is_x86_feature_detected!`), so the shipped build keeps the generic x86-64 target and runs
-//! anywhere; without AVX2 the SSE test of [`super::bvh4`] runs.
+//! anywhere; without AVX2 the SSE test of [`super::wide`] runs.
 //!
 //! The AVX test performs, lane by lane, the IEEE operations of the SSE one in the same order
 //! (subtract, multiply, `max`/`min` with the same operand order, no fused multiply-add), so
 //! both enter the same children in the same order and images do not depend on the CPU.
 
-use super::bvh4::{Leaves, Node, NodeTest, RaySlabs, WideBvh, WIDTH};
+use super::wide::{Avx2, Leaves, Node, NodeTest, RaySlabs, Traverse, Wide, WIDTH};
 use crate::geometry::{gamma, Hit, Ray, ShearedRay, Triangle4};
 use std::arch::x86_64::{
     __m256, _mm256_add_ps, _mm256_and_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_div_ps,
@@ -19,21 +19,13 @@ use std::arch::x86_64::{
     _CMP_NEQ_UQ, _MM_HINT_T0,
 };
 
-/// Proof that this CPU has AVX2 (and so AVX): only [`Avx2::detect`] makes one.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Avx2(());
-
+/// The AVX2 code that the token ([`Avx2`], made by [`Avx2::detect`]) unlocks.
 impl Avx2 {
-    /// `Some` where the CPU (and OS) support AVX2.
-    pub(super) fn detect() -> Option<Self> {
-        is_x86_feature_detected!("avx2").then_some(Self(()))
-    }
-
-    /// [`WideBvh::closest`] with the AVX node test.
+    /// [`super::bvh4::WideBvh::closest`] with the AVX node test.
     #[inline(always)]
     pub(super) fn closest(
         self,
-        bvh: &WideBvh,
+        bvh: &impl Traverse,
         ray: &Ray,
         t_max: f32,
         leaves: &impl Leaves,
@@ -58,9 +50,15 @@ impl Avx2 {
         unsafe { triangles8(a, b, r, t_max) }
     }
 
-    /// [`WideBvh::any`] with the AVX node test.
+    /// [`super::bvh4::WideBvh::any`] with the AVX node test.
     #[inline(always)]
-    pub(super) fn any(self, bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
+    pub(super) fn any(
+        self,
+        bvh: &impl Traverse,
+        ray: &Ray,
+        t_max: f32,
+        leaves: &impl Leaves,
+    ) -> bool {
         // SAFETY: as in `closest`: the token proves AVX2.
         unsafe { any_avx2(bvh, ray, t_max, leaves, self) }
     }
@@ -69,7 +67,7 @@ impl Avx2 {
 /// The traversal and leaf tests, inlined into a copy compiled for AVX2.
 #[target_feature(enable = "avx2")]
 fn closest_avx2(
-    bvh: &WideBvh,
+    bvh: &impl Traverse,
     ray: &Ray,
     t_max: f32,
     leaves: &impl Leaves,
@@ -80,7 +78,7 @@ fn closest_avx2(
 
 /// As [`closest_avx2`], for occlusion.
 #[target_feature(enable = "avx2")]
-fn any_avx2(bvh: &WideBvh, ray: &Ray, t_max: f32, leaves: &impl Leaves, avx2: Avx2) -> bool {
+fn any_avx2(bvh: &impl Traverse, ray: &Ray, t_max: f32, leaves: &impl Leaves, avx2: Avx2) -> bool {
     bvh.any_with(&Slabs8::new(ray, avx2), t_max, leaves)
 }
 
@@ -242,7 +240,7 @@ impl Slabs8 {
 
 impl NodeTest for Slabs8 {
     #[inline(always)]
-    fn wide(&self) -> super::bvh4::Wide {
+    fn wide(&self) -> Wide {
         Some(self.1)
     }
 

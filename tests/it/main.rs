@@ -25,6 +25,7 @@ mod getting_started;
 mod gpu;
 mod hostile;
 mod html;
+mod layers;
 mod models;
 mod mpi;
 mod reference;
