@@ -581,41 +581,6 @@ fn sources(dir: &Path) -> Vec<(String, String)> {
     out
 }
 
-/// Circles that a change under way elsewhere removes, each as its sorted files: tolerated, and
-/// the test fails once one changes or is gone, so that its entry goes too. Both belong to the
-/// hand-out rules' refactor (`sched/rule/`, `sched/kinds/`), which owns them:
-/// - `ChunkRule` (`sched/dls.rs`) names `Grab` (`sched/rule/grab.rs`), which implements it;
-/// - `sched/rule/mod.rs` names `Policy` and `MasterParams` (`sched/kinds/`), whose kinds each
-///   return the rule module's `HandOut`.
-const IN_FLIGHT: &[&[&str]] = &[
-    &["sched/dls.rs", "sched/rule/grab.rs"],
-    &[
-        "sched/kinds/adaptive_factoring.rs",
-        "sched/kinds/awf.rs",
-        "sched/kinds/factoring.rs",
-        "sched/kinds/fixed_size.rs",
-        "sched/kinds/guided.rs",
-        "sched/kinds/master.rs",
-        "sched/kinds/mitsuba.rs",
-        "sched/kinds/mod.rs",
-        "sched/kinds/pbrt.rs",
-        "sched/kinds/self_scheduling.rs",
-        "sched/kinds/static_bands.rs",
-        "sched/kinds/static_cyclic.rs",
-        "sched/kinds/trapezoid.rs",
-        "sched/kinds/trapezoid_factoring.rs",
-        "sched/kinds/weighted_factoring.rs",
-        "sched/kinds/work_stealing.rs",
-        "sched/kinds/work_stealing_deque.rs",
-        "sched/rule/mod.rs",
-    ],
-];
-
-/// Is `circle` the files `listed`?
-fn same(listed: &[&str], circle: &[String]) -> bool {
-    circle.iter().map(String::as_str).eq(listed.iter().copied())
-}
-
 #[test]
 fn no_two_files_import_each_other() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
@@ -627,20 +592,11 @@ fn no_two_files_import_each_other() {
         .keys()
         .any(|f| f.starts_with("sched/")));
     let found = circles(&edges);
-    let (known, new): (Vec<_>, Vec<_>) = found
-        .into_iter()
-        .partition(|c| IN_FLIGHT.iter().any(|k| same(k, c)));
     assert!(
-        new.is_empty(),
+        found.is_empty(),
         "import circles in src/:\n{}",
-        describe(&edges, &new)
+        describe(&edges, &found)
     );
-    for c in IN_FLIGHT {
-        assert!(
-            known.iter().any(|k| same(c, k)),
-            "{c:?} is no circle any more: drop it from IN_FLIGHT"
-        );
-    }
 }
 
 /// A small crate whose files are given as (path, text).
