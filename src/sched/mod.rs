@@ -208,12 +208,7 @@ pub fn run_with_sources<T: Tracer + 'static>(
     let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
         .into_iter()
         .unzip();
-    let buffer = if let Policy::Master(m) = spec.policy {
-        m.buffer
-    } else {
-        MasterParams::DEFAULT.buffer
-    };
-    let hetero = factory::hetero_of(setup, buffer, &kinds, (w, h));
+    let hetero = factory::hetero_of(setup, &kinds, (w, h));
     let plan = RunPlan {
         scheduler: &spec.policy,
         slow: spec.slow,

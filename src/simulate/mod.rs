@@ -6,6 +6,7 @@
 
 pub mod child;
 pub mod config;
+pub mod hetero;
 pub mod inputs;
 pub mod job;
 pub mod plot;

@@ -23,10 +23,15 @@
 //! assert_eq!(pool.rule.next(0, 100), 25);
 //! ```
 
+mod balance;
 mod grab;
 mod master;
 
 pub use super::dls::{ChunkRule, ItemTimes, Report, Timing};
+pub use balance::{
+    Balance, Dispatch, Facts, Grant, Shape, DISPATCH_BUFFER, GPU_DISPATCH, LONG_ITEM, PEAK_SHARE,
+    TAIL_SLACK,
+};
 pub use grab::Grab;
 pub use master::{MasterQueue, Take};
 
