@@ -80,11 +80,9 @@ pub const DISPATCH_BUFFER: usize = 2;
 
 /// How many times a hand-out a source other than the fastest must have in its share of
 /// what is left to get it. Its rate is measured on its first items, which may be cheaper
-/// than the rest (the Cornell box's ceiling tiles took 0.27–0.67 s on a thread against
-/// ~0.8 s); a slow source that takes one item too many holds the whole run, while one that
-/// stops early loses only part of its small share. In the H200 simulation at 32² tiles,
-/// with ceiling tiles at half the cost, 2 let a slow thread's last tile end the run at 0.92
-/// of the summed rate; 3 reached 0.98 (M-151).
+/// than the rest (the Cornell box's ceiling tiles); a slow source that takes one item too
+/// many holds the whole run, while one that stops early loses only part of its small share.
+/// 2 let a slow thread's last tile end the simulated H200 run early; 3 did not (M-151).
 pub const TAIL_SLACK: f64 = 3.0;
 
 /// An item source whose item takes at least this long holds one at a time: more only hide
