@@ -654,7 +654,7 @@ mod tests {
         assert!(close(ss.work_s, 90.0), "{ss:?}");
         assert!((ss.wall_s - 90.0).abs() <= 3.0, "{ss:?}");
         let mut st = s.clone();
-        st.policy = Policy::Static;
+        st.policy = Policy::defaults(SchedulerKind::Static);
         assert_eq!(predict(&st, &w, &NONE).wall_s, 180.0);
     }
 

@@ -437,7 +437,7 @@ fn overhead_chart<DB: DrawingBackend>(
     let body = axes::titled(root, title)?;
     let labels: Vec<String> = keys.iter().map(|k| k.0.clone()).collect();
     let (plot, legend_area) = axes::with_legend(&body, &labels);
-    // Schedulers down the y axis: fifteen names fit one under another, not side by side.
+    // Schedulers down the y axis: sixteen names fit one under another, not side by side.
     let names: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
     let xs = AxisSpec {
         desc: "Σ over workers of wall-clock spans (s)".into(),
@@ -1432,7 +1432,7 @@ mod layout_tests {
         r
     }
 
-    /// 15 kinds × 17 chunk sizes (1 to 65536 px) at 64 workers, 7 worker counts at one chunk,
+    /// Every kind × 17 chunk sizes (1 to 65536 px) at 64 workers, 7 worker counts at one chunk,
     /// and the serial baseline; wall times over three decades.
     fn sums() -> Vec<Summary> {
         let mut rows = Vec::new();

@@ -527,17 +527,32 @@ mod tests {
     #[test]
     fn a_panicking_worker_is_a_lost_source() {
         const N: u32 = 50;
-        let dies: Job = Arc::new(|_: &WorkItem| panic!("worker 0 dies"));
-        let fine: Job = Arc::new(|it: &WorkItem| {
-            std::thread::sleep(Duration::from_micros(50));
-            result(it)
-        });
-        let jobs = [dies, fine];
+        // Worker 1 waits for worker 0's death, so a late-starting worker 0 (a loaded machine)
+        // still takes its items and dies rather than finding the queue empty.
+        let jobs = || -> [Job; 2] {
+            let died = Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let d = died.clone();
+            let dies: Job = Arc::new(move |_: &WorkItem| {
+                d.store(true, std::sync::atomic::Ordering::SeqCst);
+                panic!("worker 0 dies")
+            });
+            let fine: Job = Arc::new(move |it: &WorkItem| {
+                let t0 = Instant::now();
+                while !died.load(std::sync::atomic::Ordering::SeqCst)
+                    && t0.elapsed() < Duration::from_secs(5)
+                {
+                    std::thread::sleep(Duration::from_micros(50));
+                }
+                result(it)
+            });
+            [dies, fine]
+        };
         for requeue in [Requeue::Revisit, Requeue::Timeout(Duration::from_secs(60))] {
             for returns in Returns::ALL {
                 let p = params(3, requeue, returns);
                 let (res, stats) =
-                    run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap();
+                    run_locked_master(&p, &items(N), &jobs(), None, Probe::new(true, false))
+                        .unwrap();
                 assert!((0..N).all(|i| res.has(i)), "{requeue:?} {returns:?}");
                 assert_eq!(stats.lost_sources, 1);
                 // Worker 0 took 3 items at most and finished none: each is handed out again.
@@ -547,7 +562,7 @@ mod tests {
         let p = params(3, Requeue::Never, Returns::Item);
         let t0 = Instant::now();
         let err =
-            run_locked_master(&p, &items(N), &jobs, None, Probe::new(true, false)).unwrap_err();
+            run_locked_master(&p, &items(N), &jobs(), None, Probe::new(true, false)).unwrap_err();
         assert!(
             matches!(err, SchedError::LostItems { lost: 3, total: 50 }),
             "{err}"

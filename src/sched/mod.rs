@@ -8,12 +8,12 @@
 pub mod decompose;
 pub mod dls;
 pub mod factory;
+pub mod kinds;
 mod locked_master;
 pub mod master;
 pub mod param;
 mod pull;
 pub mod refusal;
-pub mod renderers;
 mod results;
 pub mod rule;
 mod run;
@@ -38,8 +38,9 @@ pub use sources::{
 };
 pub use spec::{
     param_columns, AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams,
-    GuidedParams, MasterParams, Policy, SchedulerKind, SchedulerSpec, SelfSchedulingParams,
-    TrapezoidParams, WeightedFactoringParams, WorkStealingParams,
+    GuidedParams, MasterParams, MitsubaParams, PbrtParams, Policy, SchedulerKind, SchedulerSpec,
+    SelfSchedulingParams, StaticCyclicParams, StaticParams, TrapezoidParams,
+    WeightedFactoringParams, WorkStealingDequeParams, WorkStealingParams,
 };
 
 use crate::metrics::{Probe, RunStats};

@@ -120,8 +120,11 @@ macro_rules! scheduler_params {
                 )*];
                 INFO
             }
+            #[allow(clippy::match_single_binding)] // a kind without parameters
             fn set(&mut self, name: &str, text: &str) -> Result<bool, String> {
+                #[allow(unused_imports)]
                 use $crate::sched::param::ParamValue;
+                let _ = text;
                 match name {
                     $( stringify!($field) => {
                         self.$field = <$ty>::parse_value(text)?;
@@ -130,7 +133,9 @@ macro_rules! scheduler_params {
                     _ => Ok(false),
                 }
             }
+            #[allow(clippy::match_single_binding)]
             fn get(&self, name: &str) -> Option<String> {
+                #[allow(unused_imports)]
                 use $crate::sched::param::ParamValue;
                 match name {
                     $( stringify!($field) => Some(self.$field.show()), )*

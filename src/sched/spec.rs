@@ -1,77 +1,24 @@
-//! The one definition of every scheduler: its id, what it does, and its parameters with their
-//! defaults. The CLI flags, experiment keys, CSV columns, config keys and run labels are all
-//! derived from here ([`param_columns`], [`SchedulerSpec::set`], [`SchedulerSpec::get`]).
+//! One scheduler run, fully specified ([`SchedulerSpec`]), and what is derived from the
+//! schedulers' one definition (their files under [`super::kinds`]): the CLI flags, experiment
+//! keys, CSV columns, config keys and run labels ([`param_columns`], [`SchedulerSpec::set`],
+//! [`SchedulerSpec::get`]).
 //!
-//! Adding a parameter: one line in the kind's `scheduler_params!` struct below, then its use
-//! in the scheduler's own file. Adding a scheduler: a [`SchedulerKind`] id, a [`Policy`]
-//! variant (with a parameter struct if it has any) and the scheduler's own file.
+//! Adding a parameter: one line in the kind's `scheduler_params!` struct in its file, then its
+//! use in that file's rule. Adding a scheduler: its file under `kinds/` and one registry line.
 
+pub use super::kinds::{
+    AdaptiveFactoringParams, AwfParams, FactoringParams, FixedSizeParams, GuidedParams,
+    MasterParams, MitsubaParams, PbrtParams, Policy, SchedulerKind, SelfSchedulingParams,
+    StaticCyclicParams, StaticParams, TrapezoidParams, WeightedFactoringParams,
+    WorkStealingDequeParams, WorkStealingParams,
+};
 use super::param::{
-    err, id_enum, one_of, scheduler_params, Chunk, Order, ParamInfo, ParamValue, Params, Passes,
-    Requeue, Returns, Slow, SpecError, Wait, Weights,
+    err, one_of, Chunk, Order, ParamInfo, ParamValue, Passes, Returns, Slow, SpecError,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
-id_enum! {
-    /// Who decides who renders what.
-    pub enum SchedulerKind("scheduler", "scheduler") {
-        /// Contiguous bands of items, one per worker; no master.
-        Static = "static",
-        /// Item i to worker i mod n; no master.
-        StaticCyclic = "static_cyclic",
-        /// The founding design: a master thread (renders nothing) keeps ≤ B items outstanding
-        /// per compute source, re-queueing handed-out items at the back of a FIFO.
-        Master = "master",
-        /// rayon over items, split no finer than `grab` items per task.
-        WorkStealing = "work_stealing",
-        /// One crossbeam-deque per worker, stealing from the others when empty.
-        WorkStealingDeque = "work_stealing_deque",
-        /// One shared atomic counter over items; each grab takes `grab` items.
-        SelfScheduling = "self_scheduling",
-        /// Grabs of max(grab, remaining / (k·workers)) items from a shared counter.
-        Guided = "guided",
-        /// Factoring (FAC2): batches of P chunks of ⌈R/(2P)⌉ items, R left at the batch start.
-        Factoring = "factoring",
-        /// Weighted factoring: FAC2 batches, each worker's chunk scaled by its relative speed.
-        WeightedFactoring = "weighted_factoring",
-        /// Trapezoid self-scheduling (TSS): chunks shrinking linearly from ⌈N/(2P)⌉ to 1.
-        Trapezoid = "trapezoid",
-        /// Fixed-size chunking (FSC): one chunk size K from the measured hand-out cost and the
-        /// spread of item times (Kruskal–Weiss).
-        FixedSize = "fixed_size",
-        /// Adaptive factoring (AF): each chunk from the worker's running mean and spread of
-        /// item times.
-        AdaptiveFactoring = "adaptive_factoring",
-        /// Adaptive weighted factoring, variant C (AWF-C): FAC2 batches, weights updated from
-        /// measured speed after every chunk.
-        Awf = "awf",
-        /// pbrt-v4's parallel loop: tiles of clamp(⌊√(W·H/(8·threads))⌋, 1, 32), row order,
-        /// one tile per grab under a lock.
-        Pbrt = "pbrt",
-        /// Mitsuba 3 (scalar): 32² blocks halved until blocks ≥ threads, spiral order, grabs
-        /// of max(blocks/(4·threads), 1) blocks.
-        Mitsuba = "mitsuba",
-    }
-}
-
 impl SchedulerKind {
-    /// Does `advise` weigh this kind unless told otherwise? All but three: the model plays
-    /// `work_stealing_deque` as `work_stealing` and `weighted_factoring` over equal workers as
-    /// `factoring`, and `static_cyclic` is a fixed assignment like `static`.
-    pub fn advised_by_default(self) -> bool {
-        !matches!(
-            self,
-            Self::StaticCyclic | Self::WorkStealingDeque | Self::WeightedFactoring
-        )
-    }
-
-    /// Does this scheduler choose its own tile size and order from the image and the thread
-    /// count (the production renderers' policies)? Its `chunk` and `order` are then ignored.
-    pub fn picks_own_layout(self) -> bool {
-        matches!(self, Self::Pbrt | Self::Mitsuba)
-    }
-
     /// The order this kind takes its items in unless told otherwise: stratified
     /// ([`Order::Scatter`]) for the rules whose first chunks are a share of all items (the
     /// factoring family and guided), scanline for the rest. Factoring's chunk sizes assume
@@ -105,161 +52,6 @@ impl SchedulerKind {
     pub fn runs_hand_outs_in_scanline(self) -> bool {
         self.sizes_own_hand_outs()
     }
-
-    /// Is this guided or one of the factoring family: a rule that sizes each hand-out from
-    /// what is left, its first chunks a share of all items? Their default order, item size
-    /// and scanline runs of hand-outs all follow from that.
-    pub fn sizes_own_hand_outs(self) -> bool {
-        self.is_dls() || self == Self::Guided
-    }
-
-    /// Is this one of the dynamic-loop-scheduling rules of `sched::dls` (a chunk size per
-    /// grab from a shared dispenser)?
-    pub fn is_dls(self) -> bool {
-        matches!(
-            self,
-            Self::Factoring
-                | Self::WeightedFactoring
-                | Self::Trapezoid
-                | Self::FixedSize
-                | Self::AdaptiveFactoring
-                | Self::Awf
-        )
-    }
-}
-
-scheduler_params! {
-    /// The master's parameters.
-    pub struct MasterParams {
-        /// Items outstanding per compute source (B).
-        buffer: usize = 2, label Some("B");
-        /// When a handed-out, unfinished item is handed out again: seed (when it comes round
-        /// in the queue), never or timeout:<ms>.
-        requeue: Requeue = Requeue::Never, label Some("requeue");
-        /// How the master waits for results: spin, yield or block.
-        wait: Wait = Wait::Block, label Some("wait");
-        /// How local threads hand results back: item (each as soon as it is rendered) or
-        /// hand_out (a hand-out's together, when its last item is done; the master then hands
-        /// out at most ⌈B/2⌉ items at a time, so a source has the next one queued).
-        returns: Returns = Returns::Item, label Some("returns");
-        /// Who runs the master's passes: thread (a thread of its own that renders nothing; any
-        /// source) or workers (each local thread for itself under one lock when it reports,
-        /// the queue and re-queue rules unchanged; local threads only, no fault injection).
-        passes: Passes = Passes::Thread, label Some("passes");
-    }
-}
-
-scheduler_params! {
-    /// Work stealing's parameters.
-    pub struct WorkStealingParams {
-        /// The fewest items one task holds (rayon's minimum split).
-        grab: usize = 1, label None;
-    }
-}
-
-scheduler_params! {
-    /// Self-scheduling's parameters.
-    pub struct SelfSchedulingParams {
-        /// Items a worker takes from the shared counter at once.
-        grab: usize = 1, label None;
-    }
-}
-
-scheduler_params! {
-    /// Guided self-scheduling's parameters.
-    pub struct GuidedParams {
-        /// The fewest items one grab takes.
-        grab: usize = 1, label None;
-        /// k in grab = max(grab, remaining / (k·workers)).
-        guided_k: usize = 2, label None;
-    }
-}
-
-scheduler_params! {
-    /// Factoring's parameters.
-    pub struct FactoringParams {
-        /// The fewest items one grab takes.
-        grab: usize = 1, label None;
-    }
-}
-
-scheduler_params! {
-    /// Weighted factoring's parameters.
-    pub struct WeightedFactoringParams {
-        /// The fewest items one grab takes.
-        grab: usize = 1, label None;
-        /// Where the per-worker weights come from: known (the run's slow setting) or measured
-        /// (each worker's first chunk).
-        weights: Weights = Weights::Known, label Some("weights");
-    }
-}
-
-scheduler_params! {
-    /// Trapezoid self-scheduling's parameters.
-    pub struct TrapezoidParams {
-        /// The last (smallest) chunk, l in TSS.
-        grab: usize = 1, label None;
-    }
-}
-
-scheduler_params! {
-    /// Fixed-size chunking's parameters.
-    pub struct FixedSizeParams {
-        /// Items handed out one at a time first, to measure the hand-out cost h and the spread
-        /// σ of item times online.
-        fsc_warm: usize = 32, label Some("warm");
-    }
-}
-
-scheduler_params! {
-    /// Adaptive factoring's parameters.
-    pub struct AdaptiveFactoringParams {
-        /// The fewest items one grab takes.
-        grab: usize = 1, label None;
-    }
-}
-
-scheduler_params! {
-    /// Adaptive weighted factoring's parameters.
-    pub struct AwfParams {
-        /// The fewest items one grab takes.
-        grab: usize = 1, label None;
-    }
-}
-
-/// A scheduler kind with its parameters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Policy {
-    /// See [`SchedulerKind::Static`].
-    Static,
-    /// See [`SchedulerKind::StaticCyclic`].
-    StaticCyclic,
-    /// See [`SchedulerKind::Master`].
-    Master(MasterParams),
-    /// See [`SchedulerKind::WorkStealing`].
-    WorkStealing(WorkStealingParams),
-    /// See [`SchedulerKind::WorkStealingDeque`].
-    WorkStealingDeque,
-    /// See [`SchedulerKind::SelfScheduling`].
-    SelfScheduling(SelfSchedulingParams),
-    /// See [`SchedulerKind::Guided`].
-    Guided(GuidedParams),
-    /// See [`SchedulerKind::Factoring`].
-    Factoring(FactoringParams),
-    /// See [`SchedulerKind::WeightedFactoring`].
-    WeightedFactoring(WeightedFactoringParams),
-    /// See [`SchedulerKind::Trapezoid`].
-    Trapezoid(TrapezoidParams),
-    /// See [`SchedulerKind::FixedSize`].
-    FixedSize(FixedSizeParams),
-    /// See [`SchedulerKind::AdaptiveFactoring`].
-    AdaptiveFactoring(AdaptiveFactoringParams),
-    /// See [`SchedulerKind::Awf`].
-    Awf(AwfParams),
-    /// See [`SchedulerKind::Pbrt`].
-    Pbrt,
-    /// See [`SchedulerKind::Mitsuba`].
-    Mitsuba,
 }
 
 impl Policy {
@@ -272,93 +64,6 @@ impl Policy {
     /// drives local threads only?
     pub fn passes_by_workers(&self) -> bool {
         matches!(self, Self::Master(m) if m.passes == Passes::Workers)
-    }
-
-    /// `kind` with every parameter at its default.
-    pub const fn defaults(kind: SchedulerKind) -> Self {
-        match kind {
-            SchedulerKind::Static => Self::Static,
-            SchedulerKind::StaticCyclic => Self::StaticCyclic,
-            SchedulerKind::Master => Self::Master(MasterParams::DEFAULT),
-            SchedulerKind::WorkStealing => Self::WorkStealing(WorkStealingParams::DEFAULT),
-            SchedulerKind::WorkStealingDeque => Self::WorkStealingDeque,
-            SchedulerKind::SelfScheduling => Self::SelfScheduling(SelfSchedulingParams::DEFAULT),
-            SchedulerKind::Guided => Self::Guided(GuidedParams::DEFAULT),
-            SchedulerKind::Factoring => Self::Factoring(FactoringParams::DEFAULT),
-            SchedulerKind::WeightedFactoring => {
-                Self::WeightedFactoring(WeightedFactoringParams::DEFAULT)
-            }
-            SchedulerKind::Trapezoid => Self::Trapezoid(TrapezoidParams::DEFAULT),
-            SchedulerKind::FixedSize => Self::FixedSize(FixedSizeParams::DEFAULT),
-            SchedulerKind::AdaptiveFactoring => {
-                Self::AdaptiveFactoring(AdaptiveFactoringParams::DEFAULT)
-            }
-            SchedulerKind::Awf => Self::Awf(AwfParams::DEFAULT),
-            SchedulerKind::Pbrt => Self::Pbrt,
-            SchedulerKind::Mitsuba => Self::Mitsuba,
-        }
-    }
-
-    /// The kind, without its parameters.
-    pub fn kind(&self) -> SchedulerKind {
-        match self {
-            Self::Static => SchedulerKind::Static,
-            Self::StaticCyclic => SchedulerKind::StaticCyclic,
-            Self::Master(_) => SchedulerKind::Master,
-            Self::WorkStealing(_) => SchedulerKind::WorkStealing,
-            Self::WorkStealingDeque => SchedulerKind::WorkStealingDeque,
-            Self::SelfScheduling(_) => SchedulerKind::SelfScheduling,
-            Self::Guided(_) => SchedulerKind::Guided,
-            Self::Factoring(_) => SchedulerKind::Factoring,
-            Self::WeightedFactoring(_) => SchedulerKind::WeightedFactoring,
-            Self::Trapezoid(_) => SchedulerKind::Trapezoid,
-            Self::FixedSize(_) => SchedulerKind::FixedSize,
-            Self::AdaptiveFactoring(_) => SchedulerKind::AdaptiveFactoring,
-            Self::Awf(_) => SchedulerKind::Awf,
-            Self::Pbrt => SchedulerKind::Pbrt,
-            Self::Mitsuba => SchedulerKind::Mitsuba,
-        }
-    }
-
-    /// The parameters by name (`None`: the kind has none).
-    pub fn params(&self) -> Option<&dyn Params> {
-        match self {
-            Self::Master(p) => Some(p),
-            Self::WorkStealing(p) => Some(p),
-            Self::SelfScheduling(p) => Some(p),
-            Self::Guided(p) => Some(p),
-            Self::Factoring(p) => Some(p),
-            Self::WeightedFactoring(p) => Some(p),
-            Self::Trapezoid(p) => Some(p),
-            Self::FixedSize(p) => Some(p),
-            Self::AdaptiveFactoring(p) => Some(p),
-            Self::Awf(p) => Some(p),
-            Self::Static
-            | Self::StaticCyclic
-            | Self::WorkStealingDeque
-            | Self::Pbrt
-            | Self::Mitsuba => None,
-        }
-    }
-
-    fn params_mut(&mut self) -> Option<&mut dyn Params> {
-        match self {
-            Self::Master(p) => Some(p),
-            Self::WorkStealing(p) => Some(p),
-            Self::SelfScheduling(p) => Some(p),
-            Self::Guided(p) => Some(p),
-            Self::Factoring(p) => Some(p),
-            Self::WeightedFactoring(p) => Some(p),
-            Self::Trapezoid(p) => Some(p),
-            Self::FixedSize(p) => Some(p),
-            Self::AdaptiveFactoring(p) => Some(p),
-            Self::Awf(p) => Some(p),
-            Self::Static
-            | Self::StaticCyclic
-            | Self::WorkStealingDeque
-            | Self::Pbrt
-            | Self::Mitsuba => None,
-        }
     }
 
     /// The parameters this kind has, in column order.
@@ -430,30 +135,9 @@ impl SchedulerSpec {
     /// The tile size and order this run cuts a `width`×`height` image into: `chunk` and
     /// `order`, except for the policies that choose their own ([`SchedulerKind::picks_own_layout`]).
     pub fn layout(&self, width: u32, height: u32) -> (Chunk, Order) {
-        use super::renderers::{mitsuba_block, pbrt_tile};
-        match self.policy {
-            Policy::Pbrt => {
-                let t = pbrt_tile(width, height, self.workers);
-                (Chunk::Tile { w: t, h: t }, Order::Scanline)
-            }
-            Policy::Mitsuba => {
-                let b = mitsuba_block(width, height, self.workers);
-                (Chunk::Tile { w: b, h: b }, Order::Spiral)
-            }
-            Policy::Static
-            | Policy::StaticCyclic
-            | Policy::Master(_)
-            | Policy::WorkStealing(_)
-            | Policy::WorkStealingDeque
-            | Policy::SelfScheduling(_)
-            | Policy::Guided(_)
-            | Policy::Factoring(_)
-            | Policy::WeightedFactoring(_)
-            | Policy::Trapezoid(_)
-            | Policy::FixedSize(_)
-            | Policy::AdaptiveFactoring(_)
-            | Policy::Awf(_) => (self.chunk, self.order),
-        }
+        self.policy
+            .own_layout(width, height, self.workers)
+            .unwrap_or((self.chunk, self.order))
     }
 
     /// The kind, without its parameters.
@@ -578,9 +262,10 @@ mod tests {
                 "fsc_warm"
             ]
         );
+        // Kinds appended to the registry may take `grab` too: the first ones stay in order.
         let grab: Vec<SchedulerKind> = kinds_with("grab").iter().map(|(k, _)| *k).collect();
         assert_eq!(
-            grab,
+            grab[..8],
             [
                 SchedulerKind::WorkStealing,
                 SchedulerKind::SelfScheduling,

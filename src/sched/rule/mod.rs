@@ -4,9 +4,10 @@
 //! master, MPI ranks, the SimGrid protocols and the cost model — plays these rules and holds
 //! no scheduler arithmetic of its own.
 //!
-//! [`hand_out`] maps each built-in [`Policy`] to its rule, in one exhaustive match: a new kind
-//! that lacks an arm does not compile. A scheduler from outside the crate implements
-//! [`Scheduler`] and returns a [`HandOut`] of its own (see `examples/custom_scheduler.rs`).
+//! Each built-in scheduler states its rule in its own file under [`super::kinds`]
+//! ([`BuiltIn::hand_out`](super::kinds::BuiltIn::hand_out)); [`hand_out`] reaches it through
+//! [`Policy`]. A scheduler from outside the crate implements [`Scheduler`] and returns a
+//! [`HandOut`] of its own (see `examples/custom_scheduler.rs`).
 //!
 //! # Examples
 //!
@@ -35,10 +36,8 @@ pub use balance::{
 pub use grab::Grab;
 pub use master::{MasterQueue, Take};
 
-use super::dls::{adaptive_factoring, awf, factoring, fixed_size, trapezoid};
+use super::kinds::{MasterParams, Policy};
 use super::param::Slow;
-use super::renderers::mitsuba_grain;
-use super::spec::{MasterParams, Policy};
 use std::ops::Range;
 
 /// Worker `k`'s contiguous band of `n` items split over `w` workers: `k·n/w .. (k+1)·n/w`.
@@ -55,6 +54,23 @@ pub enum HandOut {
     ByMaster(MasterParams),
     /// The workers take their own items under a rule.
     ByWorkers(WorkerRule),
+}
+
+impl HandOut {
+    /// Workers take consecutive chunks from one pool, each sized by `rule`.
+    pub fn pool(rule: Box<dyn ChunkRule>) -> Self {
+        Self::ByWorkers(WorkerRule::Pool(Pool::new(rule)))
+    }
+
+    /// A pool whose chunks are shares of what is left (guided and the factoring family): a
+    /// worker runs each hand-out's items in scanline order
+    /// (`SchedulerKind::runs_hand_outs_in_scanline`).
+    pub fn shares(rule: Box<dyn ChunkRule>) -> Self {
+        Self::ByWorkers(WorkerRule::Pool(Pool {
+            scanline: true,
+            ..Pool::new(rule)
+        }))
+    }
 }
 
 /// How workers without a master take their items.
@@ -167,42 +183,7 @@ impl Scheduler for Policy {
 /// The rule of a built-in `policy` over `n` items on `workers` workers (slowed as `slow`
 /// says, which weighted factoring's known weights read).
 pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOut {
-    let p = workers.max(1);
-    let pool = |rule: Box<dyn ChunkRule>| HandOut::ByWorkers(WorkerRule::Pool(Pool::new(rule)));
-    // Guided and the factoring family size hand-outs as a share of what is left: their
-    // items run in scanline order within a hand-out (`SchedulerKind::runs_hand_outs_in_scanline`).
-    let shares = |rule: Box<dyn ChunkRule>| {
-        HandOut::ByWorkers(WorkerRule::Pool(Pool {
-            scanline: true,
-            ..Pool::new(rule)
-        }))
-    };
-    match *policy {
-        Policy::Master(m) => HandOut::ByMaster(m),
-        Policy::Static => HandOut::ByWorkers(WorkerRule::Own(Ownership::Bands)),
-        Policy::StaticCyclic => HandOut::ByWorkers(WorkerRule::Own(Ownership::Cyclic)),
-        Policy::WorkStealing(s) => {
-            HandOut::ByWorkers(WorkerRule::Steal(Steal::Split { min: s.grab }))
-        }
-        Policy::WorkStealingDeque => HandOut::ByWorkers(WorkerRule::Steal(Steal::Half)),
-        Policy::SelfScheduling(s) => pool(Box::new(Grab::fixed(s.grab))),
-        Policy::Guided(g) => shares(Box::new(Grab::guided(g.grab, g.guided_k, p))),
-        Policy::Pbrt => HandOut::ByWorkers(WorkerRule::Pool(Pool {
-            locked: true,
-            ..Pool::new(Box::new(Grab::fixed(1)))
-        })),
-        Policy::Mitsuba => pool(Box::new(Grab::fixed(mitsuba_grain(n, p)))),
-        Policy::Factoring(f) => shares(Box::new(factoring::Factoring::fac2(p, f.grab))),
-        Policy::WeightedFactoring(f) => shares(Box::new(factoring::Factoring::weighted(
-            p, f.grab, f.weights, slow,
-        ))),
-        Policy::Trapezoid(t) => shares(Box::new(trapezoid::Trapezoid::new(n, p, t.grab))),
-        Policy::FixedSize(f) => shares(Box::new(fixed_size::FixedSize::new(n, p, f.fsc_warm))),
-        Policy::AdaptiveFactoring(a) => shares(Box::new(
-            adaptive_factoring::AdaptiveFactoring::new(p, a.grab),
-        )),
-        Policy::Awf(a) => shares(Box::new(awf::Awf::new(p, a.grab))),
-    }
+    policy.rule(n, workers, slow)
 }
 
 /// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a

@@ -22,7 +22,12 @@
 //! `AF` times sub-chunks rather than iterations. In stratified order a group's items sample
 //! the whole image, so m·(a − μ)² of a group of m items averaging a estimates σᵢ².
 
-use super::{ceil_count, ChunkRule, ItemTimes, Report, Timing};
+use crate::sched::dls::{ceil_count, ChunkRule, ItemTimes, Report, Timing};
+use super::BuiltIn;
+use crate::sched::param::scheduler_params;
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
+use crate::sched::param::Slow;
 
 /// AF on P workers.
 pub struct AdaptiveFactoring {
@@ -79,9 +84,28 @@ impl ChunkRule for AdaptiveFactoring {
     }
 }
 
+
+scheduler_params! {
+    /// Adaptive factoring's parameters.
+    pub struct AdaptiveFactoringParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
+impl BuiltIn for AdaptiveFactoringParams {
+    const DOC: &'static str = "Adaptive factoring (AF): each chunk from the worker's running \
+        mean and spread of item times.";
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, _n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(AdaptiveFactoring::new(workers.max(1), self.grab)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
+    use crate::sched::dls::sequence;
     use super::*;
 
     #[test]

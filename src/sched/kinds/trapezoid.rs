@@ -7,7 +7,12 @@
 //! integer in its integer-only implementation), so the n chunks sum to about N and the last
 //! one is cut to what is left.
 
-use super::{ceil_count, ChunkRule};
+use crate::sched::dls::{ceil_count, ChunkRule};
+use super::BuiltIn;
+use crate::sched::param::scheduler_params;
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
+use crate::sched::param::Slow;
 
 /// TSS over `n` items on `p` workers.
 pub struct Trapezoid {
@@ -44,9 +49,28 @@ impl ChunkRule for Trapezoid {
     }
 }
 
+
+scheduler_params! {
+    /// Trapezoid self-scheduling's parameters.
+    pub struct TrapezoidParams {
+        /// The last (smallest) chunk, l in TSS.
+        grab: usize = 1, label None;
+    }
+}
+
+impl BuiltIn for TrapezoidParams {
+    const DOC: &'static str =
+        "Trapezoid self-scheduling (TSS): chunks shrinking linearly from ⌈N/(2P)⌉ to 1.";
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(Trapezoid::new(n, workers.max(1), self.grab)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
+    use crate::sched::dls::sequence;
     use super::*;
 
     #[test]

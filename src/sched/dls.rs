@@ -3,22 +3,18 @@
 //! the workers (P) and, for the adaptive rules, what the workers measured so far. The
 //! catalogue and names follow LB4OMP (Korndörfer et al., TPDS 2021) and DLS4LB:
 //!
-//! - [`factoring`]: FAC2 and weighted factoring (WF).
-//! - [`trapezoid`]: trapezoid self-scheduling (TSS).
-//! - [`fixed_size`]: fixed-size chunking (FSC), K from Kruskal & Weiss.
-//! - [`adaptive_factoring`]: adaptive factoring (AF).
-//! - [`awf`]: adaptive weighted factoring, variant C (AWF-C).
+//! - [`factoring`](super::kinds::factoring): FAC2; weighted factoring (WF) in
+//!   [`weighted_factoring`](super::kinds::weighted_factoring).
+//! - [`trapezoid`](super::kinds::trapezoid): trapezoid self-scheduling (TSS).
+//! - [`fixed_size`](super::kinds::fixed_size): fixed-size chunking (FSC), K from Kruskal & Weiss.
+//! - [`adaptive_factoring`](super::kinds::adaptive_factoring): adaptive factoring (AF).
+//! - [`awf`](super::kinds::awf): adaptive weighted factoring, variant C (AWF-C).
 //!
-//! Each policy's rule is built in [`super::rule::hand_out`]. The dispenser (in `shared`) is a mutex over (next item, rule): one lock per chunk, and
+//! Each rule lives in its scheduler's file under [`super::kinds`]. The dispenser (in
+//! `shared`) is a mutex over (next item, rule): one lock per chunk, and
 //! these rules hand out O(P·log N) chunks, so the lock costs well under a nanosecond per item
 //! at the dispatch bench's 2¹⁸ items. A worker reports its previous chunk's timing when it
 //! asks for the next one, under the same lock.
-
-pub mod adaptive_factoring;
-pub mod awf;
-pub mod factoring;
-pub mod fixed_size;
-pub mod trapezoid;
 
 use super::rule::Grab;
 

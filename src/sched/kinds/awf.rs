@@ -20,7 +20,12 @@
 //! quarter was the run's tail (M-125).
 
 use super::factoring::{normalise, probe_chunk, weighted, Batches};
-use super::{ChunkRule, Report, Timing};
+use crate::sched::dls::{ChunkRule, Report, Timing};
+use super::BuiltIn;
+use crate::sched::param::scheduler_params;
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
+use crate::sched::param::Slow;
 
 /// AWF-C on P workers.
 pub struct Awf {
@@ -88,9 +93,28 @@ impl ChunkRule for Awf {
     }
 }
 
+
+scheduler_params! {
+    /// Adaptive weighted factoring's parameters.
+    pub struct AwfParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
+impl BuiltIn for AwfParams {
+    const DOC: &'static str = "Adaptive weighted factoring, variant C (AWF-C): FAC2 batches, \
+        weights updated from measured speed after every chunk.";
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, _n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(Awf::new(workers.max(1), self.grab)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
+    use crate::sched::dls::sequence;
     use super::*;
 
     #[test]

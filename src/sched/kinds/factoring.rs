@@ -12,8 +12,12 @@
 //! batches ([`probe_chunk`]) and its time per item fixes its weight for the rest of the run
 //! (the online variant; a calibrated run would pass known speeds instead).
 
-use super::{ceil_count, ChunkRule, Report, Timing};
+use crate::sched::dls::{ceil_count, ChunkRule, Report, Timing};
 use crate::sched::param::{Slow, Weights};
+use super::BuiltIn;
+use crate::sched::param::scheduler_params;
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
 
 /// Batches of P chunks: the part FAC2, WF and AWF share.
 #[derive(Clone, Debug)]
@@ -137,9 +141,28 @@ impl ChunkRule for Factoring {
     }
 }
 
+
+scheduler_params! {
+    /// Factoring's parameters.
+    pub struct FactoringParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+    }
+}
+
+impl BuiltIn for FactoringParams {
+    const DOC: &'static str =
+        "Factoring (FAC2): batches of P chunks of ⌈R/(2P)⌉ items, R left at the batch start.";
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, _n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(Factoring::fac2(workers.max(1), self.grab)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
+    use crate::sched::dls::sequence;
     use super::*;
 
     #[test]

@@ -11,7 +11,12 @@
 //! then fixed from N = the items still left at that point. P = 1 (ln P = 0) or σ = 0 give one
 //! chunk per worker of what is left, K = ⌈R/P⌉, which is also the largest K used.
 
-use super::{ceil_count, ChunkRule, ItemTimes, Report, Timing};
+use crate::sched::dls::{ceil_count, ChunkRule, ItemTimes, Report, Timing};
+use super::BuiltIn;
+use crate::sched::param::scheduler_params;
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
+use crate::sched::param::Slow;
 
 /// Kruskal & Weiss's K for `n` items, hand-out cost `h` and spread `sigma` (seconds) on `p`
 /// workers, capped at ⌈n/p⌉.
@@ -92,9 +97,29 @@ impl ChunkRule for FixedSize {
     }
 }
 
+
+scheduler_params! {
+    /// Fixed-size chunking's parameters.
+    pub struct FixedSizeParams {
+        /// Items handed out one at a time first, to measure the hand-out cost h and the spread
+        /// σ of item times online.
+        fsc_warm: usize = 32, label Some("warm");
+    }
+}
+
+impl BuiltIn for FixedSizeParams {
+    const DOC: &'static str = "Fixed-size chunking (FSC): one chunk size K from the measured \
+        hand-out cost and the spread of item times (Kruskal–Weiss).";
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(FixedSize::new(n, workers.max(1), self.fsc_warm)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::super::sequence;
+    use crate::sched::dls::sequence;
     use super::*;
 
     #[test]

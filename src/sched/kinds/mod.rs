@@ -1,0 +1,172 @@
+//! Every built-in scheduler, one file each: its parameters (a `scheduler_params!` struct, empty
+//! when it has none) and its [`BuiltIn`] definition — what it does, its hand-out rule and the
+//! few facts the rest of the tool derives from (its default order and item size, whether
+//! `advise` weighs it, whether it picks its own tiles).
+//!
+//! The registry at the bottom of this file is the one list of them. Each line names the id, the
+//! variant and the file; from it come [`SchedulerKind`] (ids, `from_id`, `ALL`), [`Policy`] (a
+//! kind with its parameters), the CLI flags, TOML keys, CSV columns, `advise`'s defaults and
+//! the reference pages. Adding a built-in scheduler is its file here plus one registry line
+//! (`docs/extending.md`). A scheduler kept outside the crate implements
+//! [`Scheduler`](super::rule::Scheduler) instead.
+
+use super::param::{err, id_enum, one_of, Chunk, Order, ParamValue, Params, Slow, SpecError};
+use super::rule::HandOut;
+use serde::{Deserialize, Serialize};
+
+/// What a built-in scheduler's file defines beside its parameter struct.
+pub trait BuiltIn: Params + Copy {
+    /// What it does, in one paragraph: the reference page's text.
+    const DOC: &'static str;
+    /// Does `advise` weigh it unless told otherwise?
+    const ADVISED_BY_DEFAULT: bool = true;
+    /// Does it size each hand-out as a share of what is left (guided, the factoring family)?
+    /// Its default order, item size and scanline runs of hand-outs follow from that
+    /// ([`SchedulerKind::default_order`]).
+    const SIZES_OWN_HAND_OUTS: bool = false;
+    /// The tile side and order it picks itself for a `width`×`height` image on `workers`
+    /// workers (the production renderers' policies); `None`: the run's chunk and order.
+    const OWN_LAYOUT: Option<fn(u32, u32, usize) -> (Chunk, Order)> = None;
+    /// Its rule over `n` items on `workers` workers, worker i slowed as `slow` says.
+    fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
+}
+
+/// Generates [`SchedulerKind`] and [`Policy`] from the registry's lines.
+macro_rules! builtin_schedulers {
+    ($( $variant:ident = $id:literal in $module:ident :: $ty:ident, )*) => {
+        $( pub mod $module; )*
+        $( pub use $module::$ty; )*
+
+        /// Who decides who renders what: the id of a built-in scheduler.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum SchedulerKind {
+            $(
+                #[doc = concat!("`", $id, "`: see [`", stringify!($module), "`].")]
+                $variant,
+            )*
+        }
+
+        id_enum!(impl SchedulerKind ("scheduler", "scheduler") { $( $variant = $id, )* });
+
+        impl SchedulerKind {
+            /// What it does, one paragraph (the reference pages' text).
+            pub fn doc(self) -> String {
+                match self {
+                    $( Self::$variant => <$ty as BuiltIn>::DOC.to_string(), )*
+                }
+            }
+
+            /// Does `advise` weigh this kind unless told otherwise?
+            pub fn advised_by_default(self) -> bool {
+                match self {
+                    $( Self::$variant => <$ty as BuiltIn>::ADVISED_BY_DEFAULT, )*
+                }
+            }
+
+            /// Is this guided or one of the factoring family: a rule that sizes each hand-out
+            /// from what is left, its first chunks a share of all items? Its default order,
+            /// item size and scanline runs of hand-outs all follow from that.
+            pub fn sizes_own_hand_outs(self) -> bool {
+                match self {
+                    $( Self::$variant => <$ty as BuiltIn>::SIZES_OWN_HAND_OUTS, )*
+                }
+            }
+
+            /// Does this scheduler choose its own tile size and order from the image and the
+            /// thread count (the production renderers' policies)? Its `chunk` and `order` are
+            /// then ignored.
+            pub fn picks_own_layout(self) -> bool {
+                match self {
+                    $( Self::$variant => <$ty as BuiltIn>::OWN_LAYOUT.is_some(), )*
+                }
+            }
+        }
+
+        /// A scheduler kind with its parameters.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        pub enum Policy {
+            $(
+                #[doc = concat!("`", $id, "` with its parameters.")]
+                $variant($ty),
+            )*
+        }
+
+        $(
+            impl From<$ty> for Policy {
+                fn from(p: $ty) -> Self {
+                    Self::$variant(p)
+                }
+            }
+        )*
+
+        impl Policy {
+            /// `kind` with every parameter at its default.
+            pub const fn defaults(kind: SchedulerKind) -> Self {
+                match kind {
+                    $( SchedulerKind::$variant => Self::$variant(<$ty>::DEFAULT), )*
+                }
+            }
+
+            /// The kind, without its parameters.
+            pub fn kind(&self) -> SchedulerKind {
+                match self {
+                    $( Self::$variant(_) => SchedulerKind::$variant, )*
+                }
+            }
+
+            /// The parameters by name (`None`: the kind has none).
+            pub fn params(&self) -> Option<&dyn Params> {
+                let p: &dyn Params = match self {
+                    $( Self::$variant(p) => p, )*
+                };
+                (!p.info().is_empty()).then_some(p)
+            }
+
+            /// The parameters by name, to set (`None`: the kind has none).
+            pub(crate) fn params_mut(&mut self) -> Option<&mut dyn Params> {
+                let p: &mut dyn Params = match self {
+                    $( Self::$variant(p) => p, )*
+                };
+                (!p.info().is_empty()).then_some(p)
+            }
+
+            /// The rule over `n` items on `workers` workers, slowed as `slow` says.
+            pub fn rule(&self, n: usize, workers: usize, slow: Slow) -> HandOut {
+                match self {
+                    $( Self::$variant(p) => p.hand_out(n, workers, slow), )*
+                }
+            }
+
+            /// The tile side and order this kind picks itself for a `width`×`height` image on
+            /// `workers` workers; `None`: it takes the run's.
+            pub fn own_layout(&self, width: u32, height: u32, workers: usize) -> Option<(Chunk, Order)> {
+                let layout = match self {
+                    $( Self::$variant(_) => <$ty as BuiltIn>::OWN_LAYOUT, )*
+                };
+                layout.map(|f| f(width, height, workers))
+            }
+        }
+    };
+}
+
+// The registry: one line per built-in scheduler, in the order help texts, CSV columns and
+// plot styles list them (append new ones at the end so existing styles keep their colours).
+builtin_schedulers! {
+    Static = "static" in static_bands::StaticParams,
+    StaticCyclic = "static_cyclic" in static_cyclic::StaticCyclicParams,
+    Master = "master" in master::MasterParams,
+    WorkStealing = "work_stealing" in work_stealing::WorkStealingParams,
+    WorkStealingDeque = "work_stealing_deque" in work_stealing_deque::WorkStealingDequeParams,
+    SelfScheduling = "self_scheduling" in self_scheduling::SelfSchedulingParams,
+    Guided = "guided" in guided::GuidedParams,
+    Factoring = "factoring" in factoring::FactoringParams,
+    WeightedFactoring = "weighted_factoring" in weighted_factoring::WeightedFactoringParams,
+    Trapezoid = "trapezoid" in trapezoid::TrapezoidParams,
+    FixedSize = "fixed_size" in fixed_size::FixedSizeParams,
+    AdaptiveFactoring = "adaptive_factoring" in adaptive_factoring::AdaptiveFactoringParams,
+    Awf = "awf" in awf::AwfParams,
+    Pbrt = "pbrt" in pbrt::PbrtParams,
+    Mitsuba = "mitsuba" in mitsuba::MitsubaParams,
+    TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
+}
