@@ -57,8 +57,8 @@ use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns,
-    RunOptions, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Wait,
+    decompose, render_job, run, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns,
+    RunOptions, RunPlan, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Sources, Wait,
 };
 use raysched::source::Job;
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -148,7 +148,11 @@ fn run_group(c: &mut Criterion, group: &str, items: &[WorkItem], stats_both: boo
             };
             let id = BenchmarkId::new(&name, if *stats { "stats_on" } else { "stats_off" });
             g.bench_function(id, |b| {
-                b.iter(|| run_items(&spec, items, job.clone(), &opts).unwrap())
+                b.iter(|| {
+                    RunPlan::of(&spec, &opts)
+                        .and_then(|plan| run(&plan, items, Sources::threads(&job, &spec)))
+                        .unwrap()
+                })
             });
         }
     }
@@ -288,7 +292,9 @@ fn instrumentation(c: &mut Criterion) {
                 stats,
                 ..Default::default()
             };
-            run_items(&spec, &items, job.clone(), &opts).unwrap()
+            RunPlan::of(&spec, &opts)
+                .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+                .unwrap()
         };
         for stats in [true, false] {
             let id = BenchmarkId::new(name, if stats { "stats_on" } else { "stats_off" });

@@ -28,8 +28,8 @@
 use crossbeam::utils::CachePadded;
 use raysched::render::{TileResult, WorkItem};
 use raysched::sched::{
-    decompose, run_items, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns, RunOptions,
-    SchedulerKind, SchedulerSpec, Wait,
+    decompose, run, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns, RunOptions,
+    RunPlan, SchedulerKind, SchedulerSpec, Sources, Wait,
 };
 use raysched::source::Job;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -197,7 +197,9 @@ fn floor_ns(buffer: usize, returns: Back, items: &[WorkItem], job: &Job) -> f64 
 /// One timed run of `spec`, ns per item.
 fn run_ns(spec: &SchedulerSpec, items: &[WorkItem], job: &Job, opts: &RunOptions) -> f64 {
     let t0 = Instant::now();
-    run_items(spec, items, job.clone(), opts).unwrap();
+    RunPlan::of(spec, opts)
+        .and_then(|plan| run(&plan, items, Sources::threads(job, spec)))
+        .unwrap();
     t0.elapsed().as_secs_f64() * 1e9 / items.len() as f64
 }
 
@@ -276,7 +278,9 @@ fn main() {
         };
         // One untimed run of each first (thread and allocator warm-up).
         counter_ns();
-        run_items(spec, &items, job.clone(), &opts).unwrap();
+        RunPlan::of(spec, &opts)
+            .and_then(|plan| run(&plan, &items, Sources::threads(&job, spec)))
+            .unwrap();
         let (mut c, mut s, mut r) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..ROUNDS {
             let cn = counter_ns();
@@ -335,11 +339,15 @@ fn main() {
                     workers,
                     ..master(buffer)
                 };
-                run_items(&spec, &items, job.clone(), &opts).unwrap();
+                RunPlan::of(&spec, &opts)
+                    .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+                    .unwrap();
                 let (mut c, mut d, mut w, mut p) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 for _ in 0..ROUNDS {
                     c.push(counter_ns());
-                    let (_, st) = run_items(&spec, &items, job.clone(), &opts).unwrap();
+                    let (_, st) = RunPlan::of(&spec, &opts)
+                        .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+                        .unwrap();
                     let m = st.master.unwrap_or_default();
                     d.push(per(m.dispatch_s * 1e9));
                     w.push(per(m.wait_s * 1e9));

@@ -50,8 +50,9 @@ impl Tracer for Counting {
 
 #[allow(dead_code)]
 fn main() {
+    use raysched::render::Image;
     use raysched::scene::{load_scene, SceneOverrides};
-    use raysched::sched::{run_scheduler, Chunk, SchedulerSpec};
+    use raysched::sched::{render_scene, Chunk, RenderOn, RunOptions, SchedulerSpec};
     use std::sync::Arc;
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     let o = SceneOverrides {
@@ -64,15 +65,17 @@ fn main() {
     let spec = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 4, h: 4 }, 2);
     let native = Arc::new(BvhTracer::new(&scene.geometry));
     let counting = Arc::new(Counting::new(BvhTracer::new(&scene.geometry)));
-    let (a, _) = run_scheduler(&spec, &scene, &native).expect("renders");
-    let (b, stats) = run_scheduler(&spec, &scene, &counting).expect("renders");
+    let on = RenderOn::threads();
+    let opts = RunOptions::default();
+    let (a, _) = render_scene(&spec, &scene, &native, &on, &opts).expect("renders");
+    let (b, stats) = render_scene(&spec, &scene, &counting, &on, &opts).expect("renders");
     println!(
         "{}: {} closest-hit and {} occlusion queries for {} rays; image {} the native one",
         Policy::defaults(SchedulerKind::SelfScheduling).kind().id(),
         counting.intersects.load(Ordering::Relaxed),
         counting.occludeds.load(Ordering::Relaxed),
         stats.rays,
-        if a.hash() == b.hash() {
+        if Image::stack(a).hash() == Image::stack(b).hash() {
             "is"
         } else {
             "DIFFERS from"

@@ -13,7 +13,8 @@
 
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::sched::{
-    decompose, render_job, run_items, Chunk, Order, RunOptions, SchedulerKind, SchedulerSpec,
+    decompose, render_job, run, Chunk, Order, RunOptions, RunPlan, SchedulerKind, SchedulerSpec,
+    Sources,
 };
 use raysched::tracer::BvhTracer;
 use std::path::Path;
@@ -68,7 +69,8 @@ fn main() {
             let (mut hand_outs, mut small, mut sparse) = (0, 0, 0);
             for _ in 0..renders {
                 let job = render_job(&scene, &tracer);
-                let (_, stats) = run_items(&spec, &items, job, &RunOptions::default())
+                let (_, stats) = RunPlan::of(&spec, &RunOptions::default())
+                    .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
                     .unwrap_or_else(|e| panic!("{e}"));
                 let spans = stats.timeline.unwrap_or_default();
                 for w in 0..spec.workers as u32 {

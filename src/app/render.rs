@@ -7,8 +7,7 @@ use raysched::limits::{MAX_DEPTH, MAX_IMAGE_SIDE};
 use raysched::render::Image;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::sched::{
-    run_scheduler_with, run_with_sources, RunOptions, SchedError, SchedulerSpec, SourceKind,
-    SourceSet,
+    render_scene, RenderOn, RunOptions, SchedError, SchedulerSpec, SourceKind, SourceSet,
 };
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use std::path::{Path, PathBuf};
@@ -243,21 +242,14 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
         SchedError::Spec(_) => CliError::input(e),
         _ => CliError::runtime(e),
     };
-    let (image, stats) = if setup.set == SourceSet::threads() {
-        run_scheduler_with(&spec, &scene, &tracer, &args.run_options()).map_err(as_cli)?
-    } else {
-        let (frames, stats) = run_with_sources(
-            &spec,
-            &setup,
-            &scene,
-            &tracer,
-            #[cfg(feature = "gpu")]
-            gpu.as_ref().map(|g| g.renderer.clone()),
-            &args.run_options(),
-        )
-        .map_err(as_cli)?;
-        (Image::stack(frames), stats)
+    let on = RenderOn {
+        setup: &setup,
+        #[cfg(feature = "gpu")]
+        gpu: gpu.as_ref().map(|g| g.renderer.clone()),
     };
+    let (frames, stats) =
+        render_scene(&spec, &scene, &tracer, &on, &args.run_options()).map_err(as_cli)?;
+    let image = Image::stack(frames);
     let wrote = save_render(&args.output, &image, scene.frames()).map_err(CliError::runtime)?;
     let mut tracer_line = format!(
         "{} built in {:.3} s, {threads} threads",

@@ -16,7 +16,7 @@ pub use reference::{Reference, ReferenceKind};
 
 use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
-use crate::sched::{decompose, run_items, RunOptions, SchedError, SchedulerSpec};
+use crate::sched::{decompose, run, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
 use crate::source::Job;
 use crate::tracer::Tracer;
 use serde::{Deserialize, Serialize};
@@ -175,7 +175,8 @@ pub fn run_convergence_scheduled<T: Tracer + 'static>(
             })
         };
         let t0 = Instant::now();
-        run_items(spec, &items, job, &opts)?;
+        RunPlan::of(spec, &opts)
+            .and_then(|plan| run(&plan, &items, Sources::threads(&job, spec)))?;
         let wall = t0.elapsed().as_secs_f64();
         let mut all = Moments {
             sums: vec![[0.0; 3]; n],

@@ -12,7 +12,7 @@ use crate::metrics::{RunStats, WorkerStats};
 use crate::model::advise::Probed;
 use crate::model::Prediction;
 use crate::render::{render_serial, Image};
-use crate::sched::{run_scheduler, SchedError, SchedulerSpec};
+use crate::sched::{render_scene, RenderOn, SchedError, SchedulerSpec};
 use crate::tracer::Tracer;
 use std::collections::HashMap;
 use std::io::Write;
@@ -939,7 +939,15 @@ fn measure(
         Some(spec) => {
             let mut spec = spec.clone();
             spec.timeline = timeline;
-            run_scheduler(&spec, scene, &b.tracer).map_err(|source| RunError::Sched {
+            render_scene(
+                &spec,
+                scene,
+                &b.tracer,
+                &RenderOn::threads(),
+                &crate::sched::RunOptions::default(),
+            )
+            .map(|(frames, stats)| (Image::stack(frames), stats))
+            .map_err(|source| RunError::Sched {
                 config: format!("{} {}", c.id, spec.label()),
                 source,
             })
@@ -963,13 +971,22 @@ fn measure_gpu(
         )));
     };
     let renderer = gpu.renderers[b.scene].clone();
-    let opts = crate::sched::RunOptions::default();
-    crate::sched::run_with_sources(spec, setup, scene, &b.tracer, Some(renderer), &opts)
-        .map(|(frames, stats)| (Image::stack(frames), stats))
-        .map_err(|source| RunError::Sched {
-            config: format!("{} {}{}", c.id, spec.label(), setup.label()),
-            source,
-        })
+    let on = RenderOn {
+        setup,
+        gpu: Some(renderer),
+    };
+    render_scene(
+        spec,
+        scene,
+        &b.tracer,
+        &on,
+        &crate::sched::RunOptions::default(),
+    )
+    .map(|(frames, stats)| (Image::stack(frames), stats))
+    .map_err(|source| RunError::Sched {
+        config: format!("{} {}{}", c.id, spec.label(), setup.label()),
+        source,
+    })
 }
 
 /// Without feature `gpu` no configuration has a GPU source ([`crate::sched::SourceSet::new`]).

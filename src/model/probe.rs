@@ -8,8 +8,8 @@ use crate::profile::Profile;
 use crate::render::{TileResult, WorkItem};
 use crate::scene::Scene;
 use crate::sched::{
-    decompose, render_job, run_items, Chunk, Order, Policy, RunOptions, SchedError, SchedulerKind,
-    SchedulerSpec,
+    decompose, render_job, run, Chunk, Order, Policy, RunOptions, RunPlan, SchedError,
+    SchedulerKind, SchedulerSpec, Sources,
 };
 use crate::source::Job;
 use crate::tracer::Tracer;
@@ -71,12 +71,13 @@ fn timed_pass<T: Tracer + 'static>(
     let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, chunk, workers);
     spec.timeline = true;
     let items = decompose(w, h, spec.chunk, Order::Scanline);
-    let (_, stats) = run_items(
-        &spec,
-        &items,
-        render_job(scene, tracer),
-        &RunOptions::default(),
-    )?;
+    let (_, stats) = RunPlan::of(&spec, &RunOptions::default()).and_then(|plan| {
+        run(
+            &plan,
+            &items,
+            Sources::threads(&render_job(scene, tracer), &spec),
+        )
+    })?;
     let mut secs = vec![0.0; items.len()];
     for s in stats.timeline.unwrap_or_default() {
         if let Some(x) = secs.get_mut(s.item as usize) {
@@ -245,12 +246,13 @@ fn busy_pass<T: Tracer + 'static>(
 ) -> Result<f64, SchedError> {
     let spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, chunk, workers);
     let items = decompose(scene.width(), scene.height(), chunk, order);
-    let (_, stats) = run_items(
-        &spec,
-        &items,
-        render_job(scene, tracer),
-        &RunOptions::default(),
-    )?;
+    let (_, stats) = RunPlan::of(&spec, &RunOptions::default()).and_then(|plan| {
+        run(
+            &plan,
+            &items,
+            Sources::threads(&render_job(scene, tracer), &spec),
+        )
+    })?;
     Ok(stats.busy_s())
 }
 
@@ -347,7 +349,8 @@ pub fn zero_work_for(
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
     spec.policy = policy;
     let pilot = decompose(PILOT_ITEMS, 1, Chunk::Tile { w: 1, h: 1 }, Order::Scanline);
-    let per = run_items(&spec, &pilot, nothing(), &RunOptions::default())?
+    let per = RunPlan::of(&spec, &RunOptions::default())
+        .and_then(|plan| run(&plan, &pilot, Sources::threads(&nothing(), &spec)))?
         .1
         .wall_s
         / PILOT_ITEMS as f64;
@@ -381,7 +384,10 @@ fn zero_work_pairs(
         .collect();
     let opts = RunOptions::default();
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
-        Ok(run_items(spec, l, nothing(), &opts)?.1.wall_s)
+        Ok(RunPlan::of(spec, &opts)
+            .and_then(|plan| run(&plan, l, Sources::threads(&nothing(), spec)))?
+            .1
+            .wall_s)
     };
     let mut pairs = Vec::new();
     for k in 0..reps.max(1) {
@@ -507,7 +513,8 @@ pub fn loaded_refill_for(
         .collect();
     let job = spinning(item_s);
     let wall = |l: &[WorkItem]| -> Result<f64, SchedError> {
-        Ok(run_items(&spec, l, job.clone(), &RunOptions::default())?
+        Ok(RunPlan::of(&spec, &RunOptions::default())
+            .and_then(|plan| run(&plan, l, Sources::threads(&job, &spec)))?
             .1
             .wall_s)
     };

@@ -8,7 +8,8 @@
 use crate::render::WorkItem;
 use crate::scene::Scene;
 use crate::sched::{
-    decompose, run_scheduler, Chunk, Order, SchedError, SchedulerKind, SchedulerSpec,
+    decompose, render_scene, Chunk, Order, RenderOn, RunOptions, SchedError, SchedulerKind,
+    SchedulerSpec,
 };
 use crate::tracer::Tracer;
 use std::sync::Arc;
@@ -104,7 +105,13 @@ impl Profile {
         let (w, h) = (scene.width(), scene.height());
         let mut spec = SchedulerSpec::new(SchedulerKind::Static, Chunk::Tile { w: 1, h: 1 }, 1);
         spec.timeline = true;
-        let (_, stats) = run_scheduler(&spec, scene, tracer)?;
+        let (_, stats) = render_scene(
+            &spec,
+            scene,
+            tracer,
+            &RenderOn::threads(),
+            &RunOptions::default(),
+        )?;
         let mut pixel_s = vec![0.0; w as usize * h as usize];
         for s in stats.timeline.unwrap_or_default() {
             // Scanline one-pixel items: item id = pixel index within frame 0.

@@ -1,9 +1,10 @@
 //! Schedulers: who renders which work item, and when. Every scheduler returns the same
 //! [`RunStats`] and an image bit-identical to the serial render.
 //!
-//! The core ([`run_items`]) is generic over the per-item [`Job`], so the dispatch cost of each
-//! scheduler can be measured with a job that renders nothing; [`run_scheduler`] instantiates
-//! it with `render_item`.
+//! The one run path is [`run`]: a scheduler's rule played over [`Sources`], generic over the
+//! per-item [`Job`], so the dispatch cost of each scheduler can be measured with a job that
+//! renders nothing. [`render_scene`] runs it over a scene's items with `render_item` and
+//! assembles the frames.
 
 pub mod decompose;
 pub mod dls;
@@ -43,7 +44,7 @@ pub use spec::{
     WeightedFactoringParams, WorkStealingDequeParams, WorkStealingParams,
 };
 
-use crate::metrics::{Probe, RunStats};
+use crate::metrics::RunStats;
 use crate::render::{render_item, Image, WorkItem};
 use crate::scene::Scene;
 use crate::source::{slowed_job, FaultPlan, Job};
@@ -128,60 +129,47 @@ pub fn render_job<T: Tracer + 'static>(scene: &Arc<Scene>, tracer: &Arc<T>) -> J
     Arc::new(move |item: &WorkItem| render_item(&scene, &*tracer, item))
 }
 
-/// Render `scene` under `spec`: the experiment runner's entry point.
-pub fn run_scheduler<T: Tracer + 'static>(
-    spec: &SchedulerSpec,
-    scene: &Arc<Scene>,
-    tracer: &Arc<T>,
-) -> Result<(Image, RunStats), SchedError> {
-    run_scheduler_with(spec, scene, tracer, &RunOptions::default())
+/// Where a scene's render runs ([`render_scene`]): `spec.workers` local threads, or the
+/// sources a [`SourceSetup`] names.
+pub struct RenderOn<'a> {
+    /// The kinds of source and each one's hand-out; threads alone by default.
+    pub setup: &'a SourceSetup,
+    /// The GPU renderer, when the setup has a GPU.
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
 }
 
-/// [`run_scheduler_frames`] with an animation's frames stacked into one film strip
-/// ([`Image::stack`]); a static scene's image as it is.
-pub fn run_scheduler_with<T: Tracer + 'static>(
-    spec: &SchedulerSpec,
-    scene: &Arc<Scene>,
-    tracer: &Arc<T>,
-    opts: &RunOptions,
-) -> Result<(Image, RunStats), SchedError> {
-    let (frames, stats) = run_scheduler_frames(spec, scene, tracer, opts)?;
-    Ok((Image::stack(frames), stats))
+impl RenderOn<'static> {
+    /// `spec.workers` local threads, which take their own items under a worker rule (the
+    /// lock-free fast paths) or are the master's sources.
+    pub fn threads() -> Self {
+        static THREADS: std::sync::OnceLock<SourceSetup> = std::sync::OnceLock::new();
+        Self {
+            setup: THREADS.get_or_init(SourceSetup::default),
+            #[cfg(feature = "gpu")]
+            gpu: None,
+        }
+    }
 }
 
-/// Render every frame of `scene` under `spec`, one image per frame: the items of all frames
-/// form one decomposition ([`decompose_frames`]), so whole frames are handed out like tiles.
-pub fn run_scheduler_frames<T: Tracer + 'static>(
-    spec: &SchedulerSpec,
-    scene: &Arc<Scene>,
-    tracer: &Arc<T>,
-    opts: &RunOptions,
-) -> Result<(Vec<Image>, RunStats), SchedError> {
-    spec.validate()?;
-    let (w, h) = (scene.width(), scene.height());
-    let (chunk, order) = spec.layout(w, h);
-    let items = decompose_frames(w, h, scene.frames(), chunk, order);
-    let (results, mut stats) = run_items(spec, &items, render_job(scene, tracer), opts)?;
-    let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
-    (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
-    Ok((frames, stats))
-}
-
-/// Render every frame of `scene` under `spec` on the sources of `setup`, built by
+/// Render every frame of `scene` under `spec` on `on`, one image per frame: the items of all
+/// frames form one decomposition ([`decompose_frames`], so whole frames are handed out like
+/// tiles), [`run`] plays the scheduler's rule over them, and the results are assembled.
+///
+/// On threads alone the rule runs on [`Sources::Threads`]. Otherwise the sources are built by
 /// [`factory::build_sources`] in the set's order (`spec.workers` local threads, slowed as
-/// `spec.slow` says, when the set has threads; the GPU renderer `gpu` when it has a GPU),
-/// each kind with its own buffer and grain under the master ([`factory::hetero_of`]). A
-/// worker rule (self-scheduling, guided, the factoring family, static) is played over them by
-/// this thread; stealing needs threads alone.
-pub fn run_with_sources<T: Tracer + 'static>(
+/// `spec.slow` says, when the set has threads; the GPU renderer when it has a GPU), each kind
+/// with its own buffer and grain under the master ([`factory::hetero_of`]); a worker rule is
+/// played over them by this thread, and stealing needs threads alone.
+pub fn render_scene<T: Tracer + 'static>(
     spec: &SchedulerSpec,
-    setup: &SourceSetup,
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
-    #[cfg(feature = "gpu")] gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    on: &RenderOn<'_>,
     opts: &RunOptions,
 ) -> Result<(Vec<Image>, RunStats), SchedError> {
-    spec.validate()?;
+    let plan = RunPlan::of(spec, opts)?;
+    let setup = on.setup;
     setup.validate()?;
     if setup.set.has(SourceKind::Gpu) {
         if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
@@ -195,53 +183,28 @@ pub fn run_with_sources<T: Tracer + 'static>(
     let (w, h) = (scene.width(), scene.height());
     let (chunk, order) = spec.layout(w, h);
     let items = decompose_frames(w, h, scene.frames(), chunk, order);
-    let probe = Probe::new(opts.stats, spec.timeline);
     let job = render_job(scene, tracer);
-    let ctx = factory::SourceContext {
-        job: &job,
-        threads: spec.workers,
-        slow: spec.slow,
-        faults: opts.faults.as_ref(),
-        probe,
-        #[cfg(feature = "gpu")]
-        gpu,
+    let sources = if setup.set == SourceSet::threads() {
+        Sources::threads(&job, spec)
+    } else {
+        let ctx = factory::SourceContext {
+            job: &job,
+            threads: spec.workers,
+            slow: spec.slow,
+            faults: opts.faults.as_ref(),
+            probe: plan.probe,
+            #[cfg(feature = "gpu")]
+            gpu: on.gpu.clone(),
+        };
+        let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
+            .into_iter()
+            .unzip();
+        Sources::Boxed(sources, factory::hetero_of(setup, &kinds, (w, h)))
     };
-    let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
-        .into_iter()
-        .unzip();
-    let hetero = factory::hetero_of(setup, &kinds, (w, h));
-    let plan = RunPlan {
-        scheduler: &spec.policy,
-        slow: spec.slow,
-        opts,
-        probe,
-    };
-    let (results, mut stats) = run(&plan, &items, Sources::Boxed(sources, hetero))?;
+    let (results, mut stats) = run(&plan, &items, sources)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))
-}
-
-/// Run `job` over `items` under `spec` on `spec.workers` local threads: [`run`] with
-/// [`Sources::Threads`]. Results come back indexed by item id.
-pub fn run_items(
-    spec: &SchedulerSpec,
-    items: &[WorkItem],
-    job: Job,
-    opts: &RunOptions,
-) -> Result<(Results, RunStats), SchedError> {
-    spec.validate()?;
-    let plan = RunPlan {
-        scheduler: &spec.policy,
-        slow: spec.slow,
-        opts,
-        probe: Probe::new(opts.stats, spec.timeline),
-    };
-    run(
-        &plan,
-        items,
-        Sources::Threads(worker_jobs(&job, spec.workers, spec.slow)),
-    )
 }
 
 /// Worker i's job: `job`, slowed by `slow`'s factor for the slowed workers.

@@ -10,8 +10,8 @@
 use super::master::{self, Hetero};
 use super::rule::{HandOut, Scheduler};
 use super::{
-    factory, locked_master, pull, shared, Passes, Policy, Results, RunOptions, Runner, SchedError,
-    Slow, SpecError,
+    factory, locked_master, pull, shared, worker_jobs, Passes, Policy, Results, RunOptions, Runner,
+    SchedError, SchedulerSpec, Slow, SpecError,
 };
 use crate::metrics::{Probe, RunStats};
 use crate::render::WorkItem;
@@ -30,6 +30,12 @@ pub enum Sources {
 }
 
 impl Sources {
+    /// `spec.workers` local threads, each running `job`, the slowed ones slowed as `spec.slow`
+    /// says.
+    pub fn threads(job: &Job, spec: &SchedulerSpec) -> Self {
+        Self::Threads(worker_jobs(job, spec.workers, spec.slow))
+    }
+
     fn len(&self) -> usize {
         match self {
             Self::Threads(j) => j.len(),
@@ -49,6 +55,20 @@ pub struct RunPlan<'a> {
     pub opts: &'a RunOptions,
     /// What to time per item.
     pub probe: Probe,
+}
+
+impl<'a> RunPlan<'a> {
+    /// The plan of a built-in scheduler's `spec`, checked first ([`SchedulerSpec::validate`]):
+    /// its policy and slowdown, timing as `opts.stats` and `spec.timeline` say.
+    pub fn of(spec: &'a SchedulerSpec, opts: &'a RunOptions) -> Result<Self, SchedError> {
+        spec.validate()?;
+        Ok(Self {
+            scheduler: &spec.policy,
+            slow: spec.slow,
+            opts,
+            probe: Probe::new(opts.stats, spec.timeline),
+        })
+    }
 }
 
 /// Run `items` on `sources` under `plan`; results come back indexed by item id. Items must

@@ -12,7 +12,7 @@ use raysched::render::{render_serial, render_serial_frames, Image};
 use raysched::rng::frame_seed;
 use raysched::scene::{load_scene_str, Scene, SceneOverrides};
 use raysched::sched::{
-    decompose_frames, run_scheduler, run_scheduler_frames, Chunk, Order, RunOptions, SchedulerKind,
+    decompose_frames, render_scene, Chunk, Order, RenderOn, RunOptions, SchedulerKind,
     SchedulerSpec,
 };
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -74,9 +74,14 @@ fn every_scheduler_and_chunk_gives_the_serial_frames() {
             let mut spec = SchedulerSpec::new(kind, Chunk::parse(chunk).unwrap(), 2);
             spec.order = Order::Hilbert;
             let what = spec.label();
-            let (frames, stats) =
-                run_scheduler_frames(&spec, &scene, &tracer, &RunOptions::default())
-                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            let (frames, stats) = render_scene(
+                &spec,
+                &scene,
+                &tracer,
+                &RenderOn::threads(),
+                &RunOptions::default(),
+            )
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
             assert_eq!(frames, serial, "{what}");
             let (c, o) = spec.layout(32, 24);
             let items = decompose_frames(32, 24, 4, c, o).len() as u64;
@@ -90,7 +95,7 @@ fn every_scheduler_and_chunk_gives_the_serial_frames() {
     }
     // The single-image API carries the frames as a film strip.
     let spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Frame, 2);
-    let (strip, _) = run_scheduler(&spec, &scene, &tracer).unwrap();
+    let (strip, _) = crate::support::render(&spec, &scene, &tracer).unwrap();
     assert_eq!(strip.unstack(4), serial);
     assert_eq!(render_serial(&scene, &*tracer).0, strip);
 }

@@ -152,7 +152,7 @@ fn the_simulation_plays_a_custom_rule() {
 
 #[test]
 fn a_custom_tracer_renders_the_native_image_and_counts_its_queries() {
-    use raysched::sched::{run_scheduler, Chunk, SchedulerSpec};
+    use raysched::sched::{Chunk, SchedulerSpec};
     use raysched::tracer::BvhTracer;
     use std::sync::atomic::Ordering;
     use std::sync::Arc;
@@ -161,8 +161,8 @@ fn a_custom_tracer_renders_the_native_image_and_counts_its_queries() {
         &scene.geometry,
     )));
     let spec = SchedulerSpec::new(SchedulerKind::SelfScheduling, Chunk::Tile { w: 4, h: 4 }, 2);
-    let (a, _) = run_scheduler(&spec, &scene, &native).unwrap();
-    let (b, stats) = run_scheduler(&spec, &scene, &counting).unwrap();
+    let (a, _) = crate::support::render(&spec, &scene, &native).unwrap();
+    let (b, stats) = crate::support::render(&spec, &scene, &counting).unwrap();
     assert_eq!(a.hash(), b.hash());
     // Every camera ray is a closest-hit query: at least one per pixel and sample.
     let intersects = counting.intersects.load(Ordering::Relaxed);

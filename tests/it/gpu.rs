@@ -546,7 +546,7 @@ fn the_upload_gives_every_primitive_one_leaf_slot_within_the_kernel_stack() {
 #[test]
 fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
     use raysched::sched::SourceSetup;
-    use raysched::sched::{run_with_sources, Chunk, SchedulerKind, SchedulerSpec, SourceSet};
+    use raysched::sched::{render_scene, Chunk, RenderOn, SchedulerKind, SchedulerSpec, SourceSet};
     let scene = Arc::new(load("cornell_box.toml", small(16, 2)));
     let Some(r) = renderer(&scene) else { return };
     let tracer = Arc::new(BvhTracer::new(&scene.geometry));
@@ -556,15 +556,12 @@ fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
     // 8×8 = 64 pixels: 4 of the 4×4 items per hand-out.
     setup.set_param("gpu_chunk", "8").unwrap();
     setup.set_param("gpu_buffer", "1").unwrap();
-    let (frames, stats) = run_with_sources(
-        &spec,
-        &setup,
-        &scene,
-        &tracer,
-        Some(Arc::new(r)),
-        &RunOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let on = RenderOn {
+        setup: &setup,
+        gpu: Some(Arc::new(r)),
+    };
+    let (frames, stats) = render_scene(&spec, &scene, &tracer, &on, &RunOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(
         stats.workers[1].source,
         Some(raysched::metrics::SourceKind::Gpu)
@@ -594,7 +591,7 @@ fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
 
 #[test]
 fn the_default_balancer_on_one_thread_and_the_gpu_does_every_item_once_within_noise() {
-    use raysched::sched::{run_with_sources, SchedulerKind, SchedulerSpec, SourceSet};
+    use raysched::sched::{render_scene, RenderOn, SchedulerKind, SchedulerSpec, SourceSet};
     use raysched::sched::{Chunk, SourceSetup};
     // `render --sources threads,gpu --threads 1` with no grain flags: the balancer runs.
     let scene = Arc::new(load("cornell_box.toml", small(48, 4)));
@@ -603,15 +600,12 @@ fn the_default_balancer_on_one_thread_and_the_gpu_does_every_item_once_within_no
     let spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 1);
     let setup = SourceSetup::of(SourceSet::parse("threads+gpu").unwrap());
     assert!(setup.balanced());
-    let (frames, stats) = run_with_sources(
-        &spec,
-        &setup,
-        &scene,
-        &tracer,
-        Some(Arc::new(r)),
-        &RunOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+    let on = RenderOn {
+        setup: &setup,
+        gpu: Some(Arc::new(r)),
+    };
+    let (frames, stats) = render_scene(&spec, &scene, &tracer, &on, &RunOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
     let n = 12 * 12;
     assert_eq!(stats.items, n);
     assert_eq!((stats.issued, stats.reissued, stats.duplicates), (n, 0, 0));

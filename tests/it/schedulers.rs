@@ -4,9 +4,9 @@
 use raysched::render::{render_serial, Image, TileResult, WorkItem};
 use raysched::scene::{load_scene_str, Scene};
 use raysched::sched::{
-    decompose, run_items, run_scheduler, run_scheduler_with, Chunk, MasterParams, Order, Passes,
-    Policy, Requeue, Returns, RunOptions, SchedError, SchedulerKind, SchedulerSpec,
-    SelfSchedulingParams, Slow, Wait, Weights,
+    decompose, run, Chunk, MasterParams, Order, Passes, Policy, Requeue, Returns, RunOptions,
+    RunPlan, SchedError, SchedulerKind, SchedulerSpec, SelfSchedulingParams, Slow, Sources, Wait,
+    Weights,
 };
 use raysched::source::{FaultPlan, Job};
 use raysched::tracer::{AnyTracer, TracerKind};
@@ -102,7 +102,7 @@ const CHUNKS: [Chunk; 6] = [
 
 fn check_run(spec: &SchedulerSpec) {
     let f = fixture();
-    let (image, stats) = run_scheduler(spec, &f.scene, &f.tracer)
+    let (image, stats) = crate::support::render(spec, &f.scene, &f.tracer)
         .unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
     let label = spec.label();
     assert_eq!(
@@ -214,9 +214,9 @@ fn production_renderer_policies_choose_their_own_tiles() {
         (Chunk::Tile { w: 16, h: 16 }, Order::Spiral)
     );
     let f = fixture();
-    let (_, stats) = run_scheduler(&pbrt, &f.scene, &f.tracer).unwrap();
+    let (_, stats) = crate::support::render(&pbrt, &f.scene, &f.tracer).unwrap();
     assert_eq!(stats.items, 6 * 5);
-    let (_, stats) = run_scheduler(&mitsuba, &f.scene, &f.tracer).unwrap();
+    let (_, stats) = crate::support::render(&mitsuba, &f.scene, &f.tracer).unwrap();
     assert_eq!(stats.items, 2);
 }
 
@@ -261,7 +261,7 @@ fn timeline_has_one_span_per_rendered_item() {
     for mut spec in specs {
         let kind = spec.kind();
         spec.timeline = true;
-        let (_, stats) = run_scheduler(&spec, &f.scene, &f.tracer).unwrap();
+        let (_, stats) = crate::support::render(&spec, &f.scene, &f.tracer).unwrap();
         let spans = stats.timeline.expect("timeline requested");
         let (master, work): (Vec<&raysched::metrics::Span>, Vec<_>) = spans
             .iter()
@@ -298,7 +298,7 @@ fn edge_cases_tiny_image_more_workers_than_items_chunk_larger_than_image() {
             if kind == SchedulerKind::Master {
                 master(&mut spec).requeue = Requeue::Revisit;
             }
-            let (image, stats) = run_scheduler(&spec, &scene, &tracer).unwrap();
+            let (image, stats) = crate::support::render(&spec, &scene, &tracer).unwrap();
             assert_eq!(image.hash(), serial.hash(), "{}", spec.label());
             assert_eq!(stats.items, 1);
             assert_eq!(stats.workers.len(), 5);
@@ -329,7 +329,9 @@ fn shares_of_scattered_pixels_run_in_scanline_order() {
         });
         let mut spec = SchedulerSpec::new(kind, Chunk::Tile { w: 1, h: 1 }, 1);
         spec.order = Order::Scatter;
-        run_items(&spec, &items, job, &RunOptions::default()).unwrap();
+        RunPlan::of(&spec, &RunOptions::default())
+            .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+            .unwrap();
         let v = seen.lock().unwrap().clone();
         v
     };
@@ -373,7 +375,9 @@ fn every_item_rendered_and_kept_once_even_with_duplicates() {
     let mut spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 3);
     master(&mut spec).requeue = Requeue::Revisit;
     master(&mut spec).buffer = 8;
-    let (results, stats) = run_items(&spec, &items, job, &RunOptions::default()).unwrap();
+    let (results, stats) = RunPlan::of(&spec, &RunOptions::default())
+        .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+        .unwrap();
     for (i, r) in results.iter().enumerate() {
         assert_eq!(r.as_ref().unwrap().item, i as u32);
         assert!(renders[i].load(Ordering::Relaxed) >= 1);
@@ -420,7 +424,8 @@ fn master_with_requeue_survives_drops_delays_and_a_panicking_worker() {
                 faults: Some(faults()),
                 ..Default::default()
             };
-            let (image, stats) = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap();
+            let (image, stats) =
+                crate::support::render_with(&spec, &f.scene, &f.tracer, &opts).unwrap();
             assert_eq!(image.hash(), f.serial.hash(), "{}", spec.label());
             assert_eq!(stats.lost_sources, 1, "{}", spec.label());
             assert!(
@@ -443,7 +448,7 @@ fn master_never_requeue_reports_lost_items_within_the_deadline() {
         ..Default::default()
     };
     let t = Instant::now();
-    let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
+    let err = crate::support::render_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
     assert!(
         t.elapsed() < Duration::from_secs(5),
         "took {:?}",
@@ -469,7 +474,7 @@ fn master_never_requeue_reports_lost_items_within_the_deadline() {
         ..Default::default()
     };
     let t = Instant::now();
-    let err = run_scheduler_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
+    let err = crate::support::render_with(&spec, &f.scene, &f.tracer, &opts).unwrap_err();
     assert!(
         matches!(err, SchedError::LostItems { lost, .. } if lost >= 1),
         "{err}"
@@ -488,7 +493,7 @@ fn a_fault_plan_needs_the_masters_own_thread() {
         faults: Some(faults()),
         ..Default::default()
     };
-    match run_scheduler_with(&spec, &f.scene, &f.tracer, &opts) {
+    match crate::support::render_with(&spec, &f.scene, &f.tracer, &opts) {
         Err(SchedError::Spec(e)) => {
             assert_eq!(e.field, "passes");
             assert!(e.msg.contains("fault injector"), "{}", e.msg);
@@ -505,7 +510,9 @@ fn all_sources_lost_is_an_error_not_a_hang() {
     master(&mut spec).requeue = Requeue::Revisit;
     for passes in Passes::ALL {
         master(&mut spec).passes = passes;
-        let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
+        let err = RunPlan::of(&spec, &RunOptions::default())
+            .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+            .unwrap_err();
         assert!(
             matches!(err, SchedError::AllSourcesLost { sources: 2, .. }),
             "{passes:?}: {err}"
@@ -517,7 +524,9 @@ fn all_sources_lost_is_an_error_not_a_hang() {
         .filter(|k| *k != SchedulerKind::Master)
     {
         let spec = SchedulerSpec::new(kind, Chunk::Tile { w: 4, h: 4 }, 2);
-        let err = run_items(&spec, &items, job.clone(), &RunOptions::default()).unwrap_err();
+        let err = RunPlan::of(&spec, &RunOptions::default())
+            .and_then(|plan| run(&plan, &items, Sources::threads(&job, &spec)))
+            .unwrap_err();
         assert!(
             matches!(err, SchedError::WorkerPanic(ref m) if m.contains("every worker dies")),
             "{kind:?}: {err}"
@@ -562,7 +571,7 @@ fn bad_parameters_are_clear_errors() {
             "chunk",
         ),
     ] {
-        match run_scheduler(&spec, &f.scene, &f.tracer) {
+        match crate::support::render(&spec, &f.scene, &f.tracer) {
             Err(SchedError::Spec(e)) => assert_eq!(e.field, field),
             other => panic!(
                 "{field}: expected a spec error, got {:?}",
@@ -726,7 +735,7 @@ fn every_scheduler_matches_serial_with(tracer: TracerKind) {
         ] {
             for workers in [1, 3] {
                 let spec = SchedulerSpec::new(kind, chunk, workers);
-                let (image, _) = run_scheduler(&spec, &scene, &tracer)
+                let (image, _) = crate::support::render(&spec, &scene, &tracer)
                     .unwrap_or_else(|e| panic!("{}: {e}", spec.label()));
                 assert_eq!(
                     image.hash(),

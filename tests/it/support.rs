@@ -134,3 +134,24 @@ pub(crate) fn estimate<T: Tracer>(
         nonfinite: bad,
     }
 }
+
+/// `scene` rendered under `spec` on local threads, its frames stacked into one image.
+pub(crate) fn render<T: Tracer + 'static>(
+    spec: &raysched::sched::SchedulerSpec,
+    scene: &std::sync::Arc<Scene>,
+    tracer: &std::sync::Arc<T>,
+) -> Result<(raysched::render::Image, raysched::metrics::RunStats), raysched::sched::SchedError> {
+    render_with(spec, scene, tracer, &raysched::sched::RunOptions::default())
+}
+
+/// [`render`] with run options.
+pub(crate) fn render_with<T: Tracer + 'static>(
+    spec: &raysched::sched::SchedulerSpec,
+    scene: &std::sync::Arc<Scene>,
+    tracer: &std::sync::Arc<T>,
+    opts: &raysched::sched::RunOptions,
+) -> Result<(raysched::render::Image, raysched::metrics::RunStats), raysched::sched::SchedError> {
+    use raysched::sched::{render_scene, RenderOn};
+    let (frames, stats) = render_scene(spec, scene, tracer, &RenderOn::threads(), opts)?;
+    Ok((raysched::render::Image::stack(frames), stats))
+}

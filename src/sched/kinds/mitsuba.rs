@@ -3,7 +3,7 @@
 //! blocks in spiral order from the centre ([`Order::Spiral`]); `parallel_for` over the block
 //! range with grain `max(blocks / (4·threads), 1)`.
 
-use super::BuiltIn;
+use super::{BuiltIn, Layout};
 use crate::sched::param::{scheduler_params, Chunk, Order, Slow};
 use crate::sched::rule::{Grab, HandOut};
 use serde::{Deserialize, Serialize};
@@ -16,7 +16,7 @@ scheduler_params! {
 impl BuiltIn for MitsubaParams {
     const DOC: &'static str = "Mitsuba 3 (scalar): 32² blocks halved until blocks ≥ threads, \
         spiral order, grabs of max(blocks/(4·threads), 1) blocks.";
-    const OWN_LAYOUT: Option<fn(u32, u32, usize) -> (Chunk, Order)> = Some(layout);
+    const OWN_LAYOUT: Option<Layout> = Some(layout);
 
     fn hand_out(&self, n: usize, workers: usize, _slow: Slow) -> HandOut {
         HandOut::pool(Box::new(Grab::fixed(mitsuba_grain(n, workers.max(1)))))

@@ -14,6 +14,10 @@ use super::param::{err, id_enum, one_of, Chunk, Order, ParamValue, Params, Slow,
 use super::rule::HandOut;
 use serde::{Deserialize, Serialize};
 
+/// A policy's own layout: the tile side and order for a `width`×`height` image on `workers`
+/// workers.
+pub type Layout = fn(width: u32, height: u32, workers: usize) -> (Chunk, Order);
+
 /// What a built-in scheduler's file defines beside its parameter struct.
 pub trait BuiltIn: Params + Copy {
     /// What it does, in one paragraph: the reference page's text.
@@ -26,7 +30,7 @@ pub trait BuiltIn: Params + Copy {
     const SIZES_OWN_HAND_OUTS: bool = false;
     /// The tile side and order it picks itself for a `width`×`height` image on `workers`
     /// workers (the production renderers' policies); `None`: the run's chunk and order.
-    const OWN_LAYOUT: Option<fn(u32, u32, usize) -> (Chunk, Order)> = None;
+    const OWN_LAYOUT: Option<Layout> = None;
     /// Its rule over `n` items on `workers` workers, worker i slowed as `slow` says.
     fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
 }

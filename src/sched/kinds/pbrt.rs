@@ -3,7 +3,7 @@
 //! `clamp(⌊√(W·H / (8·threads))⌋, 1, 32)`, tiles in row order, each worker takes the next tile
 //! under the loop's mutex.
 
-use super::BuiltIn;
+use super::{BuiltIn, Layout};
 use crate::sched::param::{scheduler_params, Chunk, Order, Slow};
 use crate::sched::rule::{Grab, HandOut, Pool, WorkerRule};
 use serde::{Deserialize, Serialize};
@@ -16,7 +16,7 @@ scheduler_params! {
 impl BuiltIn for PbrtParams {
     const DOC: &'static str = "pbrt-v4's parallel loop: tiles of \
         clamp(⌊√(W·H/(8·threads))⌋, 1, 32), row order, one tile per grab under a lock.";
-    const OWN_LAYOUT: Option<fn(u32, u32, usize) -> (Chunk, Order)> = Some(layout);
+    const OWN_LAYOUT: Option<Layout> = Some(layout);
 
     fn hand_out(&self, _n: usize, _workers: usize, _slow: Slow) -> HandOut {
         HandOut::ByWorkers(WorkerRule::Pool(Pool {
