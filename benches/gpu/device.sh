@@ -100,13 +100,14 @@ fi
 px=$(size 1024 32)
 sed "s/^width = 128/width = $px/; s/^height = 128/height = $px/" scenes/cornell_box.toml >/tmp/cornell_big.toml
 # Two interleaved passes of: 16 threads alone (16 spp: paths/s do not depend on spp); the
-# GPU alone (buffer 256 tiles = 262 144 pixels a dispatch); both under the balancer; both
-# without it (every source its plain B); threads and GPU each with its own grain; both with
-# no grain flag at all (the default a user gets). On the H200
-# (results/published/gpu/) threads + GPU reached 0.61 of the sum of the
-# separate rates under the balancer (one run) and 0.55-0.68 without it (15 threads instead of
-# 16 changed nothing); examples/hetero_tail.rs, replaying those runs with sleeping sources,
-# puts the own grains at 0.98-1.00 of the sum.
+# GPU alone (buffer 256 tiles = 262 144 pixels a dispatch); both under the grain-picking
+# balancer at 32² tiles and B = 4 (`both`); both with one grain and no balancer (`unbalanced`:
+# a given --gpu-buffer turns the default balancer off); threads and GPU each with its own
+# grain by hand; both with no grain flag at all (`default`: the balancer at the master's 16²
+# tiles and B = 2, what a user gets). On the H200 (results/published/gpu/) one grain gave
+# 0.55-0.68 of the sum of the separate rates, own grains 0.949-0.976; the simulation of that
+# pair (cargo run --release --example hetero_sim, M-151) puts `default` at 0.99, `both` at
+# 0.98, `unbalanced` at 0.34 and own grains at 0.98 of the summed rate.
 # Paths/s of render NAME of this pass: pixels × spp / wall.
 paths() { awk '/^scene /{s=$3; gsub(/[^0-9]+/," ",s); split(s,a," "); w=a[1]; h=a[2]; spp=$4+0} /^wall /{print w*h*spp/$2; exit}' "$W/gpu/render_$1_$pass.txt"; }
 # render NAME SPP FLAGS...: one render of the 1024² Cornell box under the master, its output
@@ -123,8 +124,7 @@ for pass in 1 2; do
   log "pass $pass: cpu 16 threads $(size 16 2) spp; gpu alone, both balanced, both unbalanced, default $big spp"
   render cpu "$(size 16 2)" --chunk 32 --threads 16 --buffer 4
   render gpu "$big" --chunk 32 --sources gpu --buffer 4 --gpu-buffer 256
-  # shellcheck disable=SC2086
-  render both "$big" $both --threads 16 --balance
+  render both "$big" --chunk 32 --sources threads,gpu --buffer 4 --threads 16
   # shellcheck disable=SC2086
   render unbalanced "$big" $both --threads 16
   # Each source its own granularity: threads 8² tiles (about 50 ms each at 512 spp here, where
@@ -132,7 +132,7 @@ for pass in 1 2; do
   render grain "$big" --chunk 8 --sources threads,gpu --threads 16 --buffer 2 \
     --gpu-chunk "$(size 512 16)" --gpu-buffer 2
   render default "$big" --sources threads,gpu --threads 16
-  grep -E "^(wall|  worker 0 |  worker 16|  master)" "$W/gpu/render_grain_$pass.txt" | tee -a "$W/summary.txt"
+  grep -E "^(wall|  worker 0 |  worker 16|  master)" "$W/gpu/render_grain_$pass.txt" "$W/gpu/render_default_$pass.txt" | tee -a "$W/summary.txt"
   c=$(paths cpu); g=$(paths gpu); b=$(paths both); u=$(paths unbalanced)
   gr=$(paths grain); df=$(paths default)
   cpustat "gpu pass $pass"

@@ -208,7 +208,11 @@ impl Args for SourceFlags {
         for p in source_params() {
             let mut arg = Arg::new(p.name.clone()).long(p.flag()).help(p.help.clone());
             arg = if p.field == SourceField::Balance {
-                arg.action(clap::ArgAction::SetTrue)
+                // `--balance` alone means on; `--balance false` turns the default off. A
+                // value is taken when one follows, so a bad one is an error naming the flag.
+                arg.num_args(0..=1)
+                    .default_missing_value("true")
+                    .value_name("BOOL")
             } else {
                 arg.value_name(p.name.to_uppercase())
             };
@@ -228,11 +232,7 @@ impl FromArgMatches for SourceFlags {
             given: source_params()
                 .iter()
                 .filter_map(|p| {
-                    let text = if p.field == SourceField::Balance {
-                        m.get_flag(&p.name).then(|| "true".to_string())?
-                    } else {
-                        m.get_one::<String>(&p.name)?.clone()
-                    };
+                    let text = m.get_one::<String>(&p.name)?.clone();
                     Some((p.name.clone(), text))
                 })
                 .collect(),

@@ -29,6 +29,14 @@ struct WNode {
 }
 
 @group(0) @binding(9) var<storage, read> wnodes: array<WNode>;
+
+// The top of the wide BVH in workgroup memory: nodes 0 .. WCACHE - 1, the root and then (obvhs
+// numbers them next) its inner children, which nearly every ray of a workgroup reads. Lanes
+// 0 .. WCACHE - 1 copy one node each at the start of an entry point (`fill_wcache`); the walk
+// reads those nodes from here. The counters charge each copy's 80 bytes to the lane that made
+// it, so a workgroup's rays together pay for the fill once (WIDE_CACHE_NODES in upload.rs).
+const WCACHE: u32 = 9u;
+var<workgroup> wcache: array<WNode, WCACHE>;
 // The wide walk's primitives, in the same slots as `prims` but geometry only (36 bytes):
 // a triangle's v0, v1, v2; a sphere's centre, radius, then SPHERE_TAG (a NaN no vertex has).
 @group(0) @binding(10) var<storage, read> wtris: array<u32>;
@@ -68,6 +76,18 @@ fn wprim_hit(slot: u32, o: vec3<f32>, d: vec3<f32>, sh: Sheared, t_max: f32) -> 
         return vec4<f32>(t, 0.0, 0.0, select(0.0, 1.0, t > 0.0));
     }
     return tri_hit(sh, wtri_vec(at), wtri_vec(at + 3u), wtri_vec(at + 6u), t_max);
+}
+
+// Copy the top of the tree into `wcache`; every lane of the workgroup must call it, before any
+// lane returns (it ends in a barrier).
+fn fill_wcache(lane: u32) {
+    if WIDE && lane < min(params.n_nodes, WCACHE) {
+        wcache[lane] = wnodes[lane];
+        if COUNT {
+            ctr.bytes += WNODE_BYTES;
+        }
+    }
+    workgroupBarrier();
 }
 
 fn count_stack(depth: u32) {
@@ -171,9 +191,17 @@ fn wide_step(w: ptr<function, Walk>, stack: ptr<function, Stack>, sp: ptr<functi
     }
     let slot = (bit - 24u) ^ oct;
     let index = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
-    let n = wnodes[index];
-    if COUNT {
-        count_node(WNODE_BYTES);
+    var n: WNode;
+    if index < WCACHE {
+        n = wcache[index];
+        if COUNT {
+            count_node(0u);
+        }
+    } else {
+        n = wnodes[index];
+        if COUNT {
+            count_node(WNODE_BYTES);
+        }
     }
     let h = wide_hits(n, o, inv, oct, t_max);
     (*w).group = vec2<u32>(n.child_base, (h.bits & 0xff000000u) | (n.e_imask >> 24u));
@@ -269,9 +297,12 @@ fn occluded_wide(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
 // The debug entry (pipeline with COUNT = true): one ray per task from the CPU, as four
 // vec2<u32> of f32 bits: (o.x, o.y), (o.z, t_max), (d.x, d.y), (d.z, shadow flag). Out:
 // sum = (t, slot + 1 or 0 for a miss, 0), then node fetches, bytes, box tests, primitive
-// tests, deepest stack.
+// tests, deepest stack. Lanes 0 .. WCACHE - 1 carry the workgroup's fill of `wcache` in bytes.
 @compute @workgroup_size(64)
-fn count_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+fn count_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lane: u32) {
+    ctr = Counters(0u, 0u, 0u, 0u, 0u);
+    fill_wcache(lane);
     let i = task_index(gid, nwg);
     if i >= params.n_tasks {
         return;
@@ -282,7 +313,6 @@ fn count_rays(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let e = tasks[4u * i + 3u];
     let o = vec3<f32>(bitcast<f32>(a.x), bitcast<f32>(a.y), bitcast<f32>(b.x));
     let d = vec3<f32>(bitcast<f32>(c.x), bitcast<f32>(c.y), bitcast<f32>(e.x));
-    ctr = Counters(0u, 0u, 0u, 0u, 0u);
     let h = trace(o, d, bitcast<f32>(b.y), e.y != 0u);
     var t = 0.0;
     var id = 0.0;

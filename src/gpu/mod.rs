@@ -567,7 +567,9 @@ impl GpuRenderer {
         rays: &[counters::CountRay],
     ) -> Result<Vec<counters::Counted>, GpuError> {
         let mut out = Vec::with_capacity(rays.len());
-        let per = (self.max_tasks as usize / 4).clamp(1, 1 << 18);
+        // Whole workgroups a dispatch, so ray k sits in lane k % 64 as `cpu_counts` assumes.
+        let lanes = upload::WORKGROUP_LANES;
+        let per = (self.max_tasks as usize / 4 / lanes).clamp(1, (1 << 18) / lanes) * lanes;
         for chunk in rays.chunks(per) {
             let words: Vec<[u32; 2]> = chunk.iter().flat_map(|r| r.words()).collect();
             let d = self.submit(&words, Entry::Count)?;

@@ -34,6 +34,13 @@ pub const WIDE_STACK_DEPTH: usize = 24;
 pub const BINARY_NODE_BYTES: usize = 32;
 /// Bytes of one wide node (`WNode` of `cwbvh.wgsl`, obvhs' `CwBvhNode`).
 pub const WIDE_NODE_BYTES: usize = 80;
+/// Invocations in a workgroup of every entry point of the kernel.
+pub const WORKGROUP_LANES: usize = 64;
+/// Wide nodes a workgroup copies into workgroup memory before it traces (`WCACHE` of
+/// `cwbvh.wgsl`): nodes 0 .. 8, the root and, as obvhs numbers them, its up to eight inner
+/// children. Nearly every ray reads the root and one or two of those; each lane below this
+/// copies one node, 80 bytes shared by the workgroup's 64 rays (M-140).
+pub const WIDE_CACHE_NODES: usize = 9;
 /// Bytes of one primitive (`Prim` of `path.wgsl`).
 pub const PRIM_BYTES: usize = 48;
 /// Bytes of one primitive of the wide walk (`wtris` of `cwbvh.wgsl`): geometry only.

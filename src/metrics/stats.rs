@@ -61,7 +61,7 @@ pub struct MasterStats {
     pub wait_s: f64,
     /// Passes of the master's loop (collect, hand out, wait).
     pub iterations: u64,
-    /// Times the heterogeneous balancer resized the sources' buffers.
+    /// Hand-outs the balancer's tail guard cut, and sources it first refused.
     #[serde(default)]
     pub rebalances: u64,
 }

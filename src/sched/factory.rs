@@ -110,20 +110,15 @@ fn gpu_source(_id: u32, _ctx: &SourceContext<'_>) -> Result<Box<dyn ComputeSourc
 }
 
 /// The master's per-source settings for sources of `kinds` (in that order) under `setup` on
-/// a `width`×`height` image: each kind's own buffer and grain, and whether the balancer
-/// runs. `buffer` is the master's B, for kinds without their own.
-pub fn hetero_of(
-    setup: &SourceSetup,
-    buffer: usize,
-    kinds: &[SourceKind],
-    (width, height): (u32, u32),
-) -> Hetero {
+/// a `width`×`height` image: each kind's own buffer and grain (0 where it has none: the
+/// master's B, item by item), and whether the balancer runs ([`SourceSetup::balanced`]).
+pub fn hetero_of(setup: &SourceSetup, kinds: &[SourceKind], (width, height): (u32, u32)) -> Hetero {
     let (buffers, grains) = kinds
         .iter()
         .map(|&k| {
             let own = setup.own(k);
             (
-                own.buffer.unwrap_or(buffer),
+                own.buffer.unwrap_or(0),
                 own.chunk.map_or(0, |c| c.pixels(width, height)),
             )
         })
@@ -131,6 +126,6 @@ pub fn hetero_of(
     Hetero {
         buffers,
         grains,
-        balance: setup.balance,
+        balance: setup.balanced(),
     }
 }

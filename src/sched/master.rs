@@ -6,7 +6,7 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::rule::{MasterQueue, Take};
+use super::rule::{Balance, Facts, Grant, MasterQueue, Shape, Take};
 use super::{wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
@@ -23,6 +23,8 @@ struct Slot {
     at: Instant,
     /// Its place among the items submitted to its source.
     seq: u64,
+    /// The hand-out it went in (its place among the source's hand-outs).
+    group: u64,
 }
 
 /// For a source that cannot count its finished items: a slot outstanding longer than this no
@@ -66,10 +68,8 @@ struct Lane {
     slots: Vec<Slot>,
     /// False once it failed a result or said it is lost.
     alive: bool,
-    /// Items outstanding at most for this source (its B; the balancer may change it).
+    /// Items outstanding at most for this source (its B), where no balancer runs.
     buffer: usize,
-    /// Pixels of its results accepted since the balancer last looked.
-    pixels_since: u64,
     /// Pixels per hand-out (its items go out in groups this large); 0: item by item.
     grain: u64,
     /// Items submitted to it so far (the next slot's `seq`).
@@ -78,6 +78,27 @@ struct Lane {
     per_hand_out: bool,
     /// Its hand-outs go whole ([`ComputeSource::runs_hand_outs_whole`]).
     whole: bool,
+    /// What the balancer is told of it ([`Facts`]), kept as results come back.
+    meter: Meter,
+}
+
+/// What the master measures of one source for the balancer: the executor reads the clock,
+/// the rule ([`Balance`]) is passed the numbers.
+#[derive(Default)]
+struct Meter {
+    /// Hand-outs submitted (the next one's group).
+    hand_outs: u64,
+    /// Pixels of its accepted results.
+    done_px: u64,
+    /// Hand-outs whose every result came back (counted where [`Self::groups`] is set).
+    done_hand_outs: u64,
+    /// Count finished hand-outs (a dispatch source under the balancer).
+    groups: bool,
+    /// Busy time closed so far, and since when it has held work, if it does.
+    busy: Duration,
+    busy_since: Option<Instant>,
+    /// The guard refused it since its last hand-out (so a refusal is counted once).
+    refused: bool,
 }
 
 impl Lane {
@@ -115,13 +136,35 @@ impl Lane {
         }
         let first = self.submitted;
         self.submitted += results.len() as u64;
+        let group = self.meter.hand_outs;
+        self.meter.hand_outs += 1;
+        if self.slots.is_empty() {
+            self.meter.busy_since = Some(now);
+        }
         self.slots
             .extend(results.drain(..).zip(first..).map(|(result, seq)| Slot {
                 item: result.item(),
                 result,
                 at: now,
                 seq,
+                group,
             }));
+    }
+
+    /// What the balancer is told of this source at `now`; `px` gives an item's pixels.
+    fn facts(&self, now: Instant, px: impl Fn(u32) -> u64) -> Facts {
+        let m = &self.meter;
+        let mut groups: Vec<u64> = self.slots.iter().map(|sl| sl.group).collect();
+        groups.sort_unstable();
+        groups.dedup();
+        Facts {
+            alive: self.alive,
+            done_px: m.done_px,
+            done_hand_outs: m.done_hand_outs,
+            busy: m.busy + m.busy_since.map_or(Duration::ZERO, |s| now - s),
+            held_px: self.slots.iter().map(|sl| px(sl.item)).sum(),
+            held: groups.len(),
+        }
     }
 }
 
@@ -135,6 +178,8 @@ struct Ledger<'a> {
     /// The longest a result took so far (the staleness scale).
     slowest: Duration,
     item_bytes: u64,
+    /// Pixels of the items not handed out (or to go out again), for the balancer.
+    unissued_px: u64,
     /// Scratch of one hand-out: the items going to one source, then their results.
     batch: Vec<WorkItem>,
     handed_out: Vec<DelayedResult>,
@@ -150,6 +195,7 @@ impl<'a> Ledger<'a> {
             collector: Collector::new(n),
             slowest: Duration::ZERO,
             item_bytes: 0,
+            unissued_px: items.iter().map(|i| i.pixel_count() as u64).sum(),
             batch: Vec::new(),
             handed_out: Vec::new(),
         }
@@ -176,7 +222,11 @@ impl<'a> Ledger<'a> {
             match slot.result.try_take() {
                 Ok(Ok(r)) => {
                     self.slowest = self.slowest.max(now.saturating_duration_since(slot.at));
-                    lane.pixels_since += self.items[slot.item as usize].pixel_count() as u64;
+                    let m = &mut lane.meter;
+                    m.done_px += self.items[slot.item as usize].pixel_count() as u64;
+                    if m.groups && !lane.slots.iter().any(|sl| sl.group == slot.group) {
+                        m.done_hand_outs += 1;
+                    }
                     self.collector.accept(r)
                 }
                 Ok(Err(_)) => {
@@ -186,6 +236,11 @@ impl<'a> Ledger<'a> {
                 Err(d) => lane.slots.push(Slot { result: d, ..slot }),
             }
         }
+        if lane.slots.is_empty() {
+            if let Some(since) = lane.meter.busy_since.take() {
+                lane.meter.busy += now.saturating_duration_since(since);
+            }
+        }
     }
 
     /// `item`'s copy was lost with its source: hand it out again at once, or (`never`) count
@@ -193,6 +248,9 @@ impl<'a> Ledger<'a> {
     fn requeue_lost(&mut self, item: u32) {
         if !self.collector.is_done(item) {
             self.queue.lost(item);
+            if self.queue.requeue() != Requeue::Never {
+                self.unissued_px += self.items[item as usize].pixel_count() as u64;
+            }
         }
     }
 
@@ -265,6 +323,30 @@ impl<'a> Ledger<'a> {
         lane.hand_out(&mut self.batch, &mut self.handed_out, now);
     }
 
+    /// One hand-out of about `px` pixels to `lane` (consecutive items until their pixels
+    /// reach it, at least one), as the balancer granted; the pixels handed out.
+    fn hand_out_px(
+        &mut self,
+        lane: &mut Lane,
+        px: u64,
+        stale: Staleness,
+        first: &mut Option<u32>,
+    ) -> u64 {
+        let mut grouped = 0u64;
+        let mut scanned = 0;
+        let len = self.queue.len();
+        while grouped < px.max(1) && scanned < len {
+            scanned += 1;
+            let Some(i) = self.pop_ready(&lane.slots, stale) else {
+                continue;
+            };
+            self.issue(i, first);
+            grouped += self.items[i as usize].pixel_count() as u64;
+        }
+        lane.hand_out(&mut self.batch, &mut self.handed_out, stale.now);
+        grouped
+    }
+
     /// The queue's next item if it may be handed out now to the source holding `slots`
     /// ([`MasterQueue::take`], which books it); `None` when it is done or may not go out
     /// again yet.
@@ -284,6 +366,7 @@ impl<'a> Ledger<'a> {
     /// Put item `i` into the batch being handed out.
     fn issue(&mut self, i: u32, first: &mut Option<u32>) {
         let item = self.items[i as usize].clone();
+        self.unissued_px = self.unissued_px.saturating_sub(item.pixel_count() as u64);
         self.item_bytes += wire::item_bytes(&item);
         self.batch.push(item);
         first.get_or_insert(i);
@@ -302,125 +385,25 @@ struct Master<'a> {
     stats: MasterStats,
     /// The master's own timeline lane.
     spans: Vec<Span>,
-    /// Resizes each source's buffer to its measured throughput (heterogeneous runs).
-    balancer: Option<Balancer>,
+    /// Picks each source's hand-outs from its measured throughput (heterogeneous runs).
+    balance: Option<Balance>,
 }
 
-/// How the master hands out to sources of different speeds: each source's own buffer, and
-/// whether a time-equalising balancer resizes them as throughputs are measured.
+/// How the master hands out to sources of different speeds: each source's own buffer and
+/// grain, or the balancer that picks them itself.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Hetero {
-    /// Per source (by position), its buffer; missing entries take the master's B. For a
-    /// source with a grain, B counts hand-outs of that grain.
+    /// Per source (by position), its buffer; 0 or a missing entry takes the master's B. For
+    /// a source with a grain, B counts hand-outs of that grain.
     pub buffers: Vec<usize>,
     /// Per source (by position), pixels per hand-out: consecutive items go out together
     /// until their pixels reach it (a GPU wants large dispatches, threads small items);
     /// 0 or a missing entry: item by item.
     pub grains: Vec<u64>,
-    /// Resize every source's buffer so that each holds the same time's worth of work, at most
-    /// once per [`REBALANCE_EVERY`] and only when that time differs by more than
-    /// [`REBALANCE_IMBALANCE`] between sources (the rule of Blender Cycles' multi-device
-    /// balancer).
+    /// Play the grain-picking balancer ([`Balance`]): a probe of a dispatch source's fill
+    /// first, each source's grain and buffer from its measured rate where `grains` and
+    /// `buffers` give none, and the tail guard (several sources only).
     pub balance: bool,
-}
-
-/// The balancer looks at most this often.
-pub const REBALANCE_EVERY: Duration = Duration::from_secs(1);
-/// ... and resizes only when the sources' outstanding times differ by more than this share.
-pub const REBALANCE_IMBALANCE: f64 = 0.02;
-
-/// Time-equalising buffer sizes: a source that renders k× as many pixels per second gets k×
-/// the buffer of the slowest, so every source holds about the same time's worth of work.
-struct Balancer {
-    last: Instant,
-    /// Buffer of the slowest source (the master's B).
-    base: usize,
-    /// Mean pixels per item (the decomposition's).
-    pixels_per_item: f64,
-    /// Most items one source may hold: a fast source must not swallow the tail of the queue.
-    cap: usize,
-    /// Per lane, pixels per unit of its buffer (its grain, or the mean item).
-    units: Vec<f64>,
-    /// Rebalances made.
-    pub(crate) moves: u64,
-}
-
-impl Balancer {
-    /// New buffers from each lane's throughput over the last period, if the sources'
-    /// outstanding times are off by more than [`REBALANCE_IMBALANCE`].
-    fn rebalance(&mut self, lanes: &mut [Lane], now: Instant) {
-        let dt = (now - self.last).as_secs_f64();
-        if dt < REBALANCE_EVERY.as_secs_f64() {
-            return;
-        }
-        self.last = now;
-        let thr: Vec<f64> = lanes
-            .iter_mut()
-            .map(|l| {
-                let pixels = std::mem::take(&mut l.pixels_since) as f64;
-                if l.alive {
-                    pixels / dt
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let buffers: Vec<usize> = lanes.iter().map(|l| l.buffer).collect();
-        let sizing = Sizing {
-            base: self.base,
-            pixels_per_item: self.pixels_per_item,
-            cap: self.cap,
-            units: self.units.clone(),
-        };
-        if let Some(new) = sizing.balanced(&buffers, &thr) {
-            for (l, b) in lanes.iter_mut().zip(new) {
-                l.buffer = b;
-            }
-            self.moves += 1;
-        }
-    }
-}
-
-/// The time-equalising rule, apart from the master's state so it can be tested alone.
-#[derive(Clone)]
-struct Sizing {
-    base: usize,
-    pixels_per_item: f64,
-    /// Most items one source may hold.
-    cap: usize,
-    /// Per source, pixels per unit of its buffer; a missing entry: `pixels_per_item`.
-    units: Vec<f64>,
-}
-
-impl Sizing {
-    /// Given each source's buffer and measured throughput (pixels/s; 0 = no result in the
-    /// period, left as it is), the buffers that give every source the same seconds of work
-    /// (the slowest keeps `base`), or `None` when the current ones already agree within
-    /// [`REBALANCE_IMBALANCE`].
-    fn balanced(&self, buffers: &[usize], thr: &[f64]) -> Option<Vec<usize>> {
-        let unit = |i: usize| self.units.get(i).copied().unwrap_or(self.pixels_per_item);
-        let live: Vec<usize> = (0..buffers.len()).filter(|&i| thr[i] > 0.0).collect();
-        let slowest = live
-            .iter()
-            .copied()
-            .min_by(|&a, &b| thr[a].total_cmp(&thr[b]))?;
-        let hold = |i: usize| buffers[i] as f64 * unit(i) / thr[i];
-        let (lo, hi) = live.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &i| {
-            (lo.min(hold(i)), hi.max(hold(i)))
-        });
-        if live.len() < 2 || hi <= 0.0 || (hi - lo) / hi <= REBALANCE_IMBALANCE {
-            return None;
-        }
-        // Every source holds what the slowest holds with the base buffer.
-        let target_s = self.base as f64 * unit(slowest) / thr[slowest];
-        let mut out = buffers.to_vec();
-        for &i in &live {
-            let want = (target_s * thr[i] / unit(i)).round() as usize;
-            let cap = (self.cap as f64 * self.pixels_per_item / unit(i)).round() as usize;
-            out[i] = want.clamp(1, cap.max(1));
-        }
-        (out != buffers).then_some(out)
-    }
 }
 
 /// Where a master's run stands, for its verdict (the master thread's and `locked_master`'s).
@@ -488,7 +471,9 @@ pub(crate) fn run_master_hetero(
 ) -> Result<(Results, RunStats), SchedError> {
     let mut master = Master::new(params, items, sources, opts.deadline, probe);
     for (lane, &b) in master.lanes.iter_mut().zip(&hetero.buffers) {
-        lane.buffer = b.max(1);
+        if b > 0 {
+            lane.buffer = b;
+        }
     }
     let pixels: usize = items.iter().map(|i| i.pixel_count()).sum();
     let pixels_per_item = pixels as f64 / items.len().max(1) as f64;
@@ -497,24 +482,21 @@ pub(crate) fn run_master_hetero(
         lane.grain = if (g as f64) > pixels_per_item { g } else { 0 };
     }
     if hetero.balance && master.lanes.len() > 1 {
-        master.balancer = Some(Balancer {
-            last: master.t0,
-            base: params.buffer,
-            pixels_per_item,
-            cap: (items.len() / master.lanes.len()).max(params.buffer),
-            units: master
-                .lanes
-                .iter()
-                .map(|l| {
-                    if l.grain > 0 {
-                        l.grain as f64
-                    } else {
-                        pixels_per_item
-                    }
-                })
-                .collect(),
-            moves: 0,
-        });
+        let shapes = master
+            .lanes
+            .iter()
+            .map(|l| l.src.dispatch().map_or(Shape::Items, Shape::Dispatch))
+            .collect::<Vec<_>>();
+        for (lane, shape) in master.lanes.iter_mut().zip(&shapes) {
+            lane.meter.groups = matches!(shape, Shape::Dispatch(_));
+        }
+        let item_px = (pixels_per_item.round() as u64).max(1);
+        let mut b = Balance::new(shapes, item_px, params.buffer);
+        for (i, lane) in master.lanes.iter().enumerate() {
+            let buffer = hetero.buffers.get(i).copied().filter(|&b| b > 0);
+            b = b.fix(i, (lane.grain > 0).then_some(lane.grain), buffer);
+        }
+        master.balance = Some(b);
     }
     let outcome = loop {
         master.stats.iterations += 1;
@@ -523,9 +505,6 @@ pub(crate) fn run_master_hetero(
         master.collect(now);
         if let Some(outcome) = master.verdict() {
             break outcome;
-        }
-        if let Some(b) = &mut master.balancer {
-            b.rebalance(&mut master.lanes, now);
         }
         // 2. Top every live source up to B outstanding items.
         let first = master.hand_out(now);
@@ -554,11 +533,11 @@ impl<'a> Master<'a> {
                 slots: Vec::with_capacity(params.buffer),
                 alive: true,
                 buffer: params.buffer,
-                pixels_since: 0,
                 grain: 0,
                 submitted: 0,
                 per_hand_out: params.returns == Returns::HandOut && src.returns_per_hand_out(),
                 whole: src.runs_hand_outs_whole(),
+                meter: Meter::default(),
                 src,
             })
             .collect();
@@ -572,7 +551,7 @@ impl<'a> Master<'a> {
             ledger: Ledger::new(items, params, t0),
             stats: MasterStats::default(),
             spans: Vec::new(),
-            balancer: None,
+            balance: None,
         }
     }
 
@@ -605,10 +584,56 @@ impl<'a> Master<'a> {
     fn hand_out(&mut self, now: Instant) -> Option<u32> {
         let stale = stale_after(self.params.requeue, self.ledger.slowest);
         let mut first = None;
+        if let Some(b) = self.balance.take() {
+            self.hand_out_balanced(&b, now, stale, &mut first);
+            self.balance = Some(b);
+            return first;
+        }
         for lane in self.lanes.iter_mut().filter(|l| l.alive) {
             self.ledger.top_up(lane, now, stale, &mut first);
         }
         first
+    }
+
+    /// Give every live source what the balancer grants it, hand-out by hand-out, telling
+    /// the rule each time what every source holds and what is queued. A grant the tail
+    /// guard cut, and a source's first refusal since its last hand-out, count as
+    /// rebalances.
+    fn hand_out_balanced(
+        &mut self,
+        b: &Balance,
+        now: Instant,
+        after: Duration,
+        first: &mut Option<u32>,
+    ) {
+        let items = self.ledger.items;
+        let px = |i: u32| items[i as usize].pixel_count() as u64;
+        let mut facts: Vec<Facts> = self.lanes.iter().map(|l| l.facts(now, px)).collect();
+        for i in 0..self.lanes.len() {
+            let lane = &mut self.lanes[i];
+            let stale = Staleness {
+                now,
+                after,
+                finished: lane.src.finished(),
+            };
+            while lane.alive {
+                let grant = b.grant(i, &facts, self.ledger.unissued_px);
+                match grant {
+                    Grant::Cut(_) => self.stats.rebalances += 1,
+                    Grant::Refused if !lane.meter.refused => {
+                        lane.meter.refused = true;
+                        self.stats.rebalances += 1;
+                    }
+                    Grant::Full(_) | Grant::Refused | Grant::Wait => {}
+                }
+                let Some(n) = grant.pixels() else { break };
+                if self.ledger.hand_out_px(lane, n, stale, first) == 0 {
+                    break;
+                }
+                lane.meter.refused = false;
+                facts[i] = lane.facts(now, px);
+            }
+        }
     }
 
     /// Wait for a ring or the tick; with stats on, the pass since `now` counts as dispatch
@@ -653,8 +678,7 @@ impl<'a> Master<'a> {
             ..Default::default()
         };
         let mut spans = self.spans;
-        let mut master_stats = self.stats;
-        master_stats.rebalances = self.balancer.as_ref().map_or(0, |b| b.moves);
+        let master_stats = self.stats;
         let lost_at_end = finish_sources(
             sources,
             self.t0.elapsed().as_secs_f64(),
@@ -717,54 +741,6 @@ pub(crate) fn seal_stats(
     stats.wall_s = wall_s;
     collector.tally.record(stats);
     stats.master = Some(master);
-}
-
-#[cfg(test)]
-mod balancer_tests {
-    use super::*;
-
-    #[test]
-    fn sizing_equalises_time_and_ignores_small_imbalance() {
-        let s = Sizing {
-            base: 2,
-            pixels_per_item: 16.0,
-            cap: 1000,
-            units: vec![],
-        };
-        // A source 100× as fast as the other gets 100× the buffer.
-        assert_eq!(s.balanced(&[2, 2], &[1e3, 1e5]), Some(vec![2, 200]));
-        // Already equal in time: nothing to do; within 2 % neither.
-        assert_eq!(s.balanced(&[2, 200], &[1e3, 1e5]), None);
-        assert_eq!(s.balanced(&[100, 100], &[1e3, 1.015e3]), None);
-        // 3 % apart: resized (the slowest keeps the base).
-        let s2 = Sizing {
-            base: 100,
-            ..s.clone()
-        };
-        assert_eq!(
-            s2.balanced(&[100, 100], &[1e3, 1.03e3]),
-            Some(vec![100, 103])
-        );
-        // A source with no result in the period keeps its buffer; the cap holds.
-        let s3 = Sizing {
-            cap: 50,
-            ..s.clone()
-        };
-        assert_eq!(
-            s3.balanced(&[2, 2, 7], &[1e3, 1e5, 0.0]),
-            Some(vec![2, 50, 7])
-        );
-        // One source alone is never rebalanced.
-        assert_eq!(s.balanced(&[2, 2], &[1e3, 0.0]), None);
-        // A source whose buffer counts hand-outs of 1600 px (100 items): 100× as fast, it
-        // holds 100× the slowest's time in 200 items = 2 hand-outs.
-        let g = Sizing {
-            units: vec![16.0, 1600.0],
-            ..s.clone()
-        };
-        assert_eq!(g.balanced(&[2, 1], &[1e3, 1e5]), Some(vec![2, 2]));
-        assert_eq!(g.balanced(&[2, 2], &[1e3, 1e5]), None);
-    }
 }
 
 #[cfg(test)]

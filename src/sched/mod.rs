@@ -199,12 +199,7 @@ pub fn render_scene<T: Tracer + 'static>(
         let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
             .into_iter()
             .unzip();
-        let buffer = if let Policy::Master(m) = spec.policy {
-            m.buffer
-        } else {
-            MasterParams::DEFAULT.buffer
-        };
-        Sources::Boxed(sources, factory::hetero_of(setup, buffer, &kinds, (w, h)))
+        Sources::Boxed(sources, factory::hetero_of(setup, &kinds, (w, h)))
     };
     let (results, mut stats) = run(&plan, &items, sources)?;
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;

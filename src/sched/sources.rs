@@ -210,7 +210,7 @@ pub fn source_params() -> &'static [SourceParam] {
         out.push(SourceParam {
             name: "balance".into(),
             field: SourceField::Balance,
-            help: "With several kinds of source (master): resize each source's buffer to its                    measured throughput (at most once a second, when the sources' outstanding                    times differ by more than 2 %)"
+            help: "With several kinds of source (master): the balancer picks each source's                    grain and buffer from its measured rate (a GPU probed at its fill first) and                    shrinks hand-outs as the queue empties; default: on unless a source's chunk                    or buffer is given, whose values it then keeps (true or false)"
                 .into(),
         });
         out
@@ -218,15 +218,17 @@ pub fn source_params() -> &'static [SourceParam] {
 }
 
 /// Who renders a run and how the master hands out to each kind: the set of kinds, each
-/// kind's own chunk and buffer, and whether the time-equalising balancer runs.
+/// kind's own chunk and buffer, and whether the grain-picking balancer runs
+/// ([`Self::balanced`]).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct SourceSetup {
     /// The kinds of source.
     pub set: SourceSet,
     /// Per kind, in [`SourceKind::ALL`] order.
     pub own: [HandOut; SourceKind::ALL.len()],
-    /// Resize the buffers to the measured throughputs (several kinds only).
-    pub balance: bool,
+    /// The balancer (`sched::rule::Balance`) on or off as given; `None`: on with several
+    /// kinds unless a kind's chunk or buffer is given.
+    pub balance: Option<bool>,
 }
 
 fn pos(k: SourceKind) -> usize {
@@ -237,12 +239,20 @@ fn pos(k: SourceKind) -> usize {
 }
 
 impl SourceSetup {
-    /// `set` with the scheduler's chunk and buffer for every kind, no balancer.
+    /// `set` with the scheduler's chunk and buffer for every kind, the balancer by default.
     pub fn of(set: SourceSet) -> Self {
         Self {
             set,
             ..Self::default()
         }
+    }
+
+    /// Does the master play the grain-picking balancer? With several kinds: as `balance`
+    /// says, else when no kind has its own chunk or buffer (the default run of
+    /// `--sources threads,gpu`); never with one kind.
+    pub fn balanced(&self) -> bool {
+        let own_given = self.own.iter().any(|h| *h != HandOut::default());
+        self.set.kinds().len() > 1 && self.balance.unwrap_or(!own_given)
     }
 
     /// Kind `k`'s own hand-out settings.
@@ -266,8 +276,8 @@ impl SourceSetup {
             }
             SourceField::Balance => {
                 self.balance = match text.trim() {
-                    "true" => true,
-                    "false" => false,
+                    "true" | "on" => Some(true),
+                    "false" | "off" => Some(false),
                     t => return Err(bad(format!("'{t}': expected true or false"))),
                 }
             }
@@ -276,13 +286,13 @@ impl SourceSetup {
     }
 
     /// The text form of [`source_params`] entry `name`; `None` where it is unset (the
-    /// scheduler's value) or, for `balance`, off.
+    /// scheduler's value; for `balance`, the default).
     pub fn get_param(&self, name: &str) -> Option<String> {
         let p = source_params().iter().find(|p| p.name == name)?;
         match p.field {
             SourceField::Chunk(k) => self.own(k).chunk.map(|c| c.to_string()),
             SourceField::Buffer(k) => self.own(k).buffer.map(|b| b.to_string()),
-            SourceField::Balance => self.balance.then(|| "true".to_string()),
+            SourceField::Balance => self.balance.map(|b| b.to_string()),
         }
     }
 
@@ -304,7 +314,7 @@ impl SourceSetup {
                 ));
             }
         }
-        if self.balance && self.set.kinds().len() < 2 {
+        if self.balance == Some(true) && self.set.kinds().len() < 2 {
             return Err(err(
                 "balance",
                 format!(
@@ -324,8 +334,8 @@ impl SourceSetup {
         let mut s = format!(" sources={}", self.set.id());
         for p in source_params() {
             if let Some(v) = self.get_param(&p.name) {
-                s += &match p.field {
-                    SourceField::Balance => " balance".to_string(),
+                s += &match (p.field, self.balance) {
+                    (SourceField::Balance, Some(true)) => " balance".to_string(),
                     _ => format!(" {}={v}", p.name),
                 };
             }
@@ -465,6 +475,22 @@ mod tests {
         s = SourceSetup::default();
         s.set_param("balance", "true").unwrap();
         assert_eq!(s.validate().unwrap_err().field, "balance");
+        // The balancer: on by default with several kinds, off once a kind's own chunk or
+        // buffer is given unless asked for, off as asked, never over one kind.
+        {
+            // Built directly: a build without `gpu` refuses the set, not its setup.
+            let mut b = SourceSetup::of(SourceSet(vec![SourceKind::Threads, SourceKind::Gpu]));
+            assert!(b.balanced());
+            b.own[pos(SourceKind::Gpu)].buffer = Some(2);
+            assert!(!b.balanced());
+            b.set_param("balance", "on").unwrap();
+            assert!(b.balanced());
+            assert_eq!(b.get_param("balance").as_deref(), Some("true"));
+            b.set_param("balance", "false").unwrap();
+            assert!(!b.balanced());
+            assert!(b.label().contains(" balance=false"), "{}", b.label());
+        }
+        assert!(!SourceSetup::default().balanced());
         assert_eq!(
             s.set_param("cpu_chunk", "4").unwrap_err().field,
             "cpu_chunk"

@@ -7,6 +7,7 @@
 pub mod child;
 pub mod config;
 pub mod error;
+pub mod hetero;
 pub mod inputs;
 pub mod job;
 pub mod plot;

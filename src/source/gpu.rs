@@ -236,6 +236,9 @@ impl ComputeSource for GpuSource {
     fn runs_hand_outs_whole(&self) -> bool {
         true
     }
+    fn dispatch(&self) -> Option<crate::sched::rule::Dispatch> {
+        Some(crate::sched::rule::GPU_DISPATCH)
+    }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()
     }

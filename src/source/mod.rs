@@ -88,6 +88,12 @@ pub trait ComputeSource: Send {
     fn runs_hand_outs_whole(&self) -> bool {
         false
     }
+    /// Where each hand-out runs as one dispatch of fixed cost (a GPU): that cost and the
+    /// pixels that fill the device, for the master's balancer (`sched::rule::Balance`, which
+    /// probes such a source at its fill first). `None`: item by item, as a thread.
+    fn dispatch(&self) -> Option<crate::sched::rule::Dispatch> {
+        None
+    }
     /// The source is gone: none of its outstanding results will arrive.
     fn is_lost(&self) -> bool;
     /// How many of its items the source has taken to the end (rendered, failed or skipped),

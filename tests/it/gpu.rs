@@ -589,6 +589,37 @@ fn a_gpu_source_with_its_own_chunk_renders_whole_groups_per_dispatch() {
     );
 }
 
+#[test]
+fn the_default_balancer_on_one_thread_and_the_gpu_does_every_item_once_within_noise() {
+    use raysched::sched::{render_scene, RenderOn, SchedulerKind, SchedulerSpec, SourceSet};
+    use raysched::sched::{Chunk, SourceSetup};
+    // `render --sources threads,gpu --threads 1` with no grain flags: the balancer runs.
+    let scene = Arc::new(load("cornell_box.toml", small(48, 4)));
+    let Some(r) = renderer(&scene) else { return };
+    let tracer = Arc::new(BvhTracer::new(&scene.geometry));
+    let spec = SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 4, h: 4 }, 1);
+    let setup = SourceSetup::of(SourceSet::parse("threads+gpu").unwrap());
+    assert!(setup.balanced());
+    let on = RenderOn {
+        setup: &setup,
+        gpu: Some(Arc::new(r)),
+    };
+    let (frames, stats) = render_scene(&spec, &scene, &tracer, &on, &RunOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let n = 12 * 12;
+    assert_eq!(stats.items, n);
+    assert_eq!((stats.issued, stats.reissued, stats.duplicates), (n, 0, 0));
+    let by: Vec<u64> = stats.workers.iter().map(|w| w.items).collect();
+    assert_eq!(by.iter().sum::<u64>(), n, "{by:?}");
+    assert!(by.iter().all(|&k| k > 0), "both sources render: {by:?}");
+    let d = diff(&Image::stack(frames), &cpu_image(&scene));
+    assert!(
+        d.mean.abs() <= 3.0 * d.se + 1e-6,
+        "balanced image off: {}",
+        d.mean
+    );
+}
+
 /// `raysched run` with `args` in `dir`; (exit code, stderr).
 fn run_cmd(dir: &std::path::Path, args: &[&str]) -> (i32, String) {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_raysched"))

@@ -763,32 +763,47 @@ fn sleeping_job(d: Duration) -> Job {
 }
 
 #[test]
-fn the_balancer_resizes_the_buffers_of_sources_of_different_speeds_and_loses_nothing() {
+fn the_balancer_probes_a_dispatch_source_at_its_fill_first_and_loses_nothing() {
     use raysched::metrics::Probe;
+    use raysched::sched::rule::Dispatch;
     use raysched::sched::Hetero;
     use raysched::source::{slowed_job, ComputeSource, LocalThreadSource};
-    // Source 1 takes 8× as long per item as source 0: at equal buffers it holds 8× the time's
-    // worth of work, far past the 2 % the balancer tolerates. 8000 items of ≥ 200 µs on a
-    // source that does at least 8/9 of them last ≥ 1.4 s, so the balancer looks at least once.
-    let job = sleeping_job(Duration::from_micros(200));
+    // Source 1 says it runs each hand-out as one dispatch filled at 64 items of 16 px; it
+    // renders 8× as fast as source 0. 2000 items of ≥ 25 µs on source 1.
+    let job = sleeping_job(Duration::from_micros(25));
     let probe = Probe::new(true, false);
+    let log: Arc<std::sync::Mutex<Vec<usize>>> = Arc::default();
     let sources: Vec<Box<dyn ComputeSource>> = vec![
-        Box::new(LocalThreadSource::spawn(0, job.clone(), probe)),
-        Box::new(LocalThreadSource::spawn(1, slowed_job(job, 8.0), probe)),
+        Box::new(LocalThreadSource::spawn(
+            0,
+            slowed_job(job.clone(), 8.0),
+            probe,
+        )),
+        Box::new(Recording {
+            inner: LocalThreadSource::spawn(1, job, probe),
+            sizes: log.clone(),
+            whole: true,
+            dispatch: Some(Dispatch {
+                overhead: Duration::from_micros(10),
+                fill_px: 64 * 16,
+            }),
+        }),
     ];
-    let items: Vec<WorkItem> = (0..8000).map(|i| WorkItem::rect(i, 0, 0, 1, 1)).collect();
+    let items: Vec<WorkItem> = (0..2000).map(|i| WorkItem::rect(i, 0, 0, 4, 4)).collect();
     let hetero = Hetero {
-        buffers: vec![2, 2],
         balance: true,
         ..Default::default()
     };
     let (results, stats) =
         master_over(MasterParams::default(), hetero, &items, sources, probe).unwrap();
-    assert_eq!(results.len(), items.len());
-    assert!((0..8000).all(|i| results.get(i).is_some()));
-    let rebalances = stats.master.as_ref().unwrap().rebalances;
-    assert!(rebalances >= 1, "{:.2} s and no rebalance", stats.wall_s);
-    assert!(stats.workers[0].items > stats.workers[1].items);
+    assert!((0..2000).all(|i| results.get(i).is_some()));
+    assert_eq!(stats.workers[0].items + stats.workers[1].items, 2000);
+    // Its first hand-out is the probe of its fill; none is smaller but the queue's last.
+    let sizes = log.lock().unwrap().clone();
+    assert_eq!(sizes[0], 64, "{sizes:?}");
+    let (_, before_last) = sizes.split_last().unwrap();
+    assert!(before_last.iter().all(|&n| n >= 64), "{sizes:?}");
+    assert!(stats.workers[1].items > stats.workers[0].items);
     assert_eq!(
         stats.workers[0].source,
         Some(raysched::metrics::SourceKind::Threads)
@@ -801,6 +816,8 @@ struct Recording {
     inner: raysched::source::LocalThreadSource,
     sizes: Arc<std::sync::Mutex<Vec<usize>>>,
     whole: bool,
+    /// What it says of its dispatches (a GPU-like source for the balancer).
+    dispatch: Option<raysched::sched::rule::Dispatch>,
 }
 
 impl raysched::source::ComputeSource for Recording {
@@ -824,6 +841,9 @@ impl raysched::source::ComputeSource for Recording {
     }
     fn runs_hand_outs_whole(&self) -> bool {
         self.whole
+    }
+    fn dispatch(&self) -> Option<raysched::sched::rule::Dispatch> {
+        self.dispatch
     }
     fn is_lost(&self) -> bool {
         self.inner.is_lost()
@@ -852,6 +872,7 @@ fn a_source_with_its_own_grain_gets_whole_groups_of_items_and_the_others_single_
                 inner: LocalThreadSource::spawn(i as u32, job.clone(), probe),
                 sizes: log.clone(),
                 whole: false,
+                dispatch: None,
             }) as Box<dyn ComputeSource>
         })
         .collect();
@@ -889,6 +910,7 @@ fn an_idle_source_gets_its_first_item_ahead_of_the_rest_unless_its_hand_outs_go_
             inner: LocalThreadSource::spawn(0, job.clone(), probe),
             sizes: log.clone(),
             whole,
+            dispatch: None,
         }) as Box<dyn ComputeSource>;
         let params = MasterParams {
             buffer: 16,

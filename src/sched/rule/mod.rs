@@ -25,9 +25,14 @@
 //! assert_eq!(pool.rule.next(0, 100), 25);
 //! ```
 
+mod balance;
 mod master;
 
 pub use super::dls::{ChunkRule, Grab, ItemTimes, Report, Timing};
+pub use balance::{
+    Balance, Dispatch, Facts, Grant, Shape, DISPATCH_BUFFER, GPU_DISPATCH, LONG_ITEM, PEAK_SHARE,
+    TAIL_SLACK,
+};
 pub use master::{MasterParams, MasterQueue, Take};
 
 use super::param::Slow;
