@@ -4,6 +4,7 @@
 //! items that do no work (as `benches/dispatch.rs` measures them).
 
 use super::Overheads;
+use crate::metrics::RunStats;
 use crate::profile::Profile;
 use crate::render::{TileResult, WorkItem};
 use crate::scene::Scene;
@@ -71,13 +72,7 @@ fn timed_pass<T: Tracer + 'static>(
     let mut spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, chunk, workers);
     spec.timeline = true;
     let items = decompose(w, h, spec.chunk, Order::Scanline);
-    let (_, stats) = RunPlan::of(&spec, &RunOptions::default()).and_then(|plan| {
-        run(
-            &plan,
-            &items,
-            Sources::threads(&render_job(scene, tracer), &spec),
-        )
-    })?;
+    let stats = render_on_threads(&spec, scene, tracer, &items)?;
     let mut secs = vec![0.0; items.len()];
     for s in stats.timeline.unwrap_or_default() {
         if let Some(x) = secs.get_mut(s.item as usize) {
@@ -237,6 +232,19 @@ pub fn pixels_with<T: Tracer + 'static>(
 
 /// Σ busy seconds of frame 0 cut into `chunk`s in `order`, dealt cyclically over `workers`
 /// in that order, nothing timed per item beyond the run's own statistics.
+/// Render `items` of `scene` under `spec` on its threads.
+fn render_on_threads<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    items: &[WorkItem],
+) -> Result<RunStats, SchedError> {
+    let opts = RunOptions::default();
+    let plan = RunPlan::of(spec, &opts)?;
+    let job = render_job(scene, tracer);
+    Ok(run(&plan, items, Sources::threads(&job, spec))?.1)
+}
+
 fn busy_pass<T: Tracer + 'static>(
     scene: &Arc<Scene>,
     tracer: &Arc<T>,
@@ -246,13 +254,7 @@ fn busy_pass<T: Tracer + 'static>(
 ) -> Result<f64, SchedError> {
     let spec = SchedulerSpec::new(SchedulerKind::StaticCyclic, chunk, workers);
     let items = decompose(scene.width(), scene.height(), chunk, order);
-    let (_, stats) = RunPlan::of(&spec, &RunOptions::default()).and_then(|plan| {
-        run(
-            &plan,
-            &items,
-            Sources::threads(&render_job(scene, tracer), &spec),
-        )
-    })?;
+    let stats = render_on_threads(&spec, scene, tracer, &items)?;
     Ok(stats.busy_s())
 }
 

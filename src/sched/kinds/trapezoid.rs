@@ -41,9 +41,21 @@ impl Trapezoid {
     }
 }
 
+impl Trapezoid {
+    /// Chunk `k` of the sequence (from 0) before rounding: f − k·δ; `k` may be a mean index.
+    pub(crate) fn at(&self, k: f64) -> f64 {
+        self.first - k * self.delta
+    }
+
+    /// The smallest chunk, l.
+    pub(crate) fn last(&self) -> usize {
+        self.last
+    }
+}
+
 impl ChunkRule for Trapezoid {
     fn next(&mut self, _worker: usize, _remaining: usize) -> usize {
-        let c = ceil_count(self.first - self.k as f64 * self.delta - 1e-9).max(self.last);
+        let c = ceil_count(self.at(self.k as f64) - 1e-9).max(self.last);
         self.k += 1;
         c
     }

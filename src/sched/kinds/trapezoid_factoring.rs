@@ -7,6 +7,7 @@
 //! than l. Fewer distinct sizes than TSS, and a batch's chunks are equal, so a slow worker's
 //! chunk is no larger than a fast one's.
 
+use super::trapezoid::Trapezoid;
 use super::BuiltIn;
 use crate::sched::dls::{ceil_count, ChunkRule};
 use crate::sched::param::{scheduler_params, Slow};
@@ -33,9 +34,7 @@ impl BuiltIn for TrapezoidFactoringParams {
 
 /// TFSS over `n` items on `p` workers.
 pub struct TrapezoidFactoring {
-    first: f64,
-    delta: f64,
-    last: usize,
+    tss: Trapezoid,
     p: usize,
     batch: usize,
     left_in_batch: usize,
@@ -45,19 +44,9 @@ pub struct TrapezoidFactoring {
 impl TrapezoidFactoring {
     /// The TFSS sequence of `n` items on `p` workers, smallest chunk `last` items.
     pub fn new(n: usize, p: usize, last: usize) -> Self {
-        let p = p.max(1);
-        let f = n.div_ceil(2 * p).max(last).max(1);
-        let chunks = (2 * n).div_ceil(f + last).max(1);
-        let delta = if chunks > 1 {
-            (f - last) as f64 / (chunks - 1) as f64
-        } else {
-            0.0
-        };
         Self {
-            first: f as f64,
-            delta,
-            last,
-            p,
+            tss: Trapezoid::new(n, p.max(1), last),
+            p: p.max(1),
             batch: 0,
             left_in_batch: 0,
             size: 0,
@@ -68,8 +57,9 @@ impl TrapezoidFactoring {
 impl ChunkRule for TrapezoidFactoring {
     fn next(&mut self, _worker: usize, _remaining: usize) -> usize {
         if self.left_in_batch == 0 {
+            // The mean of TSS chunks bP … bP + P − 1 is TSS's chunk at their mean index.
             let mid = (self.batch * self.p) as f64 + (self.p - 1) as f64 / 2.0;
-            self.size = ceil_count(self.first - self.delta * mid - 1e-9).max(self.last);
+            self.size = ceil_count(self.tss.at(mid) - 1e-9).max(self.tss.last());
             self.batch += 1;
             self.left_in_batch = self.p;
         }
