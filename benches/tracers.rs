@@ -13,9 +13,9 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rayon::prelude::*;
 use raysched::geometry::Ray;
-use raysched::host::os_thread_count;
 use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
+use raysched::util::host::os_thread_count;
 use std::path::Path;
 use std::time::{Duration, Instant};
 

@@ -42,28 +42,16 @@
 //! ```
 
 pub mod converge;
-pub mod cpu_time;
-pub mod csv_out;
-#[cfg(any(feature = "embree4", feature = "simgrid"))]
-pub mod dl;
-#[cfg(feature = "embree")]
-pub mod embree;
-#[cfg(feature = "embree4")]
-pub mod embree4;
-#[cfg(any(feature = "embree", feature = "embree4"))]
-mod embree_common;
 pub mod experiment;
 pub mod geometry;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hash;
-pub mod host;
 pub mod limits;
 pub mod metrics;
 pub mod model;
 #[cfg(feature = "mpi")]
 pub mod mpi;
-pub mod one_line;
 pub mod plot;
 pub mod profile;
 pub mod provenance;
@@ -77,7 +65,5 @@ pub mod simgrid;
 pub mod simulate;
 pub mod source;
 pub mod stability;
-pub mod staging;
-pub mod suggest;
 pub mod tracer;
 pub mod util;

@@ -11,7 +11,7 @@ use raysched::tracer::{AnyTracer, TracerKind};
 fn embree4_devices_and_os_threads_are_what_the_run_asked_for() {
     common::devices_and_os_threads_are_what_the_run_asked_for(
         TracerKind::Embree4,
-        raysched::embree4::devices_created,
+        raysched::tracer::embree::v4::devices_created,
         |t| match t {
             AnyTracer::Embree4(inner) => inner.os_threads_after_build,
             _ => panic!("not embree4"),

@@ -11,7 +11,7 @@ use raysched::tracer::{AnyTracer, TracerKind};
 fn embree_devices_and_os_threads_are_what_the_run_asked_for() {
     common::devices_and_os_threads_are_what_the_run_asked_for(
         TracerKind::Embree,
-        raysched::embree::devices_created,
+        raysched::tracer::embree::v3::devices_created,
         |t| match t {
             AnyTracer::Embree(inner) => inner.os_threads_after_build,
             _ => panic!("not embree"),

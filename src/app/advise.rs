@@ -50,7 +50,7 @@ pub(crate) struct AdviseArgs {
     /// Scene file (TOML), see scenes/.
     scene: PathBuf,
     /// Worker threads the prediction is for.
-    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
+    #[arg(long, default_value_t = raysched::util::host::available_threads(), value_parser = super::threads_arg(1))]
     workers: usize,
     /// Schedulers to consider, comma-separated.
     #[arg(long = "scheduler", default_value = default_schedulers(), value_delimiter = ',',

@@ -46,7 +46,7 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
         if !dir.is_dir() {
             return Err(CliError::message(format!(
                 "{name} '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
-                raysched::one_line::escape_controls(&dir.to_string_lossy())
+                raysched::util::one_line::escape_controls(&dir.to_string_lossy())
             )));
         }
     }

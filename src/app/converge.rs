@@ -21,7 +21,7 @@ pub(crate) struct ConvergeArgs {
     /// Tracers to compare, comma separated.
     #[arg(long, default_value = "bvh,brute")]
     pub(crate) tracers: String,
-    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
+    #[arg(long, default_value_t = raysched::util::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for convergence.csv and convergence.png.
     #[arg(short, long, default_value = "results/runs/converge")]
@@ -107,7 +107,7 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     let png = args.output.join("convergence.png");
     super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
     // Both files or neither: a failed write leaves the previous pair.
-    let staging = raysched::staging::Staging::new(&args.output)
+    let staging = raysched::util::staging::Staging::new(&args.output)
         .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
     let staged_csv = staging.path("convergence.csv");
     cv::write_csv(&staged_csv, &rows).map_err(CliError::runtime)?;

@@ -115,7 +115,7 @@ pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
     if !args.dir.is_dir() {
         return Err(CliError::message(format!(
             "DIR '{}': not a folder (expected a results folder, e.g. results/runs/quick)",
-            raysched::one_line::escape_controls(&args.dir.to_string_lossy())
+            raysched::util::one_line::escape_controls(&args.dir.to_string_lossy())
         )));
     }
     super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;

@@ -220,7 +220,7 @@ where
 pub(crate) fn parse_chunk(s: &str) -> Result<raysched::sched::Chunk, String> {
     raysched::sched::Chunk::parse(s).map_err(|e| {
         let word = s.split(':').next().unwrap_or_default().trim();
-        let near = raysched::suggest::did_you_mean(word, ["frame", "frames", "rows"]);
+        let near = raysched::util::suggest::did_you_mean(word, ["frame", "frames", "rows"]);
         format!("{}{near}", e.msg)
     })
 }

@@ -128,7 +128,7 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
     if let Err(e) = remote.ship(&plan, 0) {
         return Err(CliError::runtime(e));
     }
-    let me = raysched::host::hostname();
+    let me = raysched::util::host::hostname();
     let one_host = remote.peers.iter().all(|p| p.host == me);
     let t = transport(|v| std::env::var(v).ok(), one_host);
     if !m.transports.contains(&t) {

@@ -136,5 +136,5 @@ fn probe(dir: PathBuf) -> Result<(), String> {
 
 /// A path for a one-line message: control characters escaped.
 fn shown(p: &Path) -> String {
-    raysched::one_line::escape_controls(&p.to_string_lossy()).into_owned()
+    raysched::util::one_line::escape_controls(&p.to_string_lossy()).into_owned()
 }

@@ -58,7 +58,7 @@ pub(crate) fn profile(args: ProfileArgs) -> Result<(), CliError> {
     if args.output.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(CliError::message(format!(
             "--output {}: the heat map is a .png",
-            raysched::one_line::escape_controls(&args.output.to_string_lossy())
+            raysched::util::one_line::escape_controls(&args.output.to_string_lossy())
         )));
     }
     super::out_path::check("--output", &args.output, super::out_path::Kind::File)?;

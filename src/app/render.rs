@@ -54,7 +54,7 @@ pub(crate) struct RenderArgs {
     #[arg(long, value_parser = parse_max_depth, allow_negative_numbers = true)]
     pub(crate) max_depth: Option<i32>,
     /// Worker threads.
-    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
+    #[arg(long, default_value_t = raysched::util::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Tracer: bvh (native: obvhs build, own 8-wide traversal), brute (reference), embree and
     /// embree_robust (feature `embree`, Embree 3), embree4 and embree4_robust (feature `embree4`).
@@ -121,7 +121,7 @@ impl RenderArgs {
         if !matches!(ext.as_deref(), Some("exr" | "pfm" | "png")) {
             return Err(CliError::message(format!(
                 "--output {}: unsupported extension (use .exr, .pfm or .png)",
-                raysched::one_line::escape_controls(&self.output.to_string_lossy())
+                raysched::util::one_line::escape_controls(&self.output.to_string_lossy())
             )));
         }
         super::out_path::check_input("SCENE", &self.scene)?;
@@ -339,7 +339,7 @@ pub(crate) fn save_render(
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let staging = raysched::staging::Staging::new(&root)
+    let staging = raysched::util::staging::Staging::new(&root)
         .map_err(|e| anyhow::anyhow!("{}: {e}", root.display()))?;
     let staged = |p: &Path| staging.path(p.file_name().unwrap_or_default());
     let summary = if frames <= 1 {

@@ -13,7 +13,7 @@ pub(crate) struct StabilityArgs {
     pub(crate) size: u32,
     #[arg(long, default_value_t = 32, value_parser = super::spp_arg())]
     pub(crate) spp: u32,
-    #[arg(long, default_value_t = raysched::host::available_threads(), value_parser = super::threads_arg(1))]
+    #[arg(long, default_value_t = raysched::util::host::available_threads(), value_parser = super::threads_arg(1))]
     pub(crate) threads: usize,
     /// Output folder for stability.csv and stability.md.
     #[arg(short, long, default_value = "results/runs/stability")]
@@ -49,7 +49,7 @@ pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
     let csv = args.output.join("stability.csv");
     super::refuse_partial_overwrite(&csv, rows.len(), args.force)?;
     // Both files or neither: a failed write leaves the previous pair.
-    let staging = raysched::staging::Staging::new(&args.output)
+    let staging = raysched::util::staging::Staging::new(&args.output)
         .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", args.output.display())))?;
     st::write_csv(&staging.path("stability.csv"), &rows).map_err(CliError::runtime)?;
     std::fs::write(staging.path("stability.md"), &table).map_err(CliError::runtime)?;

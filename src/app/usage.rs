@@ -1,5 +1,5 @@
 //! Usage errors as one line that names the flag and says what it takes, with a "did you mean"
-//! from [`raysched::suggest`] for a misspelt flag, subcommand or value; and the command
+//! from [`raysched::util::suggest`] for a misspelt flag, subcommand or value; and the command
 //! line's own description as JSON (`raysched cli-spec`, what the CLI fuzzer enumerates).
 //!
 //! clap's own messages spread over several lines (possible values, tips, usage); only the
@@ -7,8 +7,8 @@
 
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::{Arg, Command};
-use raysched::one_line::escape_controls;
-use raysched::suggest::did_you_mean;
+use raysched::util::one_line::escape_controls;
+use raysched::util::suggest::did_you_mean;
 use std::ffi::OsString;
 
 /// `e` as the one line printed on stderr, `error: …`.

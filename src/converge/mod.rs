@@ -14,12 +14,12 @@ pub use plot::{plot, PlotError};
 
 pub use reference::{Reference, ReferenceKind};
 
-use crate::csv_out::CsvError;
 use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
 use crate::sched::{decompose, run, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
 use crate::source::Job;
 use crate::tracer::Tracer;
+use crate::util::csv_out::CsvError;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use std::path::Path;
@@ -422,7 +422,7 @@ pub fn budget_winners(rows: &[ConvergenceRow]) -> Vec<String> {
 /// # Errors
 /// I/O or CSV errors.
 pub fn write_csv(path: &Path, rows: &[ConvergenceRow]) -> Result<(), CsvError> {
-    crate::csv_out::write_rows(path, rows)
+    crate::util::csv_out::write_rows(path, rows)
 }
 
 /// Read rows back (plots are drawn from the CSV, never from memory).

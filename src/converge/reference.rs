@@ -512,8 +512,8 @@ pub fn reference<T: Tracer + ?Sized>(
                 .map(|(s, q)| ((q / k - (s / k).powi(2)).max(0.0)) / (k - 1.0).max(1.0))
                 .sum();
             let noise = var_sum / (3 * n.max(1)) as f64;
-            let staging =
-                crate::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let staging = crate::util::staging::Staging::new(dir)
+                .map_err(|e| format!("{}: {e}", dir.display()))?;
             let name = |p: &Path| p.file_name().map(PathBuf::from).unwrap_or_default();
             image
                 .save_with_preview(&staging.path(name(&path)))

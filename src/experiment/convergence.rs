@@ -46,7 +46,7 @@ pub enum ConvergenceError {
     },
     /// Writing or reading `convergence.csv`.
     #[error(transparent)]
-    Csv(#[from] crate::csv_out::CsvError),
+    Csv(#[from] crate::util::csv_out::CsvError),
     /// Drawing a plot.
     #[error(transparent)]
     Plot(#[from] converge::PlotError),
@@ -186,7 +186,7 @@ pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> Result<String, Convergenc
     let steps = settings.max_spp.ilog2() + 1;
     // 1 + 2 + 4 + … + max_spp samples per pixel, the progression's last step included.
     let samples = 2.0 * f64::from(settings.max_spp) - 1.0;
-    let cores = crate::host::available_threads();
+    let cores = crate::util::host::available_threads();
     let mut text = String::new();
     let _ = writeln!(
         text,
@@ -243,7 +243,7 @@ pub fn plan_text(plan: &ExperimentPlan, out: &Path) -> Result<String, Convergenc
 
 /// The 1-minute load average (Linux), or "unknown": how busy the machine was around the run.
 fn load_average() -> String {
-    let all = crate::host::load_average_text();
+    let all = crate::util::host::load_average_text();
     all.split_whitespace()
         .next()
         .map_or_else(|| "unknown".into(), str::to_string)

@@ -106,7 +106,7 @@ pub fn plan_text(plan: &ExperimentPlan, opts: &RunOptions) -> Result<String, Run
         .iter()
         .map(|b| probe_render_s(plan.scenes[b.scene].scene.as_ref(), b.tracer.as_ref()))
         .collect();
-    let cores = crate::host::available_threads();
+    let cores = crate::util::host::available_threads();
     let _ = writeln!(
         out,
         "\n{:<17} {:>9} {:>6} {:>9} {:>14}  configuration",

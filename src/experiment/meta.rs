@@ -81,13 +81,13 @@ impl Start {
         let m = machine();
         Self {
             time: now_utc(),
-            host: crate::host::hostname(),
+            host: crate::util::host::hostname(),
             cpu_model: m.cpu_model,
             cores: m.cores,
             commit: b.commit_label(),
             rustc: b.rustc,
             profile: b.profile,
-            load1: crate::host::load_average().map_or(-1.0, |l| l[0]),
+            load1: crate::util::host::load_average().map_or(-1.0, |l| l[0]),
             rows_before,
             stats,
             experiment_hash: None,
@@ -173,7 +173,7 @@ pub struct SceneMeta {
 
 /// Describe this host.
 pub fn machine() -> Machine {
-    use crate::host;
+    use crate::util::host;
     Machine {
         cpu_model: host::cpu_model(),
         cores: host::available_threads(),

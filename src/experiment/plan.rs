@@ -9,7 +9,6 @@ use crate::hash::{fnv, hex};
 use crate::limits::{
     checked_product, MAX_CONFIGS, MAX_REPETITIONS, MAX_RUNS, MAX_SPP, MAX_THREADS,
 };
-use crate::one_line::OneLine;
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
@@ -17,6 +16,7 @@ use crate::sched::{
     SourceSetup,
 };
 use crate::tracer::{AnyTracer, TracerKind};
+use crate::util::one_line::OneLine;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -1029,7 +1029,7 @@ fn validate_mpi(m: &MpiEntry, file: &ExperimentFile) -> Result<MpiSettings, Fiel
 }
 
 fn expand_workers(w: &WorkersSpec) -> Result<Vec<usize>, String> {
-    let max = crate::host::available_threads() as i64;
+    let max = crate::util::host::available_threads() as i64;
     let word = |s: &str| -> Result<i64, String> {
         match s.trim() {
             "max" => Ok(max),

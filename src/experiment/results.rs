@@ -513,7 +513,7 @@ impl RunRow {
             let more = if shown.len() < value.len() { "…" } else { "" };
             format!(
                 "column {col} ({name}): `{}{more}` is not a valid value",
-                crate::one_line::escape_controls(&shown)
+                crate::util::one_line::escape_controls(&shown)
             )
         })?;
         row.params = params

@@ -676,8 +676,8 @@ impl Session<'_, '_> {
         };
         let rep = st.next_rep;
         let want_timeline = plan.timeline && rep == 0 && c.spec.is_some();
-        let load_before = crate::host::load_average().map(|l| l[0]);
-        let cpu0 = crate::cpu_time::process_cpu_s();
+        let load_before = crate::util::host::load_average().map(|l| l[0]);
+        let cpu0 = crate::util::cpu_time::process_cpu_s();
         let timestamp = meta::now_utc();
         let mut total = 0.0;
         let mut first_hash = None;
@@ -695,7 +695,7 @@ impl Session<'_, '_> {
             same &= *first_hash.get_or_insert(h) == h;
             last = Some((image, stats));
         }
-        let cpu1 = crate::cpu_time::process_cpu_s();
+        let cpu1 = crate::util::cpu_time::process_cpu_s();
         let (image, mut stats) = last.expect("inner ≥ 1");
         stats.wall_s = total / f64::from(inner);
         stats.timeline = timeline;
@@ -704,7 +704,7 @@ impl Session<'_, '_> {
             inner,
             timestamp,
             cpu: cpu0.zip(cpu1).map(|(a, b)| (b.0 - a.0, b.1 - a.1)),
-            load: (load_before, crate::host::load_average().map(|l| l[0])),
+            load: (load_before, crate::util::host::load_average().map(|l| l[0])),
             same,
         };
         self.record(c, &sample, &image, &stats)?;

@@ -97,7 +97,7 @@ impl<'c> Hub<'c> {
         silence: Duration,
     ) -> (Self, Vec<Box<dyn ComputeSource>>) {
         let (tx, rx) = crossbeam::channel::unbounded();
-        let me = crate::host::hostname();
+        let me = crate::util::host::hostname();
         let pid_check = std::env::var_os(ENV_NO_PID_CHECK).is_none();
         let mut ranks = Vec::new();
         let mut sources: Vec<Box<dyn ComputeSource>> = Vec::new();

@@ -109,7 +109,7 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                         });
                 let ready = Ready {
                     pid: std::process::id(),
-                    host: crate::host::hostname(),
+                    host: crate::util::host::hostname(),
                     error: built
                         .as_ref()
                         .err()

@@ -85,8 +85,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
     let staging =
-        crate::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let commit = |staging: crate::staging::Staging| {
+        crate::util::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let commit = |staging: crate::util::staging::Staging| {
         staging
             .commit()
             .map_err(|e| format!("{}: {e}", dir.display()))

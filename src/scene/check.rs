@@ -1,6 +1,6 @@
 //! Field checks of stage two: every error names the file and the field.
 
-use crate::one_line::OneLine;
+use crate::util::one_line::OneLine;
 use glam::DVec3;
 
 /// A bad scene: which file, which field (or line), and what is wrong with it; one line,
@@ -124,7 +124,7 @@ fn with_suggestion(msg: String) -> String {
         return msg;
     };
     let names: Vec<&str> = msg[expected..].split('`').skip(1).step_by(2).collect();
-    match crate::suggest::nearest(&msg[rest..end], names) {
+    match crate::util::suggest::nearest(&msg[rest..end], names) {
         Some(n) => format!("{} (did you mean `{n}`?){}", &msg[..=end], &msg[end + 1..]),
         None => msg,
     }

@@ -259,7 +259,7 @@ macro_rules! id_enum {
                         format!(
                             concat!("unknown ", $what, " '{}'{} (expected {})"),
                             s,
-                            $crate::suggest::did_you_mean(s, Self::ALL.iter().map(|v| v.id())),
+                            $crate::util::suggest::did_you_mean(s, Self::ALL.iter().map(|v| v.id())),
                             one_of(&Self::ALL.iter().map(|v| v.id()).collect::<Vec<_>>())
                         ),
                     )

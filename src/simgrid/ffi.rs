@@ -38,7 +38,7 @@ extern "C" {
     fn free(p: *mut c_void);
 }
 
-crate::dl::dl_api! {
+crate::util::dl::dl_api! {
     /// SimGrid's functions, resolved in the library opened with `RTLD_LOCAL`.
     struct Api, abi "C-unwind", missing |name| format!("SimGrid has no symbol {name}");
     simgrid_init: fn(*mut c_int, *mut *mut c_char);
@@ -76,7 +76,7 @@ crate::dl::dl_api! {
 fn api() -> &'static Api {
     static API: std::sync::OnceLock<Result<Api, String>> = std::sync::OnceLock::new();
     let api = API.get_or_init(|| {
-        let lib = crate::dl::Library::open_first(&["libsimgrid.so", "libsimgrid.so.3.32"])
+        let lib = crate::util::dl::Library::open_first(&["libsimgrid.so", "libsimgrid.so.3.32"])
             .map_err(|e| format!("cannot open SimGrid (install libsimgrid-dev): {e}"))?;
         // SAFETY: `lib` is SimGrid's library, opened by its name and never closed.
         unsafe { Api::resolve(&lib) }

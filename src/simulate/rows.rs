@@ -548,7 +548,7 @@ pub fn write_rows(path: &Path, rows: &[SimRow]) -> Result<(), SimError> {
 
 /// `/proc/loadavg`'s first three fields (the machine is shared: measured inputs are noisy).
 pub fn load_average() -> String {
-    crate::host::load_average_text()
+    crate::util::host::load_average_text()
 }
 
 #[cfg(test)]

@@ -117,7 +117,7 @@ pub fn run(plan: &SimPlan, exe: &Path, out: &Path, quiet: bool) -> Result<PathBu
     let inputs_toml = format!(
         "# Measured inputs of every simulated run ({}).\nmachine = {:?}\nload_average = {:?}\nprobe_scene = {:?}\nprobe_pixels = {}\nprobe_timed_s = {}\nprobe_bulk_s = {}\nserial_s = {}\ncounter_s = {}\n[master_h_s]\n{}",
         plan.file.display(),
-        crate::host::cpu_model(),
+        crate::util::host::cpu_model(),
         load_average(),
         plan.scene.display().to_string(),
         inputs.pixels.cost_s.len(),

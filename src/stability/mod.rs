@@ -334,8 +334,8 @@ fn failed(group: &str, case: &str, msg: String) -> CaseResult {
 ///
 /// # Errors
 /// I/O or CSV errors.
-pub fn write_csv(path: &Path, rows: &[CaseResult]) -> Result<(), crate::csv_out::CsvError> {
-    crate::csv_out::write_rows(path, rows)
+pub fn write_csv(path: &Path, rows: &[CaseResult]) -> Result<(), crate::util::csv_out::CsvError> {
+    crate::util::csv_out::write_rows(path, rows)
 }
 
 /// The table as markdown.

@@ -7,10 +7,8 @@
 pub mod brute;
 pub mod bvh;
 pub mod bvh4;
-#[cfg(feature = "embree")]
-mod embree;
-#[cfg(feature = "embree4")]
-mod embree4;
+#[cfg(any(feature = "embree", feature = "embree4"))]
+pub mod embree;
 pub mod kind;
 #[cfg(target_arch = "x86_64")]
 mod simd;
@@ -47,7 +45,7 @@ pub trait Tracer: Send + Sync {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TracerError {
     #[error("unknown tracer '{0}'{near} (expected one of: {ids})", ids = TracerKind::id_list(),
-            near = crate::suggest::did_you_mean(.0, TracerKind::ALL.iter().map(|k| k.id())))]
+            near = crate::util::suggest::did_you_mean(.0, TracerKind::ALL.iter().map(|k| k.id())))]
     /// The id names no tracer; holds the id as given.
     Unknown(String),
     #[error("tracer '{id}' needs cargo feature '{feature}', which this build was compiled without (rebuild with --features {feature})")]
@@ -76,10 +74,10 @@ pub enum AnyTracer {
     Brute(BruteTracer),
     /// Intel Embree, default or robust.
     #[cfg(feature = "embree")]
-    Embree(crate::embree::EmbreeTracer),
+    Embree(embree::v3::EmbreeTracer),
     /// Intel Embree 4, default or robust.
     #[cfg(feature = "embree4")]
-    Embree4(crate::embree4::Embree4Tracer),
+    Embree4(embree::v4::Embree4Tracer),
 }
 
 impl AnyTracer {
@@ -95,13 +93,13 @@ impl AnyTracer {
             TracerKind::Brute => Ok(Self::Brute(BruteTracer::new(&scene.geometry))),
             #[cfg(feature = "embree")]
             TracerKind::Embree | TracerKind::EmbreeRobust => {
-                embree::build(kind, &scene.geometry, threads).map(Self::Embree)
+                embree::build_v3(kind, &scene.geometry, threads).map(Self::Embree)
             }
             #[cfg(not(feature = "embree"))]
             TracerKind::Embree | TracerKind::EmbreeRobust => Err(kind.feature_off()),
             #[cfg(feature = "embree4")]
             TracerKind::Embree4 | TracerKind::Embree4Robust => {
-                embree4::build(kind, &scene.geometry, threads).map(Self::Embree4)
+                embree::build_v4(kind, &scene.geometry, threads).map(Self::Embree4)
             }
             #[cfg(not(feature = "embree4"))]
             TracerKind::Embree4 | TracerKind::Embree4Robust => Err(kind.feature_off()),

@@ -2,10 +2,10 @@
 //! (Embree 4). Each runs in a test binary of its own, so that no other test creates threads
 //! or devices meanwhile.
 
-use raysched::host::os_thread_count;
 use raysched::render::render_parallel;
 use raysched::scene::{load_scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
+use raysched::util::host::os_thread_count;
 
 /// The OS thread count once it has stayed the same for 100 ms: rayon's pool threads exit
 /// asynchronously after a pool is dropped.

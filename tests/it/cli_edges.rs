@@ -315,7 +315,7 @@ fn chunks_larger_than_the_image_warn_and_dry_runs_estimate_them_serial() {
         serial > 0.0 && (one_item - serial).abs() <= 0.01 * serial,
         "chunk 512 estimated {one_item} ms, serial {serial} ms: {text}"
     );
-    if raysched::host::available_threads() >= 2 {
+    if raysched::util::host::available_threads() >= 2 {
         let per_pixel = est("chunk=1 ");
         assert!(per_pixel < 0.75 * serial, "{text}");
     }

@@ -23,7 +23,7 @@ fn embree_without_the_feature_is_an_error_naming_it() {
 #[cfg(feature = "embree")]
 mod with_embree {
     use crate::embree_contract::{random_geometry, Backend};
-    use raysched::embree::{EmbreeOptions, EmbreeTracer};
+    use raysched::tracer::embree::v3::{EmbreeOptions, EmbreeTracer};
     use raysched::tracer::{Tracer, TracerKind};
 
     fn embree(g: &raysched::scene::Geometry, robust: bool) -> EmbreeTracer {

@@ -23,7 +23,7 @@ fn embree4_without_the_feature_is_an_error_naming_it() {
 #[cfg(feature = "embree4")]
 mod with_embree4 {
     use crate::embree_contract::{random_geometry, Backend};
-    use raysched::embree4::{Embree4Options, Embree4Tracer};
+    use raysched::tracer::embree::v4::{Embree4Options, Embree4Tracer};
     use raysched::tracer::{Tracer, TracerKind};
 
     fn embree4(g: &raysched::scene::Geometry, robust: bool) -> Embree4Tracer {

@@ -1,72 +1,58 @@
-//! `embree4` tracer: Intel Embree 4 through `embree4-sys`, beside Embree 3 (`crate::embree`).
-//! The library is found by `build/embree4.rs`: the system's, `EMBREE4_DIR`, or the PyPI `embreex`
-//! wheel `.ci/fetch-embree4` unpacks (Embree 4.4.0 with its own TBB).
+//! `embree` tracer: Intel Embree 3 (Debian's `libembree-dev` 3.13.5) through the hand-written
+//! bindings of [`ffi`]; what it shares with `embree4` (error sink, sphere kernels, triangle
+//! upload) is in `crate::tracer::embree::common`.
 //!
-//! **Why not the `embree4-rs` wrapper (0.0.16, the newest published).** It keeps its device and scene handles private, so nothing it lacks can be added beside it,
-//! and it lacks what this tracer needs: an error callback (it polls `rtcGetDeviceError` after each
-//! call, once per ray in `intersect_1`), occlusion queries (no `rtcOccluded1`), a user geometry
-//! with more than one primitive and an occlusion callback (its `UserGeometry` has one primitive,
-//! no occluded function, and `ptr::read`s the user data by value in every callback), and a device
-//! configuration string that is NUL-terminated (`Device::try_new` passes `str::as_bytes`).
-//! Its `intersect_1` also hands Embree a 4.2-sized `RTCRayHit`, which Embree 4.4 overruns (see
-//! [`ffi`]). So the tracer uses `embree4-sys`'s types and looks Embree 4's functions up in a
-//! library opened locally, so that it can live beside Embree 3 in one process ([`ffi`] says
-//! why and what is taken from `embree4-sys`).
-//!
-//! The tracer itself follows the Embree 3 one:
 //! - Triangles are one `RTC_GEOMETRY_TYPE_TRIANGLE` mesh (geometry id 1) with unshared vertices
 //!   `v0, v0+e1, v0+e2`, so Embree's `(u, v)` are our `(b1, b2)`.
 //! - Spheres are one user geometry (geometry id 0) whose callbacks run the shared f64
-//!   [`Sphere::intersect`], so sphere hits have bit-identical `t` to `bvh`/`brute`.
-//! - raysched's contract is `0 < t < t_max`: rays go in with `tnear = f32::MIN_POSITIVE`,
-//!   `tfar = next_float_down(t_max)`. Queries pass no `RTCIntersectArguments` (Embree's defaults:
-//!   incoherent, every feature), so no struct whose layout changed within 4.x crosses the FFI.
-//! - Threads: the device is created with `threads=N` (the run's thread budget); Embree uses them
-//!   only to build. Tracing runs on raysched's workers (`rtcIntersect1` is thread-safe on a
-//!   committed scene). [`Embree4Tracer::os_threads_after_build`] records what the process had.
-//! - Errors: Embree's error callback collects messages, which become the `Err` of the build.
-//!   Callbacks never unwind into C: the error callback runs under `catch_unwind`, the geometry
-//!   callbacks cannot panic (no indexing, no allocation), and a Rust panic in an `extern "C"`
-//!   function aborts the process rather than unwinding.
+//!   [`Sphere::intersect`], so sphere hits have bit-identical `t` to `bvh`/`brute` (Embree's own
+//!   sphere primitive is not exact enough for rays that start on the surface).
+//! - Embree accepts hits with `tnear < t ≤ tfar` (robust: `tnear ≤ t`); raysched's contract is
+//!   `0 < t < t_max`, so rays go in with `tnear = f32::MIN_POSITIVE`, `tfar = next_float_down(t_max)`.
+//! - Threads: the device is created with `threads=N` (the run's thread budget); Embree only uses
+//!   them to build (its first commit starts TBB workers). Tracing runs on *our* workers:
+//!   `rtcIntersect1` is thread-safe on a committed scene. [`EmbreeTracer::os_threads_after_build`]
+//!   records what the process really had, via [`crate::util::host::os_thread_count`].
+//! - Robustness: `RTC_SCENE_FLAG_ROBUST` is an option recorded in the tracer id
+//!   (`embree_robust`): the default intersector lets a few rays leak through shared edges.
 //!
-//! An Embree 4 device exists only inside an [`Embree4Tracer`] ([`devices_created`] counts them).
+//! An Embree device exists only inside an [`EmbreeTracer`]; a run that uses another tracer never
+//! creates one ([`devices_created`] counts them for the test that says so).
 
 pub mod ffi;
 
-use crate::embree_common::{
+use crate::geometry::{Hit, Ray};
+use crate::scene::Geometry;
+use crate::tracer::embree::common::{
     fill_triangles, on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, ErrorSink,
     SphereData, SPHERE_GEOM, TNEAR, TRIANGLE_GEOM,
 };
-use crate::geometry::{Hit, Ray};
-use crate::scene::Geometry;
 use std::ffi::CString;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 static DEVICES_CREATED: AtomicUsize = AtomicUsize::new(0);
 
-/// How many Embree 4 devices this process has created so far.
+/// How many Embree devices this process has created so far.
 pub fn devices_created() -> usize {
     DEVICES_CREATED.load(Ordering::Relaxed)
 }
 
-pub use ffi::LIBRARY;
-
 /// Build options; both are recorded (the thread budget in the run, `robust` in the tracer id).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Embree4Options {
+pub struct EmbreeOptions {
     /// Embree's own thread budget (device config `threads=N`), used by the BVH build only.
     pub threads: usize,
-    /// `RTC_SCENE_FLAG_ROBUST`: robust traversal and intersection, fewer leaks through edges.
+    /// `RTC_SCENE_FLAG_ROBUST`: watertight-ish traversal and intersection, slower on tiny scenes.
     pub robust: bool,
 }
 
 /// Bounds callback for the sphere user geometry ([`padded_bounds`]).
 unsafe extern "C" fn sphere_bounds(args: *const ffi::RTCBoundsFunctionArguments) {
-    // SAFETY: Embree passes valid arguments; `geometryUserPtr` is the `SphereData` boxed in
-    // `Embree4Tracer`, which outlives the scene.
+    // SAFETY: Embree passes valid arguments; `geometry_user_ptr` is the `SphereData` boxed in
+    // `EmbreeTracer`, which outlives the scene; `bounds_o` is valid for writing.
     let args = unsafe { &*args };
-    let Some(s) = (unsafe { SphereData::sphere(args.geometryUserPtr, args.primID) }) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
     let (lo, hi) = padded_bounds(s);
@@ -80,43 +66,43 @@ unsafe extern "C" fn sphere_bounds(args: *const ffi::RTCBoundsFunctionArguments)
         upper_z: hi[2],
         align1: 0.0,
     };
-    // SAFETY: `bounds_o` is valid for writing one `RTCBounds`.
+    // SAFETY: see above.
     unsafe { args.bounds_o.write(out) };
 }
 
-/// Closest-hit callback ([`crate::embree_common::intersect_packet`]). No instances in
-/// raysched's scenes, and the context's layout differs within 4.x, so instID[0] is written
-/// invalid rather than read from the context.
+/// Closest-hit callback ([`crate::tracer::embree::common::intersect_packet`]).
 unsafe extern "C" fn sphere_intersect(args: *const ffi::RTCIntersectFunctionNArguments) {
-    // SAFETY: Embree passes valid arguments: `valid` has `N` entries, `rayhit` is an
-    // `RTCRayHitN` of `N` rays, `geometryUserPtr` is our `SphereData`.
+    // SAFETY: Embree passes valid arguments: `valid` has `n` entries, `rayhit` is an
+    // `RTCRayHitN` of `n` rays, `context` is the caller's context, `geometry_user_ptr` is our
+    // `SphereData`.
     let args = unsafe { &*args };
-    let Some(s) = (unsafe { SphereData::sphere(args.geometryUserPtr, args.primID) }) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
-    let ids = [args.primID, args.geomID, ffi::RTC_INVALID_GEOMETRY_ID];
-    let (valid, rayhit, n) = (args.valid, args.rayhit as *mut f32, args.N as usize);
     // SAFETY: as above.
-    unsafe { crate::embree_common::intersect_packet(s, ids, valid, rayhit, n) };
+    let ids = [args.prim_id, args.geom_id, unsafe {
+        (*args.context).inst_id[0]
+    }];
+    let (valid, rayhit, n) = (args.valid, args.rayhit as *mut f32, args.n as usize);
+    // SAFETY: as above.
+    unsafe { crate::tracer::embree::common::intersect_packet(s, ids, valid, rayhit, n) };
 }
 
-/// Occlusion callback ([`crate::embree_common::occluded_packet`]).
+/// Occlusion callback ([`crate::tracer::embree::common::occluded_packet`]).
 unsafe extern "C" fn sphere_occluded(args: *const ffi::RTCOccludedFunctionNArguments) {
-    // SAFETY: as in `sphere_intersect`, with `ray` an `RTCRayN` of `N` rays.
+    // SAFETY: as in `sphere_intersect`, with `ray` an `RTCRayN` of `n` rays.
     let args = unsafe { &*args };
-    let Some(s) = (unsafe { SphereData::sphere(args.geometryUserPtr, args.primID) }) else {
+    let Some(s) = (unsafe { SphereData::sphere(args.geometry_user_ptr, args.prim_id) }) else {
         return;
     };
-    let (valid, ray, n) = (args.valid, args.ray as *mut f32, args.N as usize);
+    let (valid, ray, n) = (args.valid, args.ray as *mut f32, args.n as usize);
     // SAFETY: as above.
-    unsafe { crate::embree_common::occluded_packet(s, valid, ray, n) };
+    unsafe { crate::tracer::embree::common::occluded_packet(s, valid, ray, n) };
 }
 
-/// An Embree 4 device and committed scene over one scene's geometry; queries take `&self` and
+/// An Embree device and committed scene over one scene's geometry; queries take `&self` and
 /// may run on any number of threads at once.
-pub struct Embree4Tracer {
-    /// The functions of the deep-bound Embree 4 library.
-    api: &'static ffi::Api,
+pub struct EmbreeTracer {
     device: ffi::RTCDevice,
     scene: ffi::RTCScene,
     /// Kept alive (and at a fixed address) for the error callback.
@@ -124,8 +110,7 @@ pub struct Embree4Tracer {
     /// Kept alive (and at a fixed address) for the sphere callbacks.
     spheres: Box<SphereData>,
     n_spheres: u32,
-    options: Embree4Options,
-    version: u32,
+    options: EmbreeOptions,
     /// Wall time of device creation, geometry upload and `rtcCommitScene`.
     pub build_time: Duration,
     /// OS threads of the whole process right after the build (`None` off Linux).
@@ -136,16 +121,26 @@ pub struct Embree4Tracer {
 // may be called concurrently from any thread (Embree's documented contract); the device and
 // scene handles are only released in `Drop`, which has exclusive access. The boxed callback data
 // is only read by the callbacks (the error sink is behind a mutex).
-unsafe impl Send for Embree4Tracer {}
+unsafe impl Send for EmbreeTracer {}
 // SAFETY: see `Send`.
-unsafe impl Sync for Embree4Tracer {}
+unsafe impl Sync for EmbreeTracer {}
 
-impl Embree4Tracer {
+impl EmbreeTracer {
+    /// Non-robust build with `threads` build threads (the `embree` tracer id).
+    pub fn new(geometry: &Geometry, threads: usize) -> Result<Self, String> {
+        Self::with_options(
+            geometry,
+            EmbreeOptions {
+                threads,
+                robust: false,
+            },
+        )
+    }
+
     /// # Errors
-    /// `threads == 0`, too many primitives for Embree's 32-bit ids, a library that is not
-    /// Embree 4, or any error Embree reports (through its error callback) while creating the
-    /// device and building the scene.
-    pub fn with_options(geometry: &Geometry, options: Embree4Options) -> Result<Self, String> {
+    /// `threads == 0`, too many primitives for Embree's 32-bit ids, or any error Embree reports
+    /// (through its error callback) while creating the device and building the scene.
+    pub fn with_options(geometry: &Geometry, options: EmbreeOptions) -> Result<Self, String> {
         if options.threads == 0 {
             return Err("threads: must be ≥ 1 (got 0)".into());
         }
@@ -161,18 +156,17 @@ impl Embree4Tracer {
     pub fn with_device_config(
         geometry: &Geometry,
         config: &str,
-        options: Embree4Options,
+        options: EmbreeOptions,
     ) -> Result<Self, String> {
         let (n_tris, n_spheres) = primitive_counts(geometry)?;
-        let api = ffi::api()?;
         let start = Instant::now();
         let c_config =
             CString::new(config).map_err(|_| format!("device config {config:?}: contains NUL"))?;
-        // SAFETY: `config` is a valid NUL-terminated C string for the duration of the call.
-        let device = unsafe { (api.rtcNewDevice)(c_config.as_ptr()) };
+        // SAFETY: `config` is a valid C string for the duration of the call.
+        let device = unsafe { ffi::rtcNewDevice(c_config.as_ptr()) };
         if device.is_null() {
             // SAFETY: a NULL device queries the thread-local error of the failed creation.
-            let code = unsafe { (api.rtcGetDeviceError)(std::ptr::null_mut()) };
+            let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
             return Err(format!(
                 "rtcNewDevice({config:?}) failed (Embree error {code})"
             ));
@@ -183,38 +177,28 @@ impl Embree4Tracer {
             spheres: geometry.spheres.clone(),
         });
         // SAFETY: `device` is valid; the sink outlives it (see `Drop`).
-        unsafe { (api.rtcSetDeviceErrorFunction)(device, Some(on_error), errors.as_user_ptr()) };
+        unsafe { ffi::rtcSetDeviceErrorFunction(device, Some(on_error), errors.as_user_ptr()) };
         // SAFETY: `device` is valid.
-        let version =
-            unsafe { (api.rtcGetDeviceProperty)(device, ffi::RTCDeviceProperty::VERSION) };
-        // SAFETY: `device` is valid.
-        let scene = unsafe { (api.rtcNewScene)(device) };
+        let scene = unsafe { ffi::rtcNewScene(device) };
         // From here on `Drop` releases whatever exists.
         let mut tracer = Self {
-            api,
             device,
             scene,
             errors,
             spheres,
             n_spheres,
             options,
-            version: u32::try_from(version).unwrap_or(0),
             build_time: Duration::ZERO,
             os_threads_after_build: None,
         };
         tracer.check("rtcNewScene")?;
-        if tracer.version / 10_000 != 4 {
-            return Err(format!(
-                "{LIBRARY} reports Embree version {version}, not 4.x"
-            ));
-        }
         let flags = if options.robust {
-            ffi::RTCSceneFlags::ROBUST
+            ffi::RTC_SCENE_FLAG_ROBUST
         } else {
-            ffi::RTCSceneFlags::NONE
+            ffi::RTC_SCENE_FLAG_NONE
         };
         // SAFETY: `scene` is valid.
-        unsafe { (api.rtcSetSceneFlags)(scene, flags) };
+        unsafe { ffi::rtcSetSceneFlags(scene, flags) };
         if n_spheres > 0 {
             tracer.attach_spheres()?;
         }
@@ -222,10 +206,10 @@ impl Embree4Tracer {
             tracer.attach_triangles(geometry, n_tris)?;
         }
         // SAFETY: `scene` is valid and every attached geometry is committed.
-        unsafe { (api.rtcCommitScene)(scene) };
+        unsafe { ffi::rtcCommitScene(scene) };
         tracer.check("rtcCommitScene")?;
         tracer.build_time = start.elapsed();
-        tracer.os_threads_after_build = crate::host::os_thread_count();
+        tracer.os_threads_after_build = crate::util::host::os_thread_count();
         Ok(tracer)
     }
 
@@ -234,21 +218,20 @@ impl Embree4Tracer {
         // which lives as long as `self` (the scene is released before it in `Drop`); the
         // callbacks only read it.
         unsafe {
-            let g = (self.api.rtcNewGeometry)(self.device, ffi::RTCGeometryType::USER);
+            let g = ffi::rtcNewGeometry(self.device, ffi::RTC_GEOMETRY_TYPE_USER);
             if g.is_null() {
                 return self.check("rtcNewGeometry(USER)");
             }
             let data = self.spheres.as_user_ptr();
-            (self.api.rtcSetGeometryUserPrimitiveCount)(g, self.n_spheres);
-            (self.api.rtcSetGeometryBoundsFunction)(g, Some(sphere_bounds), data);
-            // The intersect and occluded callbacks read the geometry's user pointer.
-            (self.api.rtcSetGeometryUserData)(g, data);
-            (self.api.rtcSetGeometryIntersectFunction)(g, Some(sphere_intersect));
-            (self.api.rtcSetGeometryOccludedFunction)(g, Some(sphere_occluded));
-            (self.api.rtcCommitGeometry)(g);
-            (self.api.rtcAttachGeometryByID)(self.scene, g, SPHERE_GEOM);
+            ffi::rtcSetGeometryUserPrimitiveCount(g, self.n_spheres);
+            ffi::rtcSetGeometryUserData(g, data);
+            ffi::rtcSetGeometryBoundsFunction(g, Some(sphere_bounds), data);
+            ffi::rtcSetGeometryIntersectFunction(g, Some(sphere_intersect));
+            ffi::rtcSetGeometryOccludedFunction(g, Some(sphere_occluded));
+            ffi::rtcCommitGeometry(g);
+            ffi::rtcAttachGeometryByID(self.scene, g, SPHERE_GEOM);
             // The scene holds its own reference.
-            (self.api.rtcReleaseGeometry)(g);
+            ffi::rtcReleaseGeometry(g);
         }
         self.check("sphere user geometry")
     }
@@ -259,28 +242,28 @@ impl Embree4Tracer {
         // `count × stride` bytes (padded by Embree for its SIMD loads) that we fill completely
         // before committing; NULL (reported through the error callback) is checked.
         unsafe {
-            let g = (self.api.rtcNewGeometry)(self.device, ffi::RTCGeometryType::TRIANGLE);
+            let g = ffi::rtcNewGeometry(self.device, ffi::RTC_GEOMETRY_TYPE_TRIANGLE);
             if g.is_null() {
                 return self.check("rtcNewGeometry(TRIANGLE)");
             }
-            let vb = (self.api.rtcSetNewGeometryBuffer)(
+            let vb = ffi::rtcSetNewGeometryBuffer(
                 g,
-                ffi::RTCBufferType::VERTEX,
+                ffi::RTC_BUFFER_TYPE_VERTEX,
                 0,
-                ffi::RTCFormat::FLOAT3,
+                ffi::RTC_FORMAT_FLOAT3,
                 12,
                 3 * n,
             ) as *mut [f32; 3];
-            let ib = (self.api.rtcSetNewGeometryBuffer)(
+            let ib = ffi::rtcSetNewGeometryBuffer(
                 g,
-                ffi::RTCBufferType::INDEX,
+                ffi::RTC_BUFFER_TYPE_INDEX,
                 0,
-                ffi::RTCFormat::UINT3,
+                ffi::RTC_FORMAT_UINT3,
                 12,
                 n,
             ) as *mut [u32; 3];
             if vb.is_null() || ib.is_null() {
-                (self.api.rtcReleaseGeometry)(g);
+                ffi::rtcReleaseGeometry(g);
                 self.check("rtcSetNewGeometryBuffer")?;
                 return Err("rtcSetNewGeometryBuffer returned NULL".into());
             }
@@ -289,9 +272,9 @@ impl Embree4Tracer {
                 std::slice::from_raw_parts_mut(vb, 3 * n),
                 std::slice::from_raw_parts_mut(ib, n),
             );
-            (self.api.rtcCommitGeometry)(g);
-            (self.api.rtcAttachGeometryByID)(self.scene, g, TRIANGLE_GEOM);
-            (self.api.rtcReleaseGeometry)(g);
+            ffi::rtcCommitGeometry(g);
+            ffi::rtcAttachGeometryByID(self.scene, g, TRIANGLE_GEOM);
+            ffi::rtcReleaseGeometry(g);
         }
         self.check("triangle mesh")
     }
@@ -299,18 +282,13 @@ impl Embree4Tracer {
     /// Turn everything Embree reported (callback or error code) into one `Err`.
     fn check(&self, step: &str) -> Result<(), String> {
         // SAFETY: `device` is valid.
-        let code = unsafe { (self.api.rtcGetDeviceError)(self.device) };
-        self.errors.check(step, code, ffi::ERROR_NONE)
+        let code = unsafe { ffi::rtcGetDeviceError(self.device) };
+        self.errors.check(step, code, ffi::RTC_ERROR_NONE)
     }
 
     /// The options it was built with.
-    pub fn options(&self) -> Embree4Options {
+    pub fn options(&self) -> EmbreeOptions {
         self.options
-    }
-
-    /// The library's `RTC_DEVICE_PROPERTY_VERSION` (e.g. 40400 for 4.4.0).
-    pub fn version(&self) -> u32 {
-        self.version
     }
 }
 
@@ -334,28 +312,29 @@ fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
 }
 
 // The `Tracer` impl lives in `crate::tracer`, which depends on this module, not the reverse.
-impl Embree4Tracer {
+impl EmbreeTracer {
     /// Closest hit with `0 < t < t_max`, as [`crate::tracer::Tracer::intersect`].
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let mut slot = ffi::RayHitSlot::new(rtc_ray(ray, t_max)?);
-        // SAFETY: the scene is committed and immutable; `slot` is a valid, 16-byte aligned
-        // local with room for the largest Embree 4 `RTCRayHit` (see `ffi::RayHitSlot`); NULL
-        // arguments select Embree's defaults.
-        unsafe {
-            (self.api.rtcIntersect1)(
-                self.scene,
-                (&mut slot as *mut ffi::RayHitSlot).cast(),
-                std::ptr::null_mut(),
-            )
+        let mut rh = ffi::RTCRayHit {
+            ray: rtc_ray(ray, t_max)?,
+            hit: ffi::RTCHit {
+                prim_id: ffi::INVALID_ID,
+                geom_id: ffi::INVALID_ID,
+                inst_id: [ffi::INVALID_ID],
+                ..Default::default()
+            },
         };
-        let rh = &slot.rayhit;
-        if rh.hit.geomID == ffi::RTC_INVALID_GEOMETRY_ID {
+        let mut ctx = ffi::RTCIntersectContext::new();
+        // SAFETY: the scene is committed and immutable; `ctx` and `rh` are valid, properly
+        // aligned (`align(16)`) locals for the duration of the call.
+        unsafe { ffi::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        if rh.hit.geom_id == ffi::INVALID_ID {
             return None;
         }
         Some(Hit {
             t: rh.ray.tfar,
-            prim: primitive_id(self.n_spheres, rh.hit.geomID, rh.hit.primID),
+            prim: primitive_id(self.n_spheres, rh.hit.geom_id, rh.hit.prim_id),
             b1: rh.hit.u,
             b2: rh.hit.v,
         })
@@ -367,22 +346,23 @@ impl Embree4Tracer {
         let Some(mut r) = rtc_ray(ray, t_max) else {
             return false;
         };
-        // SAFETY: as in `intersect`; `rtcOccluded1` writes only the `RTCRay` (its `tfar`).
-        unsafe { (self.api.rtcOccluded1)(self.scene, &mut r, std::ptr::null_mut()) };
+        let mut ctx = ffi::RTCIntersectContext::new();
+        // SAFETY: as in `intersect`.
+        unsafe { ffi::rtcOccluded1(self.scene, &mut ctx, &mut r) };
         r.tfar == f32::NEG_INFINITY
     }
 }
 
-impl Drop for Embree4Tracer {
+impl Drop for EmbreeTracer {
     fn drop(&mut self) {
         // SAFETY: both handles came from Embree and are released exactly once, the scene (which
         // references the callback data) before the device (which references the error sink);
         // the boxes are dropped only after this function.
         unsafe {
             if !self.scene.is_null() {
-                (self.api.rtcReleaseScene)(self.scene);
+                ffi::rtcReleaseScene(self.scene);
             }
-            (self.api.rtcReleaseDevice)(self.device);
+            ffi::rtcReleaseDevice(self.device);
         }
     }
 }

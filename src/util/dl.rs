@@ -101,7 +101,7 @@ macro_rules! dl_api {
             /// # Safety
             /// `lib` is the library this table was declared for, whose functions have the
             /// signatures above.
-            unsafe fn resolve(lib: &$crate::dl::Library) -> Result<Self, String> {
+            unsafe fn resolve(lib: &$crate::util::dl::Library) -> Result<Self, String> {
                 let missing: fn(&str) -> String = $missing;
                 Ok(Self {
                     $($name: {

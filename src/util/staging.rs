@@ -4,7 +4,7 @@
 //!
 //! ```no_run
 //! # fn main() -> std::io::Result<()> {
-//! let staging = raysched::staging::Staging::new(std::path::Path::new("results/x"))?;
+//! let staging = raysched::util::staging::Staging::new(std::path::Path::new("results/x"))?;
 //! std::fs::write(staging.path("report.md"), "…")?;
 //! staging.commit()?; // results/x/report.md appears now
 //! # Ok(())

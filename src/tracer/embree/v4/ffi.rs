@@ -47,7 +47,7 @@ pub type ErrorFunction =
 /// The Embree 4 library the build script found (`build/embree4.rs`).
 pub const LIBRARY: &str = env!("RAYSCHED_EMBREE4_LIB");
 
-crate::dl::dl_api! {
+crate::util::dl::dl_api! {
     /// Embree 4's functions, resolved in the deep-bound library.
     pub struct Api, abi "C", missing |name| format!("{LIBRARY}: no symbol {name}");
     rtcNewDevice: fn(*const c_char) -> RTCDevice;
@@ -85,7 +85,7 @@ pub fn api() -> Result<&'static Api, String> {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let lib = crate::dl::Library::open_first(&[LIBRARY.to_string(), file_name])
+        let lib = crate::util::dl::Library::open_first(&[LIBRARY.to_string(), file_name])
             .map_err(|e| format!("cannot open Embree 4: {e}"))?;
         // SAFETY: `lib` is an Embree 4 library (the build script found it by name); it is
         // never closed, so the table stays valid.
