@@ -162,13 +162,13 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
     };
     // Leaf order: slot k holds scene primitive `order[k]`.
     let mut order: Vec<u32> = Vec::new();
+    let aabbs: Vec<Aabb> = (0..n as u32)
+        .map(|p| {
+            let (lo, hi) = g.prim_bounds(p);
+            Aabb::new(lo.into(), hi.into())
+        })
+        .collect();
     if n > 0 && layout == BvhLayout::Wide {
-        let aabbs: Vec<Aabb> = (0..n as u32)
-            .map(|p| {
-                let (lo, hi) = g.prim_bounds(p);
-                Aabb::new(lo.into(), hi.into())
-            })
-            .collect();
         // obvhs' collapse needs one primitive per binary leaf; it forms leaves of up to 3.
         let bvh2 = build_bvh2(&aabbs, BUILD_PARAMS_LARGE, &mut Duration::default());
         let cw = bvh2_to_cwbvh(&bvh2, 3, true, false);
@@ -185,12 +185,6 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
         }
         order = cw.primitive_indices;
     } else if n > 0 {
-        let aabbs: Vec<Aabb> = (0..n as u32)
-            .map(|p| {
-                let (lo, hi) = g.prim_bounds(p);
-                Aabb::new(lo.into(), hi.into())
-            })
-            .collect();
         let mut params = BUILD_PARAMS;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
         let bvh2 = build_bvh2(&aabbs, params, &mut Duration::default());
