@@ -5,7 +5,7 @@
 //! these functions, so the pages cannot drift from the code; `RAYSCHED_BLESS=1` rewrites them.
 
 use crate::experiment::results::RunRow;
-use crate::sched::kinds::{hand_out, over_sources};
+use crate::sched::kinds::over_sources;
 use crate::sched::rule::{HandOut, Steal, WorkerRule};
 use crate::sched::{
     param_columns, source_params, Order, Passes, Policy, SchedulerKind, Slow, SourceKind, Weights,
@@ -41,7 +41,7 @@ fn plain(doc: &str) -> String {
 
 /// The rule a kind plays, in words.
 fn rule_words(kind: SchedulerKind) -> &'static str {
-    match hand_out(&Policy::defaults(kind), 1024, 4, Slow::NONE) {
+    match Policy::defaults(kind).rule(1024, 4, Slow::NONE) {
         HandOut::ByMaster(_) => "master: ≤ B outstanding per source, FIFO re-queue",
         HandOut::ByWorkers(WorkerRule::Own(_)) => "owned: every item's worker fixed up front",
         HandOut::ByWorkers(WorkerRule::Pool(p)) if p.rule.as_grab().is_some() => {

@@ -19,12 +19,7 @@ pub const FAN_IN_GROUP: usize = 64;
 /// counter or sink, and `lost` killers. Each actor's stack is one memory mapping, two with
 /// its guard page.
 pub fn actors_needed(kind: crate::sched::SchedulerKind, workers: usize, lost: usize) -> usize {
-    let rule = crate::sched::kinds::hand_out(
-        &crate::sched::Policy::defaults(kind),
-        0,
-        1,
-        crate::sched::Slow::NONE,
-    );
+    let rule = crate::sched::Policy::defaults(kind).rule(0, 1, crate::sched::Slow::NONE);
     actors_playing(&rule, workers, lost)
 }
 

@@ -181,21 +181,15 @@ impl Scheduler for Policy {
     }
 
     fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut {
-        hand_out(self, n, workers, slow)
+        self.rule(n, workers, slow)
     }
-}
-
-/// The rule of a built-in `policy` over `n` items on `workers` workers (slowed as `slow`
-/// says, which weighted factoring's known weights read).
-pub fn hand_out(policy: &Policy, n: usize, workers: usize, slow: Slow) -> HandOut {
-    policy.rule(n, workers, slow)
 }
 
 /// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a
 /// researcher's own)? Every rule but stealing, which needs workers that share memory.
 pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
     !matches!(
-        hand_out(&Policy::defaults(kind), 1, 1, Slow::NONE),
+        Policy::defaults(kind).rule(1, 1, Slow::NONE),
         HandOut::ByWorkers(WorkerRule::Steal(_))
     )
 }
@@ -209,7 +203,7 @@ mod tests {
     fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
         for kind in SchedulerKind::ALL {
             let policy = Policy::defaults(kind);
-            match hand_out(&policy, 1000, 4, Slow::NONE) {
+            match policy.rule(1000, 4, Slow::NONE) {
                 HandOut::ByMaster(m) => assert_eq!(kind, SchedulerKind::Master, "{m:?}"),
                 HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
                     let seq = chunk_sequence(pool.rule.as_mut(), 1000, 4);
@@ -229,12 +223,9 @@ mod tests {
     #[test]
     fn guided_and_mitsuba_chunks_follow_their_formulas() {
         // Guided, k = 2, P = 4, grab 1: ⌈1000/8⌉ = 125, ⌈875/8⌉ = 110, ⌈765/8⌉ = 96.
-        let HandOut::ByWorkers(WorkerRule::Pool(mut g)) = hand_out(
-            &Policy::defaults(SchedulerKind::Guided),
-            1000,
-            4,
-            Slow::NONE,
-        ) else {
+        let HandOut::ByWorkers(WorkerRule::Pool(mut g)) =
+            Policy::defaults(SchedulerKind::Guided).rule(1000, 4, Slow::NONE)
+        else {
             panic!("guided is a pool")
         };
         assert_eq!(
@@ -243,7 +234,7 @@ mod tests {
         );
         // Mitsuba's grain: max(blocks / (4·threads), 1) = 64 / 8 = 8.
         let HandOut::ByWorkers(WorkerRule::Pool(mut m)) =
-            hand_out(&Policy::defaults(SchedulerKind::Mitsuba), 64, 2, Slow::NONE)
+            Policy::defaults(SchedulerKind::Mitsuba).rule(64, 2, Slow::NONE)
         else {
             panic!("mitsuba is a pool")
         };
