@@ -52,6 +52,7 @@ fn rule_words(kind: SchedulerKind) -> &'static str {
             "stealing: rayon's recursive split"
         }
         HandOut::ByWorkers(WorkerRule::Steal(Steal::Half)) => "stealing: half a victim's deque",
+        HandOut::ByWorkers(WorkerRule::Dispense(_)) => "pool: a shape of its own",
     }
 }
 

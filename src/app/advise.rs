@@ -94,9 +94,15 @@ fn specs(args: &AdviseArgs) -> Vec<SchedulerSpec> {
         for &chunk in &args.chunks {
             let mut s = SchedulerSpec::new(kind, chunk, args.workers);
             s.slow = args.slow;
-            if let Policy::Master(m) = &mut s.policy {
-                m.buffer = args.buffer;
-                m.passes = args.passes;
+            // The hand-out settings of a rule with sources topped up to B (the master's).
+            if s.policy.needs().outstanding.is_some() {
+                for (name, value) in [
+                    ("buffer", args.buffer.to_string()),
+                    ("passes", args.passes.id().into()),
+                ] {
+                    s.set(name, &value)
+                        .expect("a valid buffer and passes, from their parsers");
+                }
             }
             out.push(s);
         }
@@ -193,7 +199,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
     );
     for (p, o) in &probed.overheads {
         // The master's line always carries its r (a noisy probe can measure 0).
-        let refill = if p.kind() == SchedulerKind::Master {
+        let refill = if p.needs().outstanding.is_some() {
             format!(", refill period r {:.0} ns", o.refill_s * 1e9)
         } else {
             String::new()

@@ -104,7 +104,7 @@ impl RenderArgs {
             self.scheduler.clone()
         } else {
             self.scheduler
-                .defaulting_to(raysched::sched::SchedulerKind::Master)
+                .defaulting_to(raysched::sched::SchedulerKind::FOR_MIXED_SOURCES)
         };
         flags
             .spec(workers, self.timeline)

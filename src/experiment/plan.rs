@@ -12,8 +12,8 @@ use crate::limits::{
 use crate::scene::{load_scene, Scene, SceneOverrides};
 use crate::sched::sources::SourceField;
 use crate::sched::{
-    source_params, Chunk, Order, Runner, SchedulerKind, SchedulerSpec, Slow, SourceKind, SourceSet,
-    SourceSetup,
+    source_params, Chunk, Order, Policy, Runner, SchedulerKind, SchedulerSpec, Slow, SourceKind,
+    SourceSet, SourceSetup,
 };
 use crate::tracer::{AnyTracer, TracerKind};
 use crate::util::one_line::OneLine;
@@ -664,7 +664,9 @@ fn expand_grids(file: &ExperimentFile, settings: &Settings) -> Result<Vec<Grid>,
             let at = |(f, m): FieldError| (format!("schedulers[{i}].{f}"), m);
             let (entry, source_axes) = split_source_keys(s).map_err(at)?;
             let specs = expand_scheduler(&entry, &settings.workers, timeline).map_err(at)?;
-            let kind = specs.first().map_or(SchedulerKind::Master, |s| s.kind());
+            let kind = specs
+                .first()
+                .map_or(SchedulerKind::FOR_MIXED_SOURCES, |s| s.kind());
             let setups = expand_setups(kind, &source_axes, &settings.sources).map_err(at)?;
             if (specs.len() as u64).saturating_mul(setups.len() as u64) > MAX_CONFIGS {
                 return Err(at((
@@ -726,14 +728,15 @@ fn split_source_keys(s: &SchedulerEntry) -> Result<(SchedulerEntry, Vec<Axis>), 
 }
 
 /// The source setups one entry of `kind` runs on: every set of the `sources` axis (those with
-/// a GPU for the master only) crossed with the per-source axes that apply to it (a GPU's
+/// other sources than threads only for a rule that takes per-source settings, the master's)
+/// crossed with the per-source axes that apply to it (a GPU's
 /// chunk only to sets with a GPU, `balance` only to sets of several kinds).
 fn expand_setups(
     kind: SchedulerKind,
     axes: &[Axis],
     sets: &[SourceSet],
 ) -> Result<Vec<SourceSetup>, FieldError> {
-    let master = kind == SchedulerKind::Master;
+    let per_source = Policy::defaults(kind).needs().per_source;
     let applies = |name: &str, set: &SourceSet| match source_params()
         .iter()
         .find(|p| p.name == name)
@@ -744,7 +747,7 @@ fn expand_setups(
         None => false,
     };
     for a in axes {
-        if !master {
+        if !per_source {
             return Err((
                 a.name.clone(),
                 format!(
@@ -775,8 +778,8 @@ fn expand_setups(
     }
     let mut out = Vec::new();
     for set in sets {
-        if !master && set.kinds() != [SourceKind::Threads] {
-            continue; // only the master hands out to anything but its own threads
+        if !per_source && set.kinds() != [SourceKind::Threads] {
+            continue; // only a rule with per-source settings hands out to other sources
         }
         let mut setups = vec![SourceSetup::of(set.clone())];
         for a in axes.iter().filter(|a| applies(&a.name, set)) {

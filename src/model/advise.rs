@@ -75,10 +75,7 @@ impl Probed {
             per_item_s: self.pixels.per_item_s,
         };
         let mut o = self.overheads_of(&spec.policy);
-        if matches!(spec.policy, crate::sched::Policy::Master(_))
-            && !spec.policy.passes_by_workers()
-            && !items.is_empty()
-        {
+        if spec.policy.needs().hand_out_thread && !items.is_empty() {
             // The period that matters is that of the items that wait, the cheap ones: at the
             // median item's cost, not the mean's, which a hot spot pulls far above them.
             let typical = probe::median(&mut items.clone());

@@ -32,20 +32,20 @@
 //!
 //! - `static`: contiguous bands, one per worker; `static_cyclic`: item i to worker i mod P.
 //!   Every worker's sum is fixed in advance, so the whole band's noise is exposed.
-//! - self-scheduling, guided, `pbrt`, `mitsuba`, work stealing: the next grab goes to the
+//! - self-scheduling, guided, `pbrt`, `mitsuba`: the next grab goes to the
 //!   first worker free (greedy list scheduling; self-scheduling after Kruskal & Weiss 1985,
-//!   guided after Polychronopoulos & Kuck 1987). Work stealing is modelled as self-
-//!   scheduling at one item per grab: once the owners' bands run out, steals keep every
-//!   worker busy until the last item, whose tail it shares.
+//!   guided after Polychronopoulos & Kuck 1987), as the pool's [`Dispense`] grants it.
+//! - work stealing: each worker starts with its band and an idle one takes the back half of
+//!   a victim's items, victims and split from the threads' [`StealState`].
 //! - the factoring family (FAC2 and WF: Hummel, Schonberg & Flynn 1992, Hummel et al. 1996;
 //!   TSS: Tzen & Ni 1993; FSC: Kruskal & Weiss 1985; AF: Banicescu & Liu 2000; AWF-C:
 //!   Banicescu et al. 2003): the scheduler's own [`ChunkRule`] decides each grab, fed the
 //!   model's item times in place of measured ones, so the adaptive rules adapt to the same
 //!   costs the model predicts.
 //! - the master (buffer B): each source holds up to B items, filled one source after the
-//!   other at the start (as the master tops its sources up in turn) and refilled one item per
-//!   completion in queue order, so a source commits to its next B − 1 items before it starts
-//!   them.
+//!   other at the start (as the master tops its sources up in turn) and refilled from the
+//!   [`MasterQueue`] (its re-queue policy included) per completion, so a source commits to its
+//!   next B − 1 items before it starts them; the workers-run master passes as its workers do.
 //!
 //! The noise term follows Kruskal & Weiss: item costs vary run to run with coefficient of
 //! variation v (measured by the probe from two passes), a worker's exposed sum S has standard
@@ -64,9 +64,11 @@
 pub mod advise;
 pub mod probe;
 
-use crate::sched::dls::{self, ChunkRule, ItemTimes, Report};
-use crate::sched::rule::{Grab, HandOut, Scheduler, WorkerRule};
-use crate::sched::{Passes, SchedulerSpec, Slow};
+use crate::sched::dls::{self, ItemTimes, Report};
+use crate::sched::rule::{
+    band, Dispense, HandOut, MasterQueue, MasterRule, Scheduler, StealState, WorkerRule,
+};
+use crate::sched::{Passes, Returns, SchedulerSpec, Slow};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 
@@ -160,9 +162,9 @@ fn play_fixed(
     out
 }
 
-/// Greedy list scheduling: the first worker free takes the next grab the rule gives it,
-/// reporting its previous grab first (as the shared dispenser does).
-fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn ChunkRule) -> Played {
+/// Greedy list scheduling: the first worker free takes what the pool grants it ([`Dispense`],
+/// the protocol every executor plays), reporting its previous hand-out first.
+fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, pool: &mut dyn Dispense) -> Played {
     let p = speeds.len();
     let mut out = Played {
         finish: vec![0.0; p],
@@ -172,19 +174,16 @@ fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn Ch
     let mut free: BinaryHeap<Reverse<(u64, usize)>> = (0..p).map(|w| Reverse((0, w))).collect();
     let mut last: Vec<Option<Report>> = vec![None; p];
     let mut times = vec![ItemTimes::default(); p];
-    let mut next = 0;
-    let n = item_s.len();
-    while next < n {
-        let Some(Reverse((_, w))) = free.pop() else {
-            break;
+    while let Some(Reverse((_, w))) = free.pop() {
+        // A worker that gets nothing is done (a pool of another shape may still hold items
+        // for the others).
+        let Some(range) = pool.grant(w, last[w].take().as_ref()) else {
+            continue;
         };
-        if let Some(r) = last[w].take() {
-            rule.report(w, &r);
-        }
-        let c = rule.next(w, n - next).clamp(1, n - next);
+        let c = range.len();
         let (mut secs, mut var) = (0.0, 0.0);
         // Timed in groups, as the workers time them (`dls::timed_group`).
-        for group in item_s[next..next + c].chunks(dls::timed_group(c)) {
+        for group in item_s[range].chunks(dls::timed_group(c)) {
             let mut group_s = 0.0;
             for &t in group {
                 let (busy, took) = item_time(t, speeds[w], o);
@@ -195,7 +194,6 @@ fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn Ch
             secs += group_s;
             times[w].add_group(group.len() as u64, group_s);
         }
-        next += c;
         out.finish[w] += secs;
         out.exposed[w] = var;
         last[w] = Some(Report {
@@ -209,52 +207,102 @@ fn play_dynamic(item_s: &[f64], speeds: &[f64], o: &Overheads, rule: &mut dyn Ch
     out
 }
 
-/// Seconds as integer nanoseconds for the heap's order (ties go to the lower worker id).
-fn ns(s: f64) -> u64 {
-    (s * 1e9).round() as u64
-}
-
-/// The master: every source in turn is first filled with `buffer` consecutive items (the
-/// master tops one source up before the next), then gets one more each time it completes
-/// one; a source runs its items in the order it got them.
-fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, buffer: usize) -> Played {
-    let p = speeds.len();
-    let n = item_s.len();
+/// Stealing as the threads play it ([`StealState`]): worker w starts with its [`band`] and
+/// takes `grab` items at a time from its front; an idle one asks the victims in its order and
+/// takes the back half ([`StealState::split`]) of the first that has any item left.
+/// A steal costs no time here (h covers it); the thieves' draws are seeded as the threads'.
+fn play_steal(item_s: &[f64], speeds: &[f64], o: &Overheads, grab: usize) -> Played {
+    let (p, n) = (speeds.len(), item_s.len());
     let mut out = Played {
         finish: vec![0.0; p],
         exposed: vec![0.0; p],
         ..Default::default()
     };
-    let mut queues: Vec<VecDeque<usize>> = vec![VecDeque::new(); p];
-    let mut next = 0;
-    for q in queues.iter_mut() {
-        let take = buffer.max(1).min(n - next);
-        q.extend(next..next + take);
-        next += take;
+    let mut deques: Vec<VecDeque<usize>> = (0..p).map(|w| band(w, n, p).collect()).collect();
+    let mut thieves = StealState::per_worker(p, STEAL_SEED);
+    let mut free: BinaryHeap<Reverse<(u64, usize)>> = (0..p).map(|w| Reverse((0, w))).collect();
+    while let Some(Reverse((_, w))) = free.pop() {
+        if deques[w].is_empty() {
+            let victim = thieves[w].victims().find(|&v| !deques[v].is_empty());
+            let Some(v) = victim else { continue };
+            let keep = StealState::split(deques[v].len());
+            let loot = deques[v].split_off(keep);
+            deques[w].extend(loot);
+        }
+        let take = grab.max(1).min(deques[w].len());
+        let (mut secs, mut var) = (0.0, 0.0);
+        for i in deques[w].drain(..take) {
+            let (busy, took) = item_time(item_s[i], speeds[w], o);
+            secs += took;
+            out.refill += took - busy;
+            var += (item_s[i] * speeds[w]).powi(2);
+        }
+        out.finish[w] += secs;
+        out.exposed[w] = var;
+        free.push(Reverse((ns(out.finish[w]), w)));
     }
-    let mut events: BinaryHeap<Reverse<(u64, usize)>> = BinaryHeap::new();
-    let start = |w: usize, at: f64, out: &mut Played, q: &mut VecDeque<usize>| -> Option<f64> {
-        let i = q.pop_front()?;
-        let (busy, took) = item_time(item_s[i], speeds[w], o);
-        out.refill += took - busy;
-        out.exposed[w] = (item_s[i] * speeds[w]).powi(2);
-        Some(at + took)
+    out
+}
+
+/// The threads' steal seed (`sched::shared`), so the model's thieves ask whom they ask.
+const STEAL_SEED: u64 = 0x5eed;
+
+/// Seconds as integer nanoseconds for the heap's order (ties go to the lower worker id).
+fn ns(s: f64) -> u64 {
+    (s * 1e9).round() as u64
+}
+
+/// The master as it runs ([`MasterQueue`], the queue every master executor takes from): each
+/// source holds up to B items; a pass tops it up from the queue — under a master thread after
+/// each of its results (the master tops one source up before the next), under the workers-run
+/// master when the worker reports (after each item, or once all it holds is run under
+/// `returns = hand_out`). A source runs its items in the order it got them; a copy of an item
+/// done elsewhere meanwhile is skipped, as the workers skip it.
+fn play_master(item_s: &[f64], speeds: &[f64], o: &Overheads, m: &MasterRule) -> Played {
+    let (p, n) = (speeds.len(), item_s.len());
+    let mut out = Played {
+        finish: vec![0.0; p],
+        exposed: vec![0.0; p],
+        ..Default::default()
     };
-    for (w, q) in queues.iter_mut().enumerate() {
-        if let Some(end) = start(w, 0.0, &mut out, q) {
-            out.finish[w] = end;
-            events.push(Reverse((ns(end), w)));
-        }
-    }
+    let per_item = m.passes == Passes::Thread || m.returns == Returns::Item;
+    let mut queue = MasterQueue::new(n, m.requeue);
+    let mut held: Vec<VecDeque<u32>> = vec![VecDeque::new(); p];
+    // When each item's first copy is done (∞: not yet).
+    let mut done_at = vec![f64::INFINITY; n];
+    let mut got = Vec::new();
+    let mut events: BinaryHeap<Reverse<(u64, usize)>> = (0..p).map(|w| Reverse((0, w))).collect();
     while let Some(Reverse((_, w))) = events.pop() {
-        if next < n {
-            queues[w].push_back(next);
-            next += 1;
+        let t = out.finish[w];
+        let (h, d) = (&held[w], &done_at);
+        let room = m.buffer.max(1).saturating_sub(h.len());
+        let now = std::time::Duration::from_secs_f64(t.max(0.0));
+        queue.top_up(
+            now,
+            room,
+            |i| d[i as usize] <= t,
+            |i| h.contains(&i),
+            &mut got,
+        );
+        held[w].extend(got.drain(..));
+        let run = if per_item { 1 } else { held[w].len() };
+        let mut ran = false;
+        for _ in 0..run {
+            let Some(i) = held[w].pop_front().map(|i| i as usize) else {
+                break;
+            };
+            ran = true;
+            if done_at[i] <= out.finish[w] {
+                continue; // a copy done elsewhere: skipped
+            }
+            let (busy, took) = item_time(item_s[i], speeds[w], o);
+            out.refill += took - busy;
+            out.exposed[w] = (item_s[i] * speeds[w]).powi(2);
+            out.finish[w] += took;
+            done_at[i] = done_at[i].min(out.finish[w]);
         }
-        let at = out.finish[w];
-        if let Some(end) = start(w, at, &mut out, &mut queues[w]) {
-            out.finish[w] = end;
-            events.push(Reverse((ns(end), w)));
+        if ran {
+            events.push(Reverse((ns(out.finish[w]), w)));
         }
     }
     out
@@ -283,31 +331,26 @@ pub fn predict_with(
     let item_s = &with_c[..];
     let n = item_s.len();
     let rule = scheduler.hand_out(n, p, slow);
-    // Only the master's own thread refills a source: elsewhere nothing waits for a refill.
-    let o_run = match &rule {
-        HandOut::ByMaster(m) if m.passes == Passes::Thread => *o,
-        _ => Overheads {
+    // Only a hand-out thread refills a source: elsewhere nothing waits for a refill.
+    let o_run = if rule.needs().hand_out_thread {
+        *o
+    } else {
+        Overheads {
             refill_s: 0.0,
             ..*o
-        },
+        }
     };
     let played = match rule {
         HandOut::ByWorkers(WorkerRule::Own(own)) => {
             play_fixed(item_s, &speeds, &o_run, |i| own.owner(i, n, p))
         }
-        // Without a master thread nothing waits for a refill: each worker takes its next items
-        // under the lock as it needs them, B at a time (`hand_out`; `item` keeps a window of B
-        // ahead, which commits the same B items at the tail), at h per item.
-        HandOut::ByMaster(m) if m.passes == Passes::Workers => {
-            play_dynamic(item_s, &speeds, &o_run, &mut Grab::fixed(m.buffer))
+        HandOut::ByMaster(m) => play_master(item_s, &speeds, &o_run, &m),
+        HandOut::ByWorkers(WorkerRule::Steal(s)) => play_steal(item_s, &speeds, &o_run, s.grab()),
+        HandOut::ByWorkers(WorkerRule::Pool(pool)) => {
+            play_dynamic(item_s, &speeds, &o_run, &mut pool.dispenser(n))
         }
-        HandOut::ByMaster(m) => play_master(item_s, &speeds, &o_run, m.buffer),
-        HandOut::ByWorkers(WorkerRule::Pool(mut pool)) => {
-            play_dynamic(item_s, &speeds, &o_run, pool.rule.as_mut())
-        }
-        // Stealing is played as one item per take: a thief's half-deque is not modelled.
-        HandOut::ByWorkers(WorkerRule::Steal(_)) => {
-            play_dynamic(item_s, &speeds, &o_run, &mut Grab::fixed(1))
+        HandOut::ByWorkers(WorkerRule::Dispense(mut d)) => {
+            play_dynamic(item_s, &speeds, &o_run, d.as_mut())
         }
     };
     decompose_played(&played, work, &speeds, &o_run)

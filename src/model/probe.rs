@@ -504,7 +504,7 @@ pub fn loaded_refill_for(
     target_s: f64,
 ) -> Result<f64, SchedError> {
     let n = match loaded_items(item_s, zero.refill_s, workers, target_s) {
-        Some(n) if matches!(policy, Policy::Master(_)) && !policy.passes_by_workers() => n,
+        Some(n) if policy.needs().hand_out_thread => n,
         _ => return Ok(zero.refill_s),
     };
     let mut spec = SchedulerSpec::new(policy.kind(), Chunk::Tile { w: 1, h: 1 }, workers);
@@ -546,24 +546,22 @@ pub fn overheads(policy: Policy, workers: usize, reps: u32) -> Result<Overheads,
     let p = workers as f64;
     let z = zero_work(policy, PROBE_ITEMS, workers, reps)?;
     let (fixed_s, slope) = (z.fixed_s, z.per_item_s);
-    // Only the master on its own thread refills: its slope is r, and h is self-scheduling's.
-    Ok(
-        if matches!(policy, Policy::Master(_)) && !policy.passes_by_workers() {
-            let ss = Policy::defaults(SchedulerKind::SelfScheduling);
-            let worker_slope = zero_work(ss, PROBE_ITEMS, workers, reps)?.per_item_s;
-            Overheads {
-                per_item_s: p * worker_slope,
-                fixed_s,
-                refill_s: p * slope,
-            }
-        } else {
-            Overheads {
-                per_item_s: p * slope,
-                fixed_s,
-                refill_s: 0.0,
-            }
-        },
-    )
+    // Only a hand-out thread refills: its slope is r, and h is self-scheduling's.
+    Ok(if policy.needs().hand_out_thread {
+        let ss = Policy::defaults(SchedulerKind::SelfScheduling);
+        let worker_slope = zero_work(ss, PROBE_ITEMS, workers, reps)?.per_item_s;
+        Overheads {
+            per_item_s: p * worker_slope,
+            fixed_s,
+            refill_s: p * slope,
+        }
+    } else {
+        Overheads {
+            per_item_s: p * slope,
+            fixed_s,
+            refill_s: 0.0,
+        }
+    })
 }
 
 /// Each item's cost in hand-out order under `spec` (its own layout), from per-pixel costs at

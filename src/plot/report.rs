@@ -33,7 +33,9 @@ pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
     let at = at_most_workers(sums)?;
     let max_w = at.first()?.row.workers;
     let per_ray = best_by(at.iter().copied().filter(|s| {
-        s.row.scheduler == crate::sched::SchedulerKind::Master.id() && s.row.chunk_px == Some(1)
+        let hand_out_thread = crate::sched::SchedulerKind::from_id(&s.row.scheduler)
+            .is_ok_and(|k| crate::sched::Policy::defaults(k).needs().hand_out_thread);
+        hand_out_thread && s.row.chunk_px == Some(1)
     }))?;
     let others: Vec<&Summary> = at
         .iter()

@@ -12,9 +12,10 @@
 //! source: its unfinished items are re-queued (under `never`, lost).
 
 use super::master::Progress;
-use super::rule::{MasterQueue, Take};
+use super::rule::MasterQueue;
+use super::rule::MasterRule;
 use super::shared::{finish, Local};
-use super::{wire, MasterParams, Results, Returns, SchedError};
+use super::{wire, Results, Returns, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::local::panic_message;
@@ -54,10 +55,12 @@ struct Ledger {
     done: usize,
     /// How the run ended, once it has.
     end: Option<Result<(), SchedError>>,
+    /// A pass's items, reused.
+    scratch: Vec<u32>,
 }
 
 impl Ledger {
-    fn new(n: usize, workers: usize, params: &MasterParams, deadline: Option<Duration>) -> Self {
+    fn new(n: usize, workers: usize, params: &MasterRule, deadline: Option<Duration>) -> Self {
         let t0 = quanta::Instant::now();
         Self {
             n,
@@ -68,6 +71,7 @@ impl Ledger {
             alive: vec![true; workers],
             done: 0,
             end: None,
+            scratch: Vec::new(),
         }
     }
 
@@ -87,20 +91,16 @@ impl Ledger {
         } else {
             Duration::ZERO
         };
-        let len = self.queue.len();
-        let mut scanned = 0;
-        while held.len() < self.buffer && scanned < len {
-            scanned += 1;
-            match self.queue.take(
-                now,
-                |i| done[i as usize].load(Ordering::Acquire),
-                |i| held.contains(&i),
-            ) {
-                Take::Item(i) => held.push_back(i),
-                Take::Skip => {}
-                Take::Empty => break,
-            }
-        }
+        let mut got = std::mem::take(&mut self.scratch);
+        self.queue.top_up(
+            now,
+            self.buffer.saturating_sub(held.len()),
+            |i| done[i as usize].load(Ordering::Acquire),
+            |i| held.contains(&i),
+            &mut got,
+        );
+        held.extend(got.drain(..));
+        self.scratch = got;
         match (held.is_empty(), self.queue.is_empty()) {
             (false, _) => Step::Render,
             // Under `never` an item leaves the queue when handed out, under the other policies
@@ -147,7 +147,7 @@ struct Shared<'a> {
     /// Per item: it has a result.
     done: Vec<AtomicBool>,
     items: &'a [WorkItem],
-    params: MasterParams,
+    params: MasterRule,
     probe: Probe,
 }
 
@@ -345,7 +345,7 @@ impl Worker {
 /// Run `items` under the master with `params`, its passes run by `jobs.len()` local workers
 /// (worker i runs `jobs[i]`).
 pub(super) fn run_locked_master(
-    params: &MasterParams,
+    params: &MasterRule,
     items: &[WorkItem],
     jobs: &[Job],
     deadline: Option<Duration>,
@@ -425,7 +425,7 @@ pub(super) fn run_locked_master(
 mod tests {
     use super::*;
     use crate::render::TileResult;
-    use crate::sched::{Passes, Requeue};
+    use crate::sched::{MasterParams, Passes, Requeue};
     use std::sync::atomic::AtomicU32;
     use std::sync::Arc;
 
@@ -442,7 +442,7 @@ mod tests {
         }
     }
 
-    fn params(buffer: usize, requeue: Requeue, returns: Returns) -> MasterParams {
+    fn params(buffer: usize, requeue: Requeue, returns: Returns) -> MasterRule {
         MasterParams {
             buffer,
             requeue,
@@ -450,6 +450,7 @@ mod tests {
             passes: Passes::Workers,
             ..MasterParams::DEFAULT
         }
+        .into()
     }
 
     /// Wait (at most 5 s) until `ok`.

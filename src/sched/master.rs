@@ -6,8 +6,9 @@
 //! as duplicates and dropped. Sources that are lost have their items re-queued at once (unless
 //! the policy is `never`); a deadline bounds every run, so nothing hangs.
 
-use super::rule::{Balance, Facts, Grant, MasterQueue, Shape, Take};
-use super::{wire, Collector, MasterParams, Requeue, Results, Returns, RunOptions, SchedError};
+use super::results::{finish_sources, seal_stats};
+use super::rule::{Balance, Facts, Grant, MasterQueue, MasterRule, Shape, Take};
+use super::{wire, Collector, Requeue, Results, Returns, RunOptions, SchedError};
 use crate::metrics::{MasterStats, Probe, RunStats, Span, MASTER_LANE};
 use crate::render::WorkItem;
 use crate::source::{ComputeSource, DelayedResult, Doorbell};
@@ -186,7 +187,7 @@ struct Ledger<'a> {
 }
 
 impl<'a> Ledger<'a> {
-    fn new(items: &'a [WorkItem], params: &MasterParams, t0: Instant) -> Self {
+    fn new(items: &'a [WorkItem], params: &MasterRule, t0: Instant) -> Self {
         let n = items.len();
         Self {
             items,
@@ -375,7 +376,7 @@ impl<'a> Ledger<'a> {
 
 /// The master's state over one run.
 struct Master<'a> {
-    params: MasterParams,
+    params: MasterRule,
     deadline: Option<Duration>,
     probe: Probe,
     t0: Instant,
@@ -462,7 +463,7 @@ impl Progress {
 /// buffers and grains and, optionally, the time-equalising balancer: the executor
 /// [`super::run`] plays a master rule on.
 pub(crate) fn run_master_hetero(
-    params: &MasterParams,
+    params: &MasterRule,
     hetero: &Hetero,
     items: &[WorkItem],
     sources: Vec<Box<dyn ComputeSource>>,
@@ -516,7 +517,7 @@ pub(crate) fn run_master_hetero(
 
 impl<'a> Master<'a> {
     fn new(
-        params: &MasterParams,
+        params: &MasterRule,
         items: &'a [WorkItem],
         mut sources: Vec<Box<dyn ComputeSource>>,
         deadline: Option<Duration>,
@@ -704,49 +705,11 @@ impl<'a> Master<'a> {
     }
 }
 
-/// Stop every source (its results' handles already dropped) and add its report to `stats`
-/// and `spans`; its idle time is `wall_s` minus its busy time. Returns, per source, whether it
-/// was lost by the time it stopped.
-pub(crate) fn finish_sources(
-    sources: Vec<Box<dyn ComputeSource>>,
-    wall_s: f64,
-    stats: &mut RunStats,
-    spans: &mut Vec<Span>,
-) -> Vec<bool> {
-    let mut lost = Vec::with_capacity(sources.len());
-    for src in sources {
-        let mut rep = src.finish();
-        rep.stats.idle_s = (wall_s - rep.stats.busy_s).max(0.0);
-        stats.workers.push(rep.stats);
-        spans.extend(rep.spans);
-        lost.push(rep.lost);
-    }
-    lost
-}
-
-/// A finished run's last numbers: its timeline (sorted, when recorded), wall time, the
-/// results' tallies and the master's own statistics.
-pub(crate) fn seal_stats(
-    stats: &mut RunStats,
-    mut spans: Vec<Span>,
-    probe: &Probe,
-    wall_s: f64,
-    collector: &Collector,
-    master: MasterStats,
-) {
-    if probe.timeline {
-        spans.sort_by_key(|s| (s.start_ns, s.worker));
-        stats.timeline = Some(spans);
-    }
-    stats.wall_s = wall_s;
-    collector.tally.record(stats);
-    stats.master = Some(master);
-}
-
 #[cfg(test)]
 mod staleness_tests {
     use super::*;
     use crate::render::TileResult;
+    use crate::sched::MasterParams;
     use crate::source::{Job, LocalThreadSource};
     use std::sync::atomic::{AtomicU32, Ordering};
     use std::sync::Arc;
@@ -791,7 +754,7 @@ mod staleness_tests {
             ..MasterParams::DEFAULT
         };
         let (_, stats) = run_master_hetero(
-            &params,
+            &params.into(),
             &Hetero::default(),
             &items,
             sources,

@@ -3,14 +3,15 @@
 //! this thread hands each idle source what the rule gives it and collects the results.
 //!
 //! - [`WorkerRule::Own`]: source s gets its items at once.
-//! - [`WorkerRule::Pool`]: a source with nothing outstanding takes the next chunk the pool's
-//!   rule sizes, reporting its previous chunk (items and seconds from hand-out to result).
+//! - [`WorkerRule::Pool`] and [`WorkerRule::Dispense`]: a source with nothing outstanding
+//!   takes what the pool's [`Dispense`] grants, reporting its previous chunk (items and
+//!   seconds from hand-out to result).
 //! - [`WorkerRule::Steal`]: refused: stealing needs workers that share memory.
 //!
 //! Nothing is re-queued: a lost source fails the run (the master is the fault-tolerant one).
 
-use super::master::{finish_sources, seal_stats};
-use super::rule::{ChunkRule, ItemTimes, Report, WorkerRule};
+use super::results::{finish_sources, seal_stats};
+use super::rule::{Dispense, ItemTimes, Report, WorkerRule};
 use super::{wire, Collector, Results, SchedError, SpecError};
 use crate::metrics::{MasterStats, Probe, RunStats};
 use crate::render::WorkItem;
@@ -51,13 +52,14 @@ struct Pull<'a> {
     held: Vec<Held>,
     collector: Collector,
     stats: RunStats,
-    /// The next item not handed out yet.
-    next: usize,
+    /// Items handed out so far (a pool's hand-outs need not be in item order).
+    handed: usize,
 }
 
 impl Pull<'_> {
     /// Hand items `range` to source `s` (one `submit` each, as MPI ranks take them).
     fn submit(&mut self, s: usize, range: std::ops::Range<usize>) {
+        self.handed += range.len();
         for i in range {
             self.stats.bytes += wire::item_bytes(&self.items[i]);
             self.stats.issued += 1;
@@ -86,21 +88,19 @@ impl Pull<'_> {
         failed
     }
 
-    /// Give every source with nothing outstanding the rule's next chunk, reporting its last.
-    fn top_up(&mut self, rule: &mut dyn ChunkRule) {
-        let n = self.items.len();
+    /// Give every source with nothing outstanding what the pool grants it, reporting its last.
+    fn top_up(&mut self, pool: &mut dyn Dispense) {
         for s in 0..self.sources.len() {
             self.held[s].close_chunk();
-            if !self.held[s].out.is_empty() || self.next >= n {
+            if !self.held[s].out.is_empty() || self.handed >= self.items.len() {
                 continue;
             }
-            if let Some(r) = self.held[s].report.take() {
-                rule.report(s, &r);
-            }
-            let grab = rule.next(s, n - self.next).clamp(1, n - self.next);
-            self.submit(s, self.next..self.next + grab);
-            (self.held[s].chunk, self.held[s].since) = (grab, Instant::now());
-            self.next += grab;
+            let report = self.held[s].report.take();
+            let Some(range) = pool.grant(s, report.as_ref()) else {
+                continue;
+            };
+            (self.held[s].chunk, self.held[s].since) = (range.len(), Instant::now());
+            self.submit(s, range);
         }
     }
 
@@ -165,7 +165,7 @@ pub(super) fn run_pull(
             items: n as u64,
             ..Default::default()
         },
-        next: 0,
+        handed: 0,
     };
     let mut pool = match rule {
         WorkerRule::Own(own) => {
@@ -174,10 +174,9 @@ pub(super) fn run_pull(
                     p.submit(s, i..i + 1);
                 }
             }
-            p.next = n;
             None
         }
-        WorkerRule::Pool(pool) => Some(pool.rule),
+        pool @ (WorkerRule::Pool(_) | WorkerRule::Dispense(_)) => pool.into_dispense(n).ok(),
         WorkerRule::Steal(_) => {
             return Err(SpecError {
                 field: "scheduler".into(),
@@ -195,8 +194,8 @@ pub(super) fn run_pull(
         if let Some(outcome) = p.verdict(failed, t0, deadline) {
             break outcome;
         }
-        if let Some(rule) = pool.as_mut() {
-            p.top_up(rule.as_mut());
+        if let Some(d) = pool.as_mut() {
+            p.top_up(d.as_mut());
         }
         let tw = Instant::now();
         bell.wait(Duration::from_millis(2), Wait::Block, || {

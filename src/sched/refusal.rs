@@ -83,6 +83,15 @@ impl Runner {
             .find(|r| params.get(r.param).as_deref() == Some(r.value))
             .copied()
     }
+
+    /// The refusal of `param` = `value`, if this runner has one (the run path asks it of a
+    /// rule's settings, which are no kind's parameters).
+    pub fn refuses_value(self, param: &str, value: &str) -> Option<Refusal> {
+        self.refusals()
+            .iter()
+            .find(|r| r.param == param && r.value == value)
+            .copied()
+    }
 }
 
 impl Refusal {

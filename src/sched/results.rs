@@ -6,8 +6,9 @@
 //! [`Results`] keeps the lists and builds a 4-byte index per item instead.
 
 use super::wire;
-use crate::metrics::RunStats;
+use crate::metrics::{MasterStats, Probe, RunStats, Span};
 use crate::render::TileResult;
+use crate::source::ComputeSource;
 
 /// No result for this item (yet).
 const NONE: u32 = u32::MAX;
@@ -171,6 +172,45 @@ impl Collector {
             list.push(r);
         }
     }
+}
+
+/// Stop every source (its results' handles already dropped) and add its report to `stats`
+/// and `spans`; its idle time is `wall_s` minus its busy time. Returns, per source, whether it
+/// was lost by the time it stopped.
+pub(crate) fn finish_sources(
+    sources: Vec<Box<dyn ComputeSource>>,
+    wall_s: f64,
+    stats: &mut RunStats,
+    spans: &mut Vec<Span>,
+) -> Vec<bool> {
+    let mut lost = Vec::with_capacity(sources.len());
+    for src in sources {
+        let mut rep = src.finish();
+        rep.stats.idle_s = (wall_s - rep.stats.busy_s).max(0.0);
+        stats.workers.push(rep.stats);
+        spans.extend(rep.spans);
+        lost.push(rep.lost);
+    }
+    lost
+}
+
+/// A finished run's last numbers: its timeline (sorted, when recorded), wall time, the
+/// results' tallies and the master's own statistics.
+pub(crate) fn seal_stats(
+    stats: &mut RunStats,
+    mut spans: Vec<Span>,
+    probe: &Probe,
+    wall_s: f64,
+    collector: &Collector,
+    master: MasterStats,
+) {
+    if probe.timeline {
+        spans.sort_by_key(|s| (s.start_ns, s.worker));
+        stats.timeline = Some(spans);
+    }
+    stats.wall_s = wall_s;
+    collector.tally.record(stats);
+    stats.master = Some(master);
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@
 use super::master::{self, Hetero};
 use super::rule::{HandOut, Scheduler};
 use super::{
-    factory, locked_master, pull, shared, worker_jobs, Passes, Policy, Results, RunOptions, Runner,
+    factory, locked_master, pull, shared, worker_jobs, Passes, Results, RunOptions, Runner,
     SchedError, SchedulerSpec, Slow, SpecError,
 };
 use crate::metrics::{Probe, RunStats};
@@ -100,7 +100,7 @@ pub fn run(
             if let Some(r) = opts
                 .faults
                 .as_ref()
-                .and(Runner::Faults.refuses(&Policy::Master(m)))
+                .and(Runner::Faults.refuses_value("passes", m.passes.id()))
             {
                 return Err(refused(r.param, r.as_value()));
             }

@@ -2,7 +2,7 @@
 //! Every run spawns exactly `workers` threads (rayon: a pool of that size) and joins them.
 
 use super::dls::{self, ItemTimes, Report, Timing};
-use super::rule::{band, ChunkRule, Grab, Steal, WorkerRule};
+use super::rule::{band, Dispense, Grab, Steal, StealState, WorkerRule};
 use super::scanline::{as_handed_out, ScanlineScratch};
 use super::{wire, Results, SchedError, Tally};
 use crate::metrics::{BusyClock, Probe, RunStats, Span, WorkerStats};
@@ -147,7 +147,7 @@ pub(super) fn run_shared(
     let grab = match &rule {
         WorkerRule::Pool(p) => p.rule.as_grab().map_or(1, |g| g.grab),
         WorkerRule::Steal(s) => s.grab(),
-        WorkerRule::Own(_) => 1,
+        WorkerRule::Own(_) | WorkerRule::Dispense(_) => 1,
     };
     // A fair share plus a quarter: dynamic schedulers are rarely more uneven than that.
     let expect = n / w + n / (4 * w) + grab;
@@ -165,20 +165,9 @@ pub(super) fn run_shared(
             (Some(g), true) if g.constant().is_some() && !pool.scanline => {
                 mutex_locals(items, jobs, g.grab, expect, probe)?
             }
-            _ => {
-                let dispenser = Mutex::new((0usize, pool.rule));
-                spawn_workers(units, &probe, expect, |id, (), l| {
-                    run_dispensed(
-                        id as usize,
-                        &dispenser,
-                        (items, pool.scanline),
-                        &jobs[id as usize],
-                        l,
-                        &probe,
-                    )
-                })?
-            }
+            _ => dispensed_locals(Box::new(pool.dispenser(n)), items, jobs, expect, probe)?,
         },
+        WorkerRule::Dispense(d) => dispensed_locals(d, items, jobs, expect, probe)?,
         WorkerRule::Steal(Steal::Split { min }) => rayon_locals(items, jobs, w, min, probe)?,
         WorkerRule::Steal(Steal::Half) => deque_locals(items, jobs, expect, probe)?,
     };
@@ -280,25 +269,53 @@ fn deque_locals(
         }
     }
     let stealers: Vec<Stealer<u32>> = deques.iter().map(Worker::stealer).collect();
-    spawn_workers(deques, &probe, expect, |id, own, l| {
-        while let Some(i) = find_task(id as usize, &own, &stealers) {
+    let thieves = StealState::per_worker(w, STEAL_SEED);
+    let states: Vec<_> = deques.into_iter().zip(thieves).collect();
+    spawn_workers(states, &probe, expect, |id, (own, mut thief), l| {
+        while let Some(i) = find_task(&own, &mut thief, &stealers) {
             l.run(&jobs[id as usize], &items[i as usize], &probe);
         }
     })
 }
 
-/// One worker of a dynamic-loop-scheduling rule: ask the dispenser for a chunk (reporting the
-/// previous one), run it (in scanline order where `scanline`), timing what the rule asks for,
-/// until no item is left.
+/// The seed of the threads' victim draws ([`StealState`]): which worker a thief asks first
+/// changes who renders what, never an image.
+const STEAL_SEED: u64 = 0x5eed;
+
+/// A pool of any shape played under one lock ([`Dispense`]): each worker reports its previous
+/// hand-out as it asks for the next.
+fn dispensed_locals(
+    dispenser: Box<dyn Dispense>,
+    items: &[WorkItem],
+    jobs: &[Job],
+    expect: usize,
+    probe: Probe,
+) -> Result<Vec<Local>, SchedError> {
+    let scanline = dispenser.scanline();
+    let dispenser = Mutex::new(dispenser);
+    spawn_workers(vec![(); jobs.len()], &probe, expect, |id, (), l| {
+        run_dispensed(
+            id as usize,
+            &dispenser,
+            (items, scanline),
+            &jobs[id as usize],
+            l,
+            &probe,
+        )
+    })
+}
+
+/// One worker of a pool: ask the dispenser for a hand-out (reporting the previous one), run
+/// it (in scanline order where `scanline`), timing what the rule asks for, until no item is
+/// left for it.
 fn run_dispensed(
     id: usize,
-    dispenser: &Mutex<(usize, Box<dyn ChunkRule>)>,
+    dispenser: &Mutex<Box<dyn Dispense>>,
     (items, scanline): (&[WorkItem], bool),
     job: &Job,
     l: &mut Local,
     probe: &Probe,
 ) {
-    let n = items.len();
     let mut last: Option<Report> = None;
     let mut times = ItemTimes::default();
     // Timed from the first request on: the rule's own answer comes with the first chunk.
@@ -306,20 +323,12 @@ fn run_dispensed(
     loop {
         let asked = (timing != Timing::None).then(Instant::now);
         let (s, c) = {
-            let mut g = dispenser.lock().unwrap_or_else(PoisonError::into_inner);
-            let (next, rule) = &mut *g;
-            if let Some(r) = last.take() {
-                rule.report(id, &r);
-            }
-            if *next >= n {
+            let mut d = dispenser.lock().unwrap_or_else(PoisonError::into_inner);
+            let Some(r) = d.grant(id, last.take().as_ref()) else {
                 break;
-            }
-            let left = n - *next;
-            let c = rule.next(id, left).clamp(1, left);
-            let s = *next;
-            *next += c;
-            timing = rule.timing();
-            (s, c)
+            };
+            timing = d.timing();
+            (r.start, r.len())
         };
         let grab_secs = asked.map_or(0.0, |t| t.elapsed().as_secs_f64());
         match timing {
@@ -375,15 +384,18 @@ fn run_timed_groups(
     (t - t0).as_secs_f64()
 }
 
-fn find_task(id: usize, own: &Worker<u32>, stealers: &[Stealer<u32>]) -> Option<u32> {
+/// The worker's next item: its own deque's front, else the back half of a victim's (crossbeam's
+/// `steal_batch_and_pop` takes half, as [`StealState::split`] says), the victims in the order
+/// the thief's [`StealState`] gives.
+fn find_task(own: &Worker<u32>, thief: &mut StealState, stealers: &[Stealer<u32>]) -> Option<u32> {
     if let Some(i) = own.pop() {
         return Some(i);
     }
     // Items are never created during the run: once every deque is empty, we are done.
     loop {
         let mut retry = false;
-        for k in 1..stealers.len() {
-            match stealers[(id + k) % stealers.len()].steal_batch_and_pop(own) {
+        for v in thief.victims() {
+            match stealers[v].steal_batch_and_pop(own) {
                 Taken::Success(i) => return Some(i),
                 Taken::Retry => retry = true,
                 Taken::Empty => {}

@@ -12,9 +12,8 @@ pub use super::kinds::{
     StaticCyclicParams, StaticParams, TrapezoidParams, WeightedFactoringParams,
     WorkStealingDequeParams, WorkStealingParams,
 };
-use super::param::{
-    err, one_of, Chunk, Order, ParamInfo, ParamValue, Passes, Returns, Slow, SpecError,
-};
+use super::param::{err, one_of, Chunk, Order, ParamInfo, ParamValue, Slow, SpecError};
+use super::rule::Needs;
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
@@ -55,15 +54,10 @@ impl SchedulerKind {
 }
 
 impl Policy {
-    /// Is this the master with its results handed back per hand-out ([`Returns::HandOut`])?
-    pub fn returns_per_hand_out(&self) -> bool {
-        matches!(self, Self::Master(m) if m.returns == Returns::HandOut)
-    }
-
-    /// Is this the master with its passes run by the workers ([`Passes::Workers`]), which
-    /// drives local threads only?
-    pub fn passes_by_workers(&self) -> bool {
-        matches!(self, Self::Master(m) if m.passes == Passes::Workers)
+    /// What this kind's rule shape needs from an executor ([`Needs`]): the one question the
+    /// studies ask instead of naming a kind.
+    pub fn needs(&self) -> Needs {
+        self.rule(1, 1, Slow::NONE).needs()
     }
 
     /// The parameters this kind has, in column order.

@@ -103,6 +103,7 @@ pub fn simulate_with(job: SimJob, scheduler: &dyn Scheduler) -> Result<SimOutcom
         job,
         hosts[master],
         placed.iter().map(|&i| hosts[i]).collect(),
+        rule.needs().hand_out_thread,
     ));
     protocols::spawn_protocol(Rc::clone(&world), rule);
     ffi::run();

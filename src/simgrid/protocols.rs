@@ -1,5 +1,5 @@
-//! Each scheduler's protocol as SimGrid actors, one small function per
-//! [`SchedulerKind`](crate::sched::SchedulerKind) (see [`spawn_protocol`]).
+//! Each rule shape's protocol as SimGrid actors, one small function per
+//! [`HandOut`] shape (see [`spawn_protocol`]), driving the protocols of `sched::rule`.
 //!
 //! Costs: an item's measured seconds × [`REFERENCE_FLOPS`] are executed on its worker's host
 //! (a slower host takes longer; on a shared node the master's executions share its cores);
@@ -15,7 +15,7 @@
 
 use super::ffi::{self, clock, execute, sleep_for, Host, Mailbox, Semaphore};
 use crate::sched::dls::{ItemTimes, Report};
-use crate::sched::rule::{band, ChunkRule, HandOut, MasterQueue, Take, WorkerRule};
+use crate::sched::rule::{band, Dispense, HandOut, MasterQueue, StealState, WorkerRule};
 use crate::sched::Requeue;
 use crate::simulate::job::{Network, SimJob, SimOutcome, FAN_IN_GROUP, REFERENCE_FLOPS};
 use std::cell::{Cell, RefCell};
@@ -106,11 +106,14 @@ fn cpus(master_host: Host, worker_hosts: &[Host], master_computes: bool) -> (Vec
 }
 
 impl World {
-    pub(crate) fn new(job: SimJob, master_host: Host, worker_hosts: Vec<Host>) -> Self {
-        let master_computes = matches!(
-            crate::sched::SchedulerKind::from_id(&job.scheduler),
-            Ok(crate::sched::SchedulerKind::Master)
-        );
+    /// The world of `job`; `master_computes`: the rule has a hand-out thread, which executes
+    /// its cost per hand-out on the master's host ([`crate::sched::rule::Needs`]).
+    pub(crate) fn new(
+        job: SimJob,
+        master_host: Host,
+        worker_hosts: Vec<Host>,
+        master_computes: bool,
+    ) -> Self {
         let (worker_cpu, master_cpu) = cpus(master_host, &worker_hosts, master_computes);
         let (n, w) = (job.cost_s.len(), job.workers);
         let tally = Tally {
@@ -402,7 +405,11 @@ pub(crate) fn spawn_protocol(world: Rc<World>, rule: HandOut) {
             }
         }
         HandOut::ByWorkers(WorkerRule::Steal(s)) => stealing(world, s.grab()),
-        HandOut::ByWorkers(WorkerRule::Pool(pool)) => counter(world, pool.rule),
+        HandOut::ByWorkers(WorkerRule::Pool(pool)) => {
+            let n = world.job.cost_s.len();
+            counter(world, Box::new(pool.dispenser(n)))
+        }
+        HandOut::ByWorkers(WorkerRule::Dispense(d)) => counter(world, d),
     }
 }
 
@@ -453,36 +460,27 @@ struct Request {
     report: Option<Report>,
 }
 
-/// Self-scheduling family: a counter actor on the master's host answers each request with the
-/// next `rule(next, n, workers)` items; an empty answer ends the worker.
-fn counter(world: Rc<World>, mut rule: Box<dyn ChunkRule>) {
-    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+/// A pool of any shape: a counter actor on the master's host answers each request with what
+/// the pool's [`Dispense`] grants; an empty answer ends the worker.
+fn counter(world: Rc<World>, mut pool: Box<dyn Dispense>) {
+    let w = world.job.workers;
     let wd = Rc::clone(&world);
     let requests = Inbox::<Request>::new(&world, "counter", world.master_host, true);
     let grants: Vec<Rc<Inbox<Vec<usize>>>> =
         (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
     let inbox = Rc::clone(&requests);
     let to = grants.clone();
-    ffi::spawn("counter", world.master_host, true, move || {
-        let mut next = 0;
-        loop {
-            let req = inbox.get();
-            sleep_for(wd.job.counter_s);
-            let c = if next < n {
-                if let Some(r) = &req.report {
-                    rule.report(req.worker, r);
-                }
-                rule.next(req.worker, n - next).clamp(1, n - next)
-            } else {
-                0
-            };
-            let items: Vec<usize> = (next..next + c).collect();
-            next += c;
-            let bytes = item_bytes(&wd.job, &items);
-            wd.tally.borrow_mut().out.issued += c as u64;
-            count_message(&wd.tally, bytes);
-            to[req.worker].send(wd.master_host, 0, items, bytes);
-        }
+    ffi::spawn("counter", world.master_host, true, move || loop {
+        let req = inbox.get();
+        sleep_for(wd.job.counter_s);
+        let items: Vec<usize> = pool
+            .grant(req.worker, req.report.as_ref())
+            .map_or_else(Vec::new, Iterator::collect);
+        let c = items.len();
+        let bytes = item_bytes(&wd.job, &items);
+        wd.tally.borrow_mut().out.issued += c as u64;
+        count_message(&wd.tally, bytes);
+        to[req.worker].send(wd.master_host, 0, items, bytes);
     });
     for (k, inbox) in grants.into_iter().enumerate() {
         let wd = Rc::clone(&world);
@@ -592,7 +590,7 @@ fn stealing(world: Rc<World>, grab: usize) {
                 sleep_for(wd.job.counter_s);
                 let loot: Vec<usize> = {
                     let mut d = dq.borrow_mut();
-                    let keep = d[k].len() / 2;
+                    let keep = StealState::split(d[k].len());
                     d[k].split_off(keep).into()
                 };
                 *left.borrow_mut() -= loot.len();
@@ -602,18 +600,14 @@ fn stealing(world: Rc<World>, grab: usize) {
             }
         });
     }
-    let mut seed = world.job.seed | 1;
-    for (k, inbox) in loot_boxes.iter().cloned().enumerate() {
+    let thieves = StealState::per_worker(w, world.job.seed);
+    for ((k, inbox), mut thief) in loot_boxes.iter().cloned().enumerate().zip(thieves) {
         let (wd, dq, left) = (
             Rc::clone(&world),
             Rc::clone(&deques),
             Rc::clone(&unassigned),
         );
         let steal_boxes = Rc::clone(&steal_boxes);
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let mut rng = seed;
         let sink = Rc::clone(&sink);
         ffi::spawn("worker", world.worker_hosts[k], false, move || {
             inbox.bind();
@@ -631,14 +625,12 @@ fn stealing(world: Rc<World>, grab: usize) {
                     sink.send(wd.worker_hosts[k], k, items.len(), bytes);
                     continue;
                 }
-                if *left.borrow() == 0 || w == 1 {
+                if *left.borrow() == 0 {
                     return;
                 }
-                // xorshift: a victim other than k.
-                rng ^= rng << 13;
-                rng ^= rng >> 7;
-                rng ^= rng << 17;
-                let victim = (k + 1 + (rng % (w as u64 - 1)) as usize) % w;
+                let Some(victim) = thief.victim() else {
+                    return; // alone
+                };
                 count_message(&wd.tally, EMPTY_MESSAGE);
                 steal_boxes[victim].send(wd.worker_hosts[k], k, k, EMPTY_MESSAGE);
                 let loot = inbox.get();
@@ -670,26 +662,19 @@ impl Ledger {
     /// Top worker `k` up to B from the queue at the simulated time now: the items handed out
     /// and how many of them were handed out before.
     fn top_up(&mut self, k: usize) -> (Vec<usize>, u64) {
-        let mut batch = Vec::new();
         let before = self.queue.reissued;
         let now = Duration::from_secs_f64(clock().max(0.0));
-        let len = self.queue.len();
-        let mut scanned = 0;
-        while self.held[k].len() < self.buffer && scanned < len {
-            scanned += 1;
-            let (done, held) = (&self.done, &self.held[k]);
-            match self
-                .queue
-                .take(now, |i| done[i as usize], |i| held.contains(&(i as usize)))
-            {
-                Take::Item(i) => {
-                    self.held[k].push(i as usize);
-                    batch.push(i as usize);
-                }
-                Take::Skip => {}
-                Take::Empty => break,
-            }
-        }
+        let (done, held) = (&self.done, &self.held[k]);
+        let mut got = Vec::new();
+        self.queue.top_up(
+            now,
+            self.buffer.saturating_sub(held.len()),
+            |i| done[i as usize],
+            |i| held.contains(&(i as usize)),
+            &mut got,
+        );
+        let batch: Vec<usize> = got.into_iter().map(|i| i as usize).collect();
+        self.held[k].extend(&batch);
         (batch, self.queue.reissued - before)
     }
 }

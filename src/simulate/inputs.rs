@@ -6,7 +6,7 @@
 use crate::model::probe;
 use crate::render::TileResult;
 use crate::scene::Scene;
-use crate::sched::{decompose, wire, Chunk, MasterParams, Order, Policy, SchedulerKind};
+use crate::sched::{decompose, wire, Chunk, Order, Policy, SchedulerKind};
 use crate::tracer::AnyTracer;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -125,18 +125,19 @@ impl ItemInputs {
     }
 }
 
-/// The master's cost per hand-out at `buffer` (zero-work dispatch per item) and its fixed cost.
+/// A hand-out thread's cost per hand-out at `buffer` (zero-work dispatch per item) and its
+/// fixed cost: `kind` at its defaults with that buffer (its parameter `buffer`).
 pub fn master_zero_work(
+    kind: SchedulerKind,
     buffer: usize,
     items: u32,
     workers: usize,
     reps: u32,
 ) -> Result<ZeroWork, String> {
-    let p = MasterParams {
-        buffer,
-        ..MasterParams::DEFAULT
-    };
-    probe::zero_work_for(Policy::Master(p), items, workers, reps, ZERO_WORK_RUN_S)
+    let mut spec = crate::sched::SchedulerSpec::new(kind, Chunk::Frame, workers);
+    spec.set("buffer", &buffer.to_string())
+        .map_err(|e| e.to_string())?;
+    probe::zero_work_for(spec.policy, items, workers, reps, ZERO_WORK_RUN_S)
         .map_err(|e| e.to_string())
 }
 

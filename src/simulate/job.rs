@@ -25,11 +25,7 @@ pub fn actors_needed(kind: crate::sched::SchedulerKind, workers: usize, lost: us
 
 /// [`actors_needed`] for any rule: a stealing worker also runs a steal server.
 pub fn actors_playing(rule: &crate::sched::rule::HandOut, workers: usize, lost: usize) -> usize {
-    use crate::sched::rule::{HandOut, WorkerRule};
-    let per_worker = match rule {
-        HandOut::ByWorkers(WorkerRule::Steal(_)) => 2,
-        HandOut::ByMaster(_) | HandOut::ByWorkers(WorkerRule::Own(_) | WorkerRule::Pool(_)) => 1,
-    };
+    let per_worker = if rule.needs().shared_memory { 2 } else { 1 };
     per_worker * workers + workers.div_ceil(FAN_IN_GROUP) + 2 + lost
 }
 

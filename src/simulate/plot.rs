@@ -4,7 +4,7 @@
 use super::rows::{Inputs, SimRow};
 use super::validate::Validation;
 use crate::plot::axes::Scale;
-use crate::sched::{Chunk, Policy};
+use crate::sched::Chunk;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -83,8 +83,8 @@ fn without_chunk(row: &SimRow) -> String {
 fn master_limits(rows: &[&&SimRow], inputs: &Inputs) -> Vec<(f64, String)> {
     let mut out: Vec<(f64, String)> = Vec::new();
     for r in rows {
-        if let Policy::Master(m) = r.spec.policy {
-            let Some(h) = inputs.master_h_s.get(&m.buffer) else {
+        if let Some(b) = r.spec.policy.needs().outstanding {
+            let Some(h) = inputs.master_h_s.get(&b) else {
                 continue;
             };
             let limit = analytic_master_speedup(r.serial_s, r.items, *h);
@@ -175,16 +175,13 @@ pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>,
         let mut sat: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
         let mut limits = Vec::new();
         for r in &on {
-            if let Policy::Master(m) = r.spec.policy {
+            if let Some(b) = r.spec.policy.needs().outstanding {
                 sat.entry(r.spec.label()).or_default().push((
                     (r.spec.workers as f64).log2(),
                     r.items as f64 / r.out.wall_s,
                 ));
-                if let Some(h) = inputs.master_h_s.get(&m.buffer) {
-                    let line = (
-                        1.0 / h,
-                        format!("1/h at B={} ({:.0} ns)", m.buffer, h * 1e9),
-                    );
+                if let Some(h) = inputs.master_h_s.get(&b) {
+                    let line = (1.0 / h, format!("1/h at B={} ({:.0} ns)", b, h * 1e9));
                     if !limits.iter().any(|l: &(f64, String)| l.1 == line.1) {
                         limits.push(line);
                     }
@@ -254,8 +251,8 @@ pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
 pub fn saturation_markdown(rows: &[SimRow], inputs: &Inputs) -> String {
     let mut groups: BTreeMap<(String, String), (f64, Vec<&SimRow>)> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.out.error.is_none()) {
-        if let Policy::Master(m) = r.spec.policy {
-            if let Some(&h) = inputs.master_h_s.get(&m.buffer) {
+        if let Some(b) = r.spec.policy.needs().outstanding {
+            if let Some(&h) = inputs.master_h_s.get(&b) {
                 groups
                     .entry((r.platform.clone(), r.spec.label()))
                     .or_insert((h, Vec::new()))

@@ -6,7 +6,7 @@ use super::config::{Platform, SimPlan};
 use super::error::SimError;
 use super::inputs::{self, ItemInputs, PixelCosts};
 use super::job::{SimJob, SimOutcome};
-use crate::sched::{param_columns, Chunk, Order, Policy, SchedulerSpec};
+use crate::sched::{param_columns, Chunk, Order, SchedulerSpec};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -112,12 +112,12 @@ impl Inputs {
         let mut master_h_s = BTreeMap::new();
         let mut master_fixed_s = BTreeMap::new();
         for s in specs {
-            if let Policy::Master(p) = s.policy {
-                if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(p.buffer) {
-                    let z = inputs::master_zero_work(p.buffer, n, workers, reps)
+            if let Some(b) = s.policy.needs().outstanding {
+                if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(b) {
+                    let z = inputs::master_zero_work(s.kind(), b, n, workers, reps)
                         .map_err(SimError::Failed)?;
                     e.insert(z.per_item_s);
-                    master_fixed_s.insert(p.buffer, z.fixed_s);
+                    master_fixed_s.insert(b, z.fixed_s);
                 }
             }
         }
@@ -190,7 +190,7 @@ impl Inputs {
     /// item, which zero-work items never show. Measured once per configuration; 0 for other
     /// schedulers.
     pub fn refill(&mut self, spec: &SchedulerSpec, mean_s: f64) -> Result<f64, SimError> {
-        if !matches!(spec.policy, Policy::Master(_)) {
+        if !spec.policy.needs().hand_out_thread {
             return Ok(0.0);
         }
         let key = (spec.label(), spec.workers);
@@ -218,7 +218,7 @@ impl Inputs {
     /// measured); else 0 (a cluster's master, whose round trip is the simulated network's)
     /// (M-130).
     pub fn source_floor(&mut self, spec: &SchedulerSpec, cost_s: &[f64]) -> Result<f64, SimError> {
-        if cost_s.is_empty() || !matches!(spec.policy, Policy::Master(_)) {
+        if cost_s.is_empty() || !spec.policy.needs().hand_out_thread {
             return Ok(0.0);
         }
         if self.local_threads {
@@ -311,10 +311,10 @@ impl Inputs {
             .iter()
             .filter_map(|p| Some((p.name.to_string(), spec.get(p.name)?)))
             .collect();
-        let (master_h_s, fixed_s) = if let Policy::Master(p) = spec.policy {
+        let (master_h_s, fixed_s) = if let Some(b) = spec.policy.needs().outstanding {
             (
-                self.master_h_s.get(&p.buffer).copied().unwrap_or(0.0),
-                self.fixed_s.0.get(&p.buffer).copied().unwrap_or(0.0),
+                self.master_h_s.get(&b).copied().unwrap_or(0.0),
+                self.fixed_s.0.get(&b).copied().unwrap_or(0.0),
             )
         } else {
             (0.0, self.fixed_s.1)

@@ -12,10 +12,15 @@ mod custom_source;
 #[allow(dead_code, unreachable_pub)]
 mod custom_tracer;
 
+#[path = "../../examples/two_level_pool.rs"]
+#[allow(dead_code, unreachable_pub)]
+mod two_level_pool;
+
 use custom_scheduler::{cornell, predict, render, Fraction, On};
 use raysched::sched::rule::{chunk_sequence, HandOut, Scheduler, WorkerRule};
 use raysched::sched::{Policy, SchedulerKind, Slow};
 use std::time::Duration;
+use two_level_pool::{TwoLevel, TwoLevelPool};
 
 const QUARTER: Fraction = Fraction {
     fraction: 0.25,
@@ -169,4 +174,113 @@ fn a_custom_tracer_renders_the_native_image_and_counts_its_queries() {
     assert!(intersects >= 16 * 16 * 2, "{intersects}");
     assert!(counting.occludeds.load(Ordering::Relaxed) > 0);
     assert!(stats.rays > 0);
+}
+
+const PAIRS: TwoLevel = TwoLevel { group: 2 };
+
+#[test]
+fn a_two_level_pool_shares_a_groups_chunk_among_its_workers() {
+    use raysched::sched::rule::Dispense;
+    // 100 items, 4 workers in 2 groups. Worker 0 takes group 0's chunk ⌈100/4⌉ = 25 and its
+    // ⌈25/4⌉ = 7 of it; worker 2 group 1's ⌈75/4⌉ = 19 and ⌈19/4⌉ = 5; worker 1 the next
+    // ⌈18/4⌉ = 5 of group 0's chunk, not of the pool.
+    let mut pool = TwoLevelPool::new(100, 4, 2);
+    assert_eq!(pool.grant(0, None), Some(0..7));
+    assert_eq!(pool.grant(2, None), Some(25..30));
+    assert_eq!(pool.grant(1, None), Some(7..12));
+    // Every item exactly once, whoever asks.
+    let mut seen = vec![0u8; 100];
+    for r in [0..7, 25..30, 7..12] {
+        r.for_each(|i| seen[i] += 1);
+    }
+    let mut w = 0;
+    while let Some(r) = pool.grant(w, None) {
+        r.for_each(|i| seen[i] += 1);
+        w = (w + 3) % 4;
+    }
+    assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
+}
+
+#[test]
+fn a_two_level_pool_renders_the_serial_image_on_threads_and_on_sources() {
+    let (scene, tracer) = cornell(32, 2);
+    let serial = Policy::defaults(SchedulerKind::Static);
+    let (reference, _) = render(&serial, On::Threads, 1, &scene, &tracer);
+    for on in [On::Threads, On::Sources] {
+        let (image, stats) = render(&PAIRS, on, 4, &scene, &tracer);
+        assert_eq!(image.hash(), reference.hash(), "{on:?}");
+        assert_eq!(
+            stats.workers.iter().map(|w| w.items).sum::<u64>(),
+            64,
+            "{on:?}: every item rendered once"
+        );
+    }
+}
+
+#[test]
+fn the_cost_model_plays_a_two_level_pool() {
+    // 256 items of 0.1 ms on 4 workers: 6.4 ms of work each; a worker's last hand-out is one
+    // item of its group's last chunk, so the workers end within a few items of each other.
+    let p = predict(&PAIRS, 4, 256, 1e-4);
+    assert!((p.work_s - 6.4e-3).abs() < 1e-12, "{p:?}");
+    assert_eq!(p.items, 256);
+    assert!(p.imbalance_s >= 0.0 && p.imbalance_s <= 4e-4, "{p:?}");
+}
+
+/// The two-level pool in the simulation, in a process of its own.
+#[cfg(feature = "simgrid")]
+#[test]
+#[ignore = "run by the_simulation_plays_a_two_level_pool in a process of its own"]
+fn simulation_child_two_level() {
+    use raysched::simulate::job::{Network, SimJob};
+    let platform = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("platforms/smp2.xml");
+    let n = 256;
+    let job = SimJob {
+        platform,
+        scheduler: PAIRS.id(),
+        params: Default::default(),
+        workers: 2,
+        cost_s: vec![1e-4; n],
+        item_bytes: vec![25; n],
+        result_bytes: vec![44; n],
+        master_h_s: 0.0,
+        counter_s: 0.0,
+        start_s: 0.0,
+        refill_s: 0.0,
+        lost: Vec::new(),
+        seed: 1,
+        network: Network::Fine,
+    };
+    let out = raysched::simgrid::simulate_with(job, &PAIRS).unwrap();
+    println!("SIMULATED wall_s={} issued={}", out.wall_s, out.issued);
+}
+
+#[cfg(feature = "simgrid")]
+#[test]
+fn the_simulation_plays_a_two_level_pool() {
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "extension::simulation_child_two_level",
+            "--ignored",
+            "--nocapture",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .find_map(|l| l.strip_prefix("SIMULATED "))
+        .unwrap_or_else(|| panic!("no answer: {text} {}", String::from_utf8_lossy(&out.stderr)));
+    let field = |k: &str| -> f64 {
+        line.split_whitespace()
+            .find_map(|f| f.strip_prefix(k)?.strip_prefix('='))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert_eq!(field("issued"), 256.0, "{line}");
+    // One group of both workers on smp2: 12.8 ms of work each, the last hand-outs one item.
+    let wall = field("wall_s");
+    assert!((12.8e-3..14e-3).contains(&wall), "{line}");
 }

@@ -11,7 +11,7 @@
 //! [`Scheduler`](super::rule::Scheduler) instead.
 
 use super::param::{err, id_enum, one_of, Chunk, Order, ParamValue, Params, Slow, SpecError};
-use super::rule::{HandOut, Scheduler, WorkerRule};
+use super::rule::{HandOut, Scheduler};
 use serde::{Deserialize, Serialize};
 
 /// A policy's own layout: the tile side and order for a `width`×`height` image on `workers`
@@ -175,6 +175,12 @@ builtin_schedulers! {
     TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
 }
 
+impl SchedulerKind {
+    /// The kind a run over several kinds of source takes unless told otherwise: the one whose
+    /// rule gives each kind of source its own buffer and grain ([`super::rule::Needs`]).
+    pub const FOR_MIXED_SOURCES: Self = Self::Master;
+}
+
 impl Scheduler for Policy {
     fn id(&self) -> String {
         self.kind().id().to_string()
@@ -188,16 +194,13 @@ impl Scheduler for Policy {
 /// Can `kind` hand items to sources behind the source interface (MPI ranks, a GPU, a
 /// researcher's own)? Every rule but stealing, which needs workers that share memory.
 pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
-    !matches!(
-        Policy::defaults(kind).rule(1, 1, Slow::NONE),
-        HandOut::ByWorkers(WorkerRule::Steal(_))
-    )
+    !Policy::defaults(kind).needs().shared_memory
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sched::rule::{chunk_sequence, Grab};
+    use crate::sched::rule::{chunk_sequence, Grab, WorkerRule};
 
     #[test]
     fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
@@ -216,6 +219,9 @@ mod tests {
                     assert_eq!(total, 1000, "{kind:?}");
                 }
                 HandOut::ByWorkers(WorkerRule::Steal(s)) => assert!(s.grab() >= 1),
+                HandOut::ByWorkers(WorkerRule::Dispense(_)) => {
+                    panic!("{kind:?}: no built-in shape")
+                }
             }
         }
     }

@@ -11,30 +11,25 @@
 //! the simulated master (`simgrid::protocols`) all take their items from this queue. Times
 //! are durations since the run's start, whatever clock the executor reads.
 
-use crate::sched::param::{scheduler_params, Passes, Requeue, Returns, Wait};
-use serde::{Deserialize, Serialize};
+use crate::sched::param::{Passes, Requeue, Returns, Wait};
 use std::collections::VecDeque;
 use std::time::Duration;
 
-scheduler_params! {
-    /// The master's parameters.
-    pub struct MasterParams {
-        /// Items outstanding per compute source (B).
-        buffer: usize = 2, label Some("B");
-        /// When a handed-out, unfinished item is handed out again: seed (when it comes round
-        /// in the queue), never or timeout:<ms>.
-        requeue: Requeue = Requeue::Never, label Some("requeue");
-        /// How the master waits for results: spin, yield or block.
-        wait: Wait = Wait::Block, label Some("wait");
-        /// How local threads hand results back: item (each as soon as it is rendered) or
-        /// hand_out (a hand-out's together, when its last item is done; the master then hands
-        /// out at most ⌈B/2⌉ items at a time, so a source has the next one queued).
-        returns: Returns = Returns::Item, label Some("returns");
-        /// Who runs the master's passes: thread (a thread of its own that renders nothing; any
-        /// source) or workers (each local thread for itself under one lock when it reports,
-        /// the queue and re-queue rules unchanged; local threads only, no fault injection).
-        passes: Passes = Passes::Thread, label Some("passes");
-    }
+/// The master protocol's settings: what any kind that hands out through a [`MasterQueue`]
+/// tells its executors (the `master` kind's parameters convert into it; a second master-like
+/// kind would build one of its own). Plain data: no kind's parameter machinery.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MasterRule {
+    /// Items outstanding per compute source (B).
+    pub buffer: usize,
+    /// When a handed-out, unfinished item is handed out again.
+    pub requeue: Requeue,
+    /// How the hand-out thread waits for results.
+    pub wait: Wait,
+    /// How local threads hand results back: item by item or per hand-out.
+    pub returns: Returns,
+    /// Who runs the passes: a thread of its own, or each local worker under one lock.
+    pub passes: Passes,
 }
 
 /// What the queue's front gave.
@@ -129,6 +124,35 @@ impl MasterQueue {
             self.queue.push_back(i);
         }
         Take::Item(i)
+    }
+
+    /// Top a holder up: take at most `room` items from the queue's front into `out`, scanning
+    /// each queued entry at most once ([`Self::take`] decides each). `holds` says what the
+    /// holder held before this pass (an item taken now goes to the back, beyond this scan).
+    /// Every executor's plain pass (the workers-run master, the simulated and the modelled
+    /// master) is this; the thread master's grouped passes call [`Self::take`] themselves.
+    pub fn top_up(
+        &mut self,
+        now: Duration,
+        room: usize,
+        done: impl Fn(u32) -> bool,
+        holds: impl Fn(u32) -> bool,
+        out: &mut Vec<u32>,
+    ) {
+        let len = self.len();
+        let mut scanned = 0;
+        let mut taken = 0;
+        while taken < room && scanned < len {
+            scanned += 1;
+            match self.take(now, &done, &holds) {
+                Take::Item(i) => {
+                    out.push(i);
+                    taken += 1;
+                }
+                Take::Skip => {}
+                Take::Empty => break,
+            }
+        }
     }
 
     /// Item `i`'s copy was lost with its holder (and `i` is not done): it goes out again at

@@ -26,6 +26,7 @@
 //! ```
 
 mod balance;
+mod dispense;
 mod master;
 
 pub use super::dls::{ChunkRule, Grab, ItemTimes, Report, Timing};
@@ -33,7 +34,8 @@ pub use balance::{
     Balance, Dispatch, Facts, Grant, Shape, DISPATCH_BUFFER, GPU_DISPATCH, LONG_ITEM, PEAK_SHARE,
     TAIL_SLACK,
 };
-pub use master::{MasterParams, MasterQueue, Take};
+pub use dispense::{Dispense, Dispenser, StealState};
+pub use master::{MasterQueue, MasterRule, Take};
 
 use super::param::Slow;
 use std::ops::Range;
@@ -47,9 +49,9 @@ pub fn band(k: usize, n: usize, w: usize) -> Range<usize> {
 
 /// Who hands out: a master that renders nothing, or the workers themselves.
 pub enum HandOut {
-    /// The founding design's master: ≤ B items outstanding per source from a FIFO, re-queued
-    /// at the back; its passes run on its own thread or by the workers (`passes`).
-    ByMaster(MasterParams),
+    /// A master: ≤ B items outstanding per source from one FIFO ([`MasterQueue`]), re-queued
+    /// at the back; its passes run on its own thread or by the workers ([`MasterRule`]).
+    ByMaster(MasterRule),
     /// The workers take their own items under a rule.
     ByWorkers(WorkerRule),
 }
@@ -80,6 +82,73 @@ pub enum WorkerRule {
     Pool(Pool),
     /// Each worker starts with its [`band`]; an idle one steals from another.
     Steal(Steal),
+    /// A pool of another shape, over the run's `n` items: each request gets what the
+    /// [`Dispense`] grants (a rule from outside the crate; see `docs/extending.md`).
+    Dispense(Box<dyn Dispense>),
+}
+
+impl WorkerRule {
+    /// The pool protocol this rule's pool plays over `n` items, if it is a pool of any shape.
+    pub fn into_dispense(self, n: usize) -> Result<Box<dyn Dispense>, Self> {
+        match self {
+            Self::Pool(pool) => Ok(Box::new(pool.dispenser(n))),
+            Self::Dispense(d) => Ok(d),
+            other => Err(other),
+        }
+    }
+}
+
+/// What a rule's shape needs from whoever plays it: the one question the model, the
+/// simulation, the experiment plan, `advise` and the plots ask instead of naming a kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Needs {
+    /// A thread of its own that hands out and renders nothing (its refill period r and its
+    /// cost per hand-out are measured; the simulated one computes on its host).
+    pub hand_out_thread: bool,
+    /// Sources that each hold up to this many items, topped up by a pass (the master's B):
+    /// the probes of its hand-out cost are keyed by it.
+    pub outstanding: Option<usize>,
+    /// Per-source settings: each kind of source may have its own buffer and grain (a GPU's
+    /// chunk, `balance`).
+    pub per_source: bool,
+    /// Workers that share memory (stealing): not playable over the source interface.
+    pub shared_memory: bool,
+    /// What the workers measure and report.
+    pub timing: Timing,
+}
+
+impl HandOut {
+    /// What playing this rule needs ([`Needs`]).
+    pub fn needs(&self) -> Needs {
+        let none = Needs {
+            hand_out_thread: false,
+            outstanding: None,
+            per_source: false,
+            shared_memory: false,
+            timing: Timing::None,
+        };
+        match self {
+            Self::ByMaster(m) => Needs {
+                hand_out_thread: m.passes == super::param::Passes::Thread,
+                outstanding: Some(m.buffer),
+                per_source: true,
+                ..none
+            },
+            Self::ByWorkers(WorkerRule::Own(_)) => none,
+            Self::ByWorkers(WorkerRule::Pool(p)) => Needs {
+                timing: p.rule.timing(),
+                ..none
+            },
+            Self::ByWorkers(WorkerRule::Dispense(d)) => Needs {
+                timing: d.timing(),
+                ..none
+            },
+            Self::ByWorkers(WorkerRule::Steal(_)) => Needs {
+                shared_memory: true,
+                ..none
+            },
+        }
+    }
 }
 
 /// A fixed assignment of items to workers.
@@ -166,6 +235,11 @@ pub trait Scheduler: Send + Sync {
     fn id(&self) -> String;
     /// The rule over `n` items on `workers` workers, worker i slowed as `slow` says.
     fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
+    /// What its shape needs from an executor ([`HandOut::needs`] of a small run; a shape's
+    /// needs do not depend on the item count).
+    fn needs(&self) -> Needs {
+        self.hand_out(1, 1, Slow::NONE).needs()
+    }
 }
 
 /// The chunk sizes a pool rule hands out over `n` items when `p` workers ask in turn (0, 1,
