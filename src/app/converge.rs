@@ -1,7 +1,7 @@
 //! `raysched converge`: error against run time for one scene and several tracers.
 
 use super::error::CliError;
-use raysched::scene::{load_scene, SceneOverrides};
+use raysched::scene::{load_scene, Scene, SceneOverrides};
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 
@@ -32,7 +32,7 @@ pub(crate) struct ConvergeArgs {
 }
 
 pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
-    use raysched::converge::{self as cv, Reference, ReferenceKind};
+    use raysched::converge as cv;
     if args.threads == 0 || args.max_spp == 0 || args.ref_spp == 0 {
         return Err(CliError::input(anyhow::anyhow!(
             "--threads, --max-spp and --ref-spp must be ≥ 1"
@@ -50,42 +50,9 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
         .map(|id| TracerKind::from_id(id.trim()).and_then(TracerKind::available))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| CliError::input(anyhow::anyhow!("--tracers: {e}")))?;
+    let scene = std::sync::Arc::new(scene);
     let first = AnyTracer::build(kinds[0], &scene, args.threads).map_err(CliError::input)?;
-    let reference = match &args.reference {
-        Some(p) => {
-            let image = raysched::render::Image::load_exr(p)
-                .map_err(|e| CliError::input(anyhow::anyhow!("--ref: {e}")))?;
-            if image.width != scene.width() || image.height != scene.height() {
-                return Err(CliError::input(anyhow::anyhow!(
-                    "--ref {}: {}×{} does not match the scene's {}×{}",
-                    p.display(),
-                    image.width,
-                    image.height,
-                    scene.width(),
-                    scene.height()
-                )));
-            }
-            Reference {
-                exact: vec![false; image.data.len()],
-                image,
-                kind: ReferenceKind::Rendered {
-                    spp: 0,
-                    path: Some(p.clone()),
-                },
-                ambiguous: 0,
-                noise_mse: 0.0,
-            }
-        }
-        None => cv::reference::reference(
-            &scene,
-            &first,
-            Path::new("results/runs/refs"),
-            args.ref_spp,
-            args.threads,
-            &mut reference_progress(),
-        )
-        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
-    };
+    let reference = reference_of(&args, &scene, &first)?;
     if reference.noise_mse > 0.0 {
         out!(
             "reference noise: RMSE {:.3e} (subtracted from every row's error)",
@@ -95,13 +62,11 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     let mut rows = Vec::new();
     for &kind in &kinds {
         let tracer = AnyTracer::build(kind, &scene, args.threads).map_err(CliError::input)?;
-        rows.extend(cv::run_convergence(
-            &scene,
-            &tracer,
-            &reference,
-            args.max_spp,
-            args.threads,
-        ));
+        let tracer = std::sync::Arc::new(tracer);
+        rows.extend(
+            cv::run_convergence(&scene, &tracer, &reference, args.max_spp, args.threads)
+                .map_err(CliError::runtime)?,
+        );
     }
     let csv = args.output.join("convergence.csv");
     let png = args.output.join("convergence.png");
@@ -132,6 +97,50 @@ pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
     }
     out!("wrote {} and {}", csv.display(), png.display());
     Ok(())
+}
+
+/// The reference of a run: `--ref`'s image, else the analytic or cached rendered one.
+fn reference_of(
+    args: &ConvergeArgs,
+    scene: &Scene,
+    first: &AnyTracer,
+) -> Result<raysched::converge::Reference, CliError> {
+    use raysched::converge::{self as cv, Reference, ReferenceKind};
+    Ok(match &args.reference {
+        Some(p) => {
+            let image = raysched::render::Image::load_exr(p)
+                .map_err(|e| CliError::input(anyhow::anyhow!("--ref: {e}")))?;
+            if image.width != scene.width() || image.height != scene.height() {
+                return Err(CliError::input(anyhow::anyhow!(
+                    "--ref {}: {}×{} does not match the scene's {}×{}",
+                    p.display(),
+                    image.width,
+                    image.height,
+                    scene.width(),
+                    scene.height()
+                )));
+            }
+            Reference {
+                exact: vec![false; image.data.len()],
+                image,
+                kind: ReferenceKind::Rendered {
+                    spp: 0,
+                    path: Some(p.clone()),
+                },
+                ambiguous: 0,
+                noise_mse: 0.0,
+            }
+        }
+        None => cv::reference::reference(
+            scene,
+            first,
+            Path::new("results/runs/refs"),
+            args.ref_spp,
+            args.threads,
+            &mut reference_progress(),
+        )
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?,
+    })
 }
 
 /// One stderr line per round of a rendered reference: done/total samples, elapsed, ETA.

@@ -1,25 +1,23 @@
 //! `raysched render SCENE --sources mpi` under `mpirun -n K`: rank 0 runs the scheduler, ranks
 //! 1…K−1 are compute sources (plus `--local-threads` threads on rank 0: a heterogeneous run).
+//! The run is `sched::render_scene_with` over the launch's source set (the ranks, then the
+//! local threads), like any other render.
 
 use super::error::CliError;
 use super::render::RenderArgs;
-use raysched::metrics::Probe;
-use raysched::mpi::comm::{tag, Comm};
-use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
-use raysched::mpi::wire::Ready;
+use raysched::mpi::comm::Comm;
+use raysched::mpi::hub::HubEnd;
+use raysched::mpi::launch::{gather_ready, MpiRanks, STOP_WAIT};
 use raysched::mpi::wire::ScenePackage;
+use raysched::render::Image;
 use raysched::scene::Scene;
-use raysched::sched::{assemble, decompose_frames, render_job};
+use raysched::sched::{render_scene_with, RenderOn, SourceSet, SourceSetup};
 use raysched::sched::{Runner, SchedulerSpec};
-use raysched::source::{ComputeSource, LocalThreadSource};
+use raysched::source::local::thread_label;
 use raysched::tracer::AnyTracer;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// How long a worker may take to build its scene and tracer.
-const READY_WAIT: Duration = Duration::from_secs(600);
-/// How long rank 0 waits for the workers' goodbyes after STOP.
-pub(crate) const STOP_WAIT: Duration = Duration::from_secs(10);
 /// A rank with work outstanding that says nothing this long is lost (env
 /// `RAYSCHED_MPI_SILENCE_MS`); local ranks are also checked by pid, which is much faster.
 /// Busy workers send a heartbeat every 200 ms from a thread that does not render, so a
@@ -57,7 +55,7 @@ pub(crate) fn input(msg: String) -> CliError {
 fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError> {
     // 1. Everything that can be wrong with the input is found before the broadcast; an empty
     //    broadcast tells the workers to finalise and exit.
-    let (scene, pkg, spec) = match prepare(comm, args) {
+    let (scene, tracer, pkg, spec) = match prepare(comm, args) {
         Ok(p) => p,
         Err(e) => {
             let _ = comm.broadcast(Some(Vec::new()));
@@ -67,35 +65,43 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     // 2. Ship the scene; every rank builds it and answers READY.
     comm.broadcast(Some(pkg.encode()))
         .map_err(CliError::runtime)?;
-    let peers = gather_ready(comm)?;
-    // 3. The ranks (and any local threads) as compute sources under the scheduler.
-    let scene = Arc::new(scene);
-    let probe = Probe::new(!args.stats_off, args.timeline);
+    let peers = gather_ready(comm).map_err(CliError::runtime)?;
+    // 3. The ranks (and any local threads) as the run's sources.
     let silence = std::env::var("RAYSCHED_MPI_SILENCE_MS")
         .ok()
         .and_then(|v| v.parse().ok())
         .map_or(SILENCE, Duration::from_millis);
-    let (hub, mut sources) = Hub::new(comm, &peers, 0, probe, silence);
-    add_local_threads(args, &scene, probe, &mut sources)?;
-    let labels: Vec<String> = sources.iter().map(|s| s.label()).collect();
-    let (w, h) = (scene.width(), scene.height());
-    let items = decompose_frames(w, h, scene.frames(), spec.chunk, spec.order);
+    // The launch's own order (ranks, then rank 0's threads), each source item by item under
+    // the master's B: no balancer.
+    let setup = SourceSetup {
+        set: SourceSet::mpi_launch(args.local_threads > 0),
+        balance: Some(false),
+        ..SourceSetup::default()
+    };
+    let on = RenderOn {
+        setup: &setup,
+        #[cfg(feature = "gpu")]
+        gpu: None,
+    };
+    let ranks = MpiRanks::new(comm, &peers, silence, HubEnd::Stop(STOP_WAIT));
     let t0 = Instant::now();
-    let (outcome, hub_report) = run_on_ranks(
-        hub,
-        HubEnd::Stop(STOP_WAIT),
+    let outcome = render_scene_with(
         &spec,
-        &items,
-        sources,
+        &scene,
+        &tracer,
+        &on,
         &args.run_options(),
-        probe,
+        Some(&ranks),
     );
+    let mut labels = ranks.labels();
+    let hub_report = ranks.finish();
     *lost = !hub_report.lost.is_empty();
-    let (results, mut stats) = outcome.map_err(CliError::runtime)?;
+    let (frames, mut stats) = outcome.map_err(CliError::runtime)?;
     stats.lost_sources = stats.lost_sources.max(hub_report.lost.len() as u64);
+    let first = labels.len() as u32;
+    labels.extend((first..).take(args.local_threads).map(thread_label));
     // 4. The image and the report.
-    let image =
-        assemble(scene.width(), scene.height(), &items, &results).map_err(CliError::runtime)?;
+    let image = Image::stack(frames);
     let wall = t0.elapsed().as_secs_f64();
     let wrote = super::render::save_render(&args.output, &image, scene.frames())
         .map_err(CliError::runtime)?;
@@ -126,11 +132,12 @@ fn rank0(comm: &Comm, args: &RenderArgs, lost: &mut bool) -> Result<(), CliError
     Ok(())
 }
 
-/// The checked input of an MPI render: the scene, its package for the ranks and the spec.
-fn prepare(
-    comm: &Comm,
-    args: &RenderArgs,
-) -> Result<(Scene, ScenePackage, SchedulerSpec), CliError> {
+/// The checked input of an MPI render.
+type Prepared = (Arc<Scene>, Arc<AnyTracer>, ScenePackage, SchedulerSpec);
+
+/// The checked input of an MPI render: the scene, rank 0's tracer (for its local threads),
+/// the scene's package for the ranks and the spec.
+fn prepare(comm: &Comm, args: &RenderArgs) -> Result<Prepared, CliError> {
     let mut spec = args.scheduler_spec(args.threads)?;
     if !raysched::sched::kinds::over_sources(spec.kind()) {
         return Err(input(format!(
@@ -152,84 +159,8 @@ fn prepare(
     let (scene, pkg) = raysched::mpi::scene::package(&args.scene, &overrides, args.tracer.id())
         .map_err(CliError::input)?;
     spec.workers = comm.size as usize - 1 + args.local_threads;
-    Ok((scene, pkg, spec))
-}
-
-/// `--local-threads` threads on rank 0 as extra sources (a heterogeneous run).
-fn add_local_threads(
-    args: &RenderArgs,
-    scene: &Arc<Scene>,
-    probe: Probe,
-    sources: &mut Vec<Box<dyn ComputeSource>>,
-) -> Result<(), CliError> {
-    if args.local_threads == 0 {
-        return Ok(());
-    }
-    let tracer = Arc::new(
-        AnyTracer::build(args.tracer, scene, args.local_threads).map_err(CliError::input)?,
-    );
-    let job = render_job(scene, &tracer);
-    for _ in 0..args.local_threads {
-        let id = sources.len() as u32;
-        sources.push(Box::new(LocalThreadSource::spawn(id, job.clone(), probe)));
-    }
-    Ok(())
-}
-
-/// Wait for every worker's READY; a rank that could not build the scene stops the run with
-/// its own message.
-pub(crate) fn gather_ready(comm: &Comm) -> Result<Vec<Peer>, CliError> {
-    let mut peers: Vec<Option<Peer>> = vec![None; comm.size as usize];
-    let mut errors = Vec::new();
-    let end = Instant::now() + READY_WAIT;
-    let mut missing = comm.size as usize - 1;
-    while missing > 0 {
-        if Instant::now() > end {
-            errors.push(format!(
-                "{missing} rank(s) did not report ready within {} s",
-                READY_WAIT.as_secs()
-            ));
-            break;
-        }
-        let Some(p) = comm.iprobe(None).map_err(CliError::runtime)? else {
-            std::thread::sleep(Duration::from_micros(200));
-            continue;
-        };
-        let body = comm.recv(p).map_err(CliError::runtime)?;
-        if p.tag != tag::READY || peers[p.source as usize].is_some() {
-            continue;
-        }
-        missing -= 1;
-        match Ready::decode(&body) {
-            Ok(r) if r.error.is_empty() => {
-                peers[p.source as usize] = Some(Peer {
-                    rank: p.source,
-                    pid: r.pid,
-                    host: r.host,
-                })
-            }
-            Ok(r) => errors.push(format!(
-                "rank {} ({}, pid {}): {}",
-                p.source, r.host, r.pid, r.error
-            )),
-            Err(e) => errors.push(format!("rank {}: {e}", p.source)),
-        }
-        if peers[p.source as usize].is_none() {
-            // Keep the slot marked as answered.
-            peers[p.source as usize] = Some(Peer {
-                rank: -1,
-                pid: 0,
-                host: String::new(),
-            });
-        }
-    }
-    if !errors.is_empty() {
-        let all: Vec<i32> = (1..comm.size).collect();
-        stop_ranks(comm, &all, true, STOP_WAIT);
-        return Err(CliError::runtime(anyhow::anyhow!(
-            "the scene could not be built on every rank:\n  {}",
-            errors.join("\n  ")
-        )));
-    }
-    Ok(peers.into_iter().flatten().filter(|p| p.rank > 0).collect())
+    let scene = Arc::new(scene);
+    let tracer = AnyTracer::build(args.tracer, &scene, args.local_threads.max(1))
+        .map_err(CliError::input)?;
+    Ok((scene, Arc::new(tracer), pkg, spec))
 }

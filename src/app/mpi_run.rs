@@ -10,23 +10,16 @@
 
 use super::error::CliError;
 use super::experiment::RunArgs;
-use super::mpi_render::{gather_ready, input, lead, STOP_WAIT};
-use raysched::experiment::plan::RunConfig;
-use raysched::experiment::{
-    load_plan, run_experiment_with, ExperimentPlan, Launch, Remote, RunError, RunOptions,
-};
-use raysched::metrics::{Probe, RunStats};
-use raysched::mpi::comm::{tag, Comm};
-use raysched::mpi::hub::{run_on_ranks, stop_ranks, Hub, HubEnd, Peer};
-use raysched::render::Image;
-use raysched::sched::{assemble, decompose, SchedulerSpec};
-use raysched::tracer::Tracer;
+use super::mpi_render::{input, lead};
+use raysched::experiment::{load_plan, run_experiment_with, RunOptions};
+use raysched::mpi::comm::Comm;
+use raysched::mpi::hub::stop_ranks;
+use raysched::mpi::launch::STOP_WAIT;
+use raysched::mpi::MpiRemote;
 use std::time::Duration;
 
 /// Env: names the transport of a launch outright (a cluster's InfiniBand, a netem link).
 pub(crate) const ENV_TRANSPORT: &str = "RAYSCHED_MPI_TRANSPORT";
-/// Longest one MPI run of an experiment may take before the master gives up.
-const RUN_DEADLINE: Duration = Duration::from_secs(600);
 
 /// The transport of this launch, from its environment: `RAYSCHED_MPI_TRANSPORT` if set, else
 /// OpenMPI's `OMPI_MCA_btl` (`pml` other than ob1 means no BTL at all): only shared-memory
@@ -112,24 +105,13 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
         }
     };
     let m = plan.mpi.clone().expect("checked above");
-    let mut remote = MpiRemote {
-        comm,
-        launch: Launch {
-            ranks: comm.size as usize,
-            transport: String::new(),
-        },
-        peers: Vec::new(),
-        current: None,
-        silence: Duration::from_millis(m.silence_ms),
-        lost: Vec::new(),
-        stopped: false,
-    };
+    let mut remote = MpiRemote::new(comm, Duration::from_millis(m.silence_ms));
     // The first scene also tells who runs where (the transport depends on it).
     if let Err(e) = remote.ship(&plan, 0) {
         return Err(CliError::runtime(e));
     }
     let me = raysched::util::host::hostname();
-    let one_host = remote.peers.iter().all(|p| p.host == me);
+    let one_host = remote.peers().iter().all(|p| p.host == me);
     let t = transport(|v| std::env::var(v).ok(), one_host);
     if !m.transports.contains(&t) {
         stop_ranks(comm, &all, true, STOP_WAIT);
@@ -140,14 +122,14 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
             m.transports
         )));
     }
-    remote.launch.transport = t;
+    remote.set_transport(t.clone());
     if !args.quiet {
         out!(
             "{}: mpirun launch of {} ranks over {} ({} worker ranks on {})",
             plan.name,
             comm.size,
-            remote.launch.transport,
-            remote.peers.len(),
+            t,
+            remote.peers().len(),
             if one_host {
                 "this host"
             } else {
@@ -162,140 +144,9 @@ fn rank0(comm: &Comm, args: &RunArgs, lost: &mut bool) -> Result<(), CliError> {
         child_round: None,
     };
     let outcome = run_experiment_with(&plan, &opts, Some(&mut remote));
-    *lost = !remote.lost.is_empty();
+    *lost = remote.lost_any();
     remote.stop();
     super::experiment::finish_experiment(&plan, outcome, args.quiet)
-}
-
-/// The MPI side of one launch, as the runner's [`Remote`].
-struct MpiRemote<'c> {
-    comm: &'c Comm,
-    launch: Launch,
-    peers: Vec<Peer>,
-    /// The baseline (scene, tracer) every worker holds now.
-    current: Option<usize>,
-    silence: Duration,
-    /// (rank, why) of ranks lost; the launch ends after the run that lost them.
-    lost: Vec<(i32, String)>,
-    stopped: bool,
-}
-
-impl MpiRemote<'_> {
-    /// Send baseline `b`'s scene and tracer to every worker and wait for all READYs.
-    fn ship(&mut self, plan: &ExperimentPlan, b: usize) -> Result<(), RunError> {
-        let base = &plan.baselines[b];
-        let ps = &plan.scenes[base.scene];
-        let file = plan
-            .file
-            .parent()
-            .unwrap_or(std::path::Path::new(""))
-            .join(&ps.file);
-        let (scene, pkg) = raysched::mpi::scene::package(&file, &ps.overrides, &base.tracer_id)
-            .map_err(|e| RunError::Mpi(format!("{e:#}")))?;
-        if scene.hash != ps.scene.hash {
-            return Err(RunError::Mpi(format!(
-                "{}: changed on disk during the experiment (hash {:016x} → {:016x})",
-                file.display(),
-                ps.scene.hash,
-                scene.hash
-            )));
-        }
-        let bytes = pkg.encode();
-        for r in 1..self.comm.size {
-            self.comm
-                .send(r, tag::SCENE, &bytes)
-                .map_err(|e| RunError::Mpi(format!("sending the scene to rank {r}: {e}")))?;
-        }
-        match gather_ready(self.comm) {
-            Ok(peers) => {
-                self.peers = peers;
-                self.current = Some(b);
-                Ok(())
-            }
-            Err(e) => {
-                self.stopped = true; // gather_ready stopped the ranks
-                Err(RunError::Mpi(format!("{:#}", e.error)))
-            }
-        }
-    }
-
-    fn stop(&mut self) {
-        if self.stopped {
-            return;
-        }
-        self.stopped = true;
-        let live: Vec<i32> = self
-            .peers
-            .iter()
-            .map(|p| p.rank)
-            .filter(|r| !self.lost.iter().any(|(l, _)| l == r))
-            .collect();
-        stop_ranks(self.comm, &live, self.lost.is_empty(), STOP_WAIT);
-    }
-}
-
-impl Remote for MpiRemote<'_> {
-    fn launch(&self) -> &Launch {
-        &self.launch
-    }
-
-    fn measure(
-        &mut self,
-        plan: &ExperimentPlan,
-        c: &RunConfig,
-        spec: &SchedulerSpec,
-    ) -> Result<(Image, RunStats), RunError> {
-        if self.stopped || !self.lost.is_empty() {
-            return Err(RunError::Mpi(
-                "the MPI ranks are no longer available".into(),
-            ));
-        }
-        if self.current != Some(c.baseline) {
-            self.ship(plan, c.baseline)?;
-        }
-        let scene = &plan.scene_of(c).scene;
-        let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
-        let probe = Probe::new(true, spec.timeline);
-        let (hub, sources) = Hub::new(self.comm, &self.peers, 0, probe, self.silence);
-        let opts = raysched::sched::RunOptions {
-            stats: true,
-            deadline: Some(RUN_DEADLINE),
-            faults: None,
-        };
-        let (outcome, report) = run_on_ranks(
-            hub,
-            HubEnd::KeepWorkers,
-            spec,
-            &items,
-            sources,
-            &opts,
-            probe,
-        );
-        let config = format!("{} {} over {} ranks", c.id, spec.label(), spec.workers);
-        if !report.lost.is_empty() {
-            // The run may have finished on the survivors, but its timing is not that of K
-            // ranks: it is not recorded, and the launch ends (relaunch to resume).
-            let why: Vec<String> = report
-                .lost
-                .iter()
-                .map(|(r, w)| format!("rank {r}: {w}"))
-                .collect();
-            self.lost = report.lost;
-            return Err(RunError::Mpi(format!(
-                "{config}: MPI rank(s) lost ({}); rows measured so far are kept, relaunch to resume",
-                why.join("; ")
-            )));
-        }
-        let (results, mut stats) = outcome.map_err(|source| RunError::Sched {
-            config: config.clone(),
-            source,
-        })?;
-        let image = assemble(scene.width(), scene.height(), &items, &results)
-            .map_err(|source| RunError::Sched { config, source })?;
-        let tracer = &plan.baselines[c.baseline].tracer;
-        (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
-        Ok((image, stats))
-    }
 }
 
 #[cfg(test)]

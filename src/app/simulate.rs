@@ -58,15 +58,16 @@ pub(crate) fn child(args: ChildArgs) -> Result<(), CliError> {
     use raysched::simulate::job::SimJob;
     let fail = |m: String| CliError::input(anyhow::anyhow!(m));
     let text = match args.what.as_str() {
-        "inspect" => toml::to_string(&raysched::simgrid::inspect_platform(
-            &args.path.to_string_lossy(),
-        )),
+        "inspect" => toml::to_string(
+            &raysched::simgrid::inspect_platform(&args.path.to_string_lossy())
+                .map_err(|e| fail(e.to_string()))?,
+        ),
         "run" => {
             let job_text = std::fs::read_to_string(&args.path)
                 .map_err(|e| fail(format!("{}: {e}", args.path.display())))?;
             let job: SimJob = toml::from_str(&job_text)
                 .map_err(|e| fail(format!("{}: {e}", args.path.display())))?;
-            toml::to_string(&raysched::simgrid::simulate(job).map_err(fail)?)
+            toml::to_string(&raysched::simgrid::simulate(job).map_err(|e| fail(e.to_string()))?)
         }
         w => return Err(fail(format!("{w}: expected inspect or run"))),
     }

@@ -16,7 +16,9 @@ pub use reference::{Reference, ReferenceKind};
 
 use crate::render::{render_moments, Moments, TileResult, WorkItem};
 use crate::scene::Scene;
-use crate::sched::{decompose, run, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
+use crate::sched::{
+    decompose, rows_spec, run, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources,
+};
 use crate::source::Job;
 use crate::tracer::Tracer;
 use crate::util::csv_out::CsvError;
@@ -87,38 +89,30 @@ fn errors(estimate: &[[f64; 3]], reference: &[[f32; 3]]) -> (f64, f64, f64, f64)
 }
 
 /// Render `scene` progressively up to `max_spp` (1, 2, 4, … and `max_spp` last) on `threads`
-/// row-parallel workers, and compare each cumulative image with `reference`.
-pub fn run_convergence<T: Tracer + ?Sized>(
-    scene: &Scene,
-    tracer: &T,
+/// row-parallel workers ([`crate::sched::rows_spec`], through the one run path), and compare
+/// each cumulative image with `reference`. The rows are labelled [`ROWS_RAYON`].
+///
+/// # Errors
+/// The scheduler's error (a worker thread that panicked).
+pub fn run_convergence<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
     reference: &Reference,
     max_spp: u32,
     threads: usize,
-) -> Vec<ConvergenceRow> {
-    // One pool for the whole run: building it per step would be timed as rendering.
-    let Ok(pool) = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build()
-    else {
-        return Vec::new();
-    };
+) -> Result<Vec<ConvergenceRow>, SchedError> {
+    let spec = rows_spec(threads);
     let label = Label {
         tracer: tracer.id().to_string(),
         scheduler: ROWS_RAYON.into(),
         threads,
     };
-    let step = |range: Range<u32>| -> Result<(Moments, f64), std::convert::Infallible> {
-        let t0 = Instant::now();
-        let m = reference::image_moments_in(&pool, scene, tracer, range, false);
-        Ok((m, t0.elapsed().as_secs_f64()))
-    };
-    match progressive(scene, reference, max_spp, &label, step) {
-        Ok(rows) => rows,
-        Err(e) => match e {},
-    }
+    scheduled(scene, tracer, reference, max_spp, &spec, &label)
 }
 
-/// The scheduler label of [`run_convergence`]'s rows: one row-parallel rayon pool.
+/// The scheduler label of [`run_convergence`]'s rows: the row-parallel baseline. It ran on a
+/// rayon pool before it went through `sched::run`; the label stays, so that earlier
+/// `convergence.csv` files compare with new ones (the errors are bit-identical).
 pub const ROWS_RAYON: &str = "rows_rayon";
 
 /// [`run_convergence`] with every step rendered under the scheduler `spec` (its workers, its
@@ -136,13 +130,25 @@ pub fn run_convergence_scheduled<T: Tracer + 'static>(
     max_spp: u32,
     spec: &SchedulerSpec,
 ) -> Result<Vec<ConvergenceRow>, SchedError> {
-    spec.validate()?;
-    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
     let label = Label {
         tracer: tracer.id().to_string(),
         scheduler: spec.label(),
         threads: spec.workers,
     };
+    scheduled(scene, tracer, reference, max_spp, spec, &label)
+}
+
+/// The progression under `spec`, its rows labelled `label`.
+fn scheduled<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    reference: &Reference,
+    max_spp: u32,
+    spec: &SchedulerSpec,
+    label: &Label,
+) -> Result<Vec<ConvergenceRow>, SchedError> {
+    spec.validate()?;
+    let items = decompose(scene.width(), scene.height(), spec.chunk, spec.order);
     // Per-step clocks off: the probe's clock reads would be timed as rendering.
     let opts = RunOptions {
         stats: false,
@@ -197,7 +203,7 @@ pub fn run_convergence_scheduled<T: Tracer + 'static>(
         }
         Ok((all, wall))
     };
-    progressive(scene, reference, max_spp, &label, step)
+    progressive(scene, reference, max_spp, label, step)
 }
 
 /// Who rendered a progressive run (the CSV's configuration columns).

@@ -249,54 +249,15 @@ fn rect_integral(f: impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64
     f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
 }
 
-fn plane_point_lights(scene: &Scene) -> Option<Reference> {
+/// A light of [`plane_point_lights`]: (position, kind, strength) with kind 0 an isotropic
+/// point, 1 a Lambertian point.
+type PointSource = (DVec3, u8, DVec3);
+
+/// The scene's lights as points over the plane of normal `n` through `p0`; `None` when one is
+/// not a point (an environment, an emitter not small or not facing the plane head-on).
+fn point_sources(scene: &Scene, n: DVec3, p0: DVec3) -> Option<Vec<PointSource>> {
     let g = &scene.geometry;
-    if !g.spheres.is_empty() || scene.lights.is_empty() || scene.settings.max_depth == 1 {
-        return None;
-    }
-    // One rectangle (two coplanar triangles) of one constant diffuse material; other
-    // triangles may exist only as tiny emitters (handled as Lambertian points below).
-    let mut plane_tris = Vec::new();
-    let mut material = 0;
-    for (k, t) in g.triangles.iter().enumerate() {
-        if g.info[k].light == crate::scene::NO_LIGHT {
-            plane_tris.push(*t);
-            material = g.info[k].material;
-        }
-    }
-    if plane_tris.len() != 2 {
-        return None;
-    }
-    let rho = constant_albedo(scene, material)?.as_dvec3();
-    let n = plane_tris[0].normal().as_dvec3();
-    if (plane_tris[1].normal().as_dvec3() - n).length() > 1e-6 {
-        return None;
-    }
-    // The camera looks straight at the plane (film parallel to it), from its front side.
-    let centre = scene.camera.ray(0.5, 0.5).d.as_dvec3();
-    if (centre + n).length() > 1e-6 {
-        return None;
-    }
-    let p0 = plane_tris[0].v0.as_dvec3();
-    let dist = n.dot(-p0); // camera (render-space origin) height above the plane
-    if dist <= 0.0 {
-        return None;
-    }
-    // Plane basis from two camera rays; footprint corners land on axis-aligned rectangles.
-    let on_plane = |r: Ray| {
-        let d = r.d.as_dvec3();
-        d * (dist / -n.dot(d))
-    };
-    let bounds = plane_tris
-        .iter()
-        .flat_map(|t| t.vertices())
-        .map(|v| v.as_dvec3())
-        .collect::<Vec<_>>();
-    let x_axis =
-        (on_plane(scene.camera.ray(1.0, 0.5)) - on_plane(scene.camera.ray(0.0, 0.5))).normalize();
-    let y_axis = n.cross(x_axis);
-    // Sources: (position, kind, strength) with kind 0 = isotropic point, 1 = Lambertian point.
-    let mut sources: Vec<(DVec3, u8, DVec3)> = Vec::new();
+    let mut sources: Vec<PointSource> = Vec::new();
     for l in &scene.lights {
         match l {
             Light::Point {
@@ -335,6 +296,58 @@ fn plane_point_lights(scene: &Scene) -> Option<Reference> {
             Light::Environment { .. } => return None,
         }
     }
+    Some(sources)
+}
+
+/// One rectangle (two coplanar triangles) of one constant diffuse material, and that
+/// material; other triangles may exist only as tiny emitters (handled as Lambertian points).
+fn plane_of(g: &crate::scene::Geometry) -> Option<(Vec<crate::geometry::Triangle>, u32)> {
+    let mut plane_tris = Vec::new();
+    let mut material = 0;
+    for (k, t) in g.triangles.iter().enumerate() {
+        if g.info[k].light == crate::scene::NO_LIGHT {
+            plane_tris.push(*t);
+            material = g.info[k].material;
+        }
+    }
+    (plane_tris.len() == 2).then_some((plane_tris, material))
+}
+
+fn plane_point_lights(scene: &Scene) -> Option<Reference> {
+    let g = &scene.geometry;
+    if !g.spheres.is_empty() || scene.lights.is_empty() || scene.settings.max_depth == 1 {
+        return None;
+    }
+    let (plane_tris, material) = plane_of(g)?;
+    let rho = constant_albedo(scene, material)?.as_dvec3();
+    let n = plane_tris[0].normal().as_dvec3();
+    if (plane_tris[1].normal().as_dvec3() - n).length() > 1e-6 {
+        return None;
+    }
+    // The camera looks straight at the plane (film parallel to it), from its front side.
+    let centre = scene.camera.ray(0.5, 0.5).d.as_dvec3();
+    if (centre + n).length() > 1e-6 {
+        return None;
+    }
+    let p0 = plane_tris[0].v0.as_dvec3();
+    let dist = n.dot(-p0); // camera (render-space origin) height above the plane
+    if dist <= 0.0 {
+        return None;
+    }
+    // Plane basis from two camera rays; footprint corners land on axis-aligned rectangles.
+    let on_plane = |r: Ray| {
+        let d = r.d.as_dvec3();
+        d * (dist / -n.dot(d))
+    };
+    let bounds = plane_tris
+        .iter()
+        .flat_map(|t| t.vertices())
+        .map(|v| v.as_dvec3())
+        .collect::<Vec<_>>();
+    let x_axis =
+        (on_plane(scene.camera.ray(1.0, 0.5)) - on_plane(scene.camera.ray(0.0, 0.5))).normalize();
+    let y_axis = n.cross(x_axis);
+    let sources = point_sources(scene, n, p0)?;
     let (w, hgt) = (scene.width(), scene.height());
     let mut image = Image::new(w, hgt);
     let mut exact = vec![true; scene.pixel_count()];
@@ -456,6 +469,22 @@ const REFERENCE_ROUNDS: u32 = 16;
 /// # Errors
 /// A message when the cache cannot be written or read.
 pub fn reference<T: Tracer + ?Sized>(
+    scene: &Scene,
+    tracer: &T,
+    dir: &Path,
+    spp: u32,
+    threads: usize,
+    progress: &mut dyn FnMut(u32, u32),
+) -> Result<Reference, ReferenceError> {
+    reference_in(scene, tracer, dir, spp, threads, progress).map_err(ReferenceError)
+}
+
+/// Why no reference: the cache could not be written or read back (one line, naming the file).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ReferenceError(pub String);
+
+fn reference_in<T: Tracer + ?Sized>(
     scene: &Scene,
     tracer: &T,
     dir: &Path,

@@ -80,9 +80,9 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
             plan.max_workers,
             &mut |_, _| {},
         )
-        .map_err(|msg| ConvergenceError::Reference {
+        .map_err(|e| ConvergenceError::Reference {
             scene: scene.name.clone(),
-            msg,
+            msg: e.0,
         })?;
         let line = format!("{}: {}", scene.name, r.kind.label());
         if !refs.contains(&line) {
@@ -90,13 +90,13 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
         }
         let specs = specs_of(plan, bi);
         if specs.is_empty() {
-            rows.extend(converge::run_convergence(
-                scene,
-                b.tracer.as_ref(),
-                &r,
-                settings.max_spp,
-                plan.max_workers,
-            ));
+            rows.extend(
+                converge::run_convergence(scene, &b.tracer, &r, settings.max_spp, plan.max_workers)
+                    .map_err(|error| ConvergenceError::Sched {
+                        config: format!("{} {} {}", scene.name, b.tracer_id, converge::ROWS_RAYON),
+                        error,
+                    })?,
+            );
         }
         for spec in specs {
             rows.extend(

@@ -19,6 +19,7 @@
 pub mod counters;
 pub mod device;
 pub mod upload;
+mod wgsl_math;
 
 pub use device::{GpuContext, GpuInfo};
 pub use upload::BvhLayout;
@@ -215,35 +216,7 @@ impl GpuRenderer {
             label: Some("raysched path tracer"),
             source: wgpu::ShaderSource::Wgsl(KERNEL_SOURCE.into()),
         });
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
-        entries.extend((1..=6).map(|b| storage(b, true)));
-        entries.push(storage(7, false));
-        entries.push(storage(8, false));
-        entries.push(storage(9, true));
-        entries.push(storage(10, true));
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raysched kernel"),
-            entries: &entries,
-        });
+        let layout = kernel_layout(device);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("raysched kernel"),
             bind_group_layouts: &[Some(&layout)],
@@ -273,29 +246,7 @@ impl GpuRenderer {
             pipeline("empty", 0.0),
         );
         let count = pipeline("count_rays", 1.0);
-        let init = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
-        // The layout not traversed gets a placeholder: every binding needs a buffer.
-        let placeholder = [0u8; 480];
-        let (binary_nodes, wide_nodes) = match bufs.layout {
-            BvhLayout::Binary => (&bufs.nodes[..], &placeholder[..]),
-            BvhLayout::Wide => (&placeholder[..], &bufs.nodes[..]),
-        };
-        let scene_bufs = [
-            init("nodes", binary_nodes),
-            init("prims", &bufs.prims),
-            init("materials", &bufs.materials),
-            init("lights", &bufs.lights),
-            init("light_prims", &bufs.light_prims),
-            init("cams", &bufs.cams),
-            init("wide nodes", wide_nodes),
-            init("wide prims", &bufs.wide_prims),
-        ];
+        let scene_bufs = upload_scene(device, bufs);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Runtime(first_line(&e.to_string())));
         }
@@ -375,28 +326,7 @@ impl GpuRenderer {
             tasks.len()
         };
         let device = &self.ctx.device;
-        let mut params = Vec::with_capacity(64);
-        for w in [
-            self.width,
-            self.spp,
-            self.max_depth,
-            n_tasks as u32,
-            self.n_lights,
-            self.has_env as u32,
-            self.n_nodes,
-            self.height,
-        ] {
-            params.extend_from_slice(&w.to_le_bytes());
-        }
-        for x in self
-            .env
-            .iter()
-            .chain(&[0.0])
-            .chain(&self.origin)
-            .chain(&[0.0])
-        {
-            params.extend_from_slice(&x.to_le_bytes());
-        }
+        let params = self.params(n_tasks);
         let mut task_bytes = Vec::with_capacity(n * 8);
         for t in tasks {
             task_bytes.extend_from_slice(&t[0].to_le_bytes());
@@ -426,30 +356,7 @@ impl GpuRenderer {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: uniform.as_entire_binding(),
-        }];
-        for (k, b) in self.scene_bufs.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                // The wide nodes and primitives, last of the scene's buffers, are bindings 9, 10.
-                binding: if k >= 6 { k as u32 + 3 } else { k as u32 + 1 },
-                resource: b.as_entire_binding(),
-            });
-        }
-        entries.push(wgpu::BindGroupEntry {
-            binding: 7,
-            resource: task_buf.as_entire_binding(),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 8,
-            resource: out.as_entire_binding(),
-        });
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("dispatch"),
-            layout: &self.layout,
-            entries: &entries,
-        });
+        let bind = self.bind_group(&uniform, &task_buf, &out);
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("dispatch"),
         });
@@ -487,6 +394,68 @@ impl GpuRenderer {
             submission,
             tasks: n_tasks,
         })
+    }
+
+    /// The uniform block of a dispatch of `n_tasks` tasks.
+    fn params(&self, n_tasks: usize) -> Vec<u8> {
+        let mut params = Vec::with_capacity(64);
+        for w in [
+            self.width,
+            self.spp,
+            self.max_depth,
+            n_tasks as u32,
+            self.n_lights,
+            self.has_env as u32,
+            self.n_nodes,
+            self.height,
+        ] {
+            params.extend_from_slice(&w.to_le_bytes());
+        }
+        for x in self
+            .env
+            .iter()
+            .chain(&[0.0])
+            .chain(&self.origin)
+            .chain(&[0.0])
+        {
+            params.extend_from_slice(&x.to_le_bytes());
+        }
+        params
+    }
+
+    /// A dispatch's bindings: its uniforms, the scene's buffers, its tasks and its output.
+    fn bind_group(
+        &self,
+        uniform: &wgpu::Buffer,
+        task_buf: &wgpu::Buffer,
+        out: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        for (k, b) in self.scene_bufs.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                // The wide nodes and primitives, last of the scene's buffers, are bindings 9, 10.
+                binding: if k >= 6 { k as u32 + 3 } else { k as u32 + 1 },
+                resource: b.as_entire_binding(),
+            });
+        }
+        entries.push(wgpu::BindGroupEntry {
+            binding: 7,
+            resource: task_buf.as_entire_binding(),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 8,
+            resource: out.as_entire_binding(),
+        });
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("dispatch"),
+                layout: &self.layout,
+                entries: &entries,
+            })
     }
 
     /// Block until `d` is done and its buffer mapped; its per-task results in task order.
@@ -601,6 +570,68 @@ fn first_line(s: &str) -> String {
         .find(|l| !l.is_empty())
         .unwrap_or("unknown error")
         .to_string()
+}
+
+/// The kernel's bindings: the uniforms (0), the scene's read-only buffers (1–6, 9, 10) and
+/// the outputs (7, 8).
+fn kernel_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let mut entries = vec![wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }];
+    entries.extend((1..=6).map(|b| storage(b, true)));
+    entries.push(storage(7, false));
+    entries.push(storage(8, false));
+    entries.push(storage(9, true));
+    entries.push(storage(10, true));
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("raysched kernel"),
+        entries: &entries,
+    })
+}
+
+/// The scene's buffers on the device, in binding order; the BVH layout not traversed gets a
+/// placeholder (every binding needs a buffer).
+fn upload_scene(device: &wgpu::Device, bufs: &SceneBuffers) -> [wgpu::Buffer; 8] {
+    let init = |label: &str, contents: &[u8]| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+    };
+    // The layout not traversed gets a placeholder: every binding needs a buffer.
+    let placeholder = [0u8; 480];
+    let (binary_nodes, wide_nodes) = match bufs.layout {
+        BvhLayout::Binary => (&bufs.nodes[..], &placeholder[..]),
+        BvhLayout::Wide => (&placeholder[..], &bufs.nodes[..]),
+    };
+    [
+        init("nodes", binary_nodes),
+        init("prims", &bufs.prims),
+        init("materials", &bufs.materials),
+        init("lights", &bufs.lights),
+        init("light_prims", &bufs.light_prims),
+        init("cams", &bufs.cams),
+        init("wide nodes", wide_nodes),
+        init("wide prims", &bufs.wide_prims),
+    ]
 }
 
 #[cfg(test)]

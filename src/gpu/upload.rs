@@ -161,16 +161,54 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
         ..Default::default()
     };
     // Leaf order: slot k holds scene primitive `order[k]`.
-    let mut order: Vec<u32> = Vec::new();
     let aabbs: Vec<Aabb> = (0..n as u32)
         .map(|p| {
             let (lo, hi) = g.prim_bounds(p);
             Aabb::new(lo.into(), hi.into())
         })
         .collect();
-    if n > 0 && layout == BvhLayout::Wide {
+    let order = if n > 0 {
+        bvh_nodes(&aabbs, layout, &mut out)?
+    } else {
+        Vec::new()
+    };
+    let mut slot_of = vec![0u32; n];
+    for (slot, &p) in order.iter().enumerate() {
+        slot_of[p as usize] = slot as u32;
+    }
+    prim_bytes(scene, &order, &mut out);
+    material_bytes(scene, &mut out);
+    light_bytes(scene, &slot_of, &mut out);
+    camera_bytes(scene, &mut out);
+    // Light ids in primitives refer to `scene.lights`: unchanged. A binding may not be empty.
+    for buf in [
+        &mut out.nodes,
+        &mut out.prims,
+        &mut out.wide_prims,
+        &mut out.materials,
+        &mut out.lights,
+        &mut out.light_prims,
+        &mut out.cams,
+    ] {
+        if buf.is_empty() {
+            // 480: a whole number of every element size (32, 48, 80, ...).
+            buf.resize(480, 0);
+        }
+    }
+    debug_assert!(scene.lights.len() < NO_LIGHT as usize);
+    Ok(out)
+}
+
+/// Build the BVH of `aabbs` in `layout`, write its nodes, depth and count into `out`; the
+/// primitive order of its leaves (slot k holds primitive `order[k]`).
+fn bvh_nodes(
+    aabbs: &[Aabb],
+    layout: BvhLayout,
+    out: &mut SceneBuffers,
+) -> Result<Vec<u32>, GpuError> {
+    if layout == BvhLayout::Wide {
         // obvhs' collapse needs one primitive per binary leaf; it forms leaves of up to 3.
-        let bvh2 = build_bvh2(&aabbs, BUILD_PARAMS_LARGE, &mut Duration::default());
+        let bvh2 = build_bvh2(aabbs, BUILD_PARAMS_LARGE, &mut Duration::default());
         let cw = bvh2_to_cwbvh(&bvh2, 3, true, false);
         for node in &cw.nodes {
             out.nodes.extend_from_slice(&wide_node_bytes(node));
@@ -183,11 +221,11 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
                 out.depth
             )));
         }
-        order = cw.primitive_indices;
-    } else if n > 0 {
+        Ok(cw.primitive_indices)
+    } else {
         let mut params = BUILD_PARAMS;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
-        let bvh2 = build_bvh2(&aabbs, params, &mut Duration::default());
+        let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
         for node in &bvh2.nodes {
             let (lo, hi) = (node.aabb.min, node.aabb.max);
             v4(&mut out.nodes, [lo.x, lo.y, lo.z], 0.0);
@@ -206,14 +244,17 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
                 out.depth
             )));
         }
-        order = bvh2.primitive_indices;
+        Ok(bvh2.primitive_indices)
     }
-    let mut slot_of = vec![0u32; n];
-    for (slot, &p) in order.iter().enumerate() {
-        slot_of[p as usize] = slot as u32;
-    }
+}
+
+/// The primitives in leaf order: the binary layout's 48-byte records, and the wide layout's
+/// 36-byte geometry.
+fn prim_bytes(scene: &Scene, order: &[u32], out: &mut SceneBuffers) {
+    let g = &scene.geometry;
+    let layout = out.layout;
     let ns = g.spheres.len() as u32;
-    for &p in &order {
+    for &p in order {
         let info = g.info[p as usize];
         let flags = info.flip as u32 | if p < ns { 2 } else { 0 };
         let (a, b, c) = if p < ns {
@@ -244,6 +285,10 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
             }
         }
     }
+}
+
+/// The materials, 48 bytes each.
+fn material_bytes(scene: &Scene, out: &mut SceneBuffers) {
     for m in &scene.materials {
         let (kind, a, b) = match *m {
             Material::Diffuse {
@@ -267,6 +312,10 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
             u(&mut out.materials, x);
         }
     }
+}
+
+/// The lights, 48 bytes each, and the area lights' primitive entries (slot, cdf).
+fn light_bytes(scene: &Scene, slot_of: &[u32], out: &mut SceneBuffers) {
     let mut entries: Vec<u8> = Vec::new();
     let mut n_entries = 0u32;
     for l in &scene.lights {
@@ -313,6 +362,10 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
     }
     out.light_prims = entries;
     out.n_lights = scene.lights.len() as u32;
+}
+
+/// The cameras (film frame, eye, frame seed), one per frame.
+fn camera_bytes(scene: &Scene, out: &mut SceneBuffers) {
     for (k, cam) in scene.cameras.iter().enumerate() {
         let (right, up, fwd, half) = cam.film_frame();
         v4(&mut out.cams, right.to_array(), half.0);
@@ -324,23 +377,6 @@ pub fn scene_buffers_with(scene: &Scene, layout: BvhLayout) -> Result<SceneBuffe
             u(&mut out.cams, x);
         }
     }
-    // Light ids in primitives refer to `scene.lights`: unchanged. A binding may not be empty.
-    for buf in [
-        &mut out.nodes,
-        &mut out.prims,
-        &mut out.wide_prims,
-        &mut out.materials,
-        &mut out.lights,
-        &mut out.light_prims,
-        &mut out.cams,
-    ] {
-        if buf.is_empty() {
-            // 480: a whole number of every element size (32, 48, 80, ...).
-            buf.resize(480, 0);
-        }
-    }
-    debug_assert!(scene.lights.len() < NO_LIGHT as usize);
-    Ok(out)
 }
 
 /// The 80 bytes of a wide node as `WNode` reads them: p, (e, imask), child and primitive

@@ -1,5 +1,5 @@
 //! Rank 0's MPI side: the [`Hub`] is the one thread that talks MPI for every
-//! [`MpiRankSource`], and [`run_on_ranks`] runs a scheduler over them while it serves.
+//! [`MpiRankSource`]; `super::launch::MpiRanks` serves it while a run plays.
 //!
 //! A rank counts as lost when an MPI call to it fails, when it runs on this host and its
 //! process is gone (checked every [`LIVENESS_EVERY`]), or when it has had work outstanding and
@@ -9,11 +9,8 @@
 use super::comm::{backoff, tag, Comm, Pending, SendReq};
 use super::source::{Cmd, MpiRankSource, Shared};
 use super::wire::decode_results;
-use crate::metrics::{Probe, RunStats, Span};
-use crate::render::WorkItem;
+use crate::metrics::{Probe, Span};
 use crate::sched::wire::encode_item;
-use crate::sched::{run, Hetero, Results, RunOptions, RunPlan, SchedError, SchedulerSpec, Sources};
-use crate::source::local::panic_message;
 use crate::source::{Completer, ComputeSource, SourceFailure};
 use crossbeam::channel::{Receiver, TryRecvError};
 use std::collections::{HashMap, VecDeque};
@@ -397,43 +394,12 @@ impl<'c> Hub<'c> {
 }
 
 /// How the hub ends a run.
+#[derive(Clone, Copy, Debug)]
 pub enum HubEnd {
     /// Stop the workers, waiting at most this long for their goodbyes (`render`).
     Stop(Duration),
     /// Leave the workers running for the next run (`run`'s experiments).
     KeepWorkers,
-}
-
-/// Run `spec` over `sources` on a master thread while this thread, MPI's, serves `hub`
-/// (the master talks to the ranks only through it); then join the master.
-pub fn run_on_ranks(
-    hub: Hub<'_>,
-    end: HubEnd,
-    spec: &SchedulerSpec,
-    items: &[WorkItem],
-    sources: Vec<Box<dyn ComputeSource>>,
-    opts: &RunOptions,
-    probe: Probe,
-) -> (Result<(Results, RunStats), SchedError>, HubReport) {
-    std::thread::scope(|s| {
-        let master = s.spawn(|| {
-            let plan = RunPlan {
-                scheduler: &spec.policy,
-                slow: spec.slow,
-                opts,
-                probe,
-            };
-            run(&plan, items, Sources::Boxed(sources, Hetero::default()))
-        });
-        let report = match end {
-            HubEnd::Stop(wait) => hub.serve(wait),
-            HubEnd::KeepWorkers => hub.serve_run(),
-        };
-        let outcome = master
-            .join()
-            .unwrap_or_else(|p| Err(SchedError::WorkerPanic(panic_message(&p))));
-        (outcome, report)
-    })
 }
 
 /// Send STOP to `ranks` and drain their messages until each has said BYE (or `wait` passed).

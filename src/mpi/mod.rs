@@ -17,10 +17,14 @@
 //! `MPI_Finalize`.
 
 pub mod comm;
+pub mod experiment;
 pub mod hub;
+pub mod launch;
 pub mod scene;
 pub mod source;
 pub mod wire;
 pub mod worker;
 
+pub use experiment::MpiRemote;
+pub use launch::{gather_ready, MpiRanks, ReadyError};
 pub use source::MpiRankSource;

@@ -78,6 +78,11 @@ pub struct Profile {
     pub pixel_s: Vec<f64>,
 }
 
+/// Why the heat map was not written: drawing or writing its file failed (one line, naming it).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct HeatMapError(pub String);
+
 impl Profile {
     /// [`Profile::measure`] `passes` times, keeping each pixel's cheapest pass: a pixel whose
     /// worker was preempted on a shared machine costs milliseconds in one pass, not in all.
@@ -212,7 +217,11 @@ impl Profile {
     ///
     /// # Errors
     /// Drawing or writing `path` failed.
-    pub fn save_heat_map(&self, path: &std::path::Path) -> Result<(), String> {
+    pub fn save_heat_map(&self, path: &std::path::Path) -> Result<(), HeatMapError> {
+        self.draw_heat_map(path).map_err(HeatMapError)
+    }
+
+    fn draw_heat_map(&self, path: &std::path::Path) -> Result<(), String> {
         use crate::plot::axes::{self, Scale};
         use plotters::prelude::*;
         use plotters::style::text_anchor::{HPos, Pos, VPos};

@@ -415,40 +415,54 @@ pub fn radiance_with<T: Tracer + ?Sized, F: FeatureSet>(
                 it.n * (2.0 * wo.dot(it.n)) - wo
             }
             Material::Dielectric { ior } if F::SPECULAR => {
-                let wo = -ray.d.normalize();
-                let cos_o = wo.dot(it.n);
-                let (nf, eta, cos_i) = if cos_o > 0.0 {
-                    (it.n, ior, cos_o)
-                } else {
-                    (-it.n, 1.0 / ior, -cos_o)
-                };
-                let fr = fresnel_dielectric(cos_i, eta);
                 specular = true;
-                if s.next() < fr {
-                    nf * (2.0 * cos_i) - wo
-                } else {
-                    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-                    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
-                    // Radiance is scaled by 1/η² crossing into the denser medium.
-                    beta /= eta * eta;
-                    (-wo / eta + nf * (cos_i / eta - cos_t)).normalize()
-                }
+                dielectric(-ray.d.normalize(), it.n, ior, s, &mut beta)
             }
             // A specular material with SPECULAR off: the scene has none (see `radiance_with`).
             _ => break,
         };
         depth += 1;
-        if depth > RR_START {
-            let m = beta.max_element();
-            if m < 1.0 {
-                let q = (1.0 - m).max(0.0);
-                if s.next() < q {
-                    break;
-                }
-                beta /= 1.0 - q;
-            }
+        if depth > RR_START && roulette_ends(&mut beta, s) {
+            break;
         }
         ray = it.spawn(next_dir, |_| next_dir);
     }
     l
+}
+
+/// A dielectric's next direction from outgoing `wo` at normal `n`: reflected with the Fresnel
+/// probability, else refracted, `beta` scaled by 1/η² crossing into the denser medium.
+#[inline(always)]
+fn dielectric(wo: Vec3, n: Vec3, ior: f32, s: &mut Sampler, beta: &mut Vec3) -> Vec3 {
+    let cos_o = wo.dot(n);
+    let (nf, eta, cos_i) = if cos_o > 0.0 {
+        (n, ior, cos_o)
+    } else {
+        (-n, 1.0 / ior, -cos_o)
+    };
+    let fr = fresnel_dielectric(cos_i, eta);
+    if s.next() < fr {
+        nf * (2.0 * cos_i) - wo
+    } else {
+        let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+        let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+        // Radiance is scaled by 1/η² crossing into the denser medium.
+        *beta /= eta * eta;
+        (-wo / eta + nf * (cos_i / eta - cos_t)).normalize()
+    }
+}
+
+/// Russian roulette on throughput `beta`: `true` ends the path; a survivor's `beta` is
+/// divided by its survival probability.
+#[inline(always)]
+fn roulette_ends(beta: &mut Vec3, s: &mut Sampler) -> bool {
+    let m = beta.max_element();
+    if m < 1.0 {
+        let q = (1.0 - m).max(0.0);
+        if s.next() < q {
+            return true;
+        }
+        *beta /= 1.0 - q;
+    }
+    false
 }

@@ -461,37 +461,3 @@ pub fn serial_rows(scene: &Scene, f: u32) -> impl Iterator<Item = WorkItem> + '_
     (0..scene.height())
         .map(move |y| WorkItem::rect(f * scene.height() + y, 0, y, scene.width(), 1).in_frame(f))
 }
-
-/// Row-parallel render on a rayon pool of `threads` workers; an animation comes back as a film
-/// strip ([`Image::stack`]).
-pub fn render_parallel<T: Tracer + ?Sized>(
-    scene: &Scene,
-    tracer: &T,
-    threads: usize,
-) -> Result<(Image, RenderCounters), rayon::ThreadPoolBuildError> {
-    use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?;
-    let h = scene.height();
-    let results: Vec<(WorkItem, TileResult)> = pool.install(|| {
-        (0..h * scene.frames())
-            .into_par_iter()
-            .map(|i| {
-                let item = WorkItem::rect(i, 0, i % h, scene.width(), 1).in_frame(i / h);
-                let r = render_item(scene, tracer, &item);
-                (item, r)
-            })
-            .collect()
-    });
-    let mut frames: Vec<Image> = (0..scene.frames())
-        .map(|_| Image::new(scene.width(), h))
-        .collect();
-    let mut counters = RenderCounters::default();
-    for (item, r) in &results {
-        counters.rays += r.rays;
-        counters.nonfinite += r.nonfinite;
-        frames[item.frame as usize].put(item, &r.pixels);
-    }
-    Ok((Image::stack(frames), counters))
-}

@@ -115,12 +115,21 @@ impl GltfMesh {
     }
 }
 
+/// Why a glTF file was refused: one line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct GltfError(pub String);
+
 /// Read `path` (its bytes and every buffer it loads are fed to `hash`).
 ///
 /// # Errors
 /// One line: unreadable file or buffer, invalid glTF (the first problem the validator names),
 /// an unsupported required extension, an index out of range, or no triangle at all.
-pub fn read_gltf(path: &Path, hash: &mut Fnv64) -> Result<GltfMesh, String> {
+pub fn read_gltf(path: &Path, hash: &mut Fnv64) -> Result<GltfMesh, GltfError> {
+    read(path, hash).map_err(GltfError)
+}
+
+fn read(path: &Path, hash: &mut Fnv64) -> Result<GltfMesh, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     hash.write(&bytes);
     if is_gltf1(&bytes) {
@@ -186,7 +195,11 @@ pub fn read_gltf(path: &Path, hash: &mut Fnv64) -> Result<GltfMesh, String> {
 ///
 /// # Errors
 /// The file cannot be read or is not glTF JSON.
-pub fn external_buffers(path: &Path) -> Result<Vec<String>, String> {
+pub fn external_buffers(path: &Path) -> Result<Vec<String>, GltfError> {
+    buffer_uris(path).map_err(GltfError)
+}
+
+fn buffer_uris(path: &Path) -> Result<Vec<String>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     let g = gltf::Gltf::from_slice_without_validation(&bytes).map_err(one_line)?;
     Ok(g.buffers()

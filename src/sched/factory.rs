@@ -7,7 +7,7 @@ use super::master::Hetero;
 use super::{worker_jobs, SourceKind, SourceSet, SourceSetup, SpecError};
 use crate::metrics::Probe;
 use crate::source::faulty::faulty_source;
-use crate::source::{ComputeSource, FaultPlan, Job, LocalThreadSource};
+use crate::source::{ComputeSource, FaultPlan, Job, LocalThreadSource, ServedSources};
 #[cfg(feature = "gpu")]
 use std::sync::Arc;
 
@@ -26,6 +26,8 @@ pub struct SourceContext<'a> {
     /// The GPU renderer, when the set has `gpu` (the scene uploaded once, shared).
     #[cfg(feature = "gpu")]
     pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    /// The MPI launch's ranks, when the set has `mpi` (`mpi::MpiRanks`).
+    pub ranks: Option<&'a dyn ServedSources>,
 }
 
 /// A source with the kind it was built as.
@@ -34,7 +36,8 @@ pub type KindedSource = (SourceKind, Box<dyn ComputeSource>);
 /// The sources of `set`, each with its kind, ids 0, 1, … in the set's order.
 ///
 /// # Errors
-/// A kind this build lacks, a GPU without its renderer, MPI ranks (made by the MPI launch).
+/// A kind this build lacks, a GPU without its renderer, MPI ranks without the launch's
+/// ranks ([`SourceContext::ranks`]).
 pub fn build_sources(
     set: &SourceSet,
     ctx: &SourceContext<'_>,
@@ -50,12 +53,14 @@ pub fn build_sources(
             }
             SourceKind::Gpu => out.push((kind, gpu_source(out.len() as u32, ctx)?)),
             SourceKind::Mpi => {
-                return Err(SpecError {
+                let ranks = ctx.ranks.ok_or_else(|| SpecError {
                     field: "sources".into(),
                     msg: "MPI ranks come from the MPI launch (mpirun -n N raysched render … \
                           --sources mpi), not from a source set"
                         .into(),
-                })
+                })?;
+                let ranks = ranks.sources(out.len() as u32, ctx.probe);
+                out.extend(ranks.into_iter().map(|s| (kind, s)));
             }
         }
     }

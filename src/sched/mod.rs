@@ -45,9 +45,10 @@ pub use spec::{
 };
 
 use crate::metrics::RunStats;
-use crate::render::{render_item, Image, WorkItem};
+use crate::render::{render_item, Image, RenderCounters, WorkItem};
 use crate::scene::Scene;
-use crate::source::{slowed_job, FaultPlan, Job};
+use crate::source::local::panic_message;
+use crate::source::{slowed_job, FaultPlan, Job, ServedSources};
 use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;
@@ -168,11 +169,33 @@ pub fn render_scene<T: Tracer + 'static>(
     on: &RenderOn<'_>,
     opts: &RunOptions,
 ) -> Result<(Vec<Image>, RunStats), SchedError> {
+    render_scene_with(spec, scene, tracer, on, opts, None)
+}
+
+/// [`render_scene`] with sources that the calling thread must serve while the run plays
+/// (`ranks`: an MPI launch's ranks, the set's `mpi`): the rule is then played on a thread of
+/// its own. `spec.workers` counts every source; the local threads are those beyond the ranks.
+pub fn render_scene_with<T: Tracer + 'static>(
+    spec: &SchedulerSpec,
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    on: &RenderOn<'_>,
+    opts: &RunOptions,
+    ranks: Option<&dyn ServedSources>,
+) -> Result<(Vec<Image>, RunStats), SchedError> {
     let plan = RunPlan::of(spec, opts)?;
     let setup = on.setup;
     setup.validate()?;
-    if setup.set.has(SourceKind::Gpu) {
-        if let Some(r) = Runner::Gpu.refuses(&spec.policy) {
+    for (kind, runner) in [
+        (SourceKind::Gpu, Runner::Gpu),
+        (SourceKind::Mpi, Runner::Mpi),
+    ] {
+        if let Some(r) = setup
+            .set
+            .has(kind)
+            .then(|| runner.refuses(&spec.policy))
+            .flatten()
+        {
             return Err(SpecError {
                 field: r.param.into(),
                 msg: r.as_value(),
@@ -189,22 +212,78 @@ pub fn render_scene<T: Tracer + 'static>(
     } else {
         let ctx = factory::SourceContext {
             job: &job,
-            threads: spec.workers,
+            threads: spec.workers - ranks.map_or(0, |r| r.len()).min(spec.workers),
             slow: spec.slow,
             faults: opts.faults.as_ref(),
             probe: plan.probe,
             #[cfg(feature = "gpu")]
             gpu: on.gpu.clone(),
+            ranks,
         };
         let (kinds, sources): (Vec<SourceKind>, Vec<_>) = factory::build_sources(&setup.set, &ctx)?
             .into_iter()
             .unzip();
         Sources::Boxed(sources, factory::hetero_of(setup, &kinds, (w, h)))
     };
-    let (results, mut stats) = run(&plan, &items, sources)?;
+    let (results, mut stats) = match ranks {
+        None => run(&plan, &items, sources)?,
+        Some(ranks) => std::thread::scope(|s| {
+            // The plan is rebuilt on the master's thread: a rule need not be `Sync`.
+            let master = s.spawn(|| {
+                let plan = RunPlan {
+                    scheduler: &spec.policy,
+                    slow: spec.slow,
+                    opts,
+                    probe: plan.probe,
+                };
+                run(&plan, &items, sources)
+            });
+            ranks.serve();
+            master
+                .join()
+                .unwrap_or_else(|p| Err(SchedError::WorkerPanic(panic_message(&p))))
+        })?,
+    };
     let frames = assemble_frames(w, h, scene.frames(), &items, &results)?;
     (stats.features_used, stats.features_left_out) = scene.feature_report(tracer.accelerated());
     Ok((frames, stats))
+}
+
+/// The row-parallel configuration: `threads` workers (at least one) each taking the next
+/// single row under self-scheduling, a registered kind like any other. [`render_parallel`] and
+/// the convergence runs without a scheduler of their own (`converge::run_convergence`) use it.
+pub fn rows_spec(threads: usize) -> SchedulerSpec {
+    SchedulerSpec::new(
+        SchedulerKind::SelfScheduling,
+        Chunk::Rows(1),
+        threads.max(1),
+    )
+}
+
+/// Render `scene` on `threads` local threads under [`rows_spec`] through [`render_scene`]; an
+/// animation comes back as a film strip ([`Image::stack`]). Bit-identical to
+/// `render::render_serial`, as every run is.
+///
+/// # Errors
+/// A worker thread that panicked.
+pub fn render_parallel<T: Tracer + 'static>(
+    scene: &Arc<Scene>,
+    tracer: &Arc<T>,
+    threads: usize,
+) -> Result<(Image, RenderCounters), SchedError> {
+    let spec = rows_spec(threads);
+    let (frames, stats) = render_scene(
+        &spec,
+        scene,
+        tracer,
+        &RenderOn::threads(),
+        &RunOptions::default(),
+    )?;
+    let counters = RenderCounters {
+        rays: stats.rays,
+        nonfinite: stats.nonfinite,
+    };
+    Ok((Image::stack(frames), counters))
 }
 
 /// Worker i's job: `job`, slowed by `slow`'s factor for the slowed workers.

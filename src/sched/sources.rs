@@ -89,6 +89,16 @@ impl SourceSet {
         Ok(Self(v))
     }
 
+    /// The sources of an MPI launch: its ranks, then rank 0's local threads when it has any
+    /// (`--local-threads`), numbered in that order.
+    pub fn mpi_launch(local_threads: bool) -> Self {
+        let mut v = vec![SourceKind::Mpi];
+        if local_threads {
+            v.push(SourceKind::Threads);
+        }
+        Self(v)
+    }
+
     /// Parse `threads`, `gpu`, `threads,gpu` (or `+`), `mpi`; `local` means `threads`.
     pub fn parse(text: &str) -> Result<Self, SpecError> {
         let kinds = text

@@ -72,17 +72,33 @@ crate::util::dl::dl_api! {
 /// SimGrid's functions, the library opened on first use. SimGrid is opened, not linked: it
 /// exports its own `MPI_*` functions (SMPI), which would take the place of OpenMPI's in a
 /// binary built with `mpi` too. `RTLD_LOCAL | RTLD_DEEPBIND` keeps each library's names to
-/// itself. Without the library this ends the process (a simulation child) with one line.
-fn api() -> &'static Api {
+/// itself.
+///
+/// # Errors
+/// The library or one of its functions is missing (the message says to install
+/// libsimgrid-dev).
+pub fn open() -> Result<(), super::SimgridError> {
+    match loaded() {
+        Ok(_) => Ok(()),
+        Err(e) => Err(super::SimgridError::Library(e.clone())),
+    }
+}
+
+fn loaded() -> &'static Result<Api, String> {
     static API: std::sync::OnceLock<Result<Api, String>> = std::sync::OnceLock::new();
-    let api = API.get_or_init(|| {
+    API.get_or_init(|| {
         let lib = crate::util::dl::Library::open_first(&["libsimgrid.so", "libsimgrid.so.3.32"])
             .map_err(|e| format!("cannot open SimGrid (install libsimgrid-dev): {e}"))?;
         // SAFETY: `lib` is SimGrid's library, opened by its name and never closed.
         unsafe { Api::resolve(&lib) }
-    });
-    match api {
+    })
+}
+
+/// The functions, once [`init`] has opened them (every other call here comes after it).
+fn api() -> &'static Api {
+    match loaded() {
         Ok(api) => api,
+        // Unreachable after `init`'s check; a one-line exit rather than a panic in C's stack.
         Err(e) => {
             eprintln!("error: {e}");
             std::process::exit(2)
@@ -92,7 +108,11 @@ fn api() -> &'static Api {
 
 /// Start the engine with SimGrid command-line options (`--cfg=…`, `--log=…`). Once per process:
 /// SimGrid's engine is a singleton that cannot be re-created after a run.
-pub fn init(options: &[String]) {
+///
+/// # Errors
+/// SimGrid cannot be opened ([`open`]).
+pub fn init(options: &[String]) -> Result<(), super::SimgridError> {
+    open()?;
     let mut owned: Vec<CString> = std::iter::once("raysched".to_string())
         .chain(options.iter().cloned())
         .map(|s| CString::new(s).unwrap_or_default())
@@ -107,6 +127,7 @@ pub fn init(options: &[String]) {
     // what it keeps); the array ends with a null pointer as a C main's argv does.
     unsafe { (api().simgrid_init)(&mut argc, argv.as_mut_ptr()) };
     std::mem::forget(owned); // SimGrid may keep argv[0]; a few bytes, once per process.
+    Ok(())
 }
 
 /// Load a platform XML file. A malformed file makes SimGrid abort the process: callers load

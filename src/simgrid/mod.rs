@@ -9,7 +9,7 @@ pub mod ffi;
 mod protocols;
 
 use crate::sched::rule::Scheduler;
-use crate::sched::{SchedulerKind, SchedulerSpec, Slow};
+use crate::sched::{SchedulerKind, SchedulerSpec, Slow, SpecError};
 use crate::simulate::job::{placement_order, PlatformInfo, SimJob, SimOutcome};
 use std::rc::Rc;
 
@@ -39,24 +39,69 @@ fn hosts_in_order() -> Vec<ffi::Host> {
     hosts
 }
 
+/// Why a simulation did not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimgridError {
+    /// SimGrid's library or one of its functions is missing.
+    #[error("{0}")]
+    Library(String),
+    /// The job's scheduler or one of its parameters is invalid.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// The run needs more SimGrid actors than the process may map stacks for.
+    #[error("{workers} workers need about {actors} SimGrid actors, more than this system's {budget} memory mappings per process (vm.max_map_count) allow")]
+    Actors {
+        /// Simulated workers.
+        workers: usize,
+        /// Actors they need.
+        actors: usize,
+        /// The memory mappings a process may hold.
+        budget: usize,
+    },
+    /// The platform holds fewer workers than the job.
+    #[error("{workers} workers do not fit on {platform} ({slots} worker slots)")]
+    Fit {
+        /// Simulated workers.
+        workers: usize,
+        /// The platform file.
+        platform: String,
+        /// Its worker slots.
+        slots: usize,
+    },
+    /// A lost worker the job does not have.
+    #[error("lost worker {worker} of {workers} workers")]
+    Lost {
+        /// The lost worker.
+        worker: usize,
+        /// Simulated workers.
+        workers: usize,
+    },
+}
+
 /// Load `platform` and list its hosts. Once per process.
-pub fn inspect_platform(platform: &str) -> PlatformInfo {
-    ffi::init(&options(0));
+///
+/// # Errors
+/// SimGrid cannot be opened.
+pub fn inspect_platform(platform: &str) -> Result<PlatformInfo, SimgridError> {
+    ffi::init(&options(0))?;
     ffi::load_platform(platform);
-    PlatformInfo {
+    Ok(PlatformInfo {
         hosts: hosts_in_order()
             .into_iter()
             .map(|h| (h.name(), h.speed(), h.cores()))
             .collect(),
-    }
+    })
 }
 
 /// Simulate `job`. Once per process (SimGrid's engine cannot be re-created).
-pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
-    let kind = SchedulerKind::from_id(&job.scheduler).map_err(|e| e.to_string())?;
+///
+/// # Errors
+/// As [`simulate_with`], and an unknown scheduler or parameter.
+pub fn simulate(job: SimJob) -> Result<SimOutcome, SimgridError> {
+    let kind = SchedulerKind::from_id(&job.scheduler)?;
     let mut spec = SchedulerSpec::new(kind, crate::sched::Chunk::Frame, job.workers);
     for (k, v) in &job.params {
-        spec.set(k, v).map_err(|e| e.to_string())?;
+        spec.set(k, v)?;
     }
     simulate_with(job, &spec.policy)
 }
@@ -64,18 +109,23 @@ pub fn simulate(job: SimJob) -> Result<SimOutcome, String> {
 /// [`simulate`] of any [`Scheduler`], a researcher's own included (`job.scheduler` and
 /// `job.params` are then only labels). The simulation has no known slowdown (host speeds
 /// come from the platform), so `weighted_factoring` with `weights = known` sees equal weights.
-pub fn simulate_with(job: SimJob, scheduler: &dyn Scheduler) -> Result<SimOutcome, String> {
+///
+/// # Errors
+/// SimGrid cannot be opened, the run needs more actors than the system allows, the workers do
+/// not fit on the platform, a lost worker the job lacks.
+pub fn simulate_with(job: SimJob, scheduler: &dyn Scheduler) -> Result<SimOutcome, SimgridError> {
     let rule = scheduler.hand_out(job.cost_s.len(), job.workers, Slow::NONE);
     let started = std::time::Instant::now();
     let actors = crate::simulate::job::actors_playing(&rule, job.workers, job.lost.len());
-    if actors > crate::simulate::job::mapping_budget() {
-        return Err(format!(
-            "{} workers need about {actors} SimGrid actors, more than this system's {} memory mappings per process (vm.max_map_count) allow",
-            job.workers,
-            crate::simulate::job::mapping_budget()
-        ));
+    let budget = crate::simulate::job::mapping_budget();
+    if actors > budget {
+        return Err(SimgridError::Actors {
+            workers: job.workers,
+            actors,
+            budget,
+        });
     }
-    ffi::init(&options(actors));
+    ffi::init(&options(actors))?;
     ffi::load_platform(&job.platform.to_string_lossy());
     let hosts = hosts_in_order();
     let info = PlatformInfo {
@@ -85,18 +135,17 @@ pub fn simulate_with(job: SimJob, scheduler: &dyn Scheduler) -> Result<SimOutcom
             .collect(),
     };
     if job.workers == 0 || job.workers > info.worker_slots() {
-        return Err(format!(
-            "{} workers do not fit on {} ({} worker slots)",
-            job.workers,
-            job.platform.display(),
-            info.worker_slots()
-        ));
+        return Err(SimgridError::Fit {
+            workers: job.workers,
+            platform: job.platform.display().to_string(),
+            slots: info.worker_slots(),
+        });
     }
     if let Some(l) = job.lost.iter().find(|l| l.worker >= job.workers) {
-        return Err(format!(
-            "lost worker {} of {} workers",
-            l.worker, job.workers
-        ));
+        return Err(SimgridError::Lost {
+            worker: l.worker,
+            workers: job.workers,
+        });
     }
     let (master, placed) = info.placement(job.workers);
     let world = Rc::new(protocols::World::new(

@@ -38,11 +38,13 @@ fn last_line(stderr: &[u8]) -> String {
 }
 
 /// Why a child gave no answer.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum Failure {
     /// It failed, with this message.
+    #[error("{0}")]
     Error(String),
     /// It was still running after the limit and was stopped.
+    #[error("over the time limit")]
     OverLimit,
 }
 
@@ -92,21 +94,18 @@ fn run_child<T: serde::de::DeserializeOwned>(
         .map_err(|e| Failure::Error(format!("reading the simulation's answer: {e}")))
 }
 
-fn message(f: Failure) -> String {
-    match f {
-        Failure::Error(m) => m,
-        Failure::OverLimit => "over the time limit".into(),
-    }
-}
-
 /// Load `platform` in a child and list its hosts; a malformed file is an error with
 /// SimGrid's message.
-pub fn inspect(exe: &Path, platform: &Path) -> Result<PlatformInfo, String> {
-    std::fs::metadata(platform).map_err(|e| e.to_string())?;
-    let info: PlatformInfo =
-        run_child(exe, &["inspect", &platform.to_string_lossy()], None).map_err(message)?;
+///
+/// # Errors
+/// The file cannot be read, the child failed (SimGrid's message), no host has a core.
+pub fn inspect(exe: &Path, platform: &Path) -> Result<PlatformInfo, Failure> {
+    std::fs::metadata(platform).map_err(|e| Failure::Error(e.to_string()))?;
+    let info: PlatformInfo = run_child(exe, &["inspect", &platform.to_string_lossy()], None)?;
     if info.worker_slots() == 0 {
-        return Err("the platform has no host with a core".into());
+        return Err(Failure::Error(
+            "the platform has no host with a core".into(),
+        ));
     }
     Ok(info)
 }

@@ -51,11 +51,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SimFile {
-    kind: String,
+    #[serde(rename = "kind")]
+    _kind: SimKind,
     name: Option<String>,
     #[serde(default)]
     description: String,
-    workers: Vec<i64>,
+    workers: Workers,
     platforms: Vec<String>,
     probe: ProbeEntry,
     #[serde(default)]
@@ -65,13 +66,130 @@ struct SimFile {
     validation: Option<ValidationEntry>,
     #[serde(default)]
     seed: u64,
-    run_limit_s: Option<f64>,
-    coarse_network_from: Option<i64>,
+    run_limit_s: Option<RunLimit>,
+    coarse_network_from: Option<CoarseFrom>,
+}
+
+/// `kind = "simulation"`, refused otherwise while the file is read. The section types below
+/// check themselves the same way (`try_from`): their errors name the field first, so that the
+/// file error reads `path: field: why` like the checks that need more than one field.
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "String")]
+struct SimKind;
+
+impl TryFrom<String> for SimKind {
+    type Error = String;
+    fn try_from(kind: String) -> Result<Self, String> {
+        if kind == "simulation" {
+            Ok(Self)
+        } else {
+            Err(format!(
+                "kind: '{kind}': `raysched simulate` takes kind = \"simulation\""
+            ))
+        }
+    }
+}
+
+/// The simulated worker counts: at least one, each in 1..=[`MAX_SIM_WORKERS`]; ascending,
+/// without repeats.
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "Vec<i64>")]
+struct Workers(Vec<usize>);
+
+impl TryFrom<Vec<i64>> for Workers {
+    type Error = String;
+    fn try_from(w: Vec<i64>) -> Result<Self, String> {
+        if w.is_empty() {
+            return Err("workers: must list at least one simulated worker count".into());
+        }
+        if let Some(bad) = w.iter().find(|&&w| !(1..=MAX_SIM_WORKERS).contains(&w)) {
+            return Err(format!(
+                "workers: must be between 1 and {MAX_SIM_WORKERS} (got {bad})"
+            ));
+        }
+        let mut w: Vec<usize> = w.iter().map(|&w| w as usize).collect();
+        w.sort_unstable();
+        w.dedup();
+        Ok(Self(w))
+    }
+}
+
+/// `run_limit_s`: seconds in (0, 86400].
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "f64")]
+struct RunLimit(f64);
+
+impl TryFrom<f64> for RunLimit {
+    type Error = String;
+    fn try_from(t: f64) -> Result<Self, String> {
+        if t > 0.0 && t <= 86_400.0 {
+            Ok(Self(t))
+        } else {
+            Err(format!(
+                "run_limit_s: must be in (0, 86400] seconds (got {t})"
+            ))
+        }
+    }
+}
+
+/// `coarse_network_from`: a worker count in 1..=[`MAX_SIM_WORKERS`].
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "i64")]
+struct CoarseFrom(usize);
+
+impl TryFrom<i64> for CoarseFrom {
+    type Error = String;
+    fn try_from(w: i64) -> Result<Self, String> {
+        if (1..=MAX_SIM_WORKERS).contains(&w) {
+            Ok(Self(w as usize))
+        } else {
+            Err(format!(
+                "coarse_network_from: must be a worker count in 1..={MAX_SIM_WORKERS} (got {w})"
+            ))
+        }
+    }
+}
+
+/// The `[probe]` table: its tracer built in, its dispatch measurement checked.
+#[derive(Debug, Deserialize)]
+#[serde(try_from = "RawProbe")]
+struct ProbeEntry {
+    raw: RawProbe,
+    tracer: crate::tracer::TracerKind,
+}
+
+impl TryFrom<RawProbe> for ProbeEntry {
+    type Error = String;
+    fn try_from(raw: RawProbe) -> Result<Self, String> {
+        let tracer = crate::tracer::TracerKind::from_id(&raw.tracer)
+            .and_then(crate::tracer::TracerKind::available)
+            .map_err(|e| format!("probe.tracer: {e}"))?;
+        if raw.dispatch_items < 64 || raw.dispatch_workers == 0 || raw.dispatch_repetitions == 0 {
+            return Err(
+                "probe: dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1"
+                    .into(),
+            );
+        }
+        Ok(Self { raw, tracer })
+    }
+}
+
+impl ProbeEntry {
+    /// The probe's scene overrides.
+    fn overrides(&self) -> SceneOverrides {
+        SceneOverrides {
+            width: self.raw.width,
+            height: self.raw.height,
+            spp: self.raw.spp,
+            max_depth: self.raw.max_depth,
+            ..Default::default()
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct ProbeEntry {
+struct RawProbe {
     scene: String,
     width: Option<u32>,
     height: Option<u32>,
@@ -244,69 +362,153 @@ pub fn load(path: &Path, exe: &Path) -> Result<SimPlan, SimConfigError> {
         let msg = e.message().to_string();
         file_error(msg.lines().next().unwrap_or("").to_string())
     })?;
-    if file.kind != "simulation" {
-        return Err(field(
-            path,
-            "kind",
-            format!(
-                "'{}': `raysched simulate` takes kind = \"simulation\"",
-                file.kind
-            ),
-        ));
+    let at = Files {
+        path,
+        base: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        exe,
+    };
+    let on = |(f, m): (String, String)| field(path, &f, m);
+    let name = file.name(path).map_err(on)?;
+    let workers = file.workers.0.clone();
+    let specs = file.specs(&workers).map_err(on)?;
+    let platforms = at.platforms(&file.platforms, &workers)?;
+    file.check_lost(&workers, &platforms).map_err(on)?;
+    let (validation, mpi_validation, mpi_spin) = match &file.validation {
+        Some(v) => v.resolve(&at)?,
+        None => (None, None, None),
+    };
+    let probe = &file.probe;
+    Ok(SimPlan {
+        name,
+        description: file.description,
+        file: path.to_path_buf(),
+        workers,
+        platforms,
+        scene: at.base.join(&probe.raw.scene),
+        overrides: probe.overrides(),
+        tracer: probe.tracer,
+        probe_repetitions: probe.raw.probe_repetitions.max(1),
+        probe_level_repetitions: probe
+            .raw
+            .probe_level_repetitions
+            .max(probe.raw.probe_repetitions.max(1)),
+        layout_repetitions: probe.raw.layout_repetitions,
+        dispatch: (
+            probe.raw.dispatch_items,
+            probe.raw.dispatch_workers,
+            probe.raw.dispatch_repetitions,
+        ),
+        specs,
+        lost: file.lost,
+        validation,
+        mpi_validation,
+        mpi_spin,
+        seed: file.seed,
+        run_limit_s: file.run_limit_s.map(|t| t.0),
+        coarse_network_from: file.coarse_network_from.map(|w| w.0),
+    })
+}
+
+/// A refused field: (field, why).
+type FieldError = (String, String);
+
+impl SimFile {
+    /// `name`, or the file's stem: letters, digits, _ and - only.
+    fn name(&self, path: &Path) -> Result<String, FieldError> {
+        let name = self.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        });
+        let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+        if name.is_empty() || !name.chars().all(plain) {
+            return Err((
+                "name".into(),
+                format!("'{name}': letters, digits, _ and - only"),
+            ));
+        }
+        Ok(name)
     }
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let name = file.name.clone().unwrap_or_else(|| {
-        path.file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    });
-    if name.is_empty()
-        || !name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-    {
-        return Err(field(
-            path,
-            "name",
-            format!("'{name}': letters, digits, _ and - only"),
-        ));
+
+    /// Every scheduler configuration of the grids, each one the simulation plays and within
+    /// the system's SimGrid actors at the largest worker count.
+    fn specs(&self, workers: &[usize]) -> Result<Vec<SchedulerSpec>, FieldError> {
+        if self.schedulers.is_empty() {
+            return Err((
+                "schedulers".into(),
+                "must list at least one [[schedulers]] grid".into(),
+            ));
+        }
+        let mut specs = Vec::new();
+        for (i, s) in self.schedulers.iter().enumerate() {
+            specs.extend(expand(s).map_err(|(f, m)| (format!("schedulers[{i}].{f}"), m))?);
+        }
+        if let Some((s, r)) = specs
+            .iter()
+            .find_map(|s| Some((s, Runner::Simulation.refuses(&s.policy)?)))
+        {
+            return Err((
+                "schedulers".into(),
+                format!("{}: {} = {}", s.label(), r.param, r.as_value()),
+            ));
+        }
+        let most = *workers.last().unwrap_or(&1);
+        let budget = super::job::mapping_budget();
+        let lost = self.lost.len();
+        if let Some(s) = specs
+            .iter()
+            .find(|s| super::job::actors_needed(s.kind(), most, lost) > budget)
+        {
+            return Err((
+                "workers".into(),
+                format!(
+                    "{most} simulated workers of {} need about {} SimGrid actors, more than this system's {budget} memory mappings per process (vm.max_map_count) allow",
+                    s.kind().id(),
+                    super::job::actors_needed(s.kind(), most, lost)
+                ),
+            ));
+        }
+        Ok(specs)
     }
-    if file.workers.is_empty() {
-        return Err(field(
-            path,
-            "workers",
-            "must list at least one simulated worker count",
-        ));
+
+    /// Each lost worker exists in every run, at a time ≥ 0, on platforms of several hosts.
+    fn check_lost(&self, workers: &[usize], platforms: &[Platform]) -> Result<(), FieldError> {
+        for (i, l) in self.lost.iter().enumerate() {
+            let least = workers[0];
+            if l.worker >= least || !(l.at_s >= 0.0 && l.at_s.is_finite()) {
+                return Err((format!("lost[{i}]"), format!(
+                    "worker {} at {} s: needs a worker below the smallest count ({least}) and a time ≥ 0",
+                    l.worker, l.at_s
+                )));
+            }
+            if let Some(p) = platforms.iter().find(|p| p.info.hosts.len() < 2) {
+                return Err((
+                    format!("lost[{i}]"),
+                    format!(
+                        "{} is one node: turning its host off would stop the master too",
+                        p.path.display()
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
-    if let Some(bad) = file
-        .workers
-        .iter()
-        .find(|&&w| !(1..=MAX_SIM_WORKERS).contains(&w))
-    {
-        return Err(field(
-            path,
-            "workers",
-            format!("must be between 1 and {MAX_SIM_WORKERS} (got {bad})"),
-        ));
-    }
-    let mut workers: Vec<usize> = file.workers.iter().map(|&w| w as usize).collect();
-    workers.sort_unstable();
-    workers.dedup();
-    if file.schedulers.is_empty() {
-        return Err(field(
-            path,
-            "schedulers",
-            "must list at least one [[schedulers]] grid",
-        ));
-    }
-    let mut specs = Vec::new();
-    for (i, s) in file.schedulers.iter().enumerate() {
-        specs.extend(expand(s).map_err(|(f, m)| field(path, &format!("schedulers[{i}].{f}"), m))?);
-    }
-    let load_platform = |what: &str, p: &str| -> Result<Platform, SimConfigError> {
-        let full = base.join(p);
-        let info = child::inspect(exe, &full)
-            .map_err(|m| field(path, what, format!("{}: {m}", full.display())))?;
+}
+
+/// The files a simulation file names, relative to its folder: checked to exist, platforms
+/// loaded by SimGrid in a child of `exe`.
+struct Files<'a> {
+    path: &'a Path,
+    base: PathBuf,
+    exe: &'a Path,
+}
+
+impl Files<'_> {
+    /// Platform `p`, loaded to check it (`what`: the field naming it).
+    fn platform(&self, what: &str, p: &str) -> Result<Platform, SimConfigError> {
+        let full = self.base.join(p);
+        let info = child::inspect(self.exe, &full)
+            .map_err(|m| field(self.path, what, format!("{}: {m}", full.display())))?;
         Ok(Platform {
             name: full
                 .file_stem()
@@ -315,194 +517,109 @@ pub fn load(path: &Path, exe: &Path) -> Result<SimPlan, SimConfigError> {
             path: full,
             info,
         })
-    };
-    if file.platforms.is_empty() {
-        return Err(field(
-            path,
-            "platforms",
-            "must list at least one SimGrid platform file",
-        ));
     }
-    let mut platforms = Vec::new();
-    for (i, p) in file.platforms.iter().enumerate() {
-        let pf = load_platform(&format!("platforms[{i}]"), p)?;
+
+    /// The `platforms`, each holding the largest worker count.
+    fn platforms(
+        &self,
+        list: &[String],
+        workers: &[usize],
+    ) -> Result<Vec<Platform>, SimConfigError> {
+        if list.is_empty() {
+            return Err(field(
+                self.path,
+                "platforms",
+                "must list at least one SimGrid platform file",
+            ));
+        }
         let most = *workers.last().unwrap_or(&1);
-        if most > pf.info.worker_slots() {
-            return Err(field(
-                path,
-                &format!("platforms[{i}]"),
-                format!(
-                    "{} holds {} workers (one per core{}), not {most}",
-                    pf.path.display(),
-                    pf.info.worker_slots(),
-                    if pf.info.hosts.len() > 1 {
-                        " of the hosts after the master's"
-                    } else {
-                        ""
-                    }
-                ),
-            ));
-        }
-        platforms.push(pf);
-    }
-    for (i, l) in file.lost.iter().enumerate() {
-        let least = workers[0];
-        if l.worker >= least || !(l.at_s >= 0.0 && l.at_s.is_finite()) {
-            return Err(field(path, &format!("lost[{i}]"), format!(
-                "worker {} at {} s: needs a worker below the smallest count ({least}) and a time ≥ 0",
-                l.worker, l.at_s
-            )));
-        }
-        if let Some(p) = platforms.iter().find(|p| p.info.hosts.len() < 2) {
-            return Err(field(
-                path,
-                &format!("lost[{i}]"),
-                format!(
-                    "{} is one node: turning its host off would stop the master too",
-                    p.path.display()
-                ),
-            ));
-        }
-    }
-    if let Some((s, r)) = specs
-        .iter()
-        .find_map(|s| Some((s, Runner::Simulation.refuses(&s.policy)?)))
-    {
-        return Err(field(
-            path,
-            "schedulers",
-            format!("{}: {} = {}", s.label(), r.param, r.as_value()),
-        ));
-    }
-    let most = *workers.last().unwrap_or(&1);
-    let budget = super::job::mapping_budget();
-    if let Some(s) = specs
-        .iter()
-        .find(|s| super::job::actors_needed(s.kind(), most, file.lost.len()) > budget)
-    {
-        return Err(field(
-            path,
-            "workers",
-            format!(
-                "{most} simulated workers of {} need about {} SimGrid actors, more than this system's {budget} memory mappings per process (vm.max_map_count) allow",
-                s.kind().id(),
-                super::job::actors_needed(s.kind(), most, file.lost.len())
-            ),
-        ));
-    }
-    let probe = &file.probe;
-    let tracer = crate::tracer::TracerKind::from_id(&probe.tracer)
-        .and_then(crate::tracer::TracerKind::available)
-        .map_err(|e| field(path, "probe.tracer", e))?;
-    if probe.dispatch_items < 64 || probe.dispatch_workers == 0 || probe.dispatch_repetitions == 0 {
-        return Err(field(
-            path,
-            "probe",
-            "dispatch_items ≥ 64, dispatch_workers ≥ 1 and dispatch_repetitions ≥ 1",
-        ));
-    }
-    let existing = |what: &str, p: &str| -> Result<PathBuf, SimConfigError> {
-        let full = base.join(p);
-        std::fs::metadata(&full)
-            .map_err(|e| field(path, what, format!("{}: {e}", full.display())))?;
-        Ok(full)
-    };
-    let validation = match &file.validation {
-        None => None,
-        Some(v) => Some((
-            existing("validation.measured", &v.measured)?,
-            load_platform("validation.platform", &v.platform)?,
-        )),
-    };
-    let mpi_validation = match file.validation.as_ref().map(|v| (&v.mpi_measured, v)) {
-        Some((Some(m), v)) => {
-            let measured = existing("validation.mpi_measured", m)?;
-            if v.mpi_platforms.is_empty() {
+        let mut platforms = Vec::new();
+        for (i, p) in list.iter().enumerate() {
+            let pf = self.platform(&format!("platforms[{i}]"), p)?;
+            if most > pf.info.worker_slots() {
+                let of_hosts = if pf.info.hosts.len() > 1 {
+                    " of the hosts after the master's"
+                } else {
+                    ""
+                };
                 return Err(field(
-                    path,
-                    "validation.mpi_platforms",
-                    "must name a platform per measured transport (shared_memory = \"…xml\")",
+                    self.path,
+                    &format!("platforms[{i}]"),
+                    format!(
+                        "{} holds {} workers (one per core{of_hosts}), not {most}",
+                        pf.path.display(),
+                        pf.info.worker_slots(),
+                    ),
                 ));
             }
-            let mut platforms = BTreeMap::new();
-            for (t, p) in &v.mpi_platforms {
-                let what = format!("validation.mpi_platforms.{t}");
-                platforms.insert(t.clone(), load_platform(&what, p)?);
+            platforms.push(pf);
+        }
+        Ok(platforms)
+    }
+
+    /// File `p`, which must exist (`what`: the field naming it).
+    fn existing(&self, what: &str, p: &str) -> Result<PathBuf, SimConfigError> {
+        let full = self.base.join(p);
+        std::fs::metadata(&full)
+            .map_err(|e| field(self.path, what, format!("{}: {e}", full.display())))?;
+        Ok(full)
+    }
+}
+
+/// What `[validation]` resolves to: the measured runs and their platform, the MPI ones and a
+/// platform per transport, the spinning MPI runs.
+type Validations = (
+    Option<(PathBuf, Platform)>,
+    Option<(PathBuf, BTreeMap<String, Platform>)>,
+    Option<PathBuf>,
+);
+
+impl ValidationEntry {
+    /// The files and platforms it names, each checked.
+    fn resolve(&self, at: &Files<'_>) -> Result<Validations, SimConfigError> {
+        let validation = Some((
+            at.existing("validation.measured", &self.measured)?,
+            at.platform("validation.platform", &self.platform)?,
+        ));
+        let mpi = match &self.mpi_measured {
+            Some(m) => {
+                let measured = at.existing("validation.mpi_measured", m)?;
+                if self.mpi_platforms.is_empty() {
+                    return Err(field(
+                        at.path,
+                        "validation.mpi_platforms",
+                        "must name a platform per measured transport (shared_memory = \"…xml\")",
+                    ));
+                }
+                let mut platforms = BTreeMap::new();
+                for (t, p) in &self.mpi_platforms {
+                    let what = format!("validation.mpi_platforms.{t}");
+                    platforms.insert(t.clone(), at.platform(&what, p)?);
+                }
+                Some((measured, platforms))
             }
-            Some((measured, platforms))
-        }
-        Some((None, v)) if !v.mpi_platforms.is_empty() => {
-            return Err(field(
-                path,
-                "validation.mpi_platforms",
-                "given without validation.mpi_measured",
-            ))
-        }
-        _ => None,
-    };
-    let mpi_spin = match file.validation.as_ref().and_then(|v| v.mpi_spin.as_ref()) {
-        Some(_) if mpi_validation.is_none() => {
-            return Err(field(
-                path,
-                "validation.mpi_spin",
-                "given without validation.mpi_measured",
-            ))
-        }
-        Some(p) => Some(existing("validation.mpi_spin", p)?),
-        None => None,
-    };
-    Ok(SimPlan {
-        name,
-        description: file.description,
-        file: path.to_path_buf(),
-        workers,
-        platforms,
-        scene: base.join(&probe.scene),
-        overrides: SceneOverrides {
-            width: probe.width,
-            height: probe.height,
-            spp: probe.spp,
-            max_depth: probe.max_depth,
-            ..Default::default()
-        },
-        tracer,
-        probe_repetitions: probe.probe_repetitions.max(1),
-        probe_level_repetitions: probe
-            .probe_level_repetitions
-            .max(probe.probe_repetitions.max(1)),
-        layout_repetitions: probe.layout_repetitions,
-        dispatch: (
-            probe.dispatch_items,
-            probe.dispatch_workers,
-            probe.dispatch_repetitions,
-        ),
-        specs,
-        lost: file.lost,
-        validation,
-        mpi_validation,
-        mpi_spin,
-        seed: file.seed,
-        run_limit_s: match file.run_limit_s {
-            Some(t) if !(t > 0.0 && t <= 86_400.0) => {
+            None if !self.mpi_platforms.is_empty() => {
                 return Err(field(
-                    path,
-                    "run_limit_s",
-                    format!("must be in (0, 86400] seconds (got {t})"),
+                    at.path,
+                    "validation.mpi_platforms",
+                    "given without validation.mpi_measured",
                 ))
             }
-            t => t,
-        },
-        coarse_network_from: match file.coarse_network_from {
-            Some(w) if !(1..=MAX_SIM_WORKERS).contains(&w) => {
+            None => None,
+        };
+        let spin = match &self.mpi_spin {
+            Some(_) if mpi.is_none() => {
                 return Err(field(
-                    path,
-                    "coarse_network_from",
-                    format!("must be a worker count in 1..={MAX_SIM_WORKERS} (got {w})"),
+                    at.path,
+                    "validation.mpi_spin",
+                    "given without validation.mpi_measured",
                 ))
             }
-            w => w.map(|w| w as usize),
-        },
-    })
+            Some(p) => Some(at.existing("validation.mpi_spin", p)?),
+            None => None,
+        };
+        Ok((validation, mpi, spin))
+    }
 }
 
 fn texts(v: &toml::Value) -> Result<Vec<String>, String> {

@@ -222,116 +222,171 @@ impl Src {
 
 /// Simulate `platform` cut into `chunk`² tiles (scanline order) under `handing`.
 pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
-    let items = decompose(
-        platform.width,
-        platform.height,
-        Chunk::Tile { w: chunk, h: chunk },
-        Order::Scanline,
-    );
-    let px: Vec<u64> = items.iter().map(|i| i.pixel_count() as u64).collect();
-    let top = platform.height / 16;
-    let raw: Vec<f64> = items
-        .iter()
-        .map(|it| {
-            let y = match &it.region {
-                crate::render::Region::Rect { y, .. } => *y,
-                crate::render::Region::Pixels(p) => p.first().map_or(0, |i| i / platform.width),
-            };
-            let f = if y < top { platform.top_cost } else { 1.0 };
-            f * it.pixel_count() as f64
-        })
-        .collect();
-    let total_px: u64 = px.iter().sum();
-    let scale = total_px as f64 / raw.iter().sum::<f64>();
-    let cost: Vec<f64> = raw.iter().map(|c| c * scale).collect();
-    let spp = f64::from(platform.spp);
-    let mut srcs: Vec<Src> = platform
-        .thread_paths_s
-        .iter()
-        .map(|&r| (None, spp / r))
-        .chain(platform.gpu.map(|g| (Some(g), 0.0)))
-        .map(|(gpu, s_per_px)| Src {
-            gpu,
-            s_per_px,
-            held: VecDeque::new(),
-            groups: 0,
-            ends: None,
-            done_px: 0,
-            done_hand_outs: 0,
-            busy_s: 0.0,
-            busy_since: None,
-            last_result: 0.0,
-        })
-        .collect();
-    let item_px = total_px / items.len().max(1) as u64;
-    let balance = match handing {
-        Handing::Balanced { buffer } => Some(Balance::new(
-            srcs.iter()
-                .map(|s| {
-                    s.gpu
-                        .map_or(Shape::Items, |_| Shape::Dispatch(GPU_DISPATCH))
-                })
-                .collect(),
-            item_px,
-            buffer,
-        )),
-        Handing::Fixed { .. } => None,
-    };
-    let mut queue: VecDeque<u32> = (0..items.len() as u32).collect();
-    let mut unissued: u64 = total_px;
-    let mut rendered = Vec::new();
-    let mut dispatches = 0;
-    let mut t = 0.0;
-    while rendered.len() < items.len() {
+    let mut sim = Sim::new(platform, chunk, handing);
+    while sim.rendered.len() < sim.px.len() {
         // The master's pass: every source, hand-out by hand-out.
-        for i in 0..srcs.len() {
-            loop {
-                let want = match (&balance, handing) {
-                    (Some(b), _) => {
-                        let facts: Vec<Facts> = srcs.iter().map(|s| s.facts(t, &px)).collect();
-                        b.grant(i, &facts, unissued).pixels()
-                    }
-                    (
-                        None,
-                        Handing::Fixed {
-                            buffer,
-                            gpu_grain,
-                            gpu_buffer,
-                        },
-                    ) => {
-                        let s = &srcs[i];
-                        match (s.gpu, gpu_grain) {
-                            (None, _) => (s.held_items() < buffer).then_some(1),
-                            (Some(_), 0) => {
-                                let room = gpu_buffer.saturating_sub(s.held_items());
-                                (room > 0).then(|| room as u64 * item_px)
-                            }
-                            (Some(_), g) => (s.held.len() < gpu_buffer).then_some(g),
-                        }
-                    }
-                    (None, Handing::Balanced { .. }) => unreachable!("a balanced run has its rule"),
-                };
-                let Some(n) = want.filter(|_| !queue.is_empty()) else {
-                    break;
-                };
-                let mut got = VecDeque::new();
-                let mut sum = 0;
-                while sum < n.max(1) {
-                    let Some(k) = queue.pop_front() else { break };
-                    sum += px[k as usize];
-                    unissued -= px[k as usize];
-                    got.push_back(k);
-                }
-                let s = &mut srcs[i];
-                if s.held.is_empty() {
-                    s.busy_since = Some(t);
-                }
-                s.held.push_back((s.groups, got));
-                s.groups += 1;
+        for i in 0..sim.srcs.len() {
+            while let Some(n) = sim.want(i).filter(|_| !sim.queue.is_empty()) {
+                sim.hand_out(i, n);
             }
         }
-        // Idle sources start their next work.
-        for s in &mut srcs {
+        sim.start_idle();
+        if !sim.next_event() {
+            break; // nothing held, nothing queued: cannot happen while items are left
+        }
+    }
+    sim.outcome()
+}
+
+/// One simulated run: the items' pixels and costs, the sources, the queue and the clock.
+struct Sim<'p> {
+    platform: &'p Platform,
+    handing: Handing,
+    px: Vec<u64>,
+    cost: Vec<f64>,
+    total_px: u64,
+    item_px: u64,
+    srcs: Vec<Src>,
+    balance: Option<Balance>,
+    queue: VecDeque<u32>,
+    unissued: u64,
+    rendered: Vec<u32>,
+    dispatches: u64,
+    t: f64,
+}
+
+impl<'p> Sim<'p> {
+    fn new(platform: &'p Platform, chunk: u32, handing: Handing) -> Self {
+        let items = decompose(
+            platform.width,
+            platform.height,
+            Chunk::Tile { w: chunk, h: chunk },
+            Order::Scanline,
+        );
+        let px: Vec<u64> = items.iter().map(|i| i.pixel_count() as u64).collect();
+        let top = platform.height / 16;
+        let raw: Vec<f64> = items
+            .iter()
+            .map(|it| {
+                let y = match &it.region {
+                    crate::render::Region::Rect { y, .. } => *y,
+                    crate::render::Region::Pixels(p) => p.first().map_or(0, |i| i / platform.width),
+                };
+                let f = if y < top { platform.top_cost } else { 1.0 };
+                f * it.pixel_count() as f64
+            })
+            .collect();
+        let total_px: u64 = px.iter().sum();
+        let scale = total_px as f64 / raw.iter().sum::<f64>();
+        let cost: Vec<f64> = raw.iter().map(|c| c * scale).collect();
+        let spp = f64::from(platform.spp);
+        let srcs: Vec<Src> = platform
+            .thread_paths_s
+            .iter()
+            .map(|&r| (None, spp / r))
+            .chain(platform.gpu.map(|g| (Some(g), 0.0)))
+            .map(|(gpu, s_per_px)| Src {
+                gpu,
+                s_per_px,
+                held: VecDeque::new(),
+                groups: 0,
+                ends: None,
+                done_px: 0,
+                done_hand_outs: 0,
+                busy_s: 0.0,
+                busy_since: None,
+                last_result: 0.0,
+            })
+            .collect();
+        let item_px = total_px / items.len().max(1) as u64;
+        let balance = match handing {
+            Handing::Balanced { buffer } => Some(Balance::new(
+                srcs.iter()
+                    .map(|s| {
+                        s.gpu
+                            .map_or(Shape::Items, |_| Shape::Dispatch(GPU_DISPATCH))
+                    })
+                    .collect(),
+                item_px,
+                buffer,
+            )),
+            Handing::Fixed { .. } => None,
+        };
+        Self {
+            platform,
+            handing,
+            queue: (0..items.len() as u32).collect(),
+            px,
+            cost,
+            total_px,
+            item_px,
+            srcs,
+            balance,
+            unissued: total_px,
+            rendered: Vec::new(),
+            dispatches: 0,
+            t: 0.0,
+        }
+    }
+
+    /// The pixels source `i` may be handed now (`None`: nothing).
+    fn want(&self, i: usize) -> Option<u64> {
+        match (&self.balance, self.handing) {
+            (Some(b), _) => {
+                let facts: Vec<Facts> = self
+                    .srcs
+                    .iter()
+                    .map(|s| s.facts(self.t, &self.px))
+                    .collect();
+                b.grant(i, &facts, self.unissued).pixels()
+            }
+            (
+                None,
+                Handing::Fixed {
+                    buffer,
+                    gpu_grain,
+                    gpu_buffer,
+                },
+            ) => {
+                let s = &self.srcs[i];
+                match (s.gpu, gpu_grain) {
+                    (None, _) => (s.held_items() < buffer).then_some(1),
+                    (Some(_), 0) => {
+                        let room = gpu_buffer.saturating_sub(s.held_items());
+                        (room > 0).then(|| room as u64 * self.item_px)
+                    }
+                    (Some(_), g) => (s.held.len() < gpu_buffer).then_some(g),
+                }
+            }
+            (None, Handing::Balanced { .. }) => unreachable!("a balanced run has its rule"),
+        }
+    }
+
+    /// Hand source `i` queued items until their pixels reach `n` (one item at least).
+    fn hand_out(&mut self, i: usize, n: u64) {
+        let mut got = VecDeque::new();
+        let mut sum = 0;
+        while sum < n.max(1) {
+            let Some(k) = self.queue.pop_front() else {
+                break;
+            };
+            sum += self.px[k as usize];
+            self.unissued -= self.px[k as usize];
+            got.push_back(k);
+        }
+        let t = self.t;
+        let s = &mut self.srcs[i];
+        if s.held.is_empty() {
+            s.busy_since = Some(t);
+        }
+        s.held.push_back((s.groups, got));
+        s.groups += 1;
+    }
+
+    /// Idle sources start their next work.
+    fn start_idle(&mut self) {
+        let t = self.t;
+        for s in &mut self.srcs {
             if s.ends.is_some() {
                 continue;
             }
@@ -340,20 +395,30 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
             };
             s.ends = Some(match s.gpu {
                 Some(g) => {
-                    dispatches += 1;
-                    let n: u64 = items.iter().map(|&k| px[k as usize]).sum();
-                    let c: f64 = items.iter().map(|&k| cost[k as usize]).sum();
-                    t + g.dispatch_s(n, c, platform.spp)
+                    self.dispatches += 1;
+                    let n: u64 = items.iter().map(|&k| self.px[k as usize]).sum();
+                    let c: f64 = items.iter().map(|&k| self.cost[k as usize]).sum();
+                    t + g.dispatch_s(n, c, self.platform.spp)
                 }
-                None => t + cost[items[0] as usize] * s.s_per_px,
+                None => t + self.cost[items[0] as usize] * s.s_per_px,
             });
         }
-        // The next event: the earliest end; every source ending then returns its results.
-        let Some(next) = srcs.iter().filter_map(|s| s.ends).min_by(f64::total_cmp) else {
-            break; // nothing held, nothing queued: cannot happen while items are left
+    }
+
+    /// The next event: the earliest end; every source ending then returns its results.
+    /// `false` when nothing runs.
+    fn next_event(&mut self) -> bool {
+        let Some(next) = self
+            .srcs
+            .iter()
+            .filter_map(|s| s.ends)
+            .min_by(f64::total_cmp)
+        else {
+            return false;
         };
-        t = next;
-        for s in srcs.iter_mut().filter(|s| s.ends == Some(next)) {
+        self.t = next;
+        let t = self.t;
+        for s in self.srcs.iter_mut().filter(|s| s.ends == Some(next)) {
             s.ends = None;
             let (group, mut items) = s.held.pop_front().expect("a running source holds work");
             let finished: Vec<u32> = if s.gpu.is_some() {
@@ -362,8 +427,8 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
                 vec![items.pop_front().expect("a hand-out holds an item")]
             };
             for k in finished {
-                s.done_px += px[k as usize];
-                rendered.push(k);
+                s.done_px += self.px[k as usize];
+                self.rendered.push(k);
             }
             s.last_result = t;
             if items.is_empty() {
@@ -377,25 +442,32 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
                 }
             }
         }
+        true
     }
-    let gpu_px = srcs
-        .iter()
-        .filter(|s| s.gpu.is_some())
-        .map(|s| s.done_px)
-        .sum();
-    let thread_idle_end_s = srcs
-        .iter()
-        .filter(|s| s.gpu.is_none())
-        .map(|s| t - s.last_result)
-        .fold(0.0, f64::max);
-    Outcome {
-        wall_s: t,
-        ideal_s: total_px as f64 / platform.summed_px_s(),
-        gpu_px,
-        thread_px: total_px - gpu_px,
-        dispatches,
-        thread_idle_end_s,
-        rendered,
+
+    fn outcome(self) -> Outcome {
+        let t = self.t;
+        let gpu_px = self
+            .srcs
+            .iter()
+            .filter(|s| s.gpu.is_some())
+            .map(|s| s.done_px)
+            .sum();
+        let thread_idle_end_s = self
+            .srcs
+            .iter()
+            .filter(|s| s.gpu.is_none())
+            .map(|s| t - s.last_result)
+            .fold(0.0, f64::max);
+        Outcome {
+            wall_s: t,
+            ideal_s: self.total_px as f64 / self.platform.summed_px_s(),
+            gpu_px,
+            thread_px: self.total_px - gpu_px,
+            dispatches: self.dispatches,
+            thread_idle_end_s,
+            rendered: self.rendered,
+        }
     }
 }
 

@@ -72,8 +72,11 @@ pub fn measured_configs(csv: &Path) -> Result<(Vec<Measured>, SceneOverrides), S
 /// set, whose 30 serial renders have median 0.370 s: it made the serial look slower than
 /// every 1-worker run). Each configuration's level is the median of the serial rows of its
 /// own rounds (repetition k of every configuration is taken in round k, serial first).
-pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), String> {
-    configs_where(rows, false)
+///
+/// # Errors
+/// A row whose scheduler does not parse, rows of different scene settings, no row.
+pub fn configs_of(rows: &[RunRow]) -> Result<(Vec<Measured>, SceneOverrides), SimError> {
+    configs_where(rows, false).map_err(SimError::Failed)
 }
 
 /// The MPI configurations of `csv` (one per scheduler configuration, rank count and

@@ -10,7 +10,7 @@
 
 use super::thread::{Flags, SourceThread};
 use super::{Completer, ComputeSource, DelayedResult, Notifier, SourceFailure, SourceReport};
-use crate::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer};
+use crate::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer, PixelOut};
 use crate::metrics::{Probe, Span};
 use crate::render::WorkItem;
 use crossbeam::channel::{Receiver, TryRecvError};
@@ -140,34 +140,29 @@ fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch
             }
             break;
         };
-        match r.wait(job.dispatch) {
+        let InFlight {
+            dispatch,
+            items,
+            submitted,
+        } = job;
+        match r.wait(dispatch) {
             Ok(px) => {
-                let now = quanta::Instant::now();
-                let items: Vec<WorkItem> = job.items.iter().map(|(i, _)| i.clone()).collect();
-                let results = r.results(&items, &px);
-                let start = clock
-                    .last_end
-                    .map_or(job.submitted, |e| e.max(job.submitted));
-                for ((item, done), res) in job.items.into_iter().zip(results) {
-                    if probe.timeline {
-                        report.spans.push(Span {
-                            worker: id,
-                            item: item.id,
-                            start_ns: (start - probe.tsc_epoch).as_nanos() as u64,
-                            end_ns: (now - probe.tsc_epoch).as_nanos() as u64,
-                        });
-                    }
-                    report.stats.count(&item, res.rays);
-                    done.complete(Ok(res));
-                }
-                clock.last_end = Some(now);
+                let now = deliver(
+                    id,
+                    r,
+                    probe,
+                    (items, submitted),
+                    &px,
+                    &mut clock,
+                    &mut report,
+                );
                 if inflight.is_empty() {
                     clock.idle(now);
                 }
             }
             Err(e) => {
                 let f = lose(fl, id, e.to_string());
-                job.items
+                items
                     .into_iter()
                     .for_each(|(_, c)| c.complete(Err(f.clone())));
                 for j in inflight.drain(..) {
@@ -186,6 +181,37 @@ fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch
         report.stats.busy_s = clock.busy.as_secs_f64();
     }
     report
+}
+
+/// Complete a finished dispatch's items (submitted at `submitted`) with their results (`px`,
+/// its per-task output), counting and timing them; when it was read back.
+fn deliver(
+    id: u32,
+    r: &GpuRenderer,
+    probe: Probe,
+    (done_items, submitted): (Vec<(WorkItem, Completer)>, quanta::Instant),
+    px: &[PixelOut],
+    clock: &mut GpuClock,
+    report: &mut SourceReport,
+) -> quanta::Instant {
+    let now = quanta::Instant::now();
+    let items: Vec<WorkItem> = done_items.iter().map(|(i, _)| i.clone()).collect();
+    let results = r.results(&items, px);
+    let start = clock.last_end.map_or(submitted, |e| e.max(submitted));
+    for ((item, done), res) in done_items.into_iter().zip(results) {
+        if probe.timeline {
+            report.spans.push(Span {
+                worker: id,
+                item: item.id,
+                start_ns: (start - probe.tsc_epoch).as_nanos() as u64,
+                end_ns: (now - probe.tsc_epoch).as_nanos() as u64,
+            });
+        }
+        report.stats.count(&item, res.rays);
+        done.complete(Ok(res));
+    }
+    clock.last_end = Some(now);
+    now
 }
 
 fn lose(fl: &Flags, id: u32, reason: String) -> SourceFailure {
@@ -236,8 +262,8 @@ impl ComputeSource for GpuSource {
     fn runs_hand_outs_whole(&self) -> bool {
         true
     }
-    fn dispatch(&self) -> Option<crate::sched::rule::Dispatch> {
-        Some(crate::sched::rule::GPU_DISPATCH)
+    fn dispatch(&self) -> Option<super::Dispatch> {
+        Some(super::GPU_DISPATCH)
     }
     fn is_lost(&self) -> bool {
         self.thread.is_lost()

@@ -147,12 +147,17 @@ pub fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "non-string panic payload".into())
 }
 
+/// The label of local thread source `id`.
+pub fn thread_label(id: u32) -> String {
+    format!("local-thread-{id}")
+}
+
 impl ComputeSource for LocalThreadSource {
     fn id(&self) -> u32 {
         self.id
     }
     fn label(&self) -> String {
-        format!("local-thread-{}", self.id)
+        thread_label(self.id)
     }
     fn submit(&mut self, item: WorkItem) -> DelayedResult {
         let (d, c) = DelayedResult::pending(item.id, self.id);

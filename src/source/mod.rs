@@ -17,6 +17,7 @@ pub mod faulty;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod local;
+pub mod served;
 pub mod slow;
 pub mod thread;
 
@@ -26,6 +27,7 @@ pub use faulty::{FaultPlan, FaultySource};
 #[cfg(feature = "gpu")]
 pub use gpu::GpuSource;
 pub use local::LocalThreadSource;
+pub use served::ServedSources;
 pub use slow::slowed_job;
 pub use thread::SourceThread;
 
@@ -33,6 +35,28 @@ use crate::metrics::{Span, WorkerStats};
 use crate::render::{TileResult, WorkItem};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
+use std::time::Duration;
+
+/// What a dispatch costs beyond its pixels, as the source knows it from measurement: what a
+/// source that runs each hand-out as one dispatch says of itself
+/// ([`ComputeSource::dispatch`]), for the master's balancer (`sched::rule::Balance`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Dispatch {
+    /// One dispatch's fixed cost: submit to results mapped, empty kernel.
+    pub overhead: Duration,
+    /// Pixels per dispatch that fill the device: a smaller dispatch takes about as long.
+    pub fill_px: u64,
+}
+
+/// What the balancer assumes of a GPU's dispatch (the GPU source's [`Dispatch`]), from the
+/// H200 (M-150): 105 µs submit → mapped for an empty kernel, and the device filled at 2^17
+/// pixels: its 1-spp curve of pixels/s against pixels per dispatch fits
+/// `o + b·n + a·max(n, 91 k)` (`simulate::hetero::GpuModel::h200`), a dispatch below ~91 k
+/// pixels taking as long as one of 91 k.
+pub const GPU_DISPATCH: Dispatch = Dispatch {
+    overhead: Duration::from_micros(105),
+    fill_px: 1 << 17,
+};
 
 /// Something that renders items for a scheduler: a thread, a wrapper, a remote rank.
 ///
@@ -91,7 +115,7 @@ pub trait ComputeSource: Send {
     /// Where each hand-out runs as one dispatch of fixed cost (a GPU): that cost and the
     /// pixels that fill the device, for the master's balancer (`sched::rule::Balance`, which
     /// probes such a source at its fill first). `None`: item by item, as a thread.
-    fn dispatch(&self) -> Option<crate::sched::rule::Dispatch> {
+    fn dispatch(&self) -> Option<Dispatch> {
         None
     }
     /// The source is gone: none of its outstanding results will arrive.

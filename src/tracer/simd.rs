@@ -138,29 +138,7 @@ fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 
     let eq0 = |x| _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero);
     let exact = _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(eq0(u), eq0(v)), eq0(w)));
     if exact != 0 {
-        let arr = |x| {
-            let mut a = [0.0f32; 8];
-            // SAFETY: see above.
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), x) };
-            a
-        };
-        let [ax_, ay_, bx_, by_, cx_, cy_] = [ax, ay, bx, by, cx, cy].map(arr);
-        let (mut ua, mut va, mut wa) = (arr(u), arr(v), arr(w));
-        let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-        let mut lanes = exact as u32;
-        while lanes != 0 {
-            let l = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            ua[l] = f(cx_[l], by_[l], cy_[l], bx_[l]);
-            va[l] = f(ax_[l], cy_[l], ay_[l], cx_[l]);
-            wa[l] = f(bx_[l], ay_[l], by_[l], ax_[l]);
-        }
-        // SAFETY: see above (unaligned loads of 8 f32).
-        unsafe {
-            u = _mm256_loadu_ps(ua.as_ptr());
-            v = _mm256_loadu_ps(va.as_ptr());
-            w = _mm256_loadu_ps(wa.as_ptr());
-        }
+        [u, v, w] = exact_edges(exact as u32, [ax, ay, bx, by, cx, cy], [u, v, w]);
     }
     let lt = |x, y| _mm256_cmp_ps::<_CMP_LT_OS>(x, y);
     let gt = |x, y| _mm256_cmp_ps::<_CMP_GT_OS>(x, y);
@@ -186,8 +164,7 @@ fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 
     }
     let max3 = |x, y, z| max(max(abs(x), abs(y)), abs(z));
     let max_z = max3(az, bz, cz);
-    let max_x = max3(ax, bx, cx);
-    let max_y = max3(ay, by, cy);
+    let (max_x, max_y) = (max3(ax, bx, cx), max3(ay, by, cy));
     let max_z_len = max3(a_z, b_z, c_z);
     let delta_z = mul(splat(gamma(3)), max_z);
     let delta_x = mul(splat(gamma(5)), add(max_x, max_z_len));
@@ -221,6 +198,38 @@ fn triangles8(p: &Triangle4, q: &Triangle4, r: &ShearedRay, t_max: f32) -> Hit8 
         }
     }
     hit
+}
+
+/// The edge functions `[u, v, w]` recomputed in f64 in the `lanes` (a bit mask) where one of
+/// them came out exactly 0 in f32, from the sheared vertices `[ax, ay, bx, by, cx, cy]`: the
+/// rare path of [`triangles8`], kept out of its body.
+#[cold]
+#[target_feature(enable = "avx2")]
+fn exact_edges(mut lanes: u32, xy: [__m256; 6], uvw: [__m256; 3]) -> [__m256; 3] {
+    let arr = |x| {
+        let mut a = [0.0f32; 8];
+        // SAFETY: AVX is enabled in this function; the store writes 8 f32 into an `[f32; 8]`.
+        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), x) };
+        a
+    };
+    let [ax_, ay_, bx_, by_, cx_, cy_] = xy.map(arr);
+    let [mut ua, mut va, mut wa] = uvw.map(arr);
+    let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+    while lanes != 0 {
+        let l = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        ua[l] = f(cx_[l], by_[l], cy_[l], bx_[l]);
+        va[l] = f(ax_[l], cy_[l], ay_[l], cx_[l]);
+        wa[l] = f(bx_[l], ay_[l], by_[l], ax_[l]);
+    }
+    // SAFETY: AVX is enabled in this function; each load reads 8 f32 from an `[f32; 8]`.
+    unsafe {
+        [
+            _mm256_loadu_ps(ua.as_ptr()),
+            _mm256_loadu_ps(va.as_ptr()),
+            _mm256_loadu_ps(wa.as_ptr()),
+        ]
+    }
 }
 
 /// A ray's slabs with every coordinate broadcast to eight AVX lanes. Made only inside

@@ -16,6 +16,11 @@ extern "C" {
     fn dlerror() -> *mut c_char;
 }
 
+/// Why no library opened: every name's `dlerror()` message, joined by `; `.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct DlError(pub String);
+
 /// An open library. The handle is never closed, so every symbol resolved from it stays valid
 /// for the whole process.
 #[derive(Debug)]
@@ -49,7 +54,7 @@ impl Library {
     ///
     /// # Errors
     /// Every name's `dlerror()` message, joined.
-    pub fn open_first<S: AsRef<str>>(names: &[S]) -> Result<Self, String> {
+    pub fn open_first<S: AsRef<str>>(names: &[S]) -> Result<Self, DlError> {
         let mut errors = Vec::new();
         for name in names {
             let Ok(c_name) = CString::new(name.as_ref()) else {
@@ -65,7 +70,7 @@ impl Library {
                 return Ok(Self { handle });
             }
         }
-        Err(errors.join("; "))
+        Err(DlError(errors.join("; ")))
     }
 
     /// The address of symbol `name` (NUL-terminated, e.g. `"rtcNewDevice\0"`), or null when
@@ -138,6 +143,6 @@ mod tests {
             "a name without NUL is refused"
         );
         let err = Library::open_first(&["no-such-library.so"]).unwrap_err();
-        assert!(err.contains("no-such-library.so"), "{err}");
+        assert!(err.0.contains("no-such-library.so"), "{err}");
     }
 }

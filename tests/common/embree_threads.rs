@@ -2,10 +2,11 @@
 //! (Embree 4). Each runs in a test binary of its own, so that no other test creates threads
 //! or devices meanwhile.
 
-use raysched::render::render_parallel;
 use raysched::scene::{load_scene, SceneOverrides};
+use raysched::sched::render_parallel;
 use raysched::tracer::{AnyTracer, Tracer, TracerKind};
 use raysched::util::host::os_thread_count;
+use std::sync::Arc;
 
 /// The OS thread count once it has stayed the same for 100 ms: rayon's pool threads exit
 /// asynchronously after a pool is dropped.
@@ -38,18 +39,18 @@ pub(crate) fn devices_and_os_threads_are_what_the_run_asked_for(
         height: Some(16),
         ..Default::default()
     };
-    let scene = load_scene(std::path::Path::new("scenes/cornell_box.toml"), &o).unwrap();
+    let scene = Arc::new(load_scene(std::path::Path::new("scenes/cornell_box.toml"), &o).unwrap());
 
     // A run that does not use this backend never creates a device.
-    let bvh = AnyTracer::build(TracerKind::Bvh, &scene, 2).unwrap();
-    let brute = AnyTracer::build(TracerKind::Brute, &scene, 2).unwrap();
+    let bvh = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 2).unwrap());
+    let brute = Arc::new(AnyTracer::build(TracerKind::Brute, &scene, 2).unwrap());
     render_parallel(&scene, &bvh, 1).unwrap();
     render_parallel(&scene, &brute, 1).unwrap();
     assert_eq!(devices_created(), 0);
 
     // `threads=1`: the commit starts no worker thread, the process keeps its threads.
     let before = settled_thread_count();
-    let e = AnyTracer::build(kind, &scene, 1).unwrap();
+    let e = Arc::new(AnyTracer::build(kind, &scene, 1).unwrap());
     assert_eq!(devices_created(), 1);
     assert_eq!(
         threads_after_build(&e),

@@ -1,11 +1,10 @@
 //! A pixel's value never depends on which thread renders it, in which order, or with which
 //! other pixels: whole-image render vs random pixel subsets in shuffled order on several threads.
 
-use raysched::render::{
-    render_item, render_item_spp, render_parallel, render_serial, Region, WorkItem,
-};
+use raysched::render::{render_item, render_item_spp, render_serial, Region, WorkItem};
 use raysched::rng::Sampler;
 use raysched::scene::SceneOverrides;
+use raysched::sched::render_parallel;
 use raysched::tracer::{AnyTracer, TracerKind};
 use std::sync::Arc;
 
@@ -72,7 +71,7 @@ fn shuffled_pixel_subsets_on_threads_are_bit_identical_to_the_serial_render() {
             "{name}: shuffled subsets differ"
         );
         assert!(image.data == reference.data);
-        let (parallel, _) = render_parallel(&scene, &*tracer, 2).unwrap();
+        let (parallel, _) = render_parallel(&scene, &tracer, 2).unwrap();
         assert_eq!(
             parallel.hash(),
             reference.hash(),

@@ -53,7 +53,7 @@ mod with_embree {
         );
         assert!(e.os_threads_after_build.is_some_and(|n| n >= 1));
         let err = EmbreeTracer::new(&g, 0).err().unwrap();
-        assert!(err.contains("threads"), "{err}");
+        assert!(err.0.contains("threads"), "{err}");
         // Embree's error callback becomes a Rust error, no panic.
         let opts = EmbreeOptions {
             threads: 1,
@@ -62,6 +62,6 @@ mod with_embree {
         let err = EmbreeTracer::with_device_config(&g, "threads=1,verbose=x", opts)
             .err()
             .expect("bad config");
-        assert!(err.contains("Embree"), "{err}");
+        assert!(err.0.contains("Embree"), "{err}");
     }
 }

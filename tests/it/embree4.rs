@@ -53,11 +53,11 @@ mod with_embree4 {
         let err = Embree4Tracer::with_options(&g, Embree4Options { threads: 0, ..opts })
             .err()
             .unwrap();
-        assert!(err.contains("threads"), "{err}");
+        assert!(err.0.contains("threads"), "{err}");
         // A configuration Embree rejects: its error callback's message becomes the `Err`.
         let err = Embree4Tracer::with_device_config(&g, "threads=1,verbose=x", opts)
             .err()
             .expect("bad config");
-        assert!(err.contains("Embree error"), "{err}");
+        assert!(err.0.contains("Embree error"), "{err}");
     }
 }

@@ -6,8 +6,9 @@
 
 use glam::Vec3;
 use raysched::geometry::{next_float_down, next_float_up, Hit, Ray, Sphere, Triangle};
-use raysched::render::{render_item, render_parallel, render_serial, Image, WorkItem};
+use raysched::render::{render_item, render_serial, Image, WorkItem};
 use raysched::scene::{load_scene, Geometry, SceneOverrides};
+use raysched::sched::render_parallel;
 use raysched::tracer::{AnyTracer, BruteTracer, BvhTracer, Tracer, TracerKind};
 
 /// The contract's tests for one backend (a `Backend` constant in scope), one `#[test]` each.
@@ -337,9 +338,9 @@ pub(crate) fn images_match_bvh_on_every_reference_scene(backend: &Backend) {
 
 /// The scheduler identity: whoever renders which item, the image is bit-identical.
 pub(crate) fn images_are_identical_across_schedules(backend: &Backend) {
-    let scene = small("cornell_box", 2);
-    let e = AnyTracer::build(backend.kinds[0], &scene, 2).unwrap();
-    let (serial, _) = render_serial(&scene, &e);
+    let scene = std::sync::Arc::new(small("cornell_box", 2));
+    let e = std::sync::Arc::new(AnyTracer::build(backend.kinds[0], &scene, 2).unwrap());
+    let (serial, _) = render_serial(&scene, &*e);
     for threads in [1, 2, 3] {
         let (par, _) = render_parallel(&scene, &e, threads).unwrap();
         assert_eq!(par.hash(), serial.hash(), "{threads} threads");
@@ -362,7 +363,7 @@ pub(crate) fn images_are_identical_across_schedules(backend: &Backend) {
     items.reverse();
     let results: Vec<_> = items
         .par_iter()
-        .map(|it| render_item(&scene, &e, it))
+        .map(|it| render_item(&scene, &*e, it))
         .collect();
     let mut img = Image::new(w, h);
     for (it, r) in items.iter().zip(&results) {

@@ -24,10 +24,14 @@ enum Tok {
     Other(char),
 }
 
-/// The tokens of `text`, without comments, strings, char literals and numbers' insides.
-fn lex(text: &str) -> Vec<Tok> {
+/// The tokens of `text`, without comments, strings, char literals and numbers' insides, and
+/// the line (from 1) each starts on.
+fn lex(text: &str) -> (Vec<Tok>, Vec<usize>) {
     let c: Vec<char> = text.chars().collect();
     let mut out = Vec::new();
+    let mut lines: Vec<usize> = Vec::new();
+    // The line of the character at `pos`, counted forward as `i` moves.
+    let (mut line, mut pos) = (1usize, 0usize);
     let mut i = 0;
     // Skips a string whose opening `"` is at `i`, ending after `#` × hashes.
     let skip_str = |mut i: usize, hashes: usize, raw: bool| -> usize {
@@ -45,6 +49,12 @@ fn lex(text: &str) -> Vec<Tok> {
         i
     };
     while i < c.len() {
+        // Tokens pushed by the last step start on the line where that step began.
+        lines.resize(out.len(), line);
+        while pos < i {
+            line += usize::from(c[pos] == '\n');
+            pos += 1;
+        }
         let ch = c[i];
         if ch.is_whitespace() {
             i += 1;
@@ -131,7 +141,8 @@ fn lex(text: &str) -> Vec<Tok> {
             });
         }
     }
-    out
+    lines.resize(out.len(), line);
+    (out, lines)
 }
 
 /// Which crate of the package a file belongs to: the library or the `raysched` binary
@@ -151,6 +162,8 @@ struct PathRef {
     path: ModPath,
     /// `pub use`: the name under which the current module re-exports the leaf.
     export: Option<String>,
+    /// The line the path starts on.
+    line: usize,
 }
 
 /// The module of each file (relative to `src/`, `/`-separated).
@@ -172,14 +185,12 @@ fn module_of(file: &str) -> Option<ModPath> {
     Some((krate, parts))
 }
 
+/// A leaf of a `use` tree: its path, the name it binds, and the index of its last token.
+type Leaf = (Vec<String>, String, usize);
+
 /// Parses one `use` tree starting at `toks[*i]`, pushing each leaf as a path under `prefix`
 /// (`*` and `self` leave the prefix itself). Leaves `*i` after the tree.
-fn use_tree(
-    toks: &[Tok],
-    i: &mut usize,
-    prefix: Vec<String>,
-    out: &mut Vec<(Vec<String>, String)>,
-) {
+fn use_tree(toks: &[Tok], i: &mut usize, prefix: Vec<String>, out: &mut Vec<Leaf>) {
     let mut path = prefix;
     loop {
         match toks.get(*i) {
@@ -187,22 +198,23 @@ fn use_tree(
             Some(Tok::Ident(w)) => {
                 let w = w.clone();
                 *i += 1;
+                let at = *i - 1;
                 if w == "self" && !path.is_empty() {
                     let name = path.last().cloned().unwrap_or_default();
                     let name = alias(toks, i).unwrap_or(name);
-                    out.push((path, name));
+                    out.push((path, name, at));
                     return;
                 }
                 path.push(w);
                 if toks.get(*i) != Some(&Tok::Sep) {
                     let name = alias(toks, i).unwrap_or_else(|| path.last().cloned().unwrap());
-                    out.push((path, name));
+                    out.push((path, name, at));
                     return;
                 }
             }
             Some(Tok::Star) => {
                 *i += 1;
-                out.push((path, "*".to_string()));
+                out.push((path, "*".to_string(), *i - 1));
                 return;
             }
             Some(Tok::Open) => {
@@ -273,7 +285,7 @@ fn paths_of(file: &str, text: &str, modules: &BTreeSet<ModPath>) -> Vec<PathRef>
     let Some((krate, here)) = module_of(file) else {
         return Vec::new();
     };
-    let toks = lex(text);
+    let (toks, lines) = lex(text);
     // The module at each depth: the file's, then its inline `mod name { … }` blocks.
     let mut scope: Vec<(Vec<String>, usize)> = vec![(here, 0)];
     let mut depth = 0usize;
@@ -353,10 +365,11 @@ fn paths_of(file: &str, text: &str, modules: &BTreeSet<ModPath>) -> Vec<PathRef>
                 let mut j = i + 1;
                 let mut leaves = Vec::new();
                 use_tree(&toks, &mut j, Vec::new(), &mut leaves);
-                for (rel, name) in leaves {
+                for (rel, name, at) in leaves {
                     if let Some(path) = absolute(&cur, &rel) {
                         let export = public.then_some(name);
-                        out.push(PathRef { path, export });
+                        let line = lines[at];
+                        out.push(PathRef { path, export, line });
                     }
                 }
                 i = j;
@@ -376,7 +389,12 @@ fn paths_of(file: &str, text: &str, modules: &BTreeSet<ModPath>) -> Vec<PathRef>
                     j += 2;
                 }
                 if let Some(path) = absolute(&cur, &rel) {
-                    out.push(PathRef { path, export: None });
+                    let line = lines[i];
+                    out.push(PathRef {
+                        path,
+                        export: None,
+                        line,
+                    });
                 }
                 i = j + 1;
                 continue;
@@ -403,8 +421,29 @@ fn is_ancestor(module: &str, file: &str) -> bool {
     }
 }
 
+/// One import: the importing file and the line of the path, the imported file and the item
+/// named there.
+#[derive(Clone, Debug)]
+struct Import {
+    from: String,
+    line: usize,
+    to: String,
+    item: String,
+}
+
 /// The file → file import graph of the files `(path relative to src/, text)`.
 fn import_graph(files: &[(String, String)]) -> Edges {
+    let mut edges = Edges::new();
+    for i in imports(files) {
+        let names = edges.entry(i.from).or_default().entry(i.to).or_default();
+        names.insert(i.item);
+    }
+    edges
+}
+
+/// Every import of the files `(path relative to src/, text)` from one file into another (not
+/// into a module above it, [`is_ancestor`]).
+fn imports(files: &[(String, String)]) -> Vec<Import> {
     let file_of: BTreeMap<ModPath, String> = files
         .iter()
         .filter_map(|(f, _)| Some((module_of(f)?, f.clone())))
@@ -452,22 +491,22 @@ fn import_graph(files: &[(String, String)]) -> Edges {
         }
         Some((file.clone(), item.clone()))
     }
-    let mut edges = Edges::new();
+    let mut out = Vec::new();
     for (from, rs) in &refs {
         for r in rs {
             if let Some((to, item)) = resolve(&r.path, &file_of, &exports, 0) {
                 if &to != from && !is_ancestor(&to, from) {
-                    let names = edges
-                        .entry(from.clone())
-                        .or_default()
-                        .entry(to)
-                        .or_default();
-                    names.insert(item);
+                    out.push(Import {
+                        from: from.clone(),
+                        line: r.line,
+                        to,
+                        item,
+                    });
                 }
             }
         }
     }
-    edges
+    out
 }
 
 /// The circles of the graph: its strongly connected components of more than one file, each
@@ -662,4 +701,139 @@ fn layers_without_a_circle_pass() {
     assert_eq!(edges["top.rs"].len(), 2);
     assert!(!edges.contains_key("low.rs"));
     assert!(circles(&edges).is_empty());
+}
+
+/// The layers of `src/`, bottom → top: a file may import from its own layer and the layers
+/// below it, never from one above. Each layer lists its rooms, a room being a path under `src/`
+/// (a folder ending in `/`, or a file); a file belongs to the room of the longest path that
+/// holds it. The crate roots (`lib.rs`, `main.rs`) declare every module and sit above all.
+/// A move of folders rewrites these paths (`/work/notes/layout.sh` does), nothing else.
+const LAYERS: &[(&str, &[&str])] = &[
+    (
+        "base",
+        &["util/", "hash.rs", "rng.rs", "limits.rs", "provenance.rs"],
+    ),
+    ("geometry", &["geometry.rs"]),
+    ("scene", &["scene/"]),
+    ("tracer", &["tracer/"]),
+    ("render", &["render/"]),
+    ("gpu", &["gpu/"]),
+    ("metrics", &["metrics/"]),
+    ("source", &["source/"]),
+    ("sched", &["sched/"]),
+    // The drawing kit: axes, fonts, styles and raster output, read by every study's charts.
+    (
+        "drawing",
+        &[
+            "plot/axes.rs",
+            "plot/font.rs",
+            "plot/style.rs",
+            "plot/raster.rs",
+        ],
+    ),
+    ("profile", &["profile/"]),
+    ("model", &["model/"]),
+    ("convergence", &["converge/", "stability/"]),
+    ("experiment", &["experiment/"]),
+    ("plot", &["plot/"]),
+    ("simulation", &["simulate/", "simgrid/"]),
+    ("launch", &["mpi/"]),
+    ("reference", &["reference.rs"]),
+    ("app", &["app/"]),
+];
+
+/// The layer (index into [`LAYERS`]) and room of `file`; `None` for the crate roots and for
+/// a file no room holds.
+fn layer_of<'a>(layers: &[(&str, &[&'a str])], file: &str) -> Option<(usize, &'a str)> {
+    layers
+        .iter()
+        .enumerate()
+        .flat_map(|(n, (_, rooms))| rooms.iter().map(move |r| (n, *r)))
+        .filter(|(_, r)| file == *r || (r.ends_with('/') && file.starts_with(r)))
+        .max_by_key(|(_, r)| r.len())
+}
+
+/// Every import from a lower layer into a higher one, as a line `file:line: layer → layer:
+/// imported file (item)`.
+fn upward(layers: &[(&str, &[&str])], imports: &[Import]) -> Vec<String> {
+    let mut out: Vec<String> = imports
+        .iter()
+        .filter_map(|i| {
+            let (lf, _) = layer_of(layers, &i.from)?;
+            let (lt, _) = layer_of(layers, &i.to)?;
+            (lf < lt).then(|| {
+                format!(
+                    "src/{}:{}: {} imports {} from src/{} ({}, a higher layer)",
+                    i.from, i.line, layers[lf].0, i.item, i.to, layers[lt].0
+                )
+            })
+        })
+        .collect();
+    out.sort();
+    out.dedup();
+    out
+}
+
+#[test]
+fn no_file_imports_from_a_higher_layer() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let files = sources(&src);
+    // Every file sits in a room, and every room of the table exists: a new folder is placed
+    // on purpose, a moved one is not checked by a stale path.
+    let roots = ["lib.rs", "main.rs"];
+    let homeless: Vec<&str> = files
+        .iter()
+        .map(|(f, _)| f.as_str())
+        .filter(|f| !roots.contains(f) && layer_of(LAYERS, f).is_none())
+        .collect();
+    assert!(homeless.is_empty(), "files in no layer: {homeless:?}");
+    for (_, rooms) in LAYERS {
+        for r in *rooms {
+            assert!(
+                files.iter().any(|(f, _)| f == r || f.starts_with(r)),
+                "layer table names {r}, which holds no file of src/"
+            );
+        }
+    }
+    let all = imports(&files);
+    // The check reads something: the run path imports from the layers below it.
+    let down = all
+        .iter()
+        .filter(|i| i.from.starts_with("sched/") && i.to.starts_with("source/"))
+        .count();
+    assert!(down > 0, "no import of sched/ from source/ found");
+    let up = upward(LAYERS, &all);
+    assert!(
+        up.is_empty(),
+        "{} imports reach up a layer (layers bottom → top: {}):\n{}",
+        up.len(),
+        LAYERS.iter().map(|l| l.0).collect::<Vec<_>>().join(" < "),
+        up.join("\n")
+    );
+}
+
+#[test]
+fn a_planted_upward_import_is_found_with_its_line() {
+    let files = planted(&[
+        ("lib.rs", "pub mod low; pub mod high;"),
+        ("high.rs", "use crate::low::base;\npub fn h() { base(); }"),
+        (
+            "low/mod.rs",
+            "mod deep;\npub fn base() {}\n#[cfg(test)]\nmod tests { use crate::high::h; }",
+        ),
+        ("low/deep.rs", "pub fn d() {\n\n    crate::high::h();\n}"),
+    ]);
+    let layers: &[(&str, &[&str])] = &[("low", &["low/"]), ("high", &["high.rs"])];
+    let up = upward(layers, &imports(&files));
+    // The inline test module's import is not the library's; the body's is, on line 3.
+    assert_eq!(
+        up,
+        ["src/low/deep.rs:3: low imports h from src/high.rs (high, a higher layer)"]
+    );
+    // Turned around, the same crate is in order but for high.rs's import.
+    let flipped: &[(&str, &[&str])] = &[("high", &["high.rs"]), ("low", &["low/"])];
+    assert_eq!(
+        upward(flipped, &imports(&files)),
+        ["src/high.rs:1: high imports base from src/low/mod.rs (low, a higher layer)"]
+    );
 }

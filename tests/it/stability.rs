@@ -214,12 +214,13 @@ fn convergence_slope_is_minus_half() {
         height: Some(16),
         ..Default::default()
     };
-    let scene = load_scene(Path::new("scenes/interior_sphere.toml"), &o).unwrap();
-    let tracer = AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap();
+    let scene =
+        std::sync::Arc::new(load_scene(Path::new("scenes/interior_sphere.toml"), &o).unwrap());
+    let tracer = std::sync::Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 1).unwrap());
     let dir = tempfile::tempdir().unwrap();
-    let r = reference::reference(&scene, &tracer, dir.path(), 64, 2, &mut |_, _| {}).unwrap();
+    let r = reference::reference(&scene, &*tracer, dir.path(), 64, 2, &mut |_, _| {}).unwrap();
     assert_eq!(r.kind, converge::ReferenceKind::Interior);
-    let rows = converge::run_convergence(&scene, &tracer, &r, 256, 2);
+    let rows = converge::run_convergence(&scene, &tracer, &r, 256, 2).unwrap();
     assert_eq!(
         rows.iter().map(|r| r.spp).collect::<Vec<_>>(),
         [1, 2, 4, 8, 16, 32, 64, 128, 256]
@@ -293,7 +294,7 @@ fn scheduled_convergence_matches_rows_rayon() {
     let tracer = Arc::new(AnyTracer::build(TracerKind::Bvh, &scene, 2).unwrap());
     let refs = tempfile::tempdir().unwrap();
     let r = reference::reference(&scene, &*tracer, refs.path(), 4, 2, &mut |_, _| {}).unwrap();
-    let base = converge::run_convergence(&scene, &*tracer, &r, 8, 2);
+    let base = converge::run_convergence(&scene, &tracer, &r, 8, 2).unwrap();
     assert_eq!(base.len(), 4);
     for spec in [
         SchedulerSpec::new(SchedulerKind::Master, Chunk::Tile { w: 1, h: 1 }, 2),

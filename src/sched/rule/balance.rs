@@ -25,6 +25,7 @@
 //!   device's fill); below the floor it is refused, except to the fastest source, and to any
 //!   source while nobody holds anything (so the run always moves).
 
+pub use crate::source::{Dispatch, GPU_DISPATCH};
 use std::time::Duration;
 
 /// How a source runs what it is handed.
@@ -34,15 +35,6 @@ pub enum Shape {
     Items,
     /// Each hand-out as one dispatch of a fixed cost (a GPU).
     Dispatch(Dispatch),
-}
-
-/// What a dispatch costs beyond its pixels, as the source knows it from measurement.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Dispatch {
-    /// One dispatch's fixed cost: submit to results mapped, empty kernel.
-    pub overhead: Duration,
-    /// Pixels per dispatch that fill the device: a smaller dispatch takes about as long.
-    pub fill_px: u64,
 }
 
 /// What the executor measured of one source, passed to [`Balance::grant`].
@@ -61,16 +53,6 @@ pub struct Facts {
     /// Hand-outs it holds outstanding.
     pub held: usize,
 }
-
-/// What the balancer assumes of a GPU's dispatch (the GPU source's [`Dispatch`]), from the
-/// H200 (M-150): 105 µs submit → mapped for an empty kernel, and the device filled at 2^17
-/// pixels: its 1-spp curve of pixels/s against pixels per dispatch fits
-/// `o + b·n + a·max(n, 91 k)` (`simulate::hetero::GpuModel::h200`), a dispatch below ~91 k
-/// pixels taking as long as one of 91 k.
-pub const GPU_DISPATCH: Dispatch = Dispatch {
-    overhead: Duration::from_micros(105),
-    fill_px: 1 << 17,
-};
 
 /// The share of its peak a dispatch source's grain reaches (issue 52: ~90 %).
 pub const PEAK_SHARE: f64 = 0.9;

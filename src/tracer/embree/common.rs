@@ -11,6 +11,24 @@ use std::ffi::{c_char, c_int, c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Mutex;
 
+/// What went wrong creating an Embree device or building its scene: the step, and what Embree
+/// reported (its error callback's messages, or the device's error code).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct EmbreeError(pub String);
+
+impl From<String> for EmbreeError {
+    fn from(msg: String) -> Self {
+        Self(msg)
+    }
+}
+
+impl From<&str> for EmbreeError {
+    fn from(msg: &str) -> Self {
+        Self(msg.to_string())
+    }
+}
+
 /// Geometry id of the sphere user geometry (present when the scene has spheres).
 pub(crate) const SPHERE_GEOM: u32 = 0;
 /// Geometry id of the triangle mesh (present when the scene has triangles).
@@ -48,7 +66,7 @@ pub(crate) fn primitive_id(n_spheres: u32, geom: u32, prim: u32) -> u32 {
 
 /// Triangle and sphere counts as Embree's 32-bit ids, checked before anything is created (the
 /// vertex buffer holds three vertices per triangle, indexed by `u32`).
-pub(crate) fn primitive_counts(geometry: &Geometry) -> Result<(u32, u32), String> {
+pub(crate) fn primitive_counts(geometry: &Geometry) -> Result<(u32, u32), EmbreeError> {
     let n_tris = u32::try_from(geometry.triangles.len())
         .ok()
         .filter(|n| n.checked_mul(3).is_some())
@@ -72,6 +90,138 @@ pub(crate) fn fill_triangles(geometry: &Geometry, verts: &mut [[f32; 3]], idx: &
     }
 }
 
+/// The calls of one Embree generation that building a scene takes. The generations differ in
+/// their handle types, argument structs and how a function is reached, not in the steps: these
+/// are written once ([`Builder::finish`], [`Builder::attach_spheres`],
+/// [`Builder::attach_triangles`], [`Builder::check`]) over each tracer's implementation.
+pub(crate) trait Builder {
+    /// The geometry handle.
+    type Geometry: Copy;
+    /// The device's current error code.
+    fn error_code(&self) -> c_int;
+    /// The code that means no error.
+    const ERROR_NONE: c_int;
+    /// The error sink the device's callback fills.
+    fn errors(&self) -> &ErrorSink;
+    /// The spheres' callback data and count.
+    fn spheres(&self) -> (&SphereData, u32);
+    /// Mark the scene robust (`RTC_SCENE_FLAG_ROBUST`) or not.
+    ///
+    /// # Safety
+    /// The scene is valid and not yet committed.
+    unsafe fn set_robust(&self, robust: bool);
+    /// A new geometry of the device: the spheres' user geometry, or a triangle mesh.
+    ///
+    /// # Safety
+    /// The device is valid.
+    unsafe fn new_geometry(&self, user: bool) -> Self::Geometry;
+    /// Is `g` null (creation failed)?
+    fn is_null(g: Self::Geometry) -> bool;
+    /// Give user geometry `g` the sphere callbacks, `count` primitives and `data` as their
+    /// user pointer.
+    ///
+    /// # Safety
+    /// `g` is a valid user geometry; `data` is the tracer's `SphereData`, outliving the scene.
+    unsafe fn set_sphere_callbacks(&self, g: Self::Geometry, count: u32, data: *mut c_void);
+    /// New vertex (float3) and index (uint3) buffers of `n` triangles on mesh `g`, each null
+    /// on failure.
+    ///
+    /// # Safety
+    /// `g` is a valid triangle geometry.
+    unsafe fn triangle_buffers(
+        &self,
+        g: Self::Geometry,
+        n: usize,
+    ) -> (*mut [f32; 3], *mut [u32; 3]);
+    /// Commit `g`, attach it to the scene under `id` and drop this reference to it.
+    ///
+    /// # Safety
+    /// `g` is a valid geometry, filled.
+    unsafe fn commit_attach(&self, g: Self::Geometry, id: u32);
+    /// Drop this reference to `g`.
+    ///
+    /// # Safety
+    /// `g` is a valid geometry.
+    unsafe fn release(&self, g: Self::Geometry);
+    /// Commit the scene.
+    ///
+    /// # Safety
+    /// The scene is valid and every attached geometry committed.
+    unsafe fn commit_scene(&self);
+
+    /// Turn everything Embree reported (callback or error code) into one `Err`.
+    fn check(&self, step: &str) -> Result<(), EmbreeError> {
+        self.errors()
+            .check(step, self.error_code(), Self::ERROR_NONE)
+    }
+
+    /// The rest of a build once device and scene exist: the flags, the spheres and triangles
+    /// of `geometry` (`n_tris` of them), the commit.
+    fn finish(
+        &mut self,
+        geometry: &Geometry,
+        n_tris: u32,
+        robust: bool,
+    ) -> Result<(), EmbreeError> {
+        // SAFETY: the scene is valid (checked by the caller) and not committed yet.
+        unsafe { self.set_robust(robust) };
+        if self.spheres().1 > 0 {
+            self.attach_spheres()?;
+        }
+        if n_tris > 0 {
+            self.attach_triangles(geometry, n_tris)?;
+        }
+        // SAFETY: the scene is valid and every attached geometry is committed.
+        unsafe { self.commit_scene() };
+        self.check("rtcCommitScene")
+    }
+
+    /// The spheres as one user geometry (id [`SPHERE_GEOM`]) whose callbacks run the shared
+    /// f64 kernels.
+    fn attach_spheres(&mut self) -> Result<(), EmbreeError> {
+        // SAFETY: device and scene are valid; the user pointer is the tracer's boxed
+        // `SphereData`, which lives as long as the tracer (the scene is released before it in
+        // `Drop`); the callbacks only read it.
+        unsafe {
+            let g = self.new_geometry(true);
+            if Self::is_null(g) {
+                return self.check("rtcNewGeometry(USER)");
+            }
+            let (data, count) = self.spheres();
+            self.set_sphere_callbacks(g, count, data.as_user_ptr());
+            self.commit_attach(g, SPHERE_GEOM);
+        }
+        self.check("sphere user geometry")
+    }
+
+    /// The triangles as one mesh (id [`TRIANGLE_GEOM`]) with unshared vertices.
+    fn attach_triangles(&mut self, geometry: &Geometry, n_tris: u32) -> Result<(), EmbreeError> {
+        let n = n_tris as usize;
+        // SAFETY: device and scene are valid. Embree's new buffers hold `count × stride` bytes
+        // (padded for its SIMD loads), filled completely before the commit; NULL (reported
+        // through the error callback) is checked.
+        unsafe {
+            let g = self.new_geometry(false);
+            if Self::is_null(g) {
+                return self.check("rtcNewGeometry(TRIANGLE)");
+            }
+            let (vb, ib) = self.triangle_buffers(g, n);
+            if vb.is_null() || ib.is_null() {
+                self.release(g);
+                self.check("rtcSetNewGeometryBuffer")?;
+                return Err("rtcSetNewGeometryBuffer returned NULL".into());
+            }
+            fill_triangles(
+                geometry,
+                std::slice::from_raw_parts_mut(vb, 3 * n),
+                std::slice::from_raw_parts_mut(ib, n),
+            );
+            self.commit_attach(g, TRIANGLE_GEOM);
+        }
+        self.check("triangle mesh")
+    }
+}
+
 /// Messages from Embree's error callback, collected while building.
 #[derive(Default)]
 pub(crate) struct ErrorSink(Mutex<Vec<String>>);
@@ -83,7 +233,7 @@ impl ErrorSink {
 
     /// Everything reported so far for `step` as one `Err`: the callback's messages, or else the
     /// device's error code when it is not `none`.
-    pub(crate) fn check(&self, step: &str, code: c_int, none: c_int) -> Result<(), String> {
+    pub(crate) fn check(&self, step: &str, code: c_int, none: c_int) -> Result<(), EmbreeError> {
         let mut msgs = std::mem::take(&mut *self.0.lock().unwrap_or_else(|e| e.into_inner()));
         if code != none && msgs.is_empty() {
             msgs.push(format!("Embree error {code}"));
@@ -91,7 +241,7 @@ impl ErrorSink {
         if msgs.is_empty() {
             Ok(())
         } else {
-            Err(format!("{step}: {}", msgs.join("; ")))
+            Err(EmbreeError(format!("{step}: {}", msgs.join("; "))))
         }
     }
 
@@ -283,14 +433,14 @@ mod tests {
         assert_eq!(sink.check("step", 0, 0), Ok(()));
         assert_eq!(
             sink.check("step", 3, 0),
-            Err("step: Embree error 3".to_string())
+            Err(EmbreeError("step: Embree error 3".to_string()))
         );
         let msg = c"bad thing";
         // SAFETY: the sink outlives the call; `msg` is NUL-terminated.
         unsafe { on_error(sink.as_user_ptr(), 2, msg.as_ptr()) };
         assert_eq!(
             sink.check("build", 2, 0),
-            Err("build: Embree error 2: bad thing".to_string())
+            Err(EmbreeError("build: Embree error 2: bad thing".to_string()))
         );
         assert_eq!(sink.check("build", 0, 0), Ok(()), "messages are taken once");
     }

@@ -4,6 +4,8 @@
 //! Embree, so the dependency runs one way).
 
 mod common;
+
+pub use common::EmbreeError;
 #[cfg(feature = "embree")]
 pub mod v3;
 #[cfg(feature = "embree4")]
@@ -31,9 +33,9 @@ mod seam3 {
             threads,
             robust: kind == TracerKind::EmbreeRobust,
         };
-        EmbreeTracer::with_options(geometry, options).map_err(|msg| TracerError::Build {
+        EmbreeTracer::with_options(geometry, options).map_err(|e| TracerError::Build {
             id: kind.id().to_string(),
-            msg,
+            msg: e.0,
         })
     }
 
@@ -75,9 +77,9 @@ mod seam4 {
             threads,
             robust: kind == TracerKind::Embree4Robust,
         };
-        Embree4Tracer::with_options(geometry, options).map_err(|msg| TracerError::Build {
+        Embree4Tracer::with_options(geometry, options).map_err(|e| TracerError::Build {
             id: kind.id().to_string(),
-            msg,
+            msg: e.0,
         })
     }
 

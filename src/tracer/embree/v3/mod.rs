@@ -24,10 +24,10 @@ pub mod ffi;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Geometry;
 use crate::tracer::embree::common::{
-    fill_triangles, on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, ErrorSink,
-    SphereData, SPHERE_GEOM, TNEAR, TRIANGLE_GEOM,
+    on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, Builder, EmbreeError,
+    ErrorSink, SphereData, TNEAR,
 };
-use std::ffi::CString;
+use std::ffi::{c_int, c_void, CString};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
@@ -127,7 +127,7 @@ unsafe impl Sync for EmbreeTracer {}
 
 impl EmbreeTracer {
     /// Non-robust build with `threads` build threads (the `embree` tracer id).
-    pub fn new(geometry: &Geometry, threads: usize) -> Result<Self, String> {
+    pub fn new(geometry: &Geometry, threads: usize) -> Result<Self, EmbreeError> {
         Self::with_options(
             geometry,
             EmbreeOptions {
@@ -140,7 +140,7 @@ impl EmbreeTracer {
     /// # Errors
     /// `threads == 0`, too many primitives for Embree's 32-bit ids, or any error Embree reports
     /// (through its error callback) while creating the device and building the scene.
-    pub fn with_options(geometry: &Geometry, options: EmbreeOptions) -> Result<Self, String> {
+    pub fn with_options(geometry: &Geometry, options: EmbreeOptions) -> Result<Self, EmbreeError> {
         if options.threads == 0 {
             return Err("threads: must be ≥ 1 (got 0)".into());
         }
@@ -157,7 +157,7 @@ impl EmbreeTracer {
         geometry: &Geometry,
         config: &str,
         options: EmbreeOptions,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, EmbreeError> {
         let (n_tris, n_spheres) = primitive_counts(geometry)?;
         let start = Instant::now();
         let c_config =
@@ -167,9 +167,9 @@ impl EmbreeTracer {
         if device.is_null() {
             // SAFETY: a NULL device queries the thread-local error of the failed creation.
             let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
-            return Err(format!(
+            return Err(EmbreeError(format!(
                 "rtcNewDevice({config:?}) failed (Embree error {code})"
-            ));
+            )));
         }
         DEVICES_CREATED.fetch_add(1, Ordering::Relaxed);
         let errors = Box::new(ErrorSink::default());
@@ -192,98 +192,10 @@ impl EmbreeTracer {
             os_threads_after_build: None,
         };
         tracer.check("rtcNewScene")?;
-        let flags = if options.robust {
-            ffi::RTC_SCENE_FLAG_ROBUST
-        } else {
-            ffi::RTC_SCENE_FLAG_NONE
-        };
-        // SAFETY: `scene` is valid.
-        unsafe { ffi::rtcSetSceneFlags(scene, flags) };
-        if n_spheres > 0 {
-            tracer.attach_spheres()?;
-        }
-        if n_tris > 0 {
-            tracer.attach_triangles(geometry, n_tris)?;
-        }
-        // SAFETY: `scene` is valid and every attached geometry is committed.
-        unsafe { ffi::rtcCommitScene(scene) };
-        tracer.check("rtcCommitScene")?;
+        tracer.finish(geometry, n_tris, options.robust)?;
         tracer.build_time = start.elapsed();
         tracer.os_threads_after_build = crate::util::host::os_thread_count();
         Ok(tracer)
-    }
-
-    fn attach_spheres(&mut self) -> Result<(), String> {
-        // SAFETY: `device` and `scene` are valid; the user pointer is our boxed `SphereData`,
-        // which lives as long as `self` (the scene is released before it in `Drop`); the
-        // callbacks only read it.
-        unsafe {
-            let g = ffi::rtcNewGeometry(self.device, ffi::RTC_GEOMETRY_TYPE_USER);
-            if g.is_null() {
-                return self.check("rtcNewGeometry(USER)");
-            }
-            let data = self.spheres.as_user_ptr();
-            ffi::rtcSetGeometryUserPrimitiveCount(g, self.n_spheres);
-            ffi::rtcSetGeometryUserData(g, data);
-            ffi::rtcSetGeometryBoundsFunction(g, Some(sphere_bounds), data);
-            ffi::rtcSetGeometryIntersectFunction(g, Some(sphere_intersect));
-            ffi::rtcSetGeometryOccludedFunction(g, Some(sphere_occluded));
-            ffi::rtcCommitGeometry(g);
-            ffi::rtcAttachGeometryByID(self.scene, g, SPHERE_GEOM);
-            // The scene holds its own reference.
-            ffi::rtcReleaseGeometry(g);
-        }
-        self.check("sphere user geometry")
-    }
-
-    fn attach_triangles(&mut self, geometry: &Geometry, n_tris: u32) -> Result<(), String> {
-        let n = n_tris as usize;
-        // SAFETY: `device`/`scene` are valid. `rtcSetNewGeometryBuffer` returns a buffer of
-        // `count × stride` bytes (padded by Embree for its SIMD loads) that we fill completely
-        // before committing; NULL (reported through the error callback) is checked.
-        unsafe {
-            let g = ffi::rtcNewGeometry(self.device, ffi::RTC_GEOMETRY_TYPE_TRIANGLE);
-            if g.is_null() {
-                return self.check("rtcNewGeometry(TRIANGLE)");
-            }
-            let vb = ffi::rtcSetNewGeometryBuffer(
-                g,
-                ffi::RTC_BUFFER_TYPE_VERTEX,
-                0,
-                ffi::RTC_FORMAT_FLOAT3,
-                12,
-                3 * n,
-            ) as *mut [f32; 3];
-            let ib = ffi::rtcSetNewGeometryBuffer(
-                g,
-                ffi::RTC_BUFFER_TYPE_INDEX,
-                0,
-                ffi::RTC_FORMAT_UINT3,
-                12,
-                n,
-            ) as *mut [u32; 3];
-            if vb.is_null() || ib.is_null() {
-                ffi::rtcReleaseGeometry(g);
-                self.check("rtcSetNewGeometryBuffer")?;
-                return Err("rtcSetNewGeometryBuffer returned NULL".into());
-            }
-            fill_triangles(
-                geometry,
-                std::slice::from_raw_parts_mut(vb, 3 * n),
-                std::slice::from_raw_parts_mut(ib, n),
-            );
-            ffi::rtcCommitGeometry(g);
-            ffi::rtcAttachGeometryByID(self.scene, g, TRIANGLE_GEOM);
-            ffi::rtcReleaseGeometry(g);
-        }
-        self.check("triangle mesh")
-    }
-
-    /// Turn everything Embree reported (callback or error code) into one `Err`.
-    fn check(&self, step: &str) -> Result<(), String> {
-        // SAFETY: `device` is valid.
-        let code = unsafe { ffi::rtcGetDeviceError(self.device) };
-        self.errors.check(step, code, ffi::RTC_ERROR_NONE)
     }
 
     /// The options it was built with.
@@ -309,6 +221,97 @@ fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
         id: 0,
         flags: 0,
     })
+}
+
+impl Builder for EmbreeTracer {
+    type Geometry = ffi::RTCGeometry;
+    const ERROR_NONE: c_int = ffi::RTC_ERROR_NONE;
+
+    fn error_code(&self) -> c_int {
+        // SAFETY: `device` is valid.
+        unsafe { ffi::rtcGetDeviceError(self.device) }
+    }
+    fn errors(&self) -> &ErrorSink {
+        &self.errors
+    }
+    fn spheres(&self) -> (&SphereData, u32) {
+        (&self.spheres, self.n_spheres)
+    }
+    unsafe fn set_robust(&self, robust: bool) {
+        let flags = if robust {
+            ffi::RTC_SCENE_FLAG_ROBUST
+        } else {
+            ffi::RTC_SCENE_FLAG_NONE
+        };
+        // SAFETY: `scene` is valid (the caller's contract).
+        unsafe { ffi::rtcSetSceneFlags(self.scene, flags) };
+    }
+    unsafe fn new_geometry(&self, user: bool) -> ffi::RTCGeometry {
+        let kind = if user {
+            ffi::RTC_GEOMETRY_TYPE_USER
+        } else {
+            ffi::RTC_GEOMETRY_TYPE_TRIANGLE
+        };
+        // SAFETY: `device` is valid (the caller's contract).
+        unsafe { ffi::rtcNewGeometry(self.device, kind) }
+    }
+    fn is_null(g: ffi::RTCGeometry) -> bool {
+        g.is_null()
+    }
+    unsafe fn set_sphere_callbacks(&self, g: ffi::RTCGeometry, count: u32, data: *mut c_void) {
+        // SAFETY: `g` is a valid user geometry and `data` outlives the scene (the caller's
+        // contract); the callbacks have Embree 3's signatures.
+        unsafe {
+            ffi::rtcSetGeometryUserPrimitiveCount(g, count);
+            ffi::rtcSetGeometryUserData(g, data);
+            ffi::rtcSetGeometryBoundsFunction(g, Some(sphere_bounds), data);
+            ffi::rtcSetGeometryIntersectFunction(g, Some(sphere_intersect));
+            ffi::rtcSetGeometryOccludedFunction(g, Some(sphere_occluded));
+        }
+    }
+    unsafe fn triangle_buffers(
+        &self,
+        g: ffi::RTCGeometry,
+        n: usize,
+    ) -> (*mut [f32; 3], *mut [u32; 3]) {
+        // SAFETY: `g` is a valid triangle geometry (the caller's contract).
+        unsafe {
+            let vb = ffi::rtcSetNewGeometryBuffer(
+                g,
+                ffi::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                ffi::RTC_FORMAT_FLOAT3,
+                12,
+                3 * n,
+            ) as *mut [f32; 3];
+            let ib = ffi::rtcSetNewGeometryBuffer(
+                g,
+                ffi::RTC_BUFFER_TYPE_INDEX,
+                0,
+                ffi::RTC_FORMAT_UINT3,
+                12,
+                n,
+            ) as *mut [u32; 3];
+            (vb, ib)
+        }
+    }
+    unsafe fn commit_attach(&self, g: ffi::RTCGeometry, id: u32) {
+        // SAFETY: `g` is a valid, filled geometry and `scene` is valid; the scene holds its
+        // own reference once attached.
+        unsafe {
+            ffi::rtcCommitGeometry(g);
+            ffi::rtcAttachGeometryByID(self.scene, g, id);
+            ffi::rtcReleaseGeometry(g);
+        }
+    }
+    unsafe fn release(&self, g: ffi::RTCGeometry) {
+        // SAFETY: `g` is a valid geometry (the caller's contract).
+        unsafe { ffi::rtcReleaseGeometry(g) }
+    }
+    unsafe fn commit_scene(&self) {
+        // SAFETY: `scene` is valid and its geometries committed (the caller's contract).
+        unsafe { ffi::rtcCommitScene(self.scene) }
+    }
 }
 
 // The `Tracer` impl lives in `crate::tracer`, which depends on this module, not the reverse.

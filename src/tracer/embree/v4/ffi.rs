@@ -26,6 +26,7 @@
     reason = "raw bindings: each item mirrors its namesake in Embree 4's rtcore*.h"
 )]
 
+use crate::tracer::embree::common::EmbreeError;
 use std::ffi::{c_char, c_int, c_uint, c_void};
 use std::sync::OnceLock;
 
@@ -78,18 +79,18 @@ crate::util::dl::dl_api! {
 ///
 /// # Errors
 /// The library cannot be opened or lacks a function.
-pub fn api() -> Result<&'static Api, String> {
-    static API: OnceLock<Result<Api, String>> = OnceLock::new();
+pub fn api() -> Result<&'static Api, EmbreeError> {
+    static API: OnceLock<Result<Api, EmbreeError>> = OnceLock::new();
     API.get_or_init(|| {
         let file_name = std::path::Path::new(LIBRARY)
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         let lib = crate::util::dl::Library::open_first(&[LIBRARY.to_string(), file_name])
-            .map_err(|e| format!("cannot open Embree 4: {e}"))?;
+            .map_err(|e| EmbreeError(format!("cannot open Embree 4: {e}")))?;
         // SAFETY: `lib` is an Embree 4 library (the build script found it by name); it is
         // never closed, so the table stays valid.
-        unsafe { Api::resolve(&lib) }
+        unsafe { Api::resolve(&lib) }.map_err(EmbreeError)
     })
     .as_ref()
     .map_err(Clone::clone)

@@ -36,10 +36,10 @@ pub mod ffi;
 use crate::geometry::{Hit, Ray};
 use crate::scene::Geometry;
 use crate::tracer::embree::common::{
-    fill_triangles, on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, ErrorSink,
-    SphereData, SPHERE_GEOM, TNEAR, TRIANGLE_GEOM,
+    on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, Builder, EmbreeError,
+    ErrorSink, SphereData, TNEAR,
 };
-use std::ffi::CString;
+use std::ffi::{c_int, c_void, CString};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
@@ -145,7 +145,7 @@ impl Embree4Tracer {
     /// `threads == 0`, too many primitives for Embree's 32-bit ids, a library that is not
     /// Embree 4, or any error Embree reports (through its error callback) while creating the
     /// device and building the scene.
-    pub fn with_options(geometry: &Geometry, options: Embree4Options) -> Result<Self, String> {
+    pub fn with_options(geometry: &Geometry, options: Embree4Options) -> Result<Self, EmbreeError> {
         if options.threads == 0 {
             return Err("threads: must be ≥ 1 (got 0)".into());
         }
@@ -162,7 +162,7 @@ impl Embree4Tracer {
         geometry: &Geometry,
         config: &str,
         options: Embree4Options,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, EmbreeError> {
         let (n_tris, n_spheres) = primitive_counts(geometry)?;
         let api = ffi::api()?;
         let start = Instant::now();
@@ -173,9 +173,9 @@ impl Embree4Tracer {
         if device.is_null() {
             // SAFETY: a NULL device queries the thread-local error of the failed creation.
             let code = unsafe { (api.rtcGetDeviceError)(std::ptr::null_mut()) };
-            return Err(format!(
+            return Err(EmbreeError(format!(
                 "rtcNewDevice({config:?}) failed (Embree error {code})"
-            ));
+            )));
         }
         DEVICES_CREATED.fetch_add(1, Ordering::Relaxed);
         let errors = Box::new(ErrorSink::default());
@@ -204,103 +204,14 @@ impl Embree4Tracer {
         };
         tracer.check("rtcNewScene")?;
         if tracer.version / 10_000 != 4 {
-            return Err(format!(
+            return Err(EmbreeError(format!(
                 "{LIBRARY} reports Embree version {version}, not 4.x"
-            ));
+            )));
         }
-        let flags = if options.robust {
-            ffi::RTCSceneFlags::ROBUST
-        } else {
-            ffi::RTCSceneFlags::NONE
-        };
-        // SAFETY: `scene` is valid.
-        unsafe { (api.rtcSetSceneFlags)(scene, flags) };
-        if n_spheres > 0 {
-            tracer.attach_spheres()?;
-        }
-        if n_tris > 0 {
-            tracer.attach_triangles(geometry, n_tris)?;
-        }
-        // SAFETY: `scene` is valid and every attached geometry is committed.
-        unsafe { (api.rtcCommitScene)(scene) };
-        tracer.check("rtcCommitScene")?;
+        tracer.finish(geometry, n_tris, options.robust)?;
         tracer.build_time = start.elapsed();
         tracer.os_threads_after_build = crate::util::host::os_thread_count();
         Ok(tracer)
-    }
-
-    fn attach_spheres(&mut self) -> Result<(), String> {
-        // SAFETY: `device` and `scene` are valid; the user pointer is our boxed `SphereData`,
-        // which lives as long as `self` (the scene is released before it in `Drop`); the
-        // callbacks only read it.
-        unsafe {
-            let g = (self.api.rtcNewGeometry)(self.device, ffi::RTCGeometryType::USER);
-            if g.is_null() {
-                return self.check("rtcNewGeometry(USER)");
-            }
-            let data = self.spheres.as_user_ptr();
-            (self.api.rtcSetGeometryUserPrimitiveCount)(g, self.n_spheres);
-            (self.api.rtcSetGeometryBoundsFunction)(g, Some(sphere_bounds), data);
-            // The intersect and occluded callbacks read the geometry's user pointer.
-            (self.api.rtcSetGeometryUserData)(g, data);
-            (self.api.rtcSetGeometryIntersectFunction)(g, Some(sphere_intersect));
-            (self.api.rtcSetGeometryOccludedFunction)(g, Some(sphere_occluded));
-            (self.api.rtcCommitGeometry)(g);
-            (self.api.rtcAttachGeometryByID)(self.scene, g, SPHERE_GEOM);
-            // The scene holds its own reference.
-            (self.api.rtcReleaseGeometry)(g);
-        }
-        self.check("sphere user geometry")
-    }
-
-    fn attach_triangles(&mut self, geometry: &Geometry, n_tris: u32) -> Result<(), String> {
-        let n = n_tris as usize;
-        // SAFETY: `device`/`scene` are valid. `rtcSetNewGeometryBuffer` returns a buffer of
-        // `count × stride` bytes (padded by Embree for its SIMD loads) that we fill completely
-        // before committing; NULL (reported through the error callback) is checked.
-        unsafe {
-            let g = (self.api.rtcNewGeometry)(self.device, ffi::RTCGeometryType::TRIANGLE);
-            if g.is_null() {
-                return self.check("rtcNewGeometry(TRIANGLE)");
-            }
-            let vb = (self.api.rtcSetNewGeometryBuffer)(
-                g,
-                ffi::RTCBufferType::VERTEX,
-                0,
-                ffi::RTCFormat::FLOAT3,
-                12,
-                3 * n,
-            ) as *mut [f32; 3];
-            let ib = (self.api.rtcSetNewGeometryBuffer)(
-                g,
-                ffi::RTCBufferType::INDEX,
-                0,
-                ffi::RTCFormat::UINT3,
-                12,
-                n,
-            ) as *mut [u32; 3];
-            if vb.is_null() || ib.is_null() {
-                (self.api.rtcReleaseGeometry)(g);
-                self.check("rtcSetNewGeometryBuffer")?;
-                return Err("rtcSetNewGeometryBuffer returned NULL".into());
-            }
-            fill_triangles(
-                geometry,
-                std::slice::from_raw_parts_mut(vb, 3 * n),
-                std::slice::from_raw_parts_mut(ib, n),
-            );
-            (self.api.rtcCommitGeometry)(g);
-            (self.api.rtcAttachGeometryByID)(self.scene, g, TRIANGLE_GEOM);
-            (self.api.rtcReleaseGeometry)(g);
-        }
-        self.check("triangle mesh")
-    }
-
-    /// Turn everything Embree reported (callback or error code) into one `Err`.
-    fn check(&self, step: &str) -> Result<(), String> {
-        // SAFETY: `device` is valid.
-        let code = unsafe { (self.api.rtcGetDeviceError)(self.device) };
-        self.errors.check(step, code, ffi::ERROR_NONE)
     }
 
     /// The options it was built with.
@@ -331,6 +242,98 @@ fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
         id: 0,
         flags: 0,
     })
+}
+
+impl Builder for Embree4Tracer {
+    type Geometry = ffi::RTCGeometry;
+    const ERROR_NONE: c_int = ffi::ERROR_NONE;
+
+    fn error_code(&self) -> c_int {
+        // SAFETY: `device` is valid.
+        unsafe { (self.api.rtcGetDeviceError)(self.device) }
+    }
+    fn errors(&self) -> &ErrorSink {
+        &self.errors
+    }
+    fn spheres(&self) -> (&SphereData, u32) {
+        (&self.spheres, self.n_spheres)
+    }
+    unsafe fn set_robust(&self, robust: bool) {
+        let flags = if robust {
+            ffi::RTCSceneFlags::ROBUST
+        } else {
+            ffi::RTCSceneFlags::NONE
+        };
+        // SAFETY: `scene` is valid (the caller's contract).
+        unsafe { (self.api.rtcSetSceneFlags)(self.scene, flags) };
+    }
+    unsafe fn new_geometry(&self, user: bool) -> ffi::RTCGeometry {
+        let kind = if user {
+            ffi::RTCGeometryType::USER
+        } else {
+            ffi::RTCGeometryType::TRIANGLE
+        };
+        // SAFETY: `device` is valid (the caller's contract).
+        unsafe { (self.api.rtcNewGeometry)(self.device, kind) }
+    }
+    fn is_null(g: ffi::RTCGeometry) -> bool {
+        g.is_null()
+    }
+    unsafe fn set_sphere_callbacks(&self, g: ffi::RTCGeometry, count: u32, data: *mut c_void) {
+        // SAFETY: `g` is a valid user geometry and `data` outlives the scene (the caller's
+        // contract); the callbacks have Embree 4's signatures.
+        unsafe {
+            (self.api.rtcSetGeometryUserPrimitiveCount)(g, count);
+            (self.api.rtcSetGeometryBoundsFunction)(g, Some(sphere_bounds), data);
+            // The intersect and occluded callbacks read the geometry's user pointer.
+            (self.api.rtcSetGeometryUserData)(g, data);
+            (self.api.rtcSetGeometryIntersectFunction)(g, Some(sphere_intersect));
+            (self.api.rtcSetGeometryOccludedFunction)(g, Some(sphere_occluded));
+        }
+    }
+    unsafe fn triangle_buffers(
+        &self,
+        g: ffi::RTCGeometry,
+        n: usize,
+    ) -> (*mut [f32; 3], *mut [u32; 3]) {
+        // SAFETY: `g` is a valid triangle geometry (the caller's contract).
+        unsafe {
+            let vb = (self.api.rtcSetNewGeometryBuffer)(
+                g,
+                ffi::RTCBufferType::VERTEX,
+                0,
+                ffi::RTCFormat::FLOAT3,
+                12,
+                3 * n,
+            ) as *mut [f32; 3];
+            let ib = (self.api.rtcSetNewGeometryBuffer)(
+                g,
+                ffi::RTCBufferType::INDEX,
+                0,
+                ffi::RTCFormat::UINT3,
+                12,
+                n,
+            ) as *mut [u32; 3];
+            (vb, ib)
+        }
+    }
+    unsafe fn commit_attach(&self, g: ffi::RTCGeometry, id: u32) {
+        // SAFETY: `g` is a valid, filled geometry and `scene` is valid; the scene holds its
+        // own reference once attached.
+        unsafe {
+            (self.api.rtcCommitGeometry)(g);
+            (self.api.rtcAttachGeometryByID)(self.scene, g, id);
+            (self.api.rtcReleaseGeometry)(g);
+        }
+    }
+    unsafe fn release(&self, g: ffi::RTCGeometry) {
+        // SAFETY: `g` is a valid geometry (the caller's contract).
+        unsafe { (self.api.rtcReleaseGeometry)(g) }
+    }
+    unsafe fn commit_scene(&self) {
+        // SAFETY: `scene` is valid and its geometries committed (the caller's contract).
+        unsafe { (self.api.rtcCommitScene)(self.scene) }
+    }
 }
 
 // The `Tracer` impl lives in `crate::tracer`, which depends on this module, not the reverse.
