@@ -29,6 +29,7 @@
 //! [[shapes]]
 //! type = "sphere"
 //! material = "white"
+//! radius = 1
 //! [[lights]]
 //! type = "environment"
 //! radiance = [1, 1, 1]

@@ -119,9 +119,42 @@ pub(crate) fn plot(args: PlotArgs) -> Result<(), CliError> {
         )));
     }
     super::out_path::check("DIR", &args.dir, super::out_path::Kind::Folder)?;
+    nested_results_hint(&args.dir)?;
     let written = raysched::plot::redraw_scaled(&args.dir, scale).map_err(CliError::message)?;
     out!("wrote {} files under {}", written.len(), args.dir.display());
     Ok(())
+}
+
+/// `plot results/runs`, where the experiment's folder is `results/runs/quick`: the error names
+/// the folders one level down that hold results, rather than only "runs.csv not found".
+fn nested_results_hint(dir: &std::path::Path) -> Result<(), CliError> {
+    let holds =
+        |d: &std::path::Path| d.join("runs.csv").is_file() || d.join("convergence.csv").is_file();
+    if holds(dir) {
+        return Ok(());
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let mut found: Vec<String> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_dir() && holds(p.as_path()))
+        .map(|p| raysched::util::one_line::escape_controls(&p.to_string_lossy()).into_owned())
+        .collect();
+    found.sort();
+    let shown = raysched::util::one_line::escape_controls(&dir.to_string_lossy()).into_owned();
+    match found.as_slice() {
+        [] => Ok(()),
+        [one] => Err(CliError::message(format!(
+            "DIR {shown}: holds no runs.csv, but {one} does: raysched plot {one}"
+        ))),
+        many => Err(CliError::message(format!(
+            "DIR {shown}: holds no runs.csv, but {} results folders inside it do: {} (plot one of them)",
+            many.len(),
+            many.join(", ")
+        ))),
+    }
 }
 
 pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {

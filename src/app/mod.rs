@@ -190,9 +190,28 @@ pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>) {
     }
 }
 
-/// A thread-count flag: `min..=`[`MAX_THREADS`], the limit named in the error.
+/// A thread-count flag: `min..=`[`MAX_THREADS`], the limit named in the error. A count above
+/// the cores this process may use is allowed (oversubscription is an experiment too) but
+/// warned about, once per process: its wall times then measure the OS's time slicing as well.
 pub(crate) fn threads_arg(min: u64) -> impl clap::builder::TypedValueParser<Value = usize> {
-    whole(min, MAX_THREADS as u64)
+    use clap::builder::TypedValueParser;
+    whole::<usize>(min, MAX_THREADS as u64).map(|n| {
+        warn_oversubscribed(n);
+        n
+    })
+}
+
+/// The once-per-process warning of [`threads_arg`].
+fn warn_oversubscribed(n: usize) {
+    static WARNED: std::sync::Once = std::sync::Once::new();
+    let cores = raysched::util::host::available_threads();
+    if n > cores {
+        WARNED.call_once(|| {
+            eprintln!(
+                "warning: {n} threads on {cores} cores: workers will share cores, so wall times include the OS's time slicing"
+            )
+        });
+    }
 }
 
 /// A samples-per-pixel flag: `1..=`[`MAX_SPP`].

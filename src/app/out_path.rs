@@ -94,15 +94,45 @@ fn check_path(path: &Path, kind: Kind) -> Result<(), String> {
 
 /// An input file named on the command line (`name`: the flag, or the positional's name) must
 /// be a regular file: a device (`/dev/full`, `/dev/zero`) or a FIFO would be read forever. A
-/// missing file is left to the loader, which says so in its own words.
+/// missing file with a sibling of a near name gets that name; other missing files are left to
+/// the loader, which says so in its own words.
 pub(crate) fn check_input(name: &str, path: &Path) -> Result<(), CliError> {
     match std::fs::metadata(path) {
         Ok(m) if !m.is_file() => Err(CliError::message(format!(
             "{name} {}: not a regular file",
             shown(path)
         ))),
+        Err(e) if e.kind() == ErrorKind::NotFound => check_exists_or_suggest(name, path),
         _ => Ok(()),
     }
+}
+
+/// A missing input file with a sibling of a near name: `NAME PATH: no such file, did you mean
+/// SIBLING?` (`run experiments/quik.toml`). Without one the loader's own message stands.
+fn check_exists_or_suggest(name: &str, path: &Path) -> Result<(), CliError> {
+    if path.exists() {
+        return Ok(());
+    }
+    let (Some(file), dir) = (path.file_name().and_then(|f| f.to_str()), parent_of(path)) else {
+        return Ok(());
+    };
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return Ok(());
+    };
+    let names: Vec<String> = entries
+        .flatten()
+        .filter(|e| e.path().is_file())
+        .filter_map(|e| e.file_name().to_str().map(str::to_owned))
+        .collect();
+    let Some(near) = raysched::util::suggest::nearest(file, names.iter().map(String::as_str))
+    else {
+        return Ok(());
+    };
+    Err(CliError::message(format!(
+        "{name} {}: no such file, did you mean {}?",
+        shown(path),
+        shown(&path.with_file_name(near))
+    )))
 }
 
 /// The folder a file path is written into (`.` for a bare name).

@@ -95,10 +95,13 @@ impl Args for SchedulerFlags {
                     .long("scheduler")
                     .value_name("SCHEDULER")
                     .default_value(SchedulerKind::WorkStealing.id())
+                    // One default in the help, both cases in it: clap would add a second.
+                    .hide_default_value(true)
                     .value_parser(|s: &str| SchedulerKind::from_id(s).map_err(|e| e.msg))
                     .help(format!(
-                        "Scheduler: {} [default: master with gpu or mpi among --sources]",
-                        ids(&kinds)
+                        "Scheduler: {} [default: {}; master with gpu or mpi among --sources]",
+                        ids(&kinds),
+                        SchedulerKind::WorkStealing.id()
                     )),
             )
             .arg(

@@ -6,9 +6,15 @@
 //! Mann–Whitney U test on the wall times, and the speedup of each run with the change between
 //! them. The rank test is used rather than Welch's t because run times are skewed (a sample can
 //! only be slowed down) and carry outliers; it assumes neither normality nor equal spread, and
-//! a single slow sample moves it by one rank, not by its size. A change counts only when it is
-//! both significant (p < `alpha`) and larger than `threshold`, so a real but negligible drift
-//! of a shared machine reads as "no change".
+//! a single slow sample moves it by one rank, not by its size. The verdict
+//! ([`super::verdict`]) is *faster* or *slower* when the change is both significant
+//! (p < `alpha`) and beyond `threshold`, *equivalent within ±margin* when two one-sided tests
+//! reject a change as large as the margin (default: the experiment's precision target), and
+//! otherwise *undecided*, naming the runs per side that could decide.
+//!
+//! Drift of the machine between two runs is a change to the test. Runs measured in alternated
+//! rounds (`raysched compare --interleave`, see `app::compare`) see the same drift, so it
+//! cancels; two runs measured one after the other do not.
 //!
 //! A shared machine also drifts as a whole between runs (10 % within minutes on the 2-core VM
 //! raysched is developed on). When both folders carry the machine-speed probe
@@ -19,8 +25,10 @@
 
 use super::meta::Meta;
 use super::results::{read_runs, RunRow};
-use super::stats::{mann_whitney_p, median, paired_ratio_change, unpaired_ratio, Ratio};
+use super::stats::{median, paired_ratio_change, unpaired_ratio, Ratio};
 use super::summary::{pair_by_rep, seed_of, summarize, Summary};
+pub use super::verdict::Verdict;
+use super::verdict::{decide, Rule};
 use serde::Serialize;
 use std::collections::BTreeSet;
 use std::fmt::Write;
@@ -29,9 +37,12 @@ use std::path::Path;
 /// When a change counts.
 #[derive(Clone, Copy, Debug)]
 pub struct Criteria {
-    /// Smallest relative change of the median wall time that counts (0.05 = 5 %).
-    pub threshold: f64,
-    /// Largest p-value that counts as significant.
+    /// Smallest relative change of the median wall time that counts (0.05 = 5 %); `None`: the
+    /// margin.
+    pub threshold: Option<f64>,
+    /// Equivalence margin (a fraction); `None`: A's precision target (`ci_target`), else 5 %.
+    pub margin: Option<f64>,
+    /// Largest p-value that counts as significant (each one-sided test of TOST included).
     pub alpha: f64,
     /// Compare raw wall times even when both runs carry machine-speed probes.
     pub raw: bool,
@@ -40,35 +51,16 @@ pub struct Criteria {
 impl Default for Criteria {
     fn default() -> Self {
         Self {
-            threshold: 0.05,
+            threshold: None,
+            margin: None,
             alpha: 0.01,
             raw: false,
         }
     }
 }
 
-/// The verdict on one configuration.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Verdict {
-    /// B's median wall time is significantly lower, by more than the threshold.
-    Faster,
-    /// B's median wall time is significantly higher, by more than the threshold.
-    Slower,
-    /// Neither.
-    NoChange,
-}
-
-impl Verdict {
-    /// The word in the table.
-    pub fn word(self) -> &'static str {
-        match self {
-            Self::Faster => "faster",
-            Self::Slower => "slower",
-            Self::NoChange => "no change",
-        }
-    }
-}
+/// The margin where neither the flags nor the folder name one.
+pub const DEFAULT_MARGIN: f64 = 0.05;
 
 /// A ratio with its interval, as serialised.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -112,12 +104,18 @@ pub struct Change {
     pub raw_wall_ratio: f64,
     /// Two-sided Mann–Whitney U p-value of the wall times.
     pub p_value: f64,
+    /// The larger one-sided p of the equivalence test at the margin.
+    pub p_equivalence: f64,
     /// Speedup over serial in A and in B (paired within each run).
     pub speedup: (Option<f64>, Option<f64>),
     /// speedup B / speedup A.
     pub speedup_ratio: Option<Interval>,
-    /// faster, slower or no change.
+    /// faster, slower, equivalent or undecided.
     pub verdict: Verdict,
+    /// Undecided: the runs per side that could decide (see [`super::verdict::Decision`]).
+    pub runs_needed: Option<usize>,
+    /// The verdict in words: "equivalent within ±2.0 %", "undecided (need ≥ 6 runs per side)".
+    pub verdict_text: String,
 }
 
 /// The comparison of two folders.
@@ -131,6 +129,10 @@ pub struct Comparison {
     pub provenance: (String, String),
     /// The change threshold used.
     pub threshold: f64,
+    /// The equivalence margin used, and where it came from.
+    pub margin: f64,
+    /// `flag`, `precision target of A` or `default`.
+    pub margin_from: &'static str,
     /// The significance level used.
     pub alpha: f64,
     /// The test behind `p_value`.
@@ -146,10 +148,15 @@ pub struct Comparison {
 }
 
 impl Comparison {
-    /// How many configurations got each verdict: (faster, slower, no change).
-    pub fn counts(&self) -> (usize, usize, usize) {
+    /// How many configurations got each verdict: (faster, slower, equivalent, undecided).
+    pub fn counts(&self) -> (usize, usize, usize, usize) {
         let c = |v| self.changes.iter().filter(|x| x.verdict == v).count();
-        (c(Verdict::Faster), c(Verdict::Slower), c(Verdict::NoChange))
+        (
+            c(Verdict::Faster),
+            c(Verdict::Slower),
+            c(Verdict::Equivalent),
+            c(Verdict::Undecided),
+        )
     }
 }
 
@@ -175,8 +182,8 @@ pub enum CompareError {
     },
 }
 
-/// One folder's summaries, its provenance line and its median probe time.
-type Loaded = (Vec<Summary>, String, Option<f64>);
+/// One folder's summaries, its provenance line, its median probe time and its precision target.
+type Loaded = (Vec<Summary>, String, Option<f64>, Option<f64>);
 
 /// Why folders with rows `a` and `b` share no configuration: their experiments, their scenes
 /// (names, then content) or, failing both, their grids.
@@ -235,6 +242,12 @@ fn load(dir: &Path) -> Result<(Loaded, Vec<RunRow>), CompareError> {
     let meta: Option<Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());
+    let (rows, _) = super::meta::current_rows(meta.as_ref(), rows);
+    let target = meta
+        .as_ref()
+        .and_then(|m| m.history.last())
+        .map(|h| h.stats.ci_target)
+        .filter(|t| *t > 0.0);
     let prov = meta.map_or("meta.toml unreadable".into(), |m| {
         format!(
             "`{}` on {} ({} cores)",
@@ -247,7 +260,7 @@ fn load(dir: &Path) -> Result<(Loaded, Vec<RunRow>), CompareError> {
         .filter(|p| p.is_finite() && *p > 0.0)
         .collect();
     let probe = (!probes.is_empty()).then(|| median(&probes));
-    Ok(((summarize(&rows), prov, probe), rows))
+    Ok(((summarize(&rows), prov, probe, target), rows))
 }
 
 /// The serial baseline walls of `s`'s group in `sums`.
@@ -259,8 +272,8 @@ fn serial_of<'a>(sums: &'a [Summary], s: &Summary) -> Option<&'a Summary> {
 /// Compare every configuration of `a` with the same configuration (same id) of `b`.
 /// Folders without a configuration in common are refused ([`CompareError::NothingInCommon`]).
 pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, CompareError> {
-    let ((sa, pa, probe_a), rows_a) = load(a)?;
-    let ((sb, pb, probe_b), rows_b) = load(b)?;
+    let ((sa, pa, probe_a, target_a), rows_a) = load(a)?;
+    let ((sb, pb, probe_b, _), rows_b) = load(b)?;
     if !sa
         .iter()
         .any(|x| sb.iter().any(|y| y.row.config == x.row.config))
@@ -275,6 +288,16 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, Compare
         (Some(x), Some(y)) if !crit.raw => Some(y / x),
         _ => None,
     };
+    let (margin, margin_from) = match (crit.margin, target_a) {
+        (Some(m), _) => (m, "flag"),
+        (None, Some(t)) => (t, "precision target of A"),
+        (None, None) => (DEFAULT_MARGIN, "default"),
+    };
+    let rule = Rule {
+        margin,
+        threshold: crit.threshold.unwrap_or(margin),
+        alpha: crit.alpha,
+    };
     let mut changes = Vec::new();
     let mut only_a = Vec::new();
     for x in &sa {
@@ -288,15 +311,7 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, Compare
         let seed = seed_of(&x.row.config);
         let ratio = unpaired_ratio(&wb, &wa, seed);
         let raw_wall_ratio = median(&wb_raw) / median(&wa);
-        let p = mann_whitney_p(&wa, &wb);
-        let significant = p < crit.alpha;
-        let verdict = if significant && ratio.value >= 1.0 + crit.threshold {
-            Verdict::Slower
-        } else if significant && ratio.value <= 1.0 / (1.0 + crit.threshold) {
-            Verdict::Faster
-        } else {
-            Verdict::NoChange
-        };
+        let d = decide(&wa, &wb, &rule);
         let speedup_ratio = match (serial_of(&sa, x), serial_of(&sb, y)) {
             (Some(ba), Some(bb)) if !x.row.is_serial() => {
                 let (na, da) = pair_by_rep(&ba.walls, &x.walls);
@@ -315,10 +330,13 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, Compare
             wall_median_s: (x.wall_median, y.wall_median),
             wall_ratio: ratio.into(),
             raw_wall_ratio,
-            p_value: p,
+            p_value: d.p_difference,
+            p_equivalence: d.p_equivalence,
             speedup: (x.speedup.map(|r| r.value), y.speedup.map(|r| r.value)),
             speedup_ratio,
-            verdict,
+            verdict: d.verdict,
+            runs_needed: d.runs_needed,
+            verdict_text: d.phrase(),
         });
     }
     let only_b = sb
@@ -330,7 +348,9 @@ pub fn compare(a: &Path, b: &Path, crit: Criteria) -> Result<Comparison, Compare
         a: a.display().to_string(),
         b: b.display().to_string(),
         provenance: (pa, pb),
-        threshold: crit.threshold,
+        threshold: rule.threshold,
+        margin,
+        margin_from,
         alpha: crit.alpha,
         test: "two-sided Mann–Whitney U (normal approximation, tie-corrected)",
         probe_median_s: (probe_a, probe_b),
@@ -351,10 +371,13 @@ pub fn markdown(c: &Comparison) -> String {
     let _ = writeln!(md, "- A: {}\n- B: {}", c.provenance.0, c.provenance.1);
     let _ = writeln!(
         md,
-        "- change = median wall B / median wall A − 1, 95 % CI by bootstrap (each run resampled on its own); p: {} on the wall times; verdict faster/slower when p < {} and the change exceeds ±{:.1} %\n",
+        "- change = median wall B / median wall A − 1, 95 % CI by bootstrap (each run resampled on its own); p: {} on the wall times\n- verdict: faster/slower when p < {} and the change exceeds ±{:.1} %; equivalent when two one-sided Mann–Whitney tests (TOST) at level {} both reject a change of ±{:.1} % (the margin: {}); otherwise undecided, with the runs per side that could decide (≥: fewer than the test can ever decide with; ≈: estimated from this spread)\n",
         c.test,
         c.alpha,
-        c.threshold * 100.0
+        c.threshold * 100.0,
+        c.alpha,
+        c.margin * 100.0,
+        c.margin_from
     );
     let ms = |p: Option<f64>| p.map_or("none".into(), |p| format!("{:.2} ms", p * 1e3));
     let _ = match c.machine_factor {
@@ -371,11 +394,14 @@ pub fn markdown(c: &Comparison) -> String {
             ms(c.probe_median_s.1)
         ),
     };
-    let (f, s, n) = c.counts();
+    let (f, s, e, u) = c.counts();
+    let need = c.changes.iter().filter_map(|x| x.runs_needed).max();
     let _ = writeln!(
         md,
-        "**{} configurations: {f} faster, {s} slower, {n} no change.**\n",
-        c.changes.len()
+        "**{} configurations: {f} faster, {s} slower, {e} equivalent within ±{:.1} %, {u} undecided{}.**\n",
+        c.changes.len(),
+        c.margin * 100.0,
+        need.map_or(String::new(), |k| format!(" (up to {k} runs per side needed)"))
     );
     let _ = writeln!(md, "| group | configuration | workers | runs A/B | median A (ms) | median B (ms) | change (95 % CI) | p | speedup A → B | speedup change (95 % CI) | verdict | raw change |");
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|");
@@ -401,10 +427,10 @@ pub fn markdown(c: &Comparison) -> String {
             pct(x.wall_ratio.lo),
             pct(x.wall_ratio.hi),
             x.p_value,
-            if x.verdict == Verdict::NoChange {
-                x.verdict.word().to_string()
+            if matches!(x.verdict, Verdict::Faster | Verdict::Slower) {
+                format!("**{}**", x.verdict_text)
             } else {
-                format!("**{}**", x.verdict.word())
+                x.verdict_text.clone()
             },
             pct(x.raw_wall_ratio)
         );

@@ -43,6 +43,46 @@ pub struct Meta {
     /// written before it was recorded).
     #[serde(default)]
     pub gpu: Option<GpuMeta>,
+    /// The configuration ids the experiment file named at the latest start. Rows of others
+    /// (a grid value since removed or changed) stay in runs.csv but are left out of summary,
+    /// plots, report and `compare` ([`current_rows`]). Empty in files written before it was
+    /// recorded: every row counts.
+    #[serde(default)]
+    pub configs: Vec<String>,
+}
+
+/// `rows` less those of configurations the latest start's experiment file no longer names
+/// ([`Meta::configs`]), and how many rows were left out.
+pub fn current_rows(
+    meta: Option<&Meta>,
+    rows: Vec<super::results::RunRow>,
+) -> (Vec<super::results::RunRow>, usize) {
+    let Some(ids) = meta.filter(|m| !m.configs.is_empty()).map(|m| {
+        m.configs
+            .iter()
+            .map(String::as_str)
+            .collect::<std::collections::HashSet<&str>>()
+    }) else {
+        return (rows, 0);
+    };
+    let before = rows.len();
+    let kept: Vec<_> = rows
+        .into_iter()
+        .filter(|r| ids.contains(r.config.as_str()))
+        .collect();
+    let left = before - kept.len();
+    (kept, left)
+}
+
+/// [`current_rows`] for the results folder `dir`, reading its `meta.toml`.
+pub fn current_rows_in(
+    dir: &std::path::Path,
+    rows: Vec<super::results::RunRow>,
+) -> (Vec<super::results::RunRow>, usize) {
+    let meta: Option<Meta> = std::fs::read_to_string(dir.join("meta.toml"))
+        .ok()
+        .and_then(|t| toml::from_str(&t).ok());
+    current_rows(meta.as_ref(), rows)
 }
 
 /// One start of `raysched run` on a results folder: when, where, with what, under what load.
@@ -249,6 +289,7 @@ pub fn collect(plan: &ExperimentPlan) -> Meta {
         build: Some(build),
         history: vec![],
         gpu: plan.gpu.as_ref().map(|g| g.info.clone()),
+        configs: plan.configs.iter().map(|c| c.id.clone()).collect(),
     }
 }
 

@@ -21,6 +21,7 @@ pub mod run;
 pub mod speed;
 pub mod stats;
 pub mod summary;
+pub mod verdict;
 
 pub use isolate::run_experiment_isolated;
 pub use plan::{ConfigError, ExperimentPlan, Launch, Sources};

@@ -174,6 +174,7 @@ fn prepare_meta(
             gpu: old
                 .gpu
                 .or_else(|| plan.gpu.as_ref().map(|g| g.info.clone())),
+            configs: plan.configs.iter().map(|c| c.id.clone()).collect(),
             ..old
         }
     } else {

@@ -224,9 +224,17 @@ pub fn paired_ratio_change(a: (&[f64], &[f64]), b: (&[f64], &[f64]), seed: u64) 
 /// by the normal approximation with tie and continuity corrections (1 when either is empty or
 /// every value is tied).
 pub fn mann_whitney_p(a: &[f64], b: &[f64]) -> f64 {
+    let z = mann_whitney_z(a, b);
+    (2.0 * (1.0 - normal_cdf(z.abs()))).clamp(0.0, 1.0)
+}
+
+/// The Mann–Whitney U statistic of `a` against `b` as a signed, continuity-corrected normal
+/// score: positive when `b` tends to be larger than `a` (0 when either is empty or every value
+/// is tied). One-sided tests read its sign ([`super::verdict`]).
+pub fn mann_whitney_z(a: &[f64], b: &[f64]) -> f64 {
     let (n1, n2) = (a.len() as f64, b.len() as f64);
     if a.is_empty() || b.is_empty() {
-        return 1.0;
+        return 0.0;
     }
     let mut all: Vec<(f64, bool)> = a
         .iter()
@@ -253,14 +261,15 @@ pub fn mann_whitney_p(a: &[f64], b: &[f64]) -> f64 {
     let nn = n1 + n2;
     let var = n1 * n2 / 12.0 * ((nn + 1.0) - ties / (nn * (nn - 1.0)));
     if var.is_nan() || var <= 0.0 {
-        return 1.0;
+        return 0.0;
     }
-    let z = ((u - mean).abs() - 0.5).max(0.0) / var.sqrt();
-    (2.0 * (1.0 - normal_cdf(z))).clamp(0.0, 1.0)
+    // U counts the pairs where a is the larger: below its mean, b tends to be larger.
+    let d = mean - u;
+    d.signum() * (d.abs() - 0.5).max(0.0) / var.sqrt()
 }
 
 /// Φ(z), by Abramowitz and Stegun 7.1.26 (error < 1.5·10⁻⁷).
-fn normal_cdf(z: f64) -> f64 {
+pub fn normal_cdf(z: f64) -> f64 {
     let x = z.abs() / std::f64::consts::SQRT_2;
     let t = 1.0 / (1.0 + 0.327_591_1 * x);
     let poly = t

@@ -59,6 +59,7 @@ pub fn warnings_of(dir: &Path) -> Vec<String> {
     let Ok((rows, _)) = results::read_runs(&dir.join("runs.csv")) else {
         return vec![];
     };
+    let (rows, _) = meta::current_rows_in(dir, rows);
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());
@@ -124,6 +125,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         ));
     }
     let (all, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
+    // Rows of configurations the experiment file no longer names stay in runs.csv only.
+    let (all, retired) = meta::current_rows_in(dir, all);
     let (rows, bad): (Vec<_>, Vec<_>) = all.into_iter().partition(plottable);
     if !bad.is_empty() {
         eprintln!(
@@ -168,6 +171,12 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
             "\n{} row(s) of runs.csv hold an infinite, NaN or out-of-range value and are left \
              out of this report.\n",
             bad.len()
+        );
+    }
+    if retired > 0 {
+        report += &format!(
+            "\n{retired} row(s) of runs.csv belong to configurations the experiment file no \
+             longer names and are left out of this report, its summary and plots.\n"
         );
     }
     std::fs::write(staging.path("report.md"), report)

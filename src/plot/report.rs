@@ -353,6 +353,13 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
                     st.min_runs, st.max_runs, st.ci_target * 100.0, st.budget_s
                 )
             };
+            // What each configuration got, which a resumed or cut-short run may not match.
+            let ns = sums.iter().map(|s| s.n);
+            let rule = match (ns.clone().min(), ns.max()) {
+                (Some(lo), Some(hi)) if lo == hi => format!("{rule} (measured: {lo} per configuration)"),
+                (Some(lo), Some(hi)) => format!("{rule} (measured: {lo}–{hi} per configuration, each one's in its table's runs column)"),
+                _ => rule,
+            };
             let _ = writeln!(md, "- statistics: {rule}; renders under {:.0} ms repeated inside one sample; rounds in a shuffled order (seed {}); intervals: seeded percentile bootstrap of the median, speedups from samples paired by round", st.min_sample_s * 1e3, st.seed);
         }
         let _ = writeln!(md);

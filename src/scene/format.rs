@@ -245,7 +245,7 @@ pub struct CheckerSpec {
 #[derive(Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeSpec {
-    /// Centre `[0, 0, 0]`, radius 1 unless given; `flip_normals` points normals inwards.
+    /// Centre `[0, 0, 0]` unless given, `radius` required; `flip_normals` points normals inwards.
     Sphere {
         /// Name of a `[materials]` entry.
         material: String,
@@ -257,7 +257,7 @@ pub enum ShapeSpec {
         matrix: Option<[[f64; 4]; 4]>,
         /// Centre in local space (default `[0, 0, 0]`).
         center: Option<[f64; 3]>,
-        /// Radius in local units (> 0; default 1).
+        /// Radius in local units (> 0; required).
         radius: Option<f64>,
         /// Normals point inwards (default false).
         flip_normals: Option<bool>,

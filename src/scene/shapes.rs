@@ -81,7 +81,13 @@ impl<'a> Builder<'a> {
             Some(name) => Some(*self.material_ids.get(name).ok_or_else(|| {
                 cx.err(
                     format!("{at}.material"),
-                    format!("unknown material '{name}'"),
+                    format!(
+                        "unknown material '{name}'{}",
+                        crate::util::suggest::did_you_mean(
+                            name,
+                            self.material_ids.keys().map(String::as_str)
+                        )
+                    ),
                 )
             })?),
             None => None,
@@ -124,7 +130,15 @@ impl<'a> Builder<'a> {
         match shape {
             ShapeSpec::Sphere { center, radius, .. } => {
                 let center = cx.vec3(&field("center"), center.unwrap_or([0.0; 3]))?;
-                let radius = cx.positive(&field("radius"), radius.unwrap_or(1.0))?;
+                // No default: a sphere's size is the scene's to state (a missing radius once
+                // rendered a unit sphere the author had not asked for).
+                let Some(radius) = *radius else {
+                    return Err(cx.err(
+                        &field("radius"),
+                        "missing (a sphere needs its radius, > 0, in local units)",
+                    ));
+                };
+                let radius = cx.positive(&field("radius"), radius)?;
                 let what = "a sphere's placement must be rotation, uniform scale and translation";
                 let scale = similarity_scale(cx, at, m, what)?;
                 self.reserve(&field("type"), 1)?;

@@ -204,7 +204,9 @@ pub fn source_params() -> &'static [SourceParam] {
                 name: format!("{}_chunk", k.id()),
                 field: SourceField::Chunk(k),
                 help: format!(
-                    "With {0} among the sources (master): pixels per hand-out to {0} —                      consecutive items until their pixels reach this chunk's (N, WxH, rows:N,                      frame), sent as one message; default: item by item",
+                    "With {0} among the sources (master): pixels per hand-out to {0} — \
+                     consecutive items until their pixels reach this chunk's (N, WxH, rows:N, \
+                     frame), sent as one message; default: item by item",
                     k.id()
                 ),
             });
@@ -212,7 +214,8 @@ pub fn source_params() -> &'static [SourceParam] {
                 name: format!("{}_buffer", k.id()),
                 field: SourceField::Buffer(k),
                 help: format!(
-                    "With {0} among the sources (master): hand-outs outstanding on {0} (its                      B); default: the master's buffer",
+                    "With {0} among the sources (master): hand-outs outstanding on {0} (its \
+                     B); default: the master's buffer",
                     k.id()
                 ),
             });
@@ -220,7 +223,10 @@ pub fn source_params() -> &'static [SourceParam] {
         out.push(SourceParam {
             name: "balance".into(),
             field: SourceField::Balance,
-            help: "With several kinds of source (master): the balancer picks each source's                    grain and buffer from its measured rate (a GPU probed at its fill first) and                    shrinks hand-outs as the queue empties; default: on unless a source's chunk                    or buffer is given, whose values it then keeps (true or false)"
+            help: "With several kinds of source (master): the balancer picks each source's \
+                   grain and buffer from its measured rate (a GPU probed at its fill first) and \
+                   shrinks hand-outs as the queue empties; default: on unless a source's chunk \
+                   or buffer is given, whose values it then keeps (true or false)"
                 .into(),
         });
         out

@@ -290,7 +290,7 @@ fn degenerate_cases(b: &Budget, out: &mut Vec<CaseResult>) {
 fn dielectric_cases(b: &Budget, out: &mut Vec<CaseResult>) {
     let glass = |ior: f64| format!("[materials.glass]\ntype = \"dielectric\"\nior = {ior}\n");
     let cam = "origin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = [0, 1, 0]\nfov_deg = 40";
-    let sphere = "[[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\n";
+    let sphere = "[[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\nradius = 1\n";
     out.push(constant_case(
         "dielectric",
         "energy: glass sphere alone (IOR 1.5)",
@@ -310,7 +310,7 @@ fn dielectric_cases(b: &Budget, out: &mut Vec<CaseResult>) {
         "{}[materials.bubble]\ntype = \"dielectric\"\nior = 0.6666666666666666\n",
         glass(1.5)
     );
-    let nested_shapes = "[[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"bubble\"\nradius = 0.5\n";
+    let nested_shapes = "[[shapes]]\ntype = \"sphere\"\nmaterial = \"glass\"\nradius = 1\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"bubble\"\nradius = 0.5\n";
     out.push(constant_case(
         "dielectric",
         "nested glass: air bubble in a glass sphere",

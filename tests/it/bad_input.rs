@@ -71,6 +71,17 @@ fn each_bad_scene_is_a_one_line_error_naming_file_and_field() {
             "shapes[0].radius",
         ),
         (
+            // No silent default for a shape's size.
+            "sphere without radius",
+            GOOD.replace("radius = 1\n", ""),
+            "shapes[0].radius: missing",
+        ),
+        (
+            "misspelt material",
+            GOOD.replace("material = \"white\"", "material = \"whte\""),
+            "unknown material 'whte', did you mean white?",
+        ),
+        (
             "inf",
             GOOD.replace("origin = [0, 0, 4]", "origin = [0, 0, inf]"),
             "camera.origin",

@@ -411,3 +411,92 @@ fn output_checks_leave_nothing_when_the_input_is_bad() {
         .collect();
     assert_eq!(names.len(), 3, "{names:?}");
 }
+
+/// A newcomer's frictions (issue 58, item 7): a misspelt experiment file names the one meant;
+/// `plot` on the folder above an experiment's names the experiment's folder; more threads
+/// than cores warn once; `render --help` gives `--scheduler` one default and its per-source
+/// flags' help no runs of blanks.
+#[test]
+fn newcomer_frictions_get_a_pointer_not_a_bare_error() {
+    let dir = setup();
+    let out = raysched(&["run", "e2.toml", "--quiet", "--out", "res"], dir.path());
+    assert_bad_input(
+        "a misspelt experiment",
+        &out,
+        &["e2.toml", "did you mean e.toml?"],
+    );
+    std::fs::create_dir_all(dir.path().join("sub")).unwrap();
+    let out = raysched(&["run", "sub/quik.toml"], dir.path());
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        !stderr(&out).contains("did you mean"),
+        "nothing near: {}",
+        stderr(&out)
+    );
+
+    let out = raysched(&["run", "e.toml", "--quiet", "--out", "res/a"], dir.path());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = raysched(&["plot", "res/a"], dir.path());
+    assert_bad_input(
+        "plot one level up",
+        &out,
+        &["res/a", "res/a/e", "raysched plot"],
+    );
+
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let many = (cores + 1).to_string();
+    let out = raysched(
+        &["render", "s.toml", "-o", "o.exr", "--threads", &many],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert_eq!(
+        err.lines().filter(|l| l.contains("cores")).count(),
+        1,
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!("{many} threads on {cores} cores")),
+        "{err}"
+    );
+    let out = raysched(
+        &["render", "s.toml", "-o", "o.exr", "--threads", "1"],
+        dir.path(),
+    );
+    assert!(!stderr(&out).contains("cores"), "{}", stderr(&out));
+
+    let help =
+        String::from_utf8_lossy(&raysched(&["render", "--help"], dir.path()).stdout).into_owned();
+    // A flag's entry: its line and the help lines under it, up to the next flag.
+    let entry = |flag: &str| -> Vec<String> {
+        let lines: Vec<&str> = help.lines().collect();
+        let at = lines
+            .iter()
+            .position(|l| l.trim_start().starts_with(flag))
+            .unwrap_or_else(|| panic!("{flag} in render --help: {help}"));
+        std::iter::once(lines[at])
+            .chain(
+                lines[at + 1..]
+                    .iter()
+                    .copied()
+                    .take_while(|l| !l.trim_start().starts_with('-')),
+            )
+            .map(str::to_owned)
+            .collect()
+    };
+    let sched = entry("--scheduler").join("\n");
+    assert_eq!(sched.matches("[default:").count(), 1, "{sched}");
+    for flag in ["--gpu-chunk", "--gpu-buffer", "--balance"] {
+        // clap wraps long help over indented lines; within a line, words are one blank apart.
+        for (i, line) in entry(flag).iter().enumerate() {
+            let line = line.trim();
+            // The flag's own line may set its help two blanks after the flag.
+            let text = match (i, line.split_once("  ")) {
+                (0, Some((_, help))) => help.trim_start(),
+                _ => line,
+            };
+            assert!(!text.contains("  "), "{flag}: stray blanks in {line:?}");
+        }
+    }
+}

@@ -294,3 +294,114 @@ fn published_results_stay_small_and_hold_no_scripts() {
         "results/published holds {total} bytes (at most 10 MB)"
     );
 }
+
+/// Hand-written scheduler counts and id lists drift each time a kind is added: README.md,
+/// docs/concepts.md and docs/experiment-format.md hold neither (the generated
+/// docs/reference/schedulers.md does: see `reference.rs`). The README's sentence on `quick`
+/// names the kinds `experiments/quick.toml` runs, every one of them, and no "every scheduler".
+#[test]
+fn scheduler_counts_and_id_lists_are_generated_not_written() {
+    use raysched::sched::SchedulerKind;
+    let ids: Vec<&str> = SchedulerKind::ALL.iter().map(|k| k.id()).collect();
+    const NUMBERS: [&str; 19] = [
+        "two",
+        "three",
+        "four",
+        "five",
+        "six",
+        "seven",
+        "eight",
+        "nine",
+        "ten",
+        "eleven",
+        "twelve",
+        "thirteen",
+        "fourteen",
+        "fifteen",
+        "sixteen",
+        "seventeen",
+        "eighteen",
+        "nineteen",
+        "twenty",
+    ];
+    let is_number = |w: &str| NUMBERS.contains(&w) || w.parse::<u32>().is_ok_and(|n| n > 1);
+    let mut found = Vec::new();
+    for doc in ["README.md", "docs/concepts.md", "docs/experiment-format.md"] {
+        let text = std::fs::read_to_string(root().join(doc)).unwrap();
+        // A paragraph, or one table row: where a hand-written list would sit.
+        let units = text
+            .split("\n\n")
+            .flat_map(|p| {
+                if p.trim_start().starts_with('|') {
+                    p.lines().map(str::to_owned).collect::<Vec<_>>()
+                } else {
+                    vec![p.to_owned()]
+                }
+            })
+            .collect::<Vec<_>>();
+        for unit in &units {
+            let named = ids
+                .iter()
+                .filter(|id| unit.contains(&format!("`{id}`")))
+                .count();
+            if named > ids.len() / 2 {
+                found.push(format!("{doc}: a list of {named} scheduler ids: {unit}"));
+            }
+            let words: Vec<String> = unit
+                .split(|c: char| !c.is_alphanumeric())
+                .filter(|w| !w.is_empty())
+                .map(str::to_lowercase)
+                .collect();
+            for w in words.windows(2) {
+                let counted = is_number(&w[0])
+                    && ["scheduler", "schedulers", "kinds", "ids", "policies"]
+                        .contains(&w[1].as_str());
+                if counted || (w[0] == "among" && is_number(&w[1])) {
+                    found.push(format!("{doc}: a count '{} {}'", w[0], w[1]));
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "{}", found.join("\n"));
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let quick_para = readme
+        .split("\n\n")
+        .find(|p| p.contains("the `quick` experiment"))
+        .expect("the README introduces the quick experiment");
+    assert!(
+        !quick_para.contains("every scheduler"),
+        "quick.toml does not run every kind: {quick_para}"
+    );
+    let quick: toml::Value =
+        toml::from_str(&std::fs::read_to_string(root().join("experiments/quick.toml")).unwrap())
+            .unwrap();
+    let said = quick_para.replace(['-', '\n'], "_").replace(' ', "_");
+    for s in quick["schedulers"].as_array().unwrap() {
+        let kind = s["kind"].as_str().unwrap();
+        assert!(
+            said.contains(kind),
+            "the README's quick sentence leaves out {kind}: {quick_para}"
+        );
+    }
+}
+
+/// The bless command docs/extending.md gives runs the reference test on the release profile
+/// (a checkout that built only `--release` reuses its dependencies) and its filter selects
+/// `reference::reference_pages_match_the_code`.
+#[test]
+fn the_bless_command_in_extending_md_selects_the_reference_test_on_release() {
+    let text = std::fs::read_to_string(root().join("docs/extending.md")).unwrap();
+    let cmd = text
+        .split('`')
+        .find(|s| s.starts_with("RAYSCHED_BLESS=1 cargo test"))
+        .expect("extending.md gives the bless command");
+    let words: Vec<&str> = cmd.split_whitespace().collect();
+    assert!(words.contains(&"--release"), "{cmd}");
+    let at = words.iter().position(|w| *w == "--test").expect("--test");
+    assert_eq!(words.get(at + 1), Some(&"it"), "{cmd}");
+    let filter = words.get(at + 2).expect("a test filter");
+    assert!(
+        "reference::reference_pages_match_the_code".contains(filter),
+        "{cmd}"
+    );
+}

@@ -1135,10 +1135,11 @@ fn adaptive_runs_stop_at_the_ci_target_or_the_cap() {
     assert_eq!(runs["rows"].as_array().unwrap().len(), rows.len());
 }
 
-/// `compare`: a run against itself is "no change" everywhere; against a copy 20 % slower,
-/// "slower" everywhere with p < 0.01, and `--fail-on-regression` exits 1. A copy 20 % slower
-/// whose machine-speed probe is 20 % slower too is the machine drifting: "no change", unless
-/// `--raw`.
+/// `compare`: a run against itself is "equivalent" everywhere (within the default ±5 %: the
+/// tiny experiment sets no precision target); against a copy 20 % slower, "slower" everywhere
+/// with p < 0.01, and `--fail-on-regression` exits 1. A copy 20 % slower whose machine-speed
+/// probe is 20 % slower too is the machine drifting: "equivalent", unless `--raw`. With 3 runs
+/// a side even the 20 % is "undecided", naming the 6 runs the test needs.
 #[test]
 fn compare_flags_a_known_slowdown_and_nothing_else() {
     use raysched::experiment::results::RunsFile;
@@ -1169,7 +1170,8 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
     let v: serde_json::Value = serde_json::from_slice(&same.stdout).unwrap();
     let changes = v["changes"].as_array().unwrap();
     assert_eq!(changes.len(), 2 * (1 + 8 + 2));
-    assert!(changes.iter().all(|c| c["verdict"] == "no_change"), "{v}");
+    assert!(changes.iter().all(|c| c["verdict"] == "equivalent"), "{v}");
+    assert!((v["margin"].as_f64().unwrap() - 0.05).abs() < 1e-12, "{v}");
     let slow = cmp("a/tiny", "b/tiny", &[]);
     assert!(slow.status.success());
     let v: serde_json::Value = serde_json::from_slice(&slow.stdout).unwrap();
@@ -1193,7 +1195,7 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
         "{v}"
     );
     for c in v["changes"].as_array().unwrap() {
-        assert_eq!(c["verdict"], "no_change", "{c}");
+        assert_eq!(c["verdict"], "equivalent", "{c}");
         assert!((c["wall_ratio"]["value"].as_f64().unwrap() - 1.0).abs() < 1e-9);
         assert!((c["raw_wall_ratio"].as_f64().unwrap() - 1.2).abs() < 1e-9);
     }
@@ -1209,9 +1211,36 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
     let md = run(&["compare", "b/tiny", "a/tiny"], dir.path());
     let text = String::from_utf8_lossy(&md.stdout);
     assert!(
-        text.contains("22 faster, 0 slower, 0 no change") && text.contains("Mann–Whitney"),
+        text.contains("22 faster, 0 slower, 0 equivalent within ±5.0 %, 0 undecided")
+            && text.contains("Mann–Whitney")
+            && text.contains("TOST"),
         "{text}"
     );
+    // Three runs a side: the rank test cannot reach p < 0.01 at all, so not even 20 % is
+    // "slower"; each verdict names the runs it would need.
+    for (name, factor) in [("a3", 1.0), ("b3", 1.2)] {
+        let d = dir.path().join(name).join("tiny");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
+        for r in rows.iter().filter(|r| r.repetition < 3) {
+            let mut r = r.clone();
+            r.wall_s = 1e-3 * (1.0 + f64::from(r.repetition) / 1000.0) * factor;
+            r.probe_s = Some(0.010);
+            f.append(&r).unwrap();
+        }
+    }
+    let few = cmp("a3/tiny", "b3/tiny", &["--fail-on-regression"]);
+    assert_ok(&few);
+    let v: serde_json::Value = serde_json::from_slice(&few.stdout).unwrap();
+    for c in v["changes"].as_array().unwrap() {
+        assert_eq!(c["verdict"], "undecided", "{c}");
+        assert_eq!(c["runs_needed"], 6, "{c}");
+        assert_eq!(
+            c["verdict_text"], "undecided (need ≥ 6 runs per side)",
+            "{c}"
+        );
+    }
     assert_eq!(
         run(&["compare", "a/tiny", "nowhere"], dir.path())
             .status
@@ -1340,4 +1369,144 @@ fn report_warns_of_impossible_efficiency_and_lists_ties() {
         report.contains("speedup 3.00× (95 % CI 3.00–3.00)"),
         "{report}"
     );
+}
+
+/// Resume never mixes (issue 58, item 4): the experiment changed from B = 2 to B = 4 and from
+/// 3 to 4 repetitions, resumed into the same `--out`, keeps the B = 2 rows in runs.csv, and
+/// leaves them out of summary.csv, report.md and `compare`, the report saying how many; the
+/// runs it states are what each configuration got.
+#[test]
+fn a_changed_experiment_resumed_reports_only_its_current_configurations() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = dir.path().join("mix.toml");
+    let write = |buffer: u32, reps: u32| {
+        let text = format!(
+            "name = \"mix\"\nrepetitions = {reps}\nci_target = 0\nmin_sample_s = 0\nwarmup = 0\n\
+             workers = [2]\n[[scenes]]\npath = \"{}\"\nwidth = 16\nheight = 16\nspp = 1\n\
+             [[schedulers]]\nkind = \"master\"\nchunk = \"4\"\nbuffer = {buffer}\n",
+            scene_path().display()
+        );
+        std::fs::write(&exp, text).unwrap();
+    };
+    let go = || run(&["run", "mix.toml", "--quiet", "--out", "res"], dir.path());
+    let res = dir.path().join("res/mix");
+    write(2, 3);
+    assert_ok(&go());
+    let (old, _) = read_runs(&res.join("runs.csv")).unwrap();
+    assert_eq!(old.len(), 6, "serial + master B=2, 3 runs each");
+    let old_master = old.iter().find(|r| !r.is_serial()).unwrap().clone();
+    write(4, 4);
+    assert_ok(&go());
+    let (all, _) = read_runs(&res.join("runs.csv")).unwrap();
+    assert_eq!(
+        all.len(),
+        6 + 1 + 4,
+        "one more serial run, four of master B=4"
+    );
+    assert!(
+        all.iter().any(|r| r.config == old_master.config),
+        "old rows kept"
+    );
+    let summary = std::fs::read_to_string(res.join("summary.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 1 + 2, "{summary}");
+    assert!(!summary.contains(&old_master.config), "{summary}");
+    let report = std::fs::read_to_string(res.join("report.md")).unwrap();
+    assert!(
+        report.contains(
+            "3 row(s) of runs.csv belong to configurations the experiment file no longer names"
+        ),
+        "{report}"
+    );
+    assert!(
+        !report.contains(&format!("`{}`", old_master.label)),
+        "{report}"
+    );
+    assert!(
+        report.contains("(measured: 4 per configuration)"),
+        "{report}"
+    );
+    // compare sees the current configurations only: the folder against itself has two.
+    let out = run(&["compare", "res/mix", "res/mix", "--json"], dir.path());
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["changes"].as_array().unwrap().len(), 2, "{v}");
+}
+
+/// `compare --interleave`: both sides measured in alternated rounds, one more run per
+/// configuration each round, then compared; the same build twice is never faster or slower
+/// (what its verdicts are, equivalent or undecided, depends on the machine's noise).
+#[test]
+fn interleaved_compare_measures_both_sides_round_by_round() {
+    let dir = tempfile::tempdir().unwrap();
+    let exp = dir.path().join("il.toml");
+    std::fs::write(
+        &exp,
+        format!(
+            "name = \"il\"\nrepetitions = 1\nci_target = 0\nmin_sample_s = 0\nwarmup = 0\n\
+             workers = [1]\n[[scenes]]\npath = \"{}\"\nwidth = 8\nheight = 8\nspp = 1\n\
+             [[schedulers]]\nkind = \"static\"\nchunk = \"rows:1\"\n",
+            scene_path().display()
+        ),
+    )
+    .unwrap();
+    let out = run(
+        &[
+            "compare",
+            "a",
+            "b",
+            "--interleave",
+            "il.toml",
+            "--rounds",
+            "3",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert_ok(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let order: Vec<&str> = err.lines().filter(|l| l.starts_with("round ")).collect();
+    assert_eq!(
+        order,
+        [
+            "round 1/3: A",
+            "round 1/3: B",
+            "round 2/3: B",
+            "round 2/3: A",
+            "round 3/3: A",
+            "round 3/3: B"
+        ]
+    );
+    for side in ["a", "b"] {
+        let (rows, _) = read_runs(&dir.path().join(side).join("il/runs.csv")).unwrap();
+        let mut reps: Vec<u32> = rows.iter().map(|r| r.repetition).collect();
+        reps.sort_unstable();
+        assert_eq!(
+            reps,
+            [0, 0, 1, 1, 2, 2],
+            "{side}: serial and static, 3 runs each"
+        );
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let changes = v["changes"].as_array().unwrap();
+    assert_eq!(changes.len(), 2);
+    for c in changes {
+        assert!(
+            c["verdict"] == "equivalent" || c["verdict"] == "undecided",
+            "{c}"
+        );
+    }
+    let bad = run(
+        &[
+            "compare",
+            "a",
+            "b",
+            "--interleave",
+            "il.toml",
+            "--env-b",
+            "NOEQUALS",
+        ],
+        dir.path(),
+    );
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--env-b"));
 }

@@ -591,7 +591,7 @@ fn tiny_scene(z: u32, shape: &str) -> String {
 /// A temporary folder holding `s.toml`, a 4×4 scene of one sphere at 1 spp.
 fn tiny_scene_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    let scene = tiny_scene(4, "type = \"sphere\"\n");
+    let scene = tiny_scene(4, "type = \"sphere\"\nradius = 1\n");
     std::fs::write(dir.path().join("s.toml"), scene).unwrap();
     dir
 }

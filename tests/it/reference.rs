@@ -19,7 +19,7 @@ fn reference_pages_match_the_code() {
     }
     assert!(
         stale.is_empty(),
-        "{stale:?} differ from the code: run RAYSCHED_BLESS=1 cargo test --test it reference"
+        "{stale:?} differ from the code: run RAYSCHED_BLESS=1 cargo test --release --test it reference"
     );
 }
 

@@ -50,6 +50,7 @@ reflectance = [0.8, 0.7, 0.6]
 [[shapes]]
 type = "sphere"
 material = "white"
+radius = 1
 [[shapes]]
 type = "rectangle"
 material = "white"
