@@ -17,6 +17,7 @@ pub fn pages() -> Vec<(&'static str, String)> {
     vec![
         ("docs/reference/schedulers.md", schedulers()),
         ("docs/reference/sources.md", sources()),
+        ("docs/reference/literature.md", literature()),
         ("docs/reference/columns.md", columns()),
     ]
 }
@@ -126,6 +127,61 @@ fn value_table<const N: usize>(s: &mut String, name: &str, rows: [(&str, String)
     for (id, doc) in rows {
         let _ = writeln!(s, "| `{id}` | {} |", plain(&doc).replace('|', "\\|"));
     }
+}
+
+/// `docs/reference/literature.md`: every technique of LB4OMP and Auto4OMP, its paper and the
+/// kinds that play it, from the registry's [`SchedulerKind::published`].
+pub fn literature() -> String {
+    use crate::sched::kinds::literature::TECHNIQUES;
+    let mut s = String::from(HEADER);
+    s += "# raysched against LB4OMP and Auto4OMP\n\nEvery loop-scheduling technique of LB4OMP \
+          (`runtime/src/kmp_dispatch.cpp`) and every selection method of Auto4OMP, the paper \
+          that defines it, and the raysched kinds that play it: *exact* where one plays it as \
+          published (held to an independent reference by `tests/it/dls_conformance.rs` for \
+          the chunk-sizing rules), *variant* where the kinds differ from the paper in a way \
+          their reference entry states, *missing* with the reason.\n\n";
+    s += "| technique | peer | paper | status | raysched kinds |\n|---|---|---|---|---|\n";
+    for t in TECHNIQUES {
+        let kinds: Vec<(SchedulerKind, bool)> = SchedulerKind::ALL
+            .into_iter()
+            .filter_map(|k| {
+                k.published()
+                    .filter(|(name, _)| *name == t.name)
+                    .map(|(_, exact)| (k, exact))
+            })
+            .collect();
+        let status = if kinds.iter().any(|k| k.1) {
+            "exact".to_string()
+        } else if !kinds.is_empty() {
+            "variant".to_string()
+        } else {
+            format!("missing: {}", t.absent)
+        };
+        let ids: Vec<String> = kinds
+            .iter()
+            .map(|(k, exact)| {
+                if *exact {
+                    format!("`{}`", k.id())
+                } else {
+                    format!("`{}` (variant)", k.id())
+                }
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} |",
+            t.name,
+            t.peer,
+            t.paper,
+            status,
+            if ids.is_empty() {
+                "–".to_string()
+            } else {
+                ids.join(", ")
+            }
+        );
+    }
+    s
 }
 
 /// `docs/reference/sources.md`.

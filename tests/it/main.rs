@@ -13,6 +13,7 @@ mod cli_edges;
 mod cli_fuzz;
 mod comments;
 mod determinism;
+mod dls_conformance;
 mod docs;
 mod embree;
 mod embree4;

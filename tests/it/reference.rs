@@ -36,3 +36,36 @@ fn the_scheduler_page_lists_every_kind_and_parameter() {
         assert!(page.contains(&format!("| `{}` |", o.id())), "{}", o.id());
     }
 }
+
+#[test]
+fn every_published_kind_names_a_catalogued_technique_and_every_missing_one_says_why() {
+    use raysched::sched::kinds::literature::TECHNIQUES;
+    use raysched::sched::SchedulerKind;
+    for k in SchedulerKind::ALL {
+        if let Some((name, _)) = k.published() {
+            assert!(
+                TECHNIQUES.iter().any(|t| t.name == name),
+                "{}: {name} is not in the catalogue",
+                k.id()
+            );
+        }
+    }
+    for t in TECHNIQUES {
+        let played = SchedulerKind::ALL
+            .into_iter()
+            .any(|k| k.published().is_some_and(|(n, _)| n == t.name));
+        assert!(
+            played || !t.absent.is_empty(),
+            "{}: missing without a reason",
+            t.name
+        );
+    }
+    let page = raysched::reference::literature();
+    assert!(
+        page.contains(
+            "| TSS | LB4OMP | Tzen & Ni, IEEE TPDS 4(1), 1993 | exact | `trapezoid` (variant), `tss` |"
+        ),
+        "{page}"
+    );
+    assert!(page.contains("| BOLD | LB4OMP |") && page.contains("missing: not built"));
+}

@@ -94,6 +94,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for AdaptiveFactoringParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("AF", true));
     const DOC: &'static str = "Adaptive factoring (AF): each chunk from the worker's running \
         mean and spread of item times.";
     const SIZES_OWN_HAND_OUTS: bool = true;

@@ -103,6 +103,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for AwfParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("AWF-B", false));
     const DOC: &'static str = "Adaptive weighted factoring, variant C (AWF-C): FAC2 batches, \
         weights updated from measured speed after every chunk.";
     const SIZES_OWN_HAND_OUTS: bool = true;

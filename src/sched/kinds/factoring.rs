@@ -151,6 +151,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for FactoringParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("FAC2", true));
     const DOC: &'static str =
         "Factoring (FAC2): batches of P chunks of ⌈R/(2P)⌉ items, R left at the batch start.";
     const SIZES_OWN_HAND_OUTS: bool = true;

@@ -21,7 +21,17 @@ use crate::sched::param::Slow;
 /// Kruskal & Weiss's K for `n` items, hand-out cost `h` and spread `sigma` (seconds) on `p`
 /// workers, capped at ⌈n/p⌉.
 pub fn kruskal_weiss(n: usize, p: usize, h: f64, sigma: f64) -> usize {
-    let cap = n.div_ceil(p.max(1)).max(1);
+    kruskal_weiss_k(n, p, h, sigma, true)
+}
+
+/// Kruskal & Weiss's K, capped at ⌈n/p⌉ where `cap` (this kind) or left as the formula gives
+/// it (`fsc`, the published form: P = 1 or σ = 0 make K infinite, one chunk of all `n`).
+pub fn kruskal_weiss_k(n: usize, p: usize, h: f64, sigma: f64, cap: bool) -> usize {
+    let cap = if cap {
+        n.div_ceil(p.max(1)).max(1)
+    } else {
+        n.max(1)
+    };
     let ln_p = (p as f64).ln();
     if p <= 1 || sigma <= 0.0 {
         return cap;
@@ -44,6 +54,8 @@ pub struct FixedSize {
     grabs: (u64, f64),
     /// The chunk size, once measured.
     k: Option<usize>,
+    /// K capped at ⌈R/P⌉ (this kind) or not (`fsc`).
+    cap: bool,
 }
 
 impl FixedSize {
@@ -56,6 +68,25 @@ impl FixedSize {
             items: ItemTimes::default(),
             grabs: (0, 0.0),
             k: None,
+            cap: true,
+        }
+    }
+
+    /// Published FSC ([`super::fsc`]): K uncapped, measured over the first `warm` items.
+    pub fn uncapped(n: usize, p: usize, warm: usize) -> Self {
+        Self {
+            cap: false,
+            ..Self::new(n, p, warm)
+        }
+    }
+
+    /// FSC with h and σ known beforehand (LB4OMP reads them from a profiling run): every
+    /// chunk is K from the start, capped at ⌈n/p⌉ where `cap`.
+    pub fn profiled(n: usize, p: usize, h: f64, sigma: f64, cap: bool) -> Self {
+        Self {
+            k: Some(kruskal_weiss_k(n, p, h, sigma, cap)),
+            cap,
+            ..Self::new(n, p, 1)
         }
     }
 
@@ -74,7 +105,7 @@ impl ChunkRule for FixedSize {
             return 1;
         }
         let h = self.grabs.1 / self.grabs.0.max(1) as f64;
-        let k = kruskal_weiss(remaining, self.p, h, self.items.var().sqrt());
+        let k = kruskal_weiss_k(remaining, self.p, h, self.items.var().sqrt(), self.cap);
         self.k = Some(k);
         k
     }
@@ -108,6 +139,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for FixedSizeParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("FSC", false));
     const DOC: &'static str = "Fixed-size chunking (FSC): one chunk size K from the measured \
         hand-out cost and the spread of item times (Kruskal–Weiss).";
     const SIZES_OWN_HAND_OUTS: bool = true;

@@ -17,6 +17,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for GuidedParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("GSS", false));
     const DOC: &'static str =
         "Grabs of max(grab, remaining / (k·workers)) items from a shared counter.";
     const SIZES_OWN_HAND_OUTS: bool = true;

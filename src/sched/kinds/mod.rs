@@ -31,6 +31,9 @@ pub trait BuiltIn: Params + Copy {
     /// The tile side and order it picks itself for a `width`×`height` image on `workers`
     /// workers (the production renderers' policies); `None`: the run's chunk and order.
     const OWN_LAYOUT: Option<Layout> = None;
+    /// The published technique it plays ([`literature::TECHNIQUES`]' name) and whether as
+    /// published (`true`) or as a variant (`false`); `None`: none of the catalogue's.
+    const PUBLISHED: Option<(&'static str, bool)> = None;
     /// Its rule over `n` items on `workers` workers, worker i slowed as `slow` says.
     fn hand_out(&self, n: usize, workers: usize, slow: Slow) -> HandOut;
 }
@@ -74,6 +77,14 @@ macro_rules! builtin_schedulers {
             pub fn sizes_own_hand_outs(self) -> bool {
                 match self {
                     $( Self::$variant => <$ty as BuiltIn>::SIZES_OWN_HAND_OUTS, )*
+                }
+            }
+
+            /// The published technique this kind plays and whether exactly (see
+            /// [`literature`]).
+            pub fn published(self) -> Option<(&'static str, bool)> {
+                match self {
+                    $( Self::$variant => <$ty as BuiltIn>::PUBLISHED, )*
                 }
             }
 
@@ -173,6 +184,23 @@ builtin_schedulers! {
     Pbrt = "pbrt" in pbrt::PbrtParams,
     Mitsuba = "mitsuba" in mitsuba::MitsubaParams,
     TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
+    Tss = "tss" in tss::TssParams,
+    Tfss = "tfss" in tfss::TfssParams,
+    Fsc = "fsc" in fsc::FscParams,
+    Fac = "fac" in fac::FacParams,
+    AwfB = "awf_b" in awf_b::AwfBParams,
+    AwfC = "awf_c" in awf_c::AwfCParams,
+    AwfD = "awf_d" in awf_d::AwfDParams,
+    AwfE = "awf_e" in awf_e::AwfEParams,
+    Mfsc = "mfsc" in mfsc::MfscParams,
+    Fiss = "fiss" in fiss::FissParams,
+    Viss = "viss" in viss::VissParams,
+    Pls = "pls" in pls::PlsParams,
+    Rnd = "rnd" in rnd::RndParams,
+    Maf = "maf" in maf::MafParams,
+    RandomSel = "random_sel" in random_sel::RandomSelParams,
+    ExhaustiveSel = "exhaustive_sel" in exhaustive_sel::ExhaustiveSelParams,
+    BinarySel = "binary_sel" in binary_sel::BinarySelParams,
 }
 
 impl SchedulerKind {
@@ -180,6 +208,9 @@ impl SchedulerKind {
     /// rule gives each kind of source its own buffer and grain ([`super::rule::Needs`]).
     pub const FOR_MIXED_SOURCES: Self = Self::Master;
 }
+
+pub mod literature;
+pub mod select;
 
 impl Scheduler for Policy {
     fn id(&self) -> String {

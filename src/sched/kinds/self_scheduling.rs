@@ -14,6 +14,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for SelfSchedulingParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("SS", true));
     const DOC: &'static str =
         "One shared atomic counter over items; each grab takes `grab` items.";
 

@@ -11,6 +11,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for StaticParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("STATIC", true));
     const DOC: &'static str = "Contiguous bands of items, one per worker; no master.";
 
     fn hand_out(&self, _n: usize, _workers: usize, _slow: Slow) -> HandOut {

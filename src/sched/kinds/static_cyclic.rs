@@ -11,6 +11,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for StaticCyclicParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("STATIC", false));
     const DOC: &'static str = "Item i to worker i mod n; no master.";
     // A fixed assignment like `static`: `advise` weighs that one.
     const ADVISED_BY_DEFAULT: bool = false;

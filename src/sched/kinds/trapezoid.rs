@@ -71,6 +71,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for TrapezoidParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("TSS", false));
     const DOC: &'static str =
         "Trapezoid self-scheduling (TSS): chunks shrinking linearly from ⌈N/(2P)⌉ to 1.";
     const SIZES_OWN_HAND_OUTS: bool = true;

@@ -23,6 +23,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for TrapezoidFactoringParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("TFSS", false));
     const DOC: &'static str = "Trapezoid factoring self-scheduling (TFSS): batches of P equal \
         chunks, each the mean of the next P chunks of TSS.";
     const SIZES_OWN_HAND_OUTS: bool = true;

@@ -19,6 +19,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for WeightedFactoringParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("WF2", true));
     const DOC: &'static str = "Weighted factoring: FAC2 batches, each worker's chunk scaled by \
         its relative speed.";
     // Over equal workers the cost model plays it as `factoring`, which `advise` weighs.

@@ -12,6 +12,7 @@ scheduler_params! {
 }
 
 impl BuiltIn for WorkStealingDequeParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("static_steal", false));
     const DOC: &'static str =
         "One crossbeam-deque per worker, stealing from the others when empty.";
     // The cost model plays it as `work_stealing`, which `advise` weighs.

@@ -1,0 +1,37 @@
+//! `random_sel`: Auto4OMP's RandomSel (Mohammed & Ciorba 2022) among the DLS techniques while
+//! the render runs. The rule, its phases and measures are in [`super::select`].
+
+use super::select::{Method, Selector};
+use super::BuiltIn;
+use crate::sched::param::{scheduler_params, Slow};
+use crate::sched::rule::HandOut;
+use serde::{Deserialize, Serialize};
+
+scheduler_params! {
+    /// RandomSel's parameters.
+    pub struct RandomSelParams {
+        /// The fewest items one grab takes.
+        grab: usize = 1, label None;
+        /// Loop instances the render's items are cut into, one technique chosen per instance.
+        sel_phases: usize = 20, label Some("phases");
+    }
+}
+
+impl BuiltIn for RandomSelParams {
+    const PUBLISHED: Option<(&'static str, bool)> = Some(("RandomSel", false));
+    const DOC: &'static str = "Auto4OMP's RandomSel: a random technique per phase, jumping to another with probability LIB/10 after each (Mohammed & Ciorba 2022); the render cut into \
+        `sel_phases` loop instances.";
+    // Catalogue kinds: `advise` weighs them when named (`--scheduler`), not by default.
+    const ADVISED_BY_DEFAULT: bool = false;
+    const SIZES_OWN_HAND_OUTS: bool = true;
+
+    fn hand_out(&self, n: usize, workers: usize, _slow: Slow) -> HandOut {
+        HandOut::shares(Box::new(Selector::new(
+            Method::Random,
+            n,
+            workers,
+            self.sel_phases,
+            self.grab,
+        )))
+    }
+}
