@@ -173,6 +173,7 @@ builtin_schedulers! {
     Pbrt = "pbrt" in pbrt::PbrtParams,
     Mitsuba = "mitsuba" in mitsuba::MitsubaParams,
     TrapezoidFactoring = "trapezoid_factoring" in trapezoid_factoring::TrapezoidFactoringParams,
+    Auto = "auto" in auto::AutoParams,
 }
 
 impl Scheduler for Policy {
