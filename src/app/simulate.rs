@@ -23,8 +23,41 @@ pub(crate) struct ChildArgs {
     pub(crate) path: PathBuf,
 }
 
-#[cfg(not(feature = "simgrid"))]
+/// An `auto_verdict` experiment runs in-process (no SimGrid); any other goes to SimGrid.
 pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
+    let verdict = std::fs::read_to_string(&args.experiment)
+        .is_ok_and(|t| raysched::simulate::auto_judge::is_verdict(&t));
+    if verdict {
+        auto_verdict(args)
+    } else {
+        simgrid_sweep(args)
+    }
+}
+
+/// `raysched simulate experiments/auto.toml`: `auto` against the best fixed configuration of
+/// every cell of the corpus (`simulate::auto_judge`).
+fn auto_verdict(args: SimulateArgs) -> Result<(), CliError> {
+    use raysched::simulate::auto_judge;
+    super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
+    super::out_path::check_input("EXPERIMENT", &args.experiment)?;
+    let (plan, maps) =
+        auto_judge::load(&args.experiment).map_err(|m| CliError::input(anyhow::anyhow!(m)))?;
+    let name = args
+        .experiment
+        .file_stem()
+        .map_or_else(|| "auto".into(), |s| s.to_string_lossy().into_owned());
+    let dir = args.out.join(name);
+    let w = auto_judge::run(&plan, &maps, &dir, !args.quiet)
+        .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
+    println!("{}", w.summary);
+    for f in &w.files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "simgrid"))]
+fn simgrid_sweep(args: SimulateArgs) -> Result<(), CliError> {
     Err(CliError::input(anyhow::anyhow!(
         "{}: raysched was built without feature `simgrid` (install Debian's libsimgrid-dev, then cargo build --release --features simgrid)",
         args.experiment.display()
@@ -39,7 +72,7 @@ pub(crate) fn child(_: ChildArgs) -> Result<(), CliError> {
 }
 
 #[cfg(feature = "simgrid")]
-pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
+fn simgrid_sweep(args: SimulateArgs) -> Result<(), CliError> {
     use raysched::simulate;
     super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
     super::out_path::check_input("EXPERIMENT", &args.experiment)?;

@@ -4,6 +4,7 @@
 //! ([`crate::simgrid`], feature `simgrid`) in a child process each ([`child`]); this module
 //! builds without the feature.
 
+pub mod auto_judge;
 pub mod child;
 pub mod config;
 pub mod error;

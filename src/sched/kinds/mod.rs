@@ -201,6 +201,7 @@ builtin_schedulers! {
     RandomSel = "random_sel" in random_sel::RandomSelParams,
     ExhaustiveSel = "exhaustive_sel" in exhaustive_sel::ExhaustiveSelParams,
     BinarySel = "binary_sel" in binary_sel::BinarySelParams,
+    Auto = "auto" in auto::AutoParams,
 }
 
 impl SchedulerKind {
