@@ -12,7 +12,12 @@
 //!   first point light, as the renderer's next-event estimation makes it (offset origin, the
 //!   segment to the light, stopped `SHADOW_EPSILON` short); its "hits" are the blocked rays.
 //!
-//! Tracer ids are those of `--tracer`.
+//! Tracer ids are those of `--tracer`; `bvh@avx2` and `bvh@sse` step the native tracer down
+//! from the widest path this CPU runs (AVX-512 where it has it) to compare paths in one run.
+//!
+//! `--build-only`: build the tracers and print their build times and the process's peak
+//! resident memory, trace nothing (one tracer per process: `benches/peers/peers.py`).
+//! `--threads N`: the build's thread budget (Embree's; the native build is serial).
 //!
 //! Measured (quiet 2-core Intel Xeon KVM guest with AVX-512, `taskset -c 0`, 5 rounds, 1 M
 //! triangles, 3 runs, load 3.7–1.8, SAH collapse into wide nodes): bvh/embree best rate
@@ -51,6 +56,18 @@ fn main() {
         }
         args.drain(k..k + 2);
     }
+    // `--build-only`: load, build the tracers, print each build and the process's peak
+    // resident memory, trace nothing (one tracer per process measures that tracer's memory).
+    let build_only = take_flag(&mut args, "--build-only");
+    // `--threads N`: the build's thread budget (Embree's; the native build is serial).
+    let threads: usize = match take_value(&mut args, "--threads").map(|v| v.parse()) {
+        None => 1,
+        Some(Ok(n)) if n > 0 => n,
+        Some(_) => {
+            eprintln!("--threads: expected a whole number ≥ 1");
+            std::process::exit(2);
+        }
+    };
     let name = args.first().map_or("complex", |s| s.as_str());
     let count: u64 = args
         .get(1)
@@ -81,12 +98,22 @@ fn main() {
         .iter()
         .map(|id| {
             let t0 = Instant::now();
-            let t = TracerKind::from_id(id)
-                .and_then(|kind| AnyTracer::build(kind, &scene, 1))
+            // `bvh@avx2`, `bvh@sse`: the native tracer stepped down to that path.
+            let (id, isa) = id.split_once('@').unwrap_or((id, ""));
+            let mut t = TracerKind::from_id(id)
+                .and_then(|kind| AnyTracer::build(kind, &scene, threads))
                 .unwrap_or_else(|e| {
                     eprintln!("{e}");
                     std::process::exit(2)
                 });
+            let stepped = match &mut t {
+                AnyTracer::Bvh(b) if !isa.is_empty() => b.step_down(isa),
+                _ => false,
+            };
+            if !isa.is_empty() && !stepped {
+                eprintln!("{id}@{isa}: only bvh steps down, to a path this CPU runs (avx2, sse)");
+                std::process::exit(2);
+            }
             builds.push(t0.elapsed().as_secs_f64());
             t
         })
@@ -99,6 +126,15 @@ fn main() {
             builds[k] / builds[peer],
             ids[peer]
         );
+    }
+    for (t, id) in tracers.iter().zip(&ids) {
+        if let AnyTracer::Bvh(b) = t {
+            println!("path {id}: {}", b.isa());
+        }
+    }
+    if build_only {
+        println!("peak_rss_mib {:.1}", peak_rss_mib());
+        return;
     }
     let primary: Vec<Ray> = (0..side * side)
         .map(|i| scene.camera.pixel_ray(i % side, i / side, 0.5, 0.5))
@@ -214,4 +250,35 @@ fn diffuse_bounces(scene: &Scene, tracer: &AnyTracer, primary: &[Ray]) -> Vec<Ra
             Some(it.spawn(d, |_| d))
         })
         .collect()
+}
+
+/// Remove `flag` from `args`; whether it was there.
+fn take_flag(args: &mut Vec<String>, flag: &str) -> bool {
+    let at = args.iter().position(|a| a == flag);
+    if let Some(k) = at {
+        args.remove(k);
+    }
+    at.is_some()
+}
+
+/// Remove `flag` and its value from `args`; the value (exit 2 where it is missing).
+fn take_value(args: &mut Vec<String>, flag: &str) -> Option<String> {
+    let k = args.iter().position(|a| a == flag)?;
+    let Some(v) = args.get(k + 1).cloned() else {
+        eprintln!("{flag}: expected a value");
+        std::process::exit(2);
+    };
+    args.drain(k..k + 2);
+    Some(v)
+}
+
+/// The process's peak resident set so far, in MiB (`VmHWM` of `/proc/self/status`; NaN where
+/// that cannot be read).
+fn peak_rss_mib() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(f64::NAN, |kib| kib / 1024.0)
 }

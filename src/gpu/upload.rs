@@ -227,7 +227,7 @@ fn bvh_nodes(
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
         let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
         for node in &bvh2.nodes {
-            let (lo, hi) = (node.aabb.min, node.aabb.max);
+            let (lo, hi) = (node.aabb().min, node.aabb().max);
             v4(&mut out.nodes, [lo.x, lo.y, lo.z], 0.0);
             // The w lane of `lo` is the node's `a` (u32): overwrite its bytes.
             let at = out.nodes.len() - 4;

@@ -11,14 +11,12 @@
 //! Eight children rather than four (with the inline stack and the inlined leaf tests below):
 //! faster on primary and incoherent rays of the 1 M-triangle scene. Measured: M-021.
 
-#[cfg(target_arch = "x86_64")]
-use super::wide::Avx2;
-use super::wide::{Entered, Leaves, Node, NodeTest, RaySlabs, Traverse, EMPTY, WIDTH};
+use super::wide::{Entered, Isa, Leaves, Node, NodeTest, RaySlabs, Traverse, EMPTY, WIDTH};
 use crate::geometry::{Hit, Ray};
 use glam::Vec4;
-use obvhs::aabb::Aabb;
 use obvhs::bvh2::{builder::build_bvh2, Bvh2};
-use obvhs::BvhBuildParams;
+use obvhs::{Boundable, BvhBuildParams};
+use smallvec::{smallvec, SmallVec};
 use std::ops::Range;
 use std::time::Duration;
 
@@ -50,29 +48,32 @@ pub struct WideBvh {
     /// Scene primitive ids in leaf order, each leaf padded with [`PAD`] to whole packets:
     /// packet `k` is slots `PACKET·k .. PACKET·(k+1)`, a leaf a range of packets.
     pub order: Vec<u32>,
-    /// Set where the CPU has AVX2: nodes are then tested 8 lanes at once.
-    #[cfg(target_arch = "x86_64")]
-    avx2: Option<Avx2>,
+    /// The node and leaf tests this CPU runs best: AVX-512 or AVX2 test nodes 8 lanes at once.
+    isa: Isa,
     /// Set (x86-64) where the tree has [`PREFETCH_FROM_BYTES`] or more: traversals then ask
     /// for the cache lines of the children they find.
     prefetch: bool,
 }
 
 impl WideBvh {
-    /// Build over primitive boxes `aabbs` (indexed by scene primitive id), collapsing the binary
+    /// Build over primitives `prims` (indexed by scene primitive id; only their boxes are
+    /// read, once, as obvhs makes its leaves), collapsing the binary
     /// tree into wide nodes and leaves by the SAH [`Collapse`] with `costs`, or, without
     /// costs, greedily: obvhs' leaves kept, each node opening its largest inner child until
     /// [`WIDTH`] children (or only leaves) remain.
-    pub fn build(aabbs: &[Aabb], params: BvhBuildParams, costs: Option<CollapseCosts>) -> Self {
+    pub fn build(
+        prims: &[impl Boundable],
+        params: BvhBuildParams,
+        costs: Option<CollapseCosts>,
+    ) -> Self {
         let mut params = params;
         params.max_prims_per_leaf = params.max_prims_per_leaf.clamp(1, MAX_LEAF_PRIMS);
-        let bvh2 = build_bvh2(aabbs, params, &mut Duration::default());
+        let bvh2 = build_bvh2(prims, params, &mut Duration::default());
         let mut out = Self {
             nodes: Vec::with_capacity(bvh2.nodes.len() / 4 + 1),
             root: 0,
             order: Vec::new(),
-            #[cfg(target_arch = "x86_64")]
-            avx2: Avx2::detect(),
+            isa: Isa::detect(),
             prefetch: false,
         };
         let plan = costs.map(|c| Collapse::plan(&bvh2, c));
@@ -98,7 +99,10 @@ impl WideBvh {
             return self.collapse(bvh2, plan, b);
         }
         let first = self.order.len() / PACKET;
-        let mut pending = vec![b];
+        // On the call stack: a leaf has at most `MAX_LEAF_PRIMS` primitives, so fewer pending
+        // nodes than this; a heap `Vec` per leaf and per node cost ~4 % of a build's
+        // instructions. Measured: M-166.
+        let mut pending: SmallVec<[usize; 16]> = smallvec![b];
         while let Some(i) = pending.pop() {
             let n = &bvh2.nodes[i];
             if n.prim_count > 0 {
@@ -121,14 +125,14 @@ impl WideBvh {
     /// Append the wide node for binary inner node `b` (and, recursively, its subtree): its
     /// children are the roots `plan` chose below `b`, or the greedy ones.
     fn collapse(&mut self, bvh2: &Bvh2, plan: Option<&Collapse>, b: usize) -> u32 {
-        let mut kids = Vec::with_capacity(WIDTH);
+        let mut kids: SmallVec<[usize; WIDTH]> = SmallVec::new();
         let l = bvh2.nodes[b].first_index as usize;
         if let Some(plan) = plan {
             let k = plan.split[b][0] as usize;
             plan.roots(bvh2, l, k, &mut kids);
             plan.roots(bvh2, l + 1, WIDTH - k, &mut kids);
         } else {
-            let area = |i: usize| bvh2.nodes[i].aabb.half_area();
+            let area = |i: usize| bvh2.nodes[i].aabb().half_area();
             kids.extend([l, l + 1]);
             while kids.len() < WIDTH {
                 let open = (0..kids.len())
@@ -144,7 +148,7 @@ impl WideBvh {
         self.nodes.push(Node::EMPTY);
         let mut node = Node::EMPTY;
         for (lane, &k) in kids.iter().enumerate() {
-            node.set(lane, &bvh2.nodes[k].aabb);
+            node.set(lane, bvh2.nodes[k].aabb());
             node.child[lane] = self.child(bvh2, plan, k);
         }
         self.nodes[me] = node;
@@ -153,11 +157,14 @@ impl WideBvh {
 
     /// The same tree with the portable node test only (to check that both tests agree).
     #[cfg(test)]
-    pub(super) fn without_simd(mut self) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.avx2 = None;
-        }
+    pub(super) fn without_simd(self) -> Self {
+        self.with_isa(Isa::Portable)
+    }
+
+    /// The same tree with the node and leaf tests of `isa` (one this CPU runs: an `Isa` is
+    /// made only by detection or from a detected token).
+    pub(super) fn with_isa(mut self, isa: Isa) -> Self {
+        self.isa = isa;
         self
     }
 
@@ -169,13 +176,9 @@ impl WideBvh {
         self
     }
 
-    /// Whether queries run the AVX node test.
-    #[cfg(test)]
-    pub(super) fn simd(&self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        return self.avx2.is_some();
-        #[cfg(not(target_arch = "x86_64"))]
-        false
+    /// The node and leaf tests queries run.
+    pub(super) fn isa(&self) -> Isa {
+        self.isa
     }
 
     /// Closest hit below `t_max`, the leaves tested by `leaves`: with the AVX node test where
@@ -186,22 +189,26 @@ impl WideBvh {
     /// (`examples/tracer_ab`, quiet 2-core Intel Xeon); Cornell render 0.98× (0.93–1.01).
     #[inline(always)]
     pub(super) fn closest(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> Option<Hit> {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = self.avx2 {
-            return avx2.closest(self, ray, t_max, leaves);
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512(t) => t.closest(self, ray, t_max, leaves),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2(t) => t.closest(self, ray, t_max, leaves),
+            Isa::Portable => self.closest_with(&RaySlabs::with(ray, Vec4::splat), t_max, leaves),
         }
-        self.closest_with(&RaySlabs::with(ray, Vec4::splat), t_max, leaves)
     }
 
     /// Whether anything blocks the ray below `t_max` (node test chosen as in
     /// [`Self::closest`]).
     #[inline(always)]
     pub(super) fn any(&self, ray: &Ray, t_max: f32, leaves: &impl Leaves) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if let Some(avx2) = self.avx2 {
-            return avx2.any(self, ray, t_max, leaves);
+        match self.isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512(t) => t.any(self, ray, t_max, leaves),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2(t) => t.any(self, ray, t_max, leaves),
+            Isa::Portable => self.any_with(&RaySlabs::with(ray, Vec4::splat), t_max, leaves),
         }
-        self.any_with(&RaySlabs::with(ray, Vec4::splat), t_max, leaves)
     }
 
     /// Ask for the cache lines of child `c`: a node's planes, a leaf's packets. A hint only:
@@ -365,7 +372,7 @@ impl Collapse {
             let node = &bvh2.nodes[i as usize];
             walk.push(Step {
                 node: i,
-                area: node.aabb.half_area(),
+                area: node.aabb().half_area(),
                 prims: node.prim_count,
             });
             if node.prim_count == 0 {
@@ -422,7 +429,7 @@ impl Collapse {
 
     /// The children (binary nodes, in tree order) that stand for binary node `b` given room
     /// for `room` of them.
-    fn roots(&self, bvh2: &Bvh2, b: usize, room: usize, out: &mut Vec<usize>) {
+    fn roots(&self, bvh2: &Bvh2, b: usize, room: usize, out: &mut SmallVec<[usize; WIDTH]>) {
         let node = &bvh2.nodes[b];
         let k = self.split[b][room - 1] as usize;
         if node.prim_count > 0 || room == 1 || k == 0 {
@@ -556,6 +563,7 @@ fn push_insertion_sorted(
 mod tests {
     use super::*;
     use crate::tracer::bvh::{BUILD_PARAMS, BUILD_PARAMS_LARGE, COLLAPSE_COSTS};
+    use obvhs::aabb::Aabb;
 
     /// The cache hints are on exactly from [`PREFETCH_FROM_BYTES`] of tree on (x86-64): off
     /// for a Cornell-sized tree, on for one of ~9 000 leaf packets.

@@ -63,10 +63,22 @@ pub(super) trait NodeTest {
 /// entered.
 pub(super) type Entered = ([f32; WIDTH], u32);
 
-/// Proof that the 8-lane leaf test of [`super::simd`] may run (x86-64 with AVX2); `None`
-/// elsewhere, where leaves are tested four lanes at a time.
+/// Proof that an 8-lane leaf test of [`super::simd`] may run (x86-64 with AVX2, and which of
+/// its two: AVX2 or AVX-512); `None` elsewhere, where leaves are tested four lanes at a time.
 #[cfg(target_arch = "x86_64")]
-pub(super) type Wide = Option<Avx2>;
+pub(super) type Wide = Option<Lanes8>;
+
+/// Which 8-lane leaf test runs: a traversal's node test names it ([`NodeTest::wide`]), and as
+/// each traversal copy's node test is one type, the choice is made once per copy, not per leaf.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Lanes8 {
+    /// Compares into vector masks, then `movemask` (AVX2).
+    Avx2(Avx2),
+    /// Compares into mask registers, the rare exact edge functions redone in eight f64 lanes
+    /// at once (AVX-512 F + VL).
+    Avx512(Avx512),
+}
 /// No 8-lane leaf test off x86-64.
 #[cfg(not(target_arch = "x86_64"))]
 pub(super) type Wide = Option<std::convert::Infallible>;
@@ -168,6 +180,63 @@ impl Avx2 {
     /// `Some` where the CPU (and OS) support AVX2.
     pub(super) fn detect() -> Option<Self> {
         is_x86_feature_detected!("avx2").then_some(Self(()))
+    }
+}
+
+/// Proof that this CPU has AVX-512 F and VL (and so AVX2): only [`Avx512::detect`] makes one.
+/// The code it unlocks is [`super::simd`]'s: the same traversal and tests as [`Avx2`]'s, with
+/// the same IEEE operations lane by lane, compiled with the AVX-512 registers and masks.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Avx512(pub(super) Avx2);
+
+#[cfg(target_arch = "x86_64")]
+impl Avx512 {
+    /// `Some` where the CPU (and OS) support AVX2, AVX-512 F and AVX-512 VL.
+    pub(super) fn detect() -> Option<Self> {
+        let wide = is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl");
+        Avx2::detect().filter(|_| wide).map(Self)
+    }
+}
+
+/// The node and leaf tests a [`super::bvh4::WideBvh`] runs: chosen once, at build, from what
+/// the CPU has; tests may step down to compare the paths.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Isa {
+    /// SSE through glam (any CPU): four lanes per half node, four per leaf packet.
+    Portable,
+    /// AVX2: eight lanes per node and per two-packet leaf.
+    #[cfg(target_arch = "x86_64")]
+    Avx2(Avx2),
+    /// AVX-512 F + VL: as AVX2, with mask registers.
+    #[cfg(target_arch = "x86_64")]
+    Avx512(Avx512),
+}
+
+impl Isa {
+    /// The widest this CPU runs.
+    pub(super) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(t) = Avx512::detect() {
+                return Self::Avx512(t);
+            }
+            if let Some(t) = Avx2::detect() {
+                return Self::Avx2(t);
+            }
+        }
+        Self::Portable
+    }
+
+    /// Its name, as the peers' bench prints it.
+    pub(super) fn id(self) -> &'static str {
+        match self {
+            Self::Portable => "sse",
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx2(_) => "avx2",
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx512(_) => "avx512",
+        }
     }
 }
 
