@@ -225,6 +225,10 @@ pub fn paired_ratio_change(a: (&[f64], &[f64]), b: (&[f64], &[f64]), seed: u64) 
 /// every value is tied).
 pub fn mann_whitney_p(a: &[f64], b: &[f64]) -> f64 {
     let z = mann_whitney_z(a, b);
+    if z == 0.0 {
+        // No evidence at all; exactly 1 (Φ's approximation gives 1 − 1e-9 at 0).
+        return 1.0;
+    }
     (2.0 * (1.0 - normal_cdf(z.abs()))).clamp(0.0, 1.0)
 }
 

@@ -17,7 +17,7 @@
 //! that is "not shown slower") becomes "equivalent within ±X %" where TOST shows it and "not
 //! shown slower" where it does not ([`Decision::relative_phrase`]).
 
-use super::stats::{mann_whitney_z, median, normal_cdf};
+use super::stats::{mann_whitney_p, mann_whitney_z, median, normal_cdf};
 use serde::Serialize;
 
 /// When a difference or an equivalence counts.
@@ -166,7 +166,7 @@ pub fn decide(a: &[f64], b: &[f64], rule: &Rule) -> Decision {
     let (a, b) = (clean(a), clean(b));
     let ratio = median(&b) / median(&a);
     let z = mann_whitney_z(&a, &b);
-    let p_difference = (2.0 * (1.0 - normal_cdf(z.abs()))).clamp(0.0, 1.0);
+    let p_difference = mann_whitney_p(&a, &b);
     let up = 1.0 + rule.margin;
     // B below A·(1+m), and B above A/(1+m): both positive toward equivalence.
     let shifted = |f: f64| a.iter().map(|x| x * f).collect::<Vec<f64>>();
