@@ -416,6 +416,8 @@ fn pattern(d: Dash) -> Option<(i32, i32)> {
         Dash::Solid => None,
         Dash::Dashed => Some((9, 5)),
         Dash::Dotted => Some((2, 4)),
+        Dash::Long => Some((18, 6)),
+        Dash::Sparse => Some((2, 10)),
     }
 }
 

@@ -41,6 +41,10 @@ pub enum Dash {
     Dashed,
     /// 2 px dots.
     Dotted,
+    /// 18 px dashes.
+    Long,
+    /// 2 px dots, far apart.
+    Sparse,
 }
 
 /// Markers and dashes in the order styles cycle through them.
@@ -52,7 +56,13 @@ pub const MARKERS: [Marker; 5] = [
     Marker::Cross,
 ];
 /// See [`MARKERS`].
-pub const DASHES: [Dash; 3] = [Dash::Solid, Dash::Dashed, Dash::Dotted];
+pub const DASHES: [Dash; 5] = [
+    Dash::Solid,
+    Dash::Dashed,
+    Dash::Dotted,
+    Dash::Long,
+    Dash::Sparse,
+];
 
 /// One line's look.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,8 +75,9 @@ pub struct SeriesStyle {
     pub dash: Dash,
 }
 
-/// The `i`-th style. The three lists have coprime lengths (8, 5, 3), so the first 120 styles
-/// differ pairwise, and two that share a colour (i ≡ j mod 8) differ in marker and dash too.
+/// The `i`-th style. Colours cycle by 8, markers and dashes by 5 (coprime to 8), so the first
+/// 40 styles differ pairwise, and two of them that share a colour (i ≡ j mod 8) differ in
+/// marker and dash too.
 pub fn nth(i: usize) -> SeriesStyle {
     SeriesStyle {
         colour: COLOURS[i % COLOURS.len()],

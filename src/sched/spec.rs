@@ -252,8 +252,18 @@ mod tests {
         assert_eq!(
             names,
             [
-                "buffer", "requeue", "wait", "returns", "passes", "grab", "guided_k", "weights",
-                "fsc_warm"
+                "buffer",
+                "requeue",
+                "wait",
+                "returns",
+                "passes",
+                "grab",
+                "guided_k",
+                "weights",
+                "fsc_warm",
+                "fac_cv",
+                "pls_swr",
+                "sel_phases"
             ]
         );
         // Kinds appended to the registry may take `grab` too: the first ones stay in order.
