@@ -10,8 +10,8 @@
 //! hand-out as one dispatch ([`GpuModel::dispatch_s`]) and returns it whole. Busy time, as
 //! in the master, is the time a source holds work.
 
-use crate::sched::rule::{Balance, Facts, Shape, GPU_DISPATCH};
-use crate::sched::{decompose, Chunk, Order};
+use crate::sched::rule::{Balance, Facts, MasterQueue, Shape, Take, GPU_DISPATCH};
+use crate::sched::{decompose, Chunk, Order, Requeue};
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -277,7 +277,8 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
         )),
         Handing::Fixed { .. } => None,
     };
-    let mut queue: VecDeque<u32> = (0..items.len() as u32).collect();
+    // The master's queue (`never`: every item goes out once, in order).
+    let mut queue = MasterQueue::new(items.len(), Requeue::Never);
     let mut unissued: u64 = total_px;
     let mut rendered = Vec::new();
     let mut dispatches = 0;
@@ -317,7 +318,9 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
                 let mut got = VecDeque::new();
                 let mut sum = 0;
                 while sum < n.max(1) {
-                    let Some(k) = queue.pop_front() else { break };
+                    let Take::Item(k) = queue.take(Duration::ZERO, |_| false, |_| false) else {
+                        break;
+                    };
                     sum += px[k as usize];
                     unissued -= px[k as usize];
                     got.push_back(k);
