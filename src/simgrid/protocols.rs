@@ -185,18 +185,12 @@ fn count_message(tally: &Shared<Tally>, bytes: u64) {
     t.out.bytes += bytes;
 }
 
-fn result_bytes(job: &SimJob, items: &[usize]) -> u64 {
+/// Bytes of a message carrying `items`' entries of `sizes` (`job.item_bytes` or
+/// `job.result_bytes`), at least an envelope.
+fn bytes(sizes: &[u32], items: &[usize]) -> u64 {
     items
         .iter()
-        .map(|&i| job.result_bytes[i] as u64)
-        .sum::<u64>()
-        .max(EMPTY_MESSAGE)
-}
-
-fn item_bytes(job: &SimJob, items: &[usize]) -> u64 {
-    items
-        .iter()
-        .map(|&i| job.item_bytes[i] as u64)
+        .map(|&i| sizes[i] as u64)
         .sum::<u64>()
         .max(EMPTY_MESSAGE)
 }
@@ -392,6 +386,7 @@ impl<T: 'static> Inbox<T> {
 
 /// Start the actors that play `rule`, the scheduler's hand-out rule over `world.job`.
 pub(crate) fn spawn_protocol(world: Rc<World>, rule: HandOut) {
+    let n = world.job.cost_s.len();
     let master_inbox = matches!(rule, HandOut::ByMaster(_))
         .then(|| Inbox::<MasterMsg>::new(&world, "master", world.master_host, true));
     spawn_killers(&world, master_inbox.clone());
@@ -405,10 +400,7 @@ pub(crate) fn spawn_protocol(world: Rc<World>, rule: HandOut) {
             }
         }
         HandOut::ByWorkers(WorkerRule::Steal(s)) => stealing(world, s.grab()),
-        HandOut::ByWorkers(WorkerRule::Pool(pool)) => {
-            let n = world.job.cost_s.len();
-            counter(world, Box::new(pool.dispenser(n)))
-        }
+        HandOut::ByWorkers(WorkerRule::Pool(pool)) => counter(world, Box::new(pool.dispenser(n))),
         HandOut::ByWorkers(WorkerRule::Dispense(d)) => counter(world, d),
     }
 }
@@ -477,7 +469,7 @@ fn counter(world: Rc<World>, mut pool: Box<dyn Dispense>) {
             .grant(req.worker, req.report.as_ref())
             .map_or_else(Vec::new, Iterator::collect);
         let c = items.len();
-        let bytes = item_bytes(&wd.job, &items);
+        let bytes = bytes(&wd.job.item_bytes, &items);
         wd.tally.borrow_mut().out.issued += c as u64;
         count_message(&wd.tally, bytes);
         to[req.worker].send(wd.master_host, 0, items, bytes);
@@ -490,7 +482,7 @@ fn counter(world: Rc<World>, mut pool: Box<dyn Dispense>) {
             let mut last: Vec<usize> = Vec::new();
             let mut report = None;
             loop {
-                let bytes = result_bytes(&wd.job, &last);
+                let bytes = bytes(&wd.job.result_bytes, &last);
                 count_message(&wd.tally, bytes);
                 let asked = clock();
                 counter.send(wd.worker_hosts[k], k, Request { worker: k, report }, bytes);
@@ -594,7 +586,7 @@ fn stealing(world: Rc<World>, grab: usize) {
                     d[k].split_off(keep).into()
                 };
                 *left.borrow_mut() -= loot.len();
-                let bytes = item_bytes(&wd.job, &loot);
+                let bytes = bytes(&wd.job.item_bytes, &loot);
                 count_message(&wd.tally, bytes);
                 loot_boxes[thief].send(wd.worker_hosts[k], k, loot, bytes);
             }
@@ -620,7 +612,7 @@ fn stealing(world: Rc<World>, grab: usize) {
                 if !items.is_empty() {
                     *left.borrow_mut() -= items.len();
                     work(&wd, k, &items);
-                    let bytes = result_bytes(&wd.job, &items);
+                    let bytes = bytes(&wd.job.result_bytes, &items);
                     count_message(&wd.tally, bytes);
                     sink.send(wd.worker_hosts[k], k, items.len(), bytes);
                     continue;
@@ -679,15 +671,16 @@ impl Ledger {
     }
 }
 
-/// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue;
-/// each worker finishes at most one item per the job's refill period.
-fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue: Requeue) {
-    let (n, w) = (world.job.cost_s.len(), world.job.workers);
-    let batches: Vec<Rc<Inbox<Vec<usize>>>> =
-        (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
+/// The master's workers: each runs the items its batches bring, in order, one result message
+/// each, at most one item per the job's refill period.
+fn master_workers(
+    world: &Rc<World>,
+    inbox: &Rc<Inbox<MasterMsg>>,
+    batches: &[Rc<Inbox<Vec<usize>>>],
+) {
     for (k, own) in batches.iter().cloned().enumerate() {
-        let wd = Rc::clone(&world);
-        let master = Rc::clone(&inbox);
+        let wd = Rc::clone(world);
+        let master = Rc::clone(inbox);
         ffi::spawn("worker", world.worker_hosts[k], true, move || {
             let inbox = own;
             inbox.bind();
@@ -718,6 +711,15 @@ fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue:
             }
         });
     }
+}
+
+/// The master: one actor executing h per hand-out, ≤ B items outstanding per worker, re-queue;
+/// each worker finishes at most one item per the job's refill period.
+fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue: Requeue) {
+    let (n, w) = (world.job.cost_s.len(), world.job.workers);
+    let batches: Vec<Rc<Inbox<Vec<usize>>>> =
+        (0..w).map(|k| Inbox::of_worker(&world, "w", k)).collect();
+    master_workers(&world, &inbox, &batches);
     let wd = world;
     ffi::spawn("master", wd.master_host, false, move || {
         let mut l = Ledger {
@@ -736,7 +738,7 @@ fn master(world: Rc<World>, inbox: Rc<Inbox<MasterMsg>>, buffer: usize, requeue:
             let t0 = clock();
             wd.master_cpu
                 .compute(wd.job.master_h_s * batch.len() as f64 * REFERENCE_FLOPS);
-            let bytes = item_bytes(&wd.job, &batch);
+            let bytes = bytes(&wd.job.item_bytes, &batch);
             {
                 let mut t = wd.tally.borrow_mut();
                 t.out.dispatch_s += clock() - t0;

@@ -10,8 +10,8 @@
 //! hand-out as one dispatch ([`GpuModel::dispatch_s`]) and returns it whole. Busy time, as
 //! in the master, is the time a source holds work.
 
-use crate::sched::rule::{Balance, Facts, Shape, GPU_DISPATCH};
-use crate::sched::{decompose, Chunk, Order};
+use crate::sched::rule::{Balance, Facts, MasterQueue, Shape, Take, GPU_DISPATCH};
+use crate::sched::{decompose, Chunk, Order, Requeue};
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -248,7 +248,8 @@ struct Sim<'p> {
     item_px: u64,
     srcs: Vec<Src>,
     balance: Option<Balance>,
-    queue: VecDeque<u32>,
+    /// The master's queue (`never`: every item goes out once, in order).
+    queue: MasterQueue,
     unissued: u64,
     rendered: Vec<u32>,
     dispatches: u64,
@@ -315,7 +316,7 @@ impl<'p> Sim<'p> {
         Self {
             platform,
             handing,
-            queue: (0..items.len() as u32).collect(),
+            queue: MasterQueue::new(items.len(), Requeue::Never),
             px,
             cost,
             total_px,
@@ -367,7 +368,7 @@ impl<'p> Sim<'p> {
         let mut got = VecDeque::new();
         let mut sum = 0;
         while sum < n.max(1) {
-            let Some(k) = self.queue.pop_front() else {
+            let Take::Item(k) = self.queue.take(Duration::ZERO, |_| false, |_| false) else {
                 break;
             };
             sum += self.px[k as usize];

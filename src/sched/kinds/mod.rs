@@ -232,7 +232,7 @@ pub fn over_sources(kind: crate::sched::SchedulerKind) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sched::rule::{chunk_sequence, Grab, WorkerRule};
+    use crate::sched::rule::{chunk_sequence, Dispense, Grab, WorkerRule};
 
     #[test]
     fn every_built_in_kind_has_a_rule_that_hands_out_every_item() {
@@ -255,6 +255,32 @@ mod tests {
                     panic!("{kind:?}: no built-in shape")
                 }
             }
+        }
+    }
+
+    /// The dispenser every executor drives hands out the chunk sequence of the rule alone:
+    /// the same hand-out counts as before the pool protocol was written once.
+    #[test]
+    fn the_dispenser_hands_out_each_pool_rules_own_chunk_sequence() {
+        for kind in SchedulerKind::ALL {
+            let rule = || Policy::defaults(kind).rule(1000, 4, Slow::NONE);
+            let (
+                HandOut::ByWorkers(WorkerRule::Pool(mut a)),
+                HandOut::ByWorkers(WorkerRule::Pool(b)),
+            ) = (rule(), rule())
+            else {
+                continue;
+            };
+            let want = chunk_sequence(a.rule.as_mut(), 1000, 4);
+            let mut d = b.dispenser(1000);
+            let mut got = Vec::new();
+            let mut next = 0;
+            while let Some(r) = d.grant(got.len() % 4, None) {
+                assert_eq!(r.start, next, "{kind:?}: consecutive from the front");
+                next = r.end;
+                got.push(r.len());
+            }
+            assert_eq!(got, want, "{kind:?}");
         }
     }
 
