@@ -49,9 +49,9 @@ fn auto_verdict(args: SimulateArgs) -> Result<(), CliError> {
     let dir = args.out.join(name);
     let w = auto_judge::run(&plan, &maps, &dir, !args.quiet)
         .map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
-    println!("{}", w.summary);
+    out!("{}", w.summary);
     for f in &w.files {
-        println!("wrote {}", f.display());
+        out!("wrote {}", f.display());
     }
     Ok(())
 }
