@@ -59,7 +59,7 @@ pub(crate) struct CompareArgs {
 
 fn pct_flag(name: &str, v: Option<f64>) -> Result<Option<f64>, CliError> {
     match v {
-        Some(p) if !(p >= 0.0 && p < 1000.0) => Err(CliError::input(anyhow::anyhow!(
+        Some(p) if !(0.0..1000.0).contains(&p) => Err(CliError::input(anyhow::anyhow!(
             "{name}: must be in [0, 1000) (got {p})"
         ))),
         v => Ok(v.map(|p| p / 100.0)),

@@ -134,7 +134,7 @@ impl<'a> Builder<'a> {
                 // rendered a unit sphere the author had not asked for).
                 let Some(radius) = *radius else {
                     return Err(cx.err(
-                        &field("radius"),
+                        field("radius"),
                         "missing (a sphere needs its radius, > 0, in local units)",
                     ));
                 };
