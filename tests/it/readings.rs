@@ -59,8 +59,21 @@ fn run_shapes() -> (tempfile::TempDir, PathBuf) {
         .output()
         .unwrap();
     assert_ok(&out);
-    let res = dir.path().join("res");
+    let res = results_dir(&dir.path().join("res"));
     (dir, res)
+}
+
+/// The folder under `root` holding runs.csv (`run --out res` writes `res/<name>/`).
+fn results_dir(root: &Path) -> PathBuf {
+    if root.join("runs.csv").exists() {
+        return root.to_path_buf();
+    }
+    std::fs::read_dir(root)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.join("runs.csv").exists())
+        .unwrap_or_else(|| panic!("no runs.csv under {}", root.display()))
 }
 
 /// summary.csv as (label, workers) → column → text.
@@ -343,7 +356,7 @@ fn the_overhead_breakdown_adds_up_to_workers_times_wall_for_every_shape() {
 #[test]
 fn a_negative_wall_time_is_a_one_line_error_naming_file_line_and_column() {
     let (dir, _) = crate::experiment::run_tiny(1);
-    let res = dir.path().join("res");
+    let res = results_dir(&dir.path().join("res"));
     let runs = res.join("runs.csv");
     let text = std::fs::read_to_string(&runs).unwrap();
     let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
