@@ -75,6 +75,83 @@ pub struct Summary {
     /// Who rendered what, per kind in `SourceKind::ALL` order (`None`: the kind did not
     /// render).
     pub shares: Vec<Option<ShareSummary>>,
+    /// Where the workers' time went: `workers × wall_median` split into its parts.
+    pub lanes: Lanes,
+}
+
+/// `workers × wall_median` (the worker lanes' seconds) split into busy time, idle time caused
+/// by uneven work, idle time the master's dispatch explains and the rest: the overhead chart's
+/// bar. Each part is the median over the repetitions of its share of that run's lanes
+/// ([`Lanes::shares_of`]), the shares scaled to sum to 1, times
+/// `workers × wall_median`: the parts add up to the lanes by construction, on the median that
+/// every other reading of the time uses. The dispatch part is the master's dispatch time
+/// counted inside the workers' idle time it can explain (waiting for a hand-out), at most
+/// their idle time after imbalance: one rule whether the master has its own thread or its
+/// passes are run by the workers.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lanes {
+    /// Σ worker busy seconds.
+    pub busy_s: f64,
+    /// Idle seconds caused by uneven work (Σ max busy − busy).
+    pub imbalance_s: f64,
+    /// Idle seconds the master's dispatch explains.
+    pub dispatch_s: f64,
+    /// The rest of the idle seconds.
+    pub other_idle_s: f64,
+}
+
+impl Lanes {
+    /// The parts in the order they are stacked: busy, imbalance, other idle, dispatch.
+    pub fn parts(&self) -> [f64; 4] {
+        [
+            self.busy_s,
+            self.imbalance_s,
+            self.other_idle_s,
+            self.dispatch_s,
+        ]
+    }
+
+    /// Their sum: `workers × wall_median`.
+    pub fn total(&self) -> f64 {
+        self.parts().iter().sum()
+    }
+
+    /// One run's shares of its lanes (busy, imbalance, other idle, dispatch); `None` where its
+    /// lanes hold no time. Its lanes are `workers × wall_s`, or the busy and idle time the
+    /// workers recorded where that is more (a sample that repeats its render has the mean
+    /// wall of its renders but the last one's busy time); lane time the workers did not
+    /// record (before their start, after their end) is idle: other.
+    fn shares_of(r: &RunRow) -> Option<[f64; 4]> {
+        let busy = r.work_s.max(0.0);
+        let idle = r.idle_s.max(0.0);
+        let total = (r.workers as f64 * r.wall_s).max(busy + idle);
+        if total <= 0.0 || !total.is_finite() {
+            return None;
+        }
+        let imb = r.imbalance_s.clamp(0.0, idle);
+        let disp = r.dispatch_s.clamp(0.0, idle - imb);
+        let other = total - busy - imb - disp;
+        Some([busy, imb, other, disp].map(|x| x / total))
+    }
+
+    /// The lanes of a configuration of `rows` with median wall `wall` on `workers` workers.
+    fn of(rows: &[&RunRow], workers: usize, wall: f64) -> Self {
+        let shares: Vec<[f64; 4]> = rows.iter().filter_map(|r| Self::shares_of(r)).collect();
+        if shares.is_empty() {
+            return Self::default();
+        }
+        let m: [f64; 4] =
+            std::array::from_fn(|k| median(&shares.iter().map(|s| s[k]).collect::<Vec<f64>>()));
+        let sum: f64 = m.iter().sum();
+        let lanes = workers as f64 * wall;
+        let [busy_s, imbalance_s, other_idle_s, dispatch_s] = m.map(|x| x / sum * lanes);
+        Self {
+            busy_s,
+            imbalance_s,
+            dispatch_s,
+            other_idle_s,
+        }
+    }
 }
 
 /// What one kind of source did over a configuration's repetitions (medians).
@@ -89,6 +166,36 @@ pub struct ShareSummary {
 }
 
 impl Summary {
+    /// The speedup every reading states: median(serial) / median(this) over samples paired
+    /// by round ([`Summary::speedup`]), exactly 1 for the serial baseline itself, NaN where
+    /// the group has no baseline.
+    pub fn speedup_ci(&self) -> Ratio {
+        let one = |v: f64| Ratio {
+            value: v,
+            lo: v,
+            hi: v,
+            n: self.n,
+        };
+        match self.speedup {
+            Some(r) => r,
+            None if self.row.is_serial() => one(1.0),
+            None => one(f64::NAN),
+        }
+    }
+
+    /// Efficiency = [`Summary::speedup_ci`] / workers: the same paired samples, the same
+    /// interval, so a row's speedup and efficiency never disagree.
+    pub fn efficiency_ci(&self) -> Ratio {
+        let r = self.speedup_ci();
+        let w = self.row.workers.max(1) as f64;
+        Ratio {
+            value: r.value / w,
+            lo: r.lo / w,
+            hi: r.hi / w,
+            n: r.n,
+        }
+    }
+
     /// Did every repetition give the serial image: bit for bit, or (a GPU source) within 3σ?
     pub fn image_ok(&self) -> bool {
         self.identical || self.agrees == Some(true)
@@ -127,6 +234,27 @@ impl Summary {
     pub fn group(&self) -> String {
         group_of(&self.row)
     }
+}
+
+/// A configuration's label without the parameters at their kind's default (`master chunk=16
+/// B=2 requeue=never wait=block returns=item passes=thread` → `master chunk=16`): what tables
+/// and legends show. The chunk is always kept; the full label stays in runs.csv, the
+/// configuration's identity in its `config` id. A label of no known kind stays as it is.
+pub fn short_label(r: &RunRow) -> String {
+    let Ok(kind) = crate::sched::SchedulerKind::from_id(&r.scheduler) else {
+        return r.label.clone();
+    };
+    let policy = crate::sched::Policy::defaults(kind);
+    let defaults: Vec<String> = policy
+        .info()
+        .iter()
+        .filter_map(|p| Some(format!("{}={}", p.label?, policy.params()?.get(p.name)?)))
+        .collect();
+    r.label
+        .split(' ')
+        .filter(|t| !defaults.iter().any(|d| d == t))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// A row's group label: scene, size, spp, the generator count if overridden, and tracer.
@@ -258,7 +386,10 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
                 load_max: loads.reduce(f64::max),
                 walls,
                 busy: by_rep(rs, |r| r.work_s),
-                row: rs[0].clone(),
+                row: RunRow {
+                    label: short_label(rs[0]),
+                    ..rs[0].clone()
+                },
                 n: rs.len(),
                 wall_median: median(&wall),
                 wall_min: wall.iter().cloned().fold(f64::INFINITY, f64::min),
@@ -282,9 +413,19 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
                     .reduce(|a, b| a.zip(b).map(|(a, b)| a && b))
                     .flatten(),
                 shares: share_summaries(rs),
+                lanes: Lanes::of(rs, rs[0].workers, median(&wall)),
             }
         })
         .collect()
+}
+
+/// A ratio with 4 decimals; empty where it is not a number (no serial baseline).
+fn ratio4(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.4}")
+    } else {
+        String::new()
+    }
 }
 
 /// Write `summary.csv` to `path`: one row per summary, config and parameter columns first,
@@ -341,6 +482,17 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         "inner",
         "load_max",
         "agrees",
+        "efficiency",
+        "efficiency_ci_lo",
+        "efficiency_ci_hi",
+        "lanes_busy_s",
+        "lanes_imbalance_s",
+        "lanes_other_idle_s",
+        "lanes_dispatch_s",
+        "predicted_wall_s",
+        "predicted_handout_s",
+        "predicted_refill_s",
+        "predicted_imbalance_s",
     ];
     let kinds = crate::sched::SourceKind::ALL;
     let share_names: Vec<String> = kinds
@@ -405,18 +557,23 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
             f(s.wall_median_ci.1),
             format!("{:.5}", s.ci_half_rel),
             s.outliers.to_string(),
-            s.speedup
-                .map(|x| format!("{:.4}", x.value))
-                .unwrap_or_default(),
-            s.speedup
-                .map(|x| format!("{:.4}", x.lo))
-                .unwrap_or_default(),
-            s.speedup
-                .map(|x| format!("{:.4}", x.hi))
-                .unwrap_or_default(),
+            ratio4(s.speedup_ci().value),
+            ratio4(s.speedup_ci().lo),
+            ratio4(s.speedup_ci().hi),
             s.inner.to_string(),
             s.load_max.map(|l| format!("{l:.2}")).unwrap_or_default(),
             s.agrees.map(|a| a.to_string()).unwrap_or_default(),
+            ratio4(s.efficiency_ci().value),
+            ratio4(s.efficiency_ci().lo),
+            ratio4(s.efficiency_ci().hi),
+            f(s.lanes.busy_s),
+            f(s.lanes.imbalance_s),
+            f(s.lanes.other_idle_s),
+            f(s.lanes.dispatch_s),
+            r.predicted_wall_s.map(f).unwrap_or_default(),
+            r.predicted_handout_s.map(f).unwrap_or_default(),
+            r.predicted_refill_s.map(f).unwrap_or_default(),
+            r.predicted_imbalance_s.map(f).unwrap_or_default(),
         ];
         let shares = s.shares.iter().flat_map(|sh| match sh {
             Some(x) => [

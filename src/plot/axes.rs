@@ -69,7 +69,8 @@ pub fn titled<DB: DrawingBackend>(
     title: &str,
 ) -> Result<DrawingArea<DB, Shift>, String> {
     let w = area.dim_in_pixel().0 as i32;
-    let (t, size) = fit_title(title, w - 2 * GAP);
+    // A margin of 4 gaps each side: a title that fills the width reads as touching the edges.
+    let (t, size) = fit_title(title, w - 8 * GAP);
     area.titled(&t, ("sans-serif", size)).map_err(e)
 }
 
@@ -79,6 +80,8 @@ pub fn titled<DB: DrawingBackend>(
 pub enum Scale {
     /// Values as they are.
     Linear,
+    /// Values as they are, ticks at whole numbers only: worker counts, buffer sizes.
+    Count,
     /// log₂ of the value; ticks at powers of two.
     Log2,
     /// log₁₀ of the value; ticks at 1, 2, 5 × 10ᵏ (or sparser).
@@ -89,7 +92,7 @@ impl Scale {
     /// The coordinate of value `v` (NaN where the scale cannot show it).
     pub fn to(self, v: f64) -> f64 {
         match self {
-            Scale::Linear => v,
+            Scale::Linear | Scale::Count => v,
             _ if v <= 0.0 => f64::NAN,
             Scale::Log2 => v.log2(),
             Scale::Log10 => v.log10(),
@@ -175,6 +178,13 @@ fn candidates(scale: Scale, lo: f64, hi: f64) -> Vec<Vec<(f64, String)>> {
                     .map(|t| t.into_iter().map(|(v, s)| (v.log10(), s)).collect())
                     .collect();
             }
+        }
+        Scale::Count => {
+            // Linear sets whose step is a whole number: no tick at 1.5 workers.
+            out = candidates(Scale::Linear, lo, hi)
+                .into_iter()
+                .filter(|t| t.iter().all(|(v, _)| v.fract() == 0.0))
+                .collect();
         }
         Scale::Linear => {
             let span = (hi - lo).abs().max(1e-300);
@@ -612,6 +622,16 @@ mod tests {
             fit_ticks(Scale::Log2, (0.0, 16.0), true, |c| (c * 125.0) as i32).len(),
             17
         );
+    }
+
+    #[test]
+    fn count_ticks_are_whole_numbers() {
+        // 1 and 2 workers on a wide axis: linear ticks would say 1.2, 1.4 …
+        let t = fit_ticks(Scale::Count, (0.5, 2.5), true, |c| (c * 400.0) as i32);
+        let labels: Vec<&str> = t.iter().map(|x| x.1.as_str()).collect();
+        assert_eq!(labels, ["1", "2"]);
+        let lin = fit_ticks(Scale::Linear, (0.5, 2.5), true, |c| (c * 400.0) as i32);
+        assert!(lin.len() > 2, "{lin:?}");
     }
 
     #[test]

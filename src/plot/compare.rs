@@ -36,10 +36,26 @@ pub fn with_ci(r: &Ratio) -> String {
 }
 
 /// A configuration's speedup over serial with its interval where it has one.
+/// ([`Summary::speedup_ci`]: the paired ratio, 1 for the baseline, "—" without one).
 pub fn speedup_text(s: &Summary) -> String {
-    match &s.speedup {
-        Some(r) => with_ci(r),
-        None => format!("{:.2}×", s.speedup_median),
+    let r = s.speedup_ci();
+    if !r.value.is_finite() {
+        "—".into()
+    } else if r.lo < r.hi {
+        with_ci(&r)
+    } else {
+        format!("{:.2}×", r.value)
+    }
+}
+
+/// A configuration's efficiency (its speedup over workers, [`Summary::efficiency_ci`]) in
+/// whole percent, "—" without a baseline.
+pub fn efficiency_text(s: &Summary) -> String {
+    let e = s.efficiency_ci().value;
+    if e.is_finite() {
+        format!("{:.0} %", e * 100.0)
+    } else {
+        "—".into()
     }
 }
 

@@ -1,10 +1,7 @@
-//! `report.html`: the report as one self-contained page (plots as inline SVG, tables sortable
-//! by a few lines of inline script, nothing fetched), written beside `report.md`.
+//! `report.html`: `report.md` as one self-contained page (plots as inline SVG, tables sortable
+//! by a few lines of inline script, nothing fetched), written beside it.
 
-use super::compare::speedup_text;
-use super::report::{answer, chunk_curves, chunk_words_pub as chunk_words};
 use super::Figure;
-use crate::experiment::summary::Summary;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -95,113 +92,121 @@ document.querySelectorAll('table.sortable').forEach(function (t) {
 document.body.setAttribute('data-ready', 'yes');
 "#;
 
-/// A cell that sorts by the number `v`.
-fn num(text: String, v: f64) -> String {
-    format!(
-        "<td data-v=\"{}\">{}</td>",
-        if v.is_finite() { v } else { 0.0 },
-        escape(&text)
-    )
+/// A table cell: sorts by the number it starts with (`data-v`) where it starts with one.
+fn cell(tag: &str, text: &str) -> String {
+    let lead: String = text
+        .trim()
+        .trim_start_matches('`')
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.' || *c == '-' || *c == '+')
+        .collect();
+    match lead.parse::<f64>() {
+        Ok(v) if v.is_finite() && tag == "td" => {
+            format!("<td data-v=\"{v}\">{}</td>", inline_md(text.trim()))
+        }
+        _ => format!("<{tag}>{}</{tag}>", inline_md(text.trim())),
+    }
 }
 
-/// Every configuration of a group as a sortable table.
-fn table(sums: &[&Summary]) -> String {
-    let mut h = String::from("<table class=\"sortable\"><thead><tr><th>configuration</th><th>scheduler</th><th>chunk</th><th>workers</th><th>median wall (s)</th><th>95 % CI of median (s)</th><th>speedup (95 % CI)</th><th>efficiency</th><th>runs</th></tr></thead><tbody>\n");
-    for s in sums {
-        let speed = s.speedup.map_or(s.speedup_median, |r| r.value);
-        let _ = writeln!(
-            h,
-            "<tr><td><code>{}</code></td><td>{}</td>{}{}{}{}{}{}{}</tr>",
-            escape(&s.row.label),
-            escape(&s.row.scheduler),
-            num(chunk_words(s), s.row.chunk_px.unwrap_or(0) as f64),
-            num(s.row.workers.to_string(), s.row.workers as f64),
-            num(format!("{:.4}", s.wall_median), s.wall_median),
-            num(
-                format!("{:.4} – {:.4}", s.wall_median_ci.0, s.wall_median_ci.1),
-                s.wall_median_ci.0
-            ),
-            num(speedup_text(s), speed),
-            num(
-                format!("{:.0} %", s.efficiency_median * 100.0),
-                s.efficiency_median
-            ),
-            num(s.n.to_string(), s.n as f64),
-        );
+/// The cells of a Markdown table line `| a | b |`.
+fn cells(line: &str) -> Vec<&str> {
+    let t = line.trim();
+    let t = t.strip_prefix('|').unwrap_or(t);
+    let t = t.strip_suffix('|').unwrap_or(t);
+    t.split('|').collect()
+}
+
+/// A Markdown table (its lines, the header first) as a sortable HTML table.
+fn table(lines: &[&str]) -> String {
+    let mut h = String::from("<table class=\"sortable\"><thead><tr>");
+    for c in cells(lines[0]) {
+        h += &cell("th", c);
+    }
+    h += "</tr></thead><tbody>\n";
+    for l in lines.iter().skip(2) {
+        h += "<tr>";
+        for c in cells(l) {
+            h += &cell("td", c);
+        }
+        h += "</tr>\n";
     }
     h + "</tbody></table>\n"
 }
 
-/// The page: warnings first, then per scene the answer, the chunk curves in words and the
-/// full table, then every figure inline. `staged` is where this drawing's SVGs are.
-pub fn render(
-    dir: &Path,
-    staged: &Path,
-    warnings: &[String],
-    sums: &[Summary],
-    figs: &[Figure],
-) -> String {
-    let name = sums
-        .first()
-        .map_or("experiment", |s| s.row.experiment.as_str());
+/// `![title](file)`: the figure's file, if the line is one.
+fn image(line: &str) -> Option<&str> {
+    let rest = line.strip_prefix("![")?;
+    let open = rest.find("](")?;
+    rest[open + 2..].strip_suffix(')')
+}
+
+/// `report.md`'s text as one self-contained page: headings, paragraphs, lists and tables as
+/// they are (tables sortable by a click), each plot's SVG inline where the Markdown links its
+/// PNG. Rendered from the Markdown itself, so the page holds every section and every number
+/// the Markdown does. `staged` is where this drawing's SVGs are.
+pub fn render(dir: &Path, staged: &Path, md: &str) -> String {
+    let name = md
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("# "))
+        .unwrap_or("Experiment");
     let mut h = format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
          <meta name=\"viewport\" content=\"width=device-width\">\
-         <title>Experiment {n}</title><style>{STYLE}</style></head><body>\n<h1>Experiment <code>{n}</code></h1>\n",
-        n = escape(name)
+         <title>{}</title><style>{STYLE}</style></head><body>\n",
+        escape(&name.replace('`', ""))
     );
-    if !warnings.is_empty() {
-        h += "<div class=\"warn\"><h2>Warnings</h2><ul>\n";
-        for w in warnings {
-            let _ = writeln!(h, "<li>{}</li>", inline_md(w));
+    let lines: Vec<&str> = md.lines().collect();
+    let mut i = 0;
+    let mut list = 0usize; // open <ul> levels
+    let close_lists = |h: &mut String, list: &mut usize, to: usize| {
+        while *list > to {
+            *h += "</ul>\n";
+            *list -= 1;
         }
-        h += "</ul></div>\n";
-    }
-    let mut groups: Vec<String> = Vec::new();
-    for s in sums {
-        if !groups.contains(&s.group()) {
-            groups.push(s.group());
+    };
+    while i < lines.len() {
+        let l = lines[i];
+        let item = l.trim_start().strip_prefix("- ");
+        if item.is_none() {
+            close_lists(&mut h, &mut list, 0);
         }
-    }
-    h += "<h2>Answer</h2>\n";
-    for g in &groups {
-        let in_g: Vec<&Summary> = sums
-            .iter()
-            .filter(|s| &s.group() == g && !s.row.on_mpi() && !s.row.is_serial())
-            .collect();
-        if in_g.is_empty() {
-            continue;
-        }
-        let _ = writeln!(h, "<h3>{}</h3>", escape(g));
-        if let Some(a) = answer(g, &in_g) {
-            let _ = writeln!(h, "<p>{}</p>", inline_md(&a));
-        }
-        let curves = chunk_curves(&in_g);
-        if !curves.is_empty() {
-            h += "<ul>\n";
-            for c in curves {
-                let _ = writeln!(h, "<li>{}</li>", inline_md(c.trim_start_matches("- ")));
+        if let Some(text) = item {
+            let level = (l.len() - l.trim_start().len()) / 2 + 1;
+            close_lists(&mut h, &mut list, level);
+            while list < level {
+                h += "<ul>\n";
+                list += 1;
             }
-            h += "</ul>\n";
-        }
-        h += "<p>Every configuration (click a column to sort):</p>\n";
-        h += &table(&in_g);
-    }
-    if !figs.is_empty() {
-        h += "<h2>Plots</h2>\n";
-    }
-    for f in figs {
-        let Some(svg) = svg_of(dir, staged, f) else {
+            let _ = writeln!(h, "<li>{}</li>", inline_md(text));
+        } else if l.starts_with('|') {
+            let start = i;
+            while i < lines.len() && lines[i].starts_with('|') {
+                i += 1;
+            }
+            h += &table(&lines[start..i]);
             continue;
-        };
-        let _ = writeln!(
-            h,
-            "<figure><h3>{}</h3>{svg}<figcaption>{}</figcaption></figure>",
-            escape(&f.title),
-            inline_md(&f.caption)
-        );
+        } else if let Some(file) = image(l) {
+            let fig = Figure {
+                file: file.to_string(),
+                title: String::new(),
+                caption: String::new(),
+            };
+            if let Some(svg) = svg_of(dir, staged, &fig) {
+                let _ = writeln!(h, "<figure>{svg}</figure>");
+            }
+        } else if let Some((hashes, text)) = l
+            .split_once(' ')
+            .filter(|(a, _)| !a.is_empty() && a.len() <= 4 && a.chars().all(|c| c == '#'))
+        {
+            let n = hashes.len();
+            let _ = writeln!(h, "<h{n}>{}</h{n}>", inline_md(text));
+        } else if !l.trim().is_empty() {
+            let _ = writeln!(h, "<p>{}</p>", inline_md(l));
+        }
+        i += 1;
     }
-    h += "<p>Data: <code>runs.csv</code>, <code>summary.csv</code>, <code>meta.toml</code>; <code>report.md</code> has the machine and the full text. Regenerate with <code>raysched plot &lt;this folder&gt;</code>.</p>\n";
+    close_lists(&mut h, &mut list, 0);
     let _ = write!(h, "<script>{SCRIPT}</script>\n</body></html>\n");
     h
 }

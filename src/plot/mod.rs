@@ -54,6 +54,27 @@ fn plottable(r: &results::RunRow) -> bool {
         && r.chunk_px != Some(0)
 }
 
+/// The first row holding a negative time (a wall time, a serial time or a part of one), as
+/// "line N: wall_s = -0.1 is negative": no clock gives one, so the file was edited or
+/// damaged, and no reading of it can be trusted. Lines count the header as line 1.
+fn negative_time(rows: &[results::RunRow]) -> Option<String> {
+    rows.iter().enumerate().find_map(|(i, r)| {
+        let cols = [
+            ("wall_s", r.wall_s),
+            ("serial_s", r.serial_s),
+            ("work_s", r.work_s),
+            ("dispatch_s", r.dispatch_s),
+            ("idle_s", r.idle_s),
+            ("imbalance_s", r.imbalance_s),
+        ];
+        let (name, v) = cols.into_iter().find(|(_, v)| *v < 0.0)?;
+        Some(format!(
+            "line {}, column {name}: {v} is negative (a time cannot be); fix or remove the row",
+            i + 2
+        ))
+    })
+}
+
 /// The warnings of the run in `dir` (see [`report::warnings`]), from its CSV and meta alone.
 pub fn warnings_of(dir: &Path) -> Vec<String> {
     let Ok((rows, _)) = results::read_runs(&dir.join("runs.csv")) else {
@@ -125,6 +146,9 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         ));
     }
     let (all, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
+    if let Some(msg) = negative_time(&all) {
+        return Err(format!("{}: {msg}", runs.display()));
+    }
     // Rows of configurations the experiment file no longer names stay in runs.csv only.
     let (all, retired) = meta::current_rows_in(dir, all);
     let (rows, bad): (Vec<_>, Vec<_>) = all.into_iter().partition(plottable);
@@ -179,15 +203,9 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
              longer names and are left out of this report, its summary and plots.\n"
         );
     }
-    std::fs::write(staging.path("report.md"), report)
+    std::fs::write(staging.path("report.md"), &report)
         .map_err(|e| format!("{}: {e}", dir.join("report.md").display()))?;
-    let html = html::render(
-        dir,
-        &plots,
-        &report::warnings(meta.as_ref(), &sums),
-        &sums,
-        &figs,
-    );
+    let html = html::render(dir, &plots, &report);
     std::fs::write(staging.path("report.html"), html)
         .map_err(|e| format!("{}: {e}", dir.join("report.html").display()))?;
     commit(staging)?;

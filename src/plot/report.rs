@@ -1,7 +1,7 @@
 //! `report.md`: what ran, on what machine, the plots, the best configuration per scheduler, and
 //! one plain sentence comparing the per-ray master with the best scheduler.
 
-use super::compare::{best_by, speedup_text, tied_with_best, wall_ratio, with_ci};
+use super::compare::{best_by, efficiency_text, speedup_text, tied_with_best, wall_ratio, with_ci};
 use super::Figure;
 use crate::experiment::meta::Meta;
 use crate::experiment::stats::Ratio;
@@ -109,7 +109,7 @@ pub fn warnings(meta: Option<&Meta>, sums: &[Summary]) -> Vec<String> {
             .filter(|s| &s.group() == g && !s.row.is_serial() && !s.row.on_mpi())
             .collect();
         if let Some(b) = best_by(in_g.iter().copied()) {
-            let slower = b.speedup.map_or(b.speedup_median < 1.0, |r| r.hi < 1.0);
+            let slower = b.speedup_ci().hi < 1.0;
             if slower {
                 out.push(format!(
                     "{g}: the fastest configuration `{}` ×{} is slower than serial (speedup {})",
@@ -232,9 +232,49 @@ pub fn shares_section(sums: &[Summary]) -> String {
     md
 }
 
+/// Group names (scene + settings + tracer) in the order they first appear.
+fn group_names(sums: &[Summary]) -> Vec<String> {
+    let mut g: Vec<String> = Vec::new();
+    for s in sums {
+        if !g.contains(&s.group()) {
+            g.push(s.group());
+        }
+    }
+    g
+}
+
 /// The text of `report.md`: `meta` (if readable) for the run and machine sections, `sums` for
-/// the results, `figs` for the plots; `runs` is the number of timed runs.
+/// the results, `figs` for the plots; `runs` is the number of timed runs. Every figure it
+/// states is a column of `summary.csv` (`tests/it/readings.rs` checks), and `report.html`
+/// is this text as a page.
 pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usize) -> String {
+    let groups = group_names(sums);
+    let mut md = head_section(meta, sums);
+    md += &what_ran_section(meta, sums, &groups, runs);
+    if let Some(m) = meta {
+        md += &machine_section(m, sums);
+    }
+    md += &shares_section(sums);
+    md += &answer_section(sums, &groups);
+    md += &mpi_section(&groups, sums);
+    md += &model_section(sums, &groups);
+    md += &tuning_section(sums, &groups);
+    md += &best_section(sums, &groups);
+    md += &every_section(sums, &groups);
+    let _ = writeln!(md, "## Plots\n");
+    for f in figs {
+        let _ = writeln!(
+            md,
+            "### {}\n\n![{}]({})\n\n{}\n",
+            f.title, f.title, f.file, f.caption
+        );
+    }
+    let _ = writeln!(md, "Data: `runs.csv` (one row per run), `summary.csv` (per configuration), `meta.toml` (machine and build). Regenerate plots and this report with `raysched plot <this folder>`.");
+    md
+}
+
+/// The title, the image mismatches and the warnings.
+fn head_section(meta: Option<&Meta>, sums: &[Summary]) -> String {
     let mut md = String::new();
     let name = sums
         .first()
@@ -257,6 +297,17 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         }
         let _ = writeln!(md);
     }
+    md
+}
+
+/// What ran: the experiment file, its start, the configurations and what each scene uses.
+fn what_ran_section(
+    meta: Option<&Meta>,
+    sums: &[Summary],
+    groups: &[String],
+    runs: usize,
+) -> String {
+    let mut md = String::new();
     let _ = writeln!(md, "## What ran\n");
     if let Some(m) = meta {
         let _ = writeln!(
@@ -274,15 +325,6 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
                 .unwrap_or_default()
         );
     }
-    let groups: Vec<String> = {
-        let mut g: Vec<String> = Vec::new();
-        for s in sums {
-            if !g.contains(&s.group()) {
-                g.push(s.group());
-            }
-        }
-        g
-    };
     let _ = writeln!(
         md,
         "- {} configurations, {runs} timed runs, over: {}",
@@ -290,7 +332,7 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         groups.join("; ")
     );
     // What each scene's render path pays for (from the serial baseline row of each group).
-    for g in &groups {
+    for g in groups {
         if let Some(s) = sums
             .iter()
             .find(|s| &s.group() == g && !s.row.features_used.is_empty())
@@ -302,71 +344,80 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             );
         }
     }
-    let _ = writeln!(md, "- Speedup = t_serial / t (serial = one thread, no scheduler, same scene, tracer and settings); every image is compared bit for bit with the serial one, except where a GPU rendered: its kernel rounds differently, so those images must agree with the serial one within 3σ of the paired per-pixel differences (`agrees`, `image_z` in runs.csv).\n");
-    if let Some(m) = meta {
-        let c = &m.machine;
-        let _ = writeln!(md, "## Machine\n");
-        let _ = writeln!(
-            md,
-            "- CPU: {} ({} logical cores available), {:.1} GiB memory",
-            c.cpu_model, c.cores, c.memory_gib
-        );
-        let _ = writeln!(md, "- OS: {} (kernel {}, {})", c.os, c.kernel, c.arch);
-        let _ = writeln!(
-            md,
-            "- raysched {} at `{}`, {}, features: [{}]",
-            m.raysched_version,
-            m.git_commit,
-            m.rustc,
-            m.features.join(", ")
-        );
-        if let Some(b) = &m.build {
-            let _ = writeln!(md, "- build: {} profile, target {}", b.profile, b.target);
-        }
-        if let Some(g) = &m.gpu {
-            let _ = writeln!(
-                md,
-                "- GPU: {} ({}, driver {}, {})",
-                g.name, g.device_type, g.driver, g.backend
-            );
-        }
-        if !m.history.is_empty() {
-            let _ = writeln!(
-                md,
-                "- starts on this folder (time, host, commit, load, rows already there):"
-            );
-            for h in &m.history {
-                let _ = writeln!(
-                    md,
-                    "  - {} on {} at `{}`, load {:.2}, {} rows",
-                    h.time, h.host, h.commit, h.load1, h.rows_before
-                );
-            }
-        }
-        if let Some(h) = m.history.last() {
-            let st = &h.stats;
-            let rule = if st.fixed() {
-                format!("{} timed runs per configuration", st.min_runs)
-            } else {
-                format!(
-                    "{}–{} timed runs per configuration, until the median's 95 % CI is within ±{:.1} % or {:.0} s are spent",
-                    st.min_runs, st.max_runs, st.ci_target * 100.0, st.budget_s
-                )
-            };
-            // What each configuration got, which a resumed or cut-short run may not match.
-            let ns = sums.iter().map(|s| s.n);
-            let rule = match (ns.clone().min(), ns.max()) {
-                (Some(lo), Some(hi)) if lo == hi => format!("{rule} (measured: {lo} per configuration)"),
-                (Some(lo), Some(hi)) => format!("{rule} (measured: {lo}–{hi} per configuration, each one's in its table's runs column)"),
-                _ => rule,
-            };
-            let _ = writeln!(md, "- statistics: {rule}; renders under {:.0} ms repeated inside one sample; rounds in a shuffled order (seed {}); intervals: seeded percentile bootstrap of the median, speedups from samples paired by round", st.min_sample_s * 1e3, st.seed);
-        }
-        let _ = writeln!(md);
+    let _ = writeln!(md, "- Speedup = median serial wall time / median wall time, over samples paired by round (serial = one thread, no scheduler, same scene, tracer and settings); efficiency = speedup / workers; every figure below is a column of summary.csv; every image is compared bit for bit with the serial one, except where a GPU rendered: its kernel rounds differently, so those images must agree with the serial one within 3σ of the paired per-pixel differences (`agrees`, `image_z` in runs.csv).\n");
+    md
+}
+
+/// The machine, the build, every start on the folder and the statistics rule.
+fn machine_section(m: &Meta, sums: &[Summary]) -> String {
+    let mut md = String::new();
+    let c = &m.machine;
+    let _ = writeln!(md, "## Machine\n");
+    let _ = writeln!(
+        md,
+        "- CPU: {} ({} logical cores available), {:.1} GiB memory",
+        c.cpu_model, c.cores, c.memory_gib
+    );
+    let _ = writeln!(md, "- OS: {} (kernel {}, {})", c.os, c.kernel, c.arch);
+    let _ = writeln!(
+        md,
+        "- raysched {} at `{}`, {}, features: [{}]",
+        m.raysched_version,
+        m.git_commit,
+        m.rustc,
+        m.features.join(", ")
+    );
+    if let Some(b) = &m.build {
+        let _ = writeln!(md, "- build: {} profile, target {}", b.profile, b.target);
     }
-    md += &shares_section(sums);
+    if let Some(g) = &m.gpu {
+        let _ = writeln!(
+            md,
+            "- GPU: {} ({}, driver {}, {})",
+            g.name, g.device_type, g.driver, g.backend
+        );
+    }
+    if !m.history.is_empty() {
+        let _ = writeln!(
+            md,
+            "- starts on this folder (time, host, commit, load, rows already there):"
+        );
+        for h in &m.history {
+            let _ = writeln!(
+                md,
+                "  - {} on {} at `{}`, load {:.2}, {} rows",
+                h.time, h.host, h.commit, h.load1, h.rows_before
+            );
+        }
+    }
+    if let Some(h) = m.history.last() {
+        let st = &h.stats;
+        let rule = if st.fixed() {
+            format!("{} timed runs per configuration", st.min_runs)
+        } else {
+            format!(
+                "{}–{} timed runs per configuration, until the median's 95 % CI is within ±{:.1} % or {:.0} s are spent",
+                st.min_runs, st.max_runs, st.ci_target * 100.0, st.budget_s
+            )
+        };
+        // What each configuration got, which a resumed or cut-short run may not match.
+        let ns = sums.iter().map(|s| s.n);
+        let rule = match (ns.clone().min(), ns.max()) {
+            (Some(lo), Some(hi)) if lo == hi => format!("{rule} (measured: {lo} per configuration)"),
+            (Some(lo), Some(hi)) => format!("{rule} (measured: {lo}–{hi} per configuration, each one's in its table's runs column)"),
+            _ => rule,
+        };
+        let _ = writeln!(md, "- statistics: {rule}; renders under {:.0} ms repeated inside one sample; rounds in a shuffled order (seed {}); intervals: seeded percentile bootstrap of the median, speedups from samples paired by round", st.min_sample_s * 1e3, st.seed);
+    }
+    let _ = writeln!(md);
+    md
+}
+
+/// Per scene: the answer, the chunk curves in words and the per-ray master's sentence.
+fn answer_section(sums: &[Summary], groups: &[String]) -> String {
+    let mut md = String::new();
     let _ = writeln!(md, "## Answer\n");
-    for g in &groups {
+    for g in groups {
         // Thread schedulers only: MPI rows have their own section.
         let in_g: Vec<&Summary> = sums
             .iter()
@@ -388,9 +439,14 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             let _ = writeln!(md, "{sentence}\n");
         }
     }
-    md += &mpi_section(&groups, sums);
+    md
+}
+
+/// The cost model's predictions against the measured medians.
+fn model_section(sums: &[Summary], groups: &[String]) -> String {
+    let mut md = String::new();
     let mut model = String::new();
-    for g in &groups {
+    for g in groups {
         let in_g: Vec<&Summary> = sums
             .iter()
             .filter(|s| &s.group() == g && s.row.on_threads_alone() && !s.row.is_serial())
@@ -415,8 +471,14 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         let _ = writeln!(md, "Each configuration's wall time as the cost model predicted it before the first round (`raysched::model`: work / P + hand-out cost + refill waiting + imbalance, from a {PROBE_NOTE}) beside its measured median; error = predicted / measured − 1.\n");
         md += &model;
     }
+    md
+}
+
+/// The self-sizing rules against the best fixed chunk.
+fn tuning_section(sums: &[Summary], groups: &[String]) -> String {
+    let mut md = String::new();
     let mut tuning = String::new();
-    for g in &groups {
+    for g in groups {
         let at: Vec<&Summary> = sums
             .iter()
             .filter(|s| &s.group() == g && s.row.on_threads_alone())
@@ -430,8 +492,14 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         let _ = writeln!(md, "{}\n", super::self_tuning::PREAMBLE);
         md += &tuning;
     }
+    md
+}
+
+/// Per scene and scheduler, its fastest configuration at any worker count.
+fn best_section(sums: &[Summary], groups: &[String]) -> String {
+    let mut md = String::new();
     let _ = writeln!(md, "## Best configuration per scheduler\n");
-    for g in &groups {
+    for g in groups {
         // Thread schedulers only: MPI rows have their own section.
         let in_g: Vec<&Summary> = sums
             .iter()
@@ -447,32 +515,34 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
             }
         }
         for k in kinds {
-            // Best = highest median speedup (at any worker count).
-            let Some(b) = in_g
-                .iter()
-                .copied()
-                .filter(|s| s.row.scheduler == k)
-                .max_by(|a, b| a.speedup_median.total_cmp(&b.speedup_median))
-            else {
+            // Best = the shortest median wall time (at any worker count): the column the
+            // "Every configuration" table sorts by.
+            let Some(b) = best_by(in_g.iter().copied().filter(|s| s.row.scheduler == k)) else {
                 continue;
             };
             let _ = writeln!(
                 md,
-                "| {k} | `{}` | {} | {:.4} | {:.4} – {:.4} | {} | {:.0} % | {} |",
+                "| {k} | `{}` | {} | {:.4} | {:.4} – {:.4} | {} | {} | {} |",
                 b.row.label,
                 b.row.workers,
                 b.wall_median,
                 b.wall_median_ci.0,
                 b.wall_median_ci.1,
                 speedup_text(b),
-                b.efficiency_median * 100.0,
+                efficiency_text(b),
                 b.n
             );
         }
         let _ = writeln!(md);
     }
+    md
+}
+
+/// Per scene, every configuration.
+fn every_section(sums: &[Summary], groups: &[String]) -> String {
+    let mut md = String::new();
     let _ = writeln!(md, "## Every configuration\n");
-    for g in &groups {
+    for g in groups {
         let in_g: Vec<&Summary> = sums
             .iter()
             .filter(|s| &s.group() == g && !s.row.on_mpi() && !s.row.is_serial())
@@ -484,15 +554,6 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         md += &full_table(&in_g);
         let _ = writeln!(md);
     }
-    let _ = writeln!(md, "## Plots\n");
-    for f in figs {
-        let _ = writeln!(
-            md,
-            "### {}\n\n![{}]({})\n\n{}\n",
-            f.title, f.title, f.file, f.caption
-        );
-    }
-    let _ = writeln!(md, "Data: `runs.csv` (one row per run), `summary.csv` (per configuration), `meta.toml` (machine and build). Regenerate plots and this report with `raysched plot <this folder>`.");
     md
 }
 
@@ -739,7 +800,7 @@ pub fn full_table(sums: &[&Summary]) -> String {
     for s in v {
         let _ = writeln!(
             md,
-            "| `{}` | {} | {} | {} | {:.4} | {:.4} – {:.4} | {} | {:.0} % | {} |",
+            "| `{}` | {} | {} | {} | {:.4} | {:.4} – {:.4} | {} | {} | {} |",
             s.row.label,
             s.row.scheduler,
             chunk_words(s),
@@ -748,7 +809,7 @@ pub fn full_table(sums: &[&Summary]) -> String {
             s.wall_median_ci.0,
             s.wall_median_ci.1,
             speedup_text(s),
-            s.efficiency_median * 100.0,
+            efficiency_text(s),
             s.n
         );
     }

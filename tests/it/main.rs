@@ -29,6 +29,7 @@ mod html;
 mod layers;
 mod models;
 mod mpi;
+mod readings;
 mod reference;
 mod schedulers;
 mod simulate;
