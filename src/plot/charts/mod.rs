@@ -85,10 +85,7 @@ fn speed_ci(s: &Summary) -> (f64, f64, f64) {
 /// registry, [`crate::sched::SchedulerKind::ALL`]; names of no kind after every kind. Every
 /// legend, bar list and table lists schedulers in this order.
 pub(crate) fn registry_rank(name: &str) -> usize {
-    let id = name
-        .split(|c: char| c == ' ' || c == '·')
-        .next()
-        .unwrap_or(name);
+    let id = name.split([' ', '·']).next().unwrap_or(name);
     crate::sched::SchedulerKind::ALL
         .iter()
         .position(|k| k.id() == id)
@@ -143,13 +140,13 @@ pub(crate) fn draw_all(
         let Some(group) = groups.iter().find(|gr| gr.name == g.as_str()) else {
             continue;
         };
-        speedup_vs_workers(&mut out, &group)?;
-        granularity(&mut out, &group)?;
-        predicted_vs_measured(&mut out, &group)?;
-        buffer_sizes(&mut out, &group)?;
+        speedup_vs_workers(&mut out, group)?;
+        granularity(&mut out, group)?;
+        predicted_vs_measured(&mut out, group)?;
+        buffer_sizes(&mut out, group)?;
         let best = best_per_scheduler(&group.at_max);
-        overhead(&mut out, &group, &best)?;
-        gantt_charts(&mut out, &group, &best)?;
+        overhead(&mut out, group, &best)?;
+        gantt_charts(&mut out, group, &best)?;
     }
     out.missing.note(dir);
     Ok(out.figs)

@@ -17,7 +17,7 @@ use crate::sched::rule::HandOut;
 use serde::{Deserialize, Serialize};
 
 /// SplitMix64's seed for every RND run.
-pub const RND_SEED: u64 = 0x5eed_0f_a11_c4a7;
+pub const RND_SEED: u64 = 0x0005_eed0_fa11_c4a7;
 
 /// One SplitMix64 step: the next state and its output.
 pub fn splitmix64(state: u64) -> (u64, u64) {

@@ -329,7 +329,11 @@ mod tests {
         // phases before the next is tried: the sweep is the sequence without its repeats.
         let mut sweep = c.to_vec();
         sweep.dedup();
-        assert_eq!(&sweep[..10], (0..10).collect::<Vec<_>>().as_slice(), "{c:?}");
+        assert_eq!(
+            &sweep[..10],
+            (0..10).collect::<Vec<_>>().as_slice(),
+            "{c:?}"
+        );
         // After the sweep one technique stays. With a worker 4× slower, static (a quarter
         // of each phase to everyone) is the worst loop time; self-scheduling pays a 0.5 s
         // hand-out per item: neither may win.
