@@ -42,18 +42,18 @@ pub(crate) struct CompareArgs {
     #[arg(long, value_name = "EXPERIMENT")]
     pub(crate) interleave: Option<PathBuf>,
     /// With --interleave: the raysched binary that measures A [default: this one].
-    #[arg(long, requires = "interleave")]
+    #[arg(long)]
     pub(crate) build_a: Option<PathBuf>,
     /// With --interleave: the raysched binary that measures B [default: this one].
-    #[arg(long, requires = "interleave")]
+    #[arg(long)]
     pub(crate) build_b: Option<PathBuf>,
     /// With --interleave: KEY=VALUE set for B's runs only (repeatable), e.g.
     /// RAYSCHED_EXTRA_WORK=0.1 for a known 10 % slowdown.
-    #[arg(long, requires = "interleave", value_name = "KEY=VALUE")]
+    #[arg(long, value_name = "KEY=VALUE")]
     pub(crate) env_b: Vec<String>,
     /// With --interleave: rounds, one timed run per configuration and side each [default:
     /// the experiment's repetitions, at least the runs the difference test needs].
-    #[arg(long, requires = "interleave", value_parser = super::whole::<u32>(1, 1000))]
+    #[arg(long, value_parser = super::whole::<u32>(1, 1000))]
     pub(crate) rounds: Option<u32>,
 }
 
@@ -67,6 +67,21 @@ fn pct_flag(name: &str, v: Option<f64>) -> Result<Option<f64>, CliError> {
 }
 
 pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
+    // Checked here rather than by clap's `requires`, whose message names only the flag missing,
+    // not the one given.
+    if args.interleave.is_none() {
+        let given = [
+            ("--build-a", args.build_a.is_some()),
+            ("--build-b", args.build_b.is_some()),
+            ("--env-b", !args.env_b.is_empty()),
+            ("--rounds", args.rounds.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
+            return Err(CliError::input(anyhow::anyhow!(
+                "{flag}: only with --interleave EXPERIMENT"
+            )));
+        }
+    }
     let threshold = pct_flag("--threshold-pct", args.threshold_pct)?;
     let margin = pct_flag("--margin-pct", args.margin_pct)?;
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
@@ -126,7 +141,8 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
 /// experiment's precision target (`None`: none set).
 fn interleave(exp: &Path, args: &CompareArgs) -> Result<(PathBuf, PathBuf, Option<f64>), CliError> {
     super::out_path::check_input("--interleave", exp)?;
-    let plan = raysched::experiment::load_plan(exp).map_err(CliError::input)?;
+    let plan = raysched::experiment::load_plan(exp)
+        .map_err(|e| CliError::input(anyhow::anyhow!("--interleave: {e:#}")))?;
     for (flag, root) in [("A", &args.a), ("B", &args.b)] {
         super::out_path::check(flag, root, super::out_path::Kind::Folder)?;
     }

@@ -419,10 +419,11 @@ pub fn summarize(rows: &[RunRow]) -> Vec<Summary> {
         .collect()
 }
 
-/// A ratio with 4 decimals; empty where it is not a number (no serial baseline).
+/// A ratio as shortest round-trip text (the report formats the same f64); empty where it is
+/// not a number (no serial baseline).
 fn ratio4(x: f64) -> String {
     if x.is_finite() {
-        format!("{x:.4}")
+        format!("{x}")
     } else {
         String::new()
     }
@@ -512,7 +513,9 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
     let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
     for s in sums {
         let r = &s.row;
-        let f = |x: f64| format!("{x:.6}");
+        // Shortest round-trip text: the report and charts, which format the in-memory value, then
+        // agree digit for digit with a figure read back from this file (no double rounding).
+        let f = |x: f64| format!("{x}");
         let head = [
             r.experiment.clone(),
             r.config.clone(),

@@ -1,6 +1,6 @@
 //! The judging corpus of `auto` (issue 61): a deterministic, event-driven simulation of pool
 //! rules ([`ChunkRule`]) over per-pixel cost maps, workers of different speeds and hand-out
-//! costs from a shared counter to a 500 µs network link, and the verdict of `auto` against the
+//! costs from a shared counter to a slow network link, and the verdict of `auto` against the
 //! best fixed configuration in hindsight of every cell.
 //!
 //! The simulated executor is the pool protocol every executor plays: a worker holds at most B

@@ -68,9 +68,8 @@ pub fn measured_configs(csv: &Path) -> Result<(Vec<Measured>, SceneOverrides), S
 
 /// [`measured_configs`] of rows already read. The serial time is the median of every serial
 /// row: a row's own `serial_s` is the median of the serial samples taken before it, so the
-/// first round's rows hold the first serial render alone (0.419 s in an earlier validation
-/// set, whose 30 serial renders have median 0.370 s: it made the serial look slower than
-/// every 1-worker run). Each configuration's level is the median of the serial rows of its
+/// first round's rows hold the first serial render alone (in an earlier validation set it
+/// made the serial look slower than every 1-worker run). Each configuration's level is the median of the serial rows of its
 /// own rounds (repetition k of every configuration is taken in round k, serial first).
 ///
 /// # Errors

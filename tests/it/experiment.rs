@@ -1151,7 +1151,12 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
     for (name, factor, probe) in [("a", 1.0, 0.010), ("b", 1.2, 0.010), ("c", 1.2, 0.012)] {
         let d = dir.path().join(name).join("tiny");
         std::fs::create_dir_all(&d).unwrap();
-        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        // The forged rows are of other configurations: the copied meta must not name the
+        // original ones as current (it would leave every forged row out as retired).
+        let meta = std::fs::read_to_string(dir.path().join("res/tiny/meta.toml")).unwrap();
+        let mut meta: toml::Table = toml::from_str(&meta).unwrap();
+        meta.remove("configs");
+        std::fs::write(d.join("meta.toml"), toml::to_string(&meta).unwrap()).unwrap();
         let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
         for r in &rows {
             let mut r = r.clone();
@@ -1221,7 +1226,12 @@ fn compare_flags_a_known_slowdown_and_nothing_else() {
     for (name, factor) in [("a3", 1.0), ("b3", 1.2)] {
         let d = dir.path().join(name).join("tiny");
         std::fs::create_dir_all(&d).unwrap();
-        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        // The forged rows are of other configurations: the copied meta must not name the
+        // original ones as current (it would leave every forged row out as retired).
+        let meta = std::fs::read_to_string(dir.path().join("res/tiny/meta.toml")).unwrap();
+        let mut meta: toml::Table = toml::from_str(&meta).unwrap();
+        meta.remove("configs");
+        std::fs::write(d.join("meta.toml"), toml::to_string(&meta).unwrap()).unwrap();
         let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
         for r in rows.iter().filter(|r| r.repetition < 3) {
             let mut r = r.clone();
@@ -1274,7 +1284,12 @@ fn compare_that_compares_nothing_exits_2_saying_why() {
     for (name, edit, why) in cases {
         let d = dir.path().join(name).join("tiny");
         std::fs::create_dir_all(&d).unwrap();
-        std::fs::copy(dir.path().join("res/tiny/meta.toml"), d.join("meta.toml")).unwrap();
+        // The forged rows are of other configurations: the copied meta must not name the
+        // original ones as current (it would leave every forged row out as retired).
+        let meta = std::fs::read_to_string(dir.path().join("res/tiny/meta.toml")).unwrap();
+        let mut meta: toml::Table = toml::from_str(&meta).unwrap();
+        meta.remove("configs");
+        std::fs::write(d.join("meta.toml"), toml::to_string(&meta).unwrap()).unwrap();
         let (mut f, _) = RunsFile::open(&d.join("runs.csv"), true).unwrap();
         for r in &rows {
             let mut r = r.clone();

@@ -600,7 +600,7 @@ mod cli {
         std::fs::write(
             &p,
             "[camera]\norigin=[0,0,4]\ntarget=[0,0,0]\nup=[0,1,0]\nfov_deg=40\nwidth=9\nheight=7\n[render]\nspp=1\n\
-             [materials.w]\ntype=\"diffuse\"\nreflectance=[0.5,0.5,0.5]\n[[shapes]]\ntype=\"sphere\"\nmaterial=\"w\"\n\
+             [materials.w]\ntype=\"diffuse\"\nreflectance=[0.5,0.5,0.5]\n[[shapes]]\ntype=\"sphere\"\nmaterial=\"w\"\nradius=1\n\
              [[lights]]\ntype=\"environment\"\nradiance=[1,1,1]\n",
         )
         .unwrap();

@@ -1,7 +1,7 @@
 //! `auto`: a pool rule with no parameter to set. Every chunk is sized from what the workers
 //! reported so far — each worker's time per item on its last chunk (its current speed), the
 //! spread of item times and the measured cost of a hand-out — so the same rule runs a GPU
-//! beside threads, a worker that slows down half-way and a 500 µs network link without a grain
+//! beside threads, a worker that slows down half-way and a slow network link without a grain
 //! picked by hand.
 //!
 //! With R items left, every worker j's current time per item uⱼ (a worker not heard from yet
