@@ -42,29 +42,22 @@
 //! assert!(counters.rays > 0);
 //! ```
 
-pub mod converge;
-pub mod experiment;
-pub mod geometry;
-#[cfg(feature = "gpu")]
-pub mod gpu;
-pub mod hash;
-pub mod limits;
-pub mod metrics;
-pub mod model;
+pub mod core;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod plot;
-pub mod profile;
-pub mod provenance;
 pub mod reference;
-pub mod render;
-pub mod rng;
-pub mod scene;
 pub mod sched;
-#[cfg(feature = "simgrid")]
-pub mod simgrid;
-pub mod simulate;
 pub mod source;
-pub mod stability;
-pub mod tracer;
+pub mod studies;
 pub mod util;
+
+// The paths before the layout (issue 59): `raysched::scene`, `raysched::experiment`, … name
+// the same modules, so code written against them builds unchanged.
+#[cfg(feature = "gpu")]
+pub use crate::core::gpu;
+pub use crate::core::{geometry, metrics, render, scene, tracer};
+#[cfg(feature = "simgrid")]
+pub use studies::simulate::simgrid;
+pub use studies::{converge, experiment, model, profile, simulate, stability};
+pub use util::{hash, limits, provenance, rng};

@@ -4,12 +4,12 @@
 //! columns of `runs.csv` (`experiment::results`). A test compares the committed pages with
 //! these functions, so the pages cannot drift from the code; `RAYSCHED_BLESS=1` rewrites them.
 
-use crate::experiment::results::RunRow;
 use crate::sched::kinds::over_sources;
 use crate::sched::rule::{HandOut, Steal, WorkerRule};
 use crate::sched::{
     param_columns, source_params, Order, Passes, Policy, SchedulerKind, Slow, SourceKind, Weights,
 };
+use crate::studies::experiment::results::RunRow;
 use std::fmt::Write;
 
 /// Every page: its path under the repository root and its text.

@@ -1,13 +1,13 @@
 //! `raysched advise SCENE`: probe the scene and the schedulers for a few seconds, then predict
-//! the wall time of every scheduler × chunk with the cost model (`raysched::model`) and name
+//! the wall time of every scheduler × chunk with the cost model (`raysched::studies::model`) and name
 //! the fastest, or the set within a few per cent of it when the curve is flat.
 
 use super::error::CliError;
-use raysched::model::advise::{advise, Probed};
-use raysched::model::probe;
-use raysched::scene::{load_scene, SceneOverrides};
+use raysched::core::scene::{load_scene, SceneOverrides};
+use raysched::core::tracer::{AnyTracer, TracerKind};
 use raysched::sched::{Chunk, MasterParams, Passes, Policy, SchedulerKind, SchedulerSpec, Slow};
-use raysched::tracer::{AnyTracer, TracerKind};
+use raysched::studies::model::advise::{advise, Probed};
+use raysched::studies::model::probe;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -111,7 +111,7 @@ fn specs(args: &AdviseArgs) -> Vec<SchedulerSpec> {
 }
 
 /// The chunk a run uses: its own, or `auto:<tile>` for a policy that picks its layout.
-fn chunk_text(spec: &SchedulerSpec, scene: &raysched::scene::Scene) -> String {
+fn chunk_text(spec: &SchedulerSpec, scene: &raysched::core::scene::Scene) -> String {
     if spec.kind().picks_own_layout() {
         format!("auto:{}", spec.layout(scene.width(), scene.height()).0)
     } else {

@@ -4,7 +4,7 @@
 //! alike and cancels.
 
 use super::error::CliError;
-use raysched::experiment::compare::{self, Criteria};
+use raysched::studies::experiment::compare::{self, Criteria};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -141,7 +141,7 @@ pub(crate) fn compare(args: CompareArgs) -> Result<(), CliError> {
 /// experiment's precision target (`None`: none set).
 fn interleave(exp: &Path, args: &CompareArgs) -> Result<(PathBuf, PathBuf, Option<f64>), CliError> {
     super::out_path::check_input("--interleave", exp)?;
-    let plan = raysched::experiment::load_plan(exp)
+    let plan = raysched::studies::experiment::load_plan(exp)
         .map_err(|e| CliError::input(anyhow::anyhow!("--interleave: {e:#}")))?;
     for (flag, root) in [("A", &args.a), ("B", &args.b)] {
         super::out_path::check(flag, root, super::out_path::Kind::Folder)?;
@@ -169,7 +169,7 @@ fn interleave(exp: &Path, args: &CompareArgs) -> Result<(PathBuf, PathBuf, Optio
             )));
         }
     }
-    let need = raysched::experiment::verdict::min_runs(args.alpha).0 as u32;
+    let need = raysched::studies::experiment::verdict::min_runs(args.alpha).0 as u32;
     let rounds = args.rounds.unwrap_or_else(|| plan.stats.min_runs.max(need));
     let sides = [
         ("A", &bin_a, &args.a, &[][..]),

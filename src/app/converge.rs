@@ -1,8 +1,8 @@
 //! `raysched converge`: error against run time for one scene and several tracers.
 
 use super::error::CliError;
-use raysched::scene::{load_scene, Scene, SceneOverrides};
-use raysched::tracer::{AnyTracer, TracerKind};
+use raysched::core::scene::{load_scene, Scene, SceneOverrides};
+use raysched::core::tracer::{AnyTracer, TracerKind};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
@@ -32,7 +32,7 @@ pub(crate) struct ConvergeArgs {
 }
 
 pub(crate) fn converge(args: ConvergeArgs) -> Result<(), CliError> {
-    use raysched::converge as cv;
+    use raysched::studies::converge as cv;
     if args.threads == 0 || args.max_spp == 0 || args.ref_spp == 0 {
         return Err(CliError::input(anyhow::anyhow!(
             "--threads, --max-spp and --ref-spp must be ≥ 1"
@@ -104,11 +104,11 @@ fn reference_of(
     args: &ConvergeArgs,
     scene: &Scene,
     first: &AnyTracer,
-) -> Result<raysched::converge::Reference, CliError> {
-    use raysched::converge::{self as cv, Reference, ReferenceKind};
+) -> Result<raysched::studies::converge::Reference, CliError> {
+    use raysched::studies::converge::{self as cv, Reference, ReferenceKind};
     Ok(match &args.reference {
         Some(p) => {
-            let image = raysched::render::Image::load_exr(p)
+            let image = raysched::core::render::Image::load_exr(p)
                 .map_err(|e| CliError::input(anyhow::anyhow!("--ref: {e}")))?;
             if image.width != scene.width() || image.height != scene.height() {
                 return Err(CliError::input(anyhow::anyhow!(

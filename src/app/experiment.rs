@@ -2,8 +2,10 @@
 //! MPI ranks), its summary, plots and report redrawn from its CSV files.
 
 use super::error::CliError;
-use raysched::experiment::config::Isolation;
-use raysched::experiment::{self, isolate, ExperimentPlan, RunError, RunOptions, RunOutcome};
+use raysched::studies::experiment::config::Isolation;
+use raysched::studies::experiment::{
+    self, isolate, ExperimentPlan, RunError, RunOptions, RunOutcome,
+};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -47,7 +49,7 @@ fn parse_isolation(s: &str) -> Result<Isolation, String> {
 /// `raysched round-child JOB`: one round of an isolated run, started by the run's process.
 #[derive(clap::Args, Debug)]
 pub(crate) struct RoundChildArgs {
-    /// The round's job as JSON ([`raysched::experiment::isolate::RoundJob`]).
+    /// The round's job as JSON ([`raysched::studies::experiment::isolate::RoundJob`]).
     pub(crate) job: String,
 }
 
@@ -188,9 +190,9 @@ pub(crate) fn run(args: RunArgs) -> Result<(), CliError> {
         }
         let dir = experiment::convergence::run(&plan, &args.out).map_err(CliError::runtime)?;
         if !args.quiet {
-            let rows = raysched::converge::read_csv(&dir.join("convergence.csv"))
+            let rows = raysched::studies::converge::read_csv(&dir.join("convergence.csv"))
                 .map_err(CliError::runtime)?;
-            for line in raysched::converge::budget_winners(&rows) {
+            for line in raysched::studies::converge::budget_winners(&rows) {
                 out!("{line}");
             }
             out!("{}: wrote {}", plan.name, dir.join("report.md").display());

@@ -2,7 +2,7 @@
 //! before the common render path runs it beside any other sources.
 
 use super::error::CliError;
-use raysched::scene::Scene;
+use raysched::core::scene::Scene;
 use raysched::sched::{SourceKind, SourceSet};
 use std::path::Path;
 
@@ -18,7 +18,7 @@ pub(crate) fn quiet_vulkan_loader() {
 /// The GPU of a render, opened and the scene uploaded, with its line for the report.
 pub(crate) struct OpenGpu {
     #[cfg(feature = "gpu")]
-    pub(crate) renderer: std::sync::Arc<raysched::gpu::GpuRenderer>,
+    pub(crate) renderer: std::sync::Arc<raysched::core::gpu::GpuRenderer>,
     pub(crate) line: String,
 }
 
@@ -29,7 +29,7 @@ pub(crate) fn open(
     (adapter, counters): (Option<&str>, bool),
     (scene, path): (&Scene, &Path),
 ) -> Result<Option<OpenGpu>, CliError> {
-    use raysched::gpu::{GpuContext, GpuRenderer};
+    use raysched::core::gpu::{GpuContext, GpuRenderer};
     if !sources.has(SourceKind::Gpu) {
         return Ok(None);
     }
@@ -37,7 +37,7 @@ pub(crate) fn open(
     let ctx = GpuContext::open(adapter).map_err(CliError::input)?;
     if counters {
         // Per-ray traversal counters of both BVH layouts, before the render (`--gpu-counters`).
-        let r = raysched::gpu::counters::report(scene, Some(&ctx))
+        let r = raysched::core::gpu::counters::report(scene, Some(&ctx))
             .map_err(|e| CliError::runtime(anyhow::anyhow!("{}: {e}", path.display())))?;
         print!("{r}");
     }

@@ -31,7 +31,7 @@ mod usage;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;
-use raysched::limits::{MAX_SPP, MAX_THREADS};
+use raysched::util::limits::{MAX_SPP, MAX_THREADS};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -85,7 +85,7 @@ enum Command {
 /// `raysched --version`: the version and the build's provenance.
 fn long_version() -> &'static str {
     static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    TEXT.get_or_init(|| raysched::provenance::Build::current().long_version())
+    TEXT.get_or_init(|| raysched::util::provenance::Build::current().long_version())
 }
 
 /// Parse the command line, run it, print an error once with its chain. A usage error is one

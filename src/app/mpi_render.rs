@@ -5,16 +5,16 @@
 
 use super::error::CliError;
 use super::render::RenderArgs;
+use raysched::core::render::Image;
+use raysched::core::scene::Scene;
+use raysched::core::tracer::AnyTracer;
 use raysched::mpi::comm::Comm;
 use raysched::mpi::hub::HubEnd;
 use raysched::mpi::launch::{gather_ready, MpiRanks, STOP_WAIT};
 use raysched::mpi::wire::ScenePackage;
-use raysched::render::Image;
-use raysched::scene::Scene;
 use raysched::sched::{render_scene_with, RenderOn, SourceSet, SourceSetup};
 use raysched::sched::{Runner, SchedulerSpec};
 use raysched::source::local::thread_label;
-use raysched::tracer::AnyTracer;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -22,7 +22,8 @@ use std::time::{Duration, Instant};
 /// `RAYSCHED_MPI_SILENCE_MS`); local ranks are also checked by pid, which is much faster.
 /// Busy workers send a heartbeat every 200 ms from a thread that does not render, so a
 /// slow item does not count as silence (it was 60 s before heartbeats).
-const SILENCE: Duration = Duration::from_millis(raysched::experiment::plan::DEFAULT_SILENCE_MS);
+const SILENCE: Duration =
+    Duration::from_millis(raysched::studies::experiment::plan::DEFAULT_SILENCE_MS);
 
 /// Every rank enters here; only rank 0 returns from MPI's point of view — all ranks end the
 /// process themselves (with or without `MPI_Finalize`, see [`Comm::shutdown`]).

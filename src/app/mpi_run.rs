@@ -11,11 +11,11 @@
 use super::error::CliError;
 use super::experiment::RunArgs;
 use super::mpi_render::{input, lead};
-use raysched::experiment::{load_plan, run_experiment_with, RunOptions};
 use raysched::mpi::comm::Comm;
 use raysched::mpi::hub::stop_ranks;
 use raysched::mpi::launch::STOP_WAIT;
 use raysched::mpi::MpiRemote;
+use raysched::studies::experiment::{load_plan, run_experiment_with, RunOptions};
 use std::time::Duration;
 
 /// Env: names the transport of a launch outright (a cluster's InfiniBand, a netem link).

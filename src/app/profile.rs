@@ -2,10 +2,10 @@
 //! heat map of cost per pixel.
 
 use super::error::CliError;
-use raysched::profile::{CostStats, Profile};
-use raysched::scene::{load_scene, SceneOverrides};
+use raysched::core::scene::{load_scene, SceneOverrides};
+use raysched::core::tracer::{AnyTracer, TracerKind};
 use raysched::sched::Chunk;
-use raysched::tracer::{AnyTracer, TracerKind};
+use raysched::studies::profile::{CostStats, Profile};
 use std::path::PathBuf;
 use std::sync::Arc;
 

@@ -3,13 +3,13 @@
 
 use super::error::CliError;
 use super::sched_flags::SchedulerFlags;
-use raysched::limits::{MAX_DEPTH, MAX_IMAGE_SIDE};
-use raysched::render::Image;
-use raysched::scene::{load_scene, Scene, SceneOverrides};
+use raysched::core::render::Image;
+use raysched::core::scene::{load_scene, Scene, SceneOverrides};
+use raysched::core::tracer::{AnyTracer, Tracer, TracerKind};
 use raysched::sched::{
     render_scene, RenderOn, RunOptions, SchedError, SchedulerSpec, SourceKind, SourceSet,
 };
-use raysched::tracer::{AnyTracer, Tracer, TracerKind};
+use raysched::util::limits::{MAX_DEPTH, MAX_IMAGE_SIDE};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -142,7 +142,7 @@ impl RenderArgs {
     }
 
     /// A scene error caused by an override names the flag rather than the scene's field.
-    pub(crate) fn blame_overrides(&self, e: raysched::scene::SceneError) -> CliError {
+    pub(crate) fn blame_overrides(&self, e: raysched::core::scene::SceneError) -> CliError {
         let flag = match e.field.as_str() {
             "camera.width" if self.width.is_some() => "--width",
             "camera.height" if self.height.is_some() => "--height",
@@ -269,7 +269,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<(), CliError> {
 /// written.
 pub(crate) fn print_render_footer(
     scene: &Scene,
-    stats: &raysched::metrics::RunStats,
+    stats: &raysched::core::metrics::RunStats,
     accelerated: bool,
     wrote: &str,
 ) {
@@ -309,7 +309,7 @@ pub(crate) fn warn_few_items(spec: &SchedulerSpec, scene: &Scene, workers: usize
         return;
     }
     let (w, h, frames) = (scene.width(), scene.height(), scene.frames());
-    let items = raysched::experiment::dry_run::item_count(spec, w, h, frames);
+    let items = raysched::studies::experiment::dry_run::item_count(spec, w, h, frames);
     if items < workers as u64 {
         let (chunk, _) = spec.layout(w, h);
         eprintln!(

@@ -26,7 +26,7 @@ pub(crate) struct ChildArgs {
 /// An `auto_verdict` experiment runs in-process (no SimGrid); any other goes to SimGrid.
 pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
     let verdict = std::fs::read_to_string(&args.experiment)
-        .is_ok_and(|t| raysched::simulate::auto_judge::is_verdict(&t));
+        .is_ok_and(|t| raysched::studies::simulate::auto_judge::is_verdict(&t));
     if verdict {
         auto_verdict(args)
     } else {
@@ -37,7 +37,7 @@ pub(crate) fn simulate(args: SimulateArgs) -> Result<(), CliError> {
 /// `raysched simulate experiments/auto.toml`: `auto` against the best fixed configuration of
 /// every cell of the corpus (`simulate::auto_judge`).
 fn auto_verdict(args: SimulateArgs) -> Result<(), CliError> {
-    use raysched::simulate::auto_judge;
+    use raysched::studies::simulate::auto_judge;
     super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
     super::out_path::check_input("EXPERIMENT", &args.experiment)?;
     let (plan, maps) =
@@ -73,7 +73,7 @@ pub(crate) fn child(_: ChildArgs) -> Result<(), CliError> {
 
 #[cfg(feature = "simgrid")]
 fn simgrid_sweep(args: SimulateArgs) -> Result<(), CliError> {
-    use raysched::simulate;
+    use raysched::studies::simulate;
     super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
     super::out_path::check_input("EXPERIMENT", &args.experiment)?;
     let exe = std::env::current_exe().map_err(|e| CliError::runtime(anyhow::anyhow!(e)))?;
@@ -88,11 +88,11 @@ fn simgrid_sweep(args: SimulateArgs) -> Result<(), CliError> {
 
 #[cfg(feature = "simgrid")]
 pub(crate) fn child(args: ChildArgs) -> Result<(), CliError> {
-    use raysched::simulate::job::SimJob;
+    use raysched::studies::simulate::job::SimJob;
     let fail = |m: String| CliError::input(anyhow::anyhow!(m));
     let text = match args.what.as_str() {
         "inspect" => toml::to_string(
-            &raysched::simgrid::inspect_platform(&args.path.to_string_lossy())
+            &raysched::studies::simulate::simgrid::inspect_platform(&args.path.to_string_lossy())
                 .map_err(|e| fail(e.to_string()))?,
         ),
         "run" => {
@@ -100,7 +100,10 @@ pub(crate) fn child(args: ChildArgs) -> Result<(), CliError> {
                 .map_err(|e| fail(format!("{}: {e}", args.path.display())))?;
             let job: SimJob = toml::from_str(&job_text)
                 .map_err(|e| fail(format!("{}: {e}", args.path.display())))?;
-            toml::to_string(&raysched::simgrid::simulate(job).map_err(|e| fail(e.to_string()))?)
+            toml::to_string(
+                &raysched::studies::simulate::simgrid::simulate(job)
+                    .map_err(|e| fail(e.to_string()))?,
+            )
         }
         w => return Err(fail(format!("{w}: expected inspect or run"))),
     }

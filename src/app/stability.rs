@@ -24,7 +24,7 @@ pub(crate) struct StabilityArgs {
 }
 
 pub(crate) fn stability(args: StabilityArgs) -> Result<(), CliError> {
-    use raysched::stability::{self as st, Budget};
+    use raysched::studies::stability::{self as st, Budget};
     if args.threads == 0 || args.size == 0 || args.spp < 2 {
         return Err(CliError::input(anyhow::anyhow!(
             "--threads and --size must be ≥ 1, --spp ≥ 2"

@@ -6,11 +6,11 @@
 use super::comm::{tag, Comm};
 use super::hub::{stop_ranks, HubEnd, Peer};
 use super::launch::{gather_ready, MpiRanks, STOP_WAIT};
-use crate::experiment::plan::RunConfig;
-use crate::experiment::{ExperimentPlan, Launch, Remote, RunError};
-use crate::metrics::RunStats;
-use crate::render::Image;
+use crate::core::metrics::RunStats;
+use crate::core::render::Image;
 use crate::sched::{render_scene_with, RenderOn, SchedulerSpec, SourceSet, SourceSetup};
+use crate::studies::experiment::plan::RunConfig;
+use crate::studies::experiment::{ExperimentPlan, Launch, Remote, RunError};
 use std::time::Duration;
 
 /// Longest one MPI run of an experiment may take before the master gives up.

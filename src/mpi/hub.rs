@@ -9,7 +9,7 @@
 use super::comm::{backoff, tag, Comm, Pending, SendReq};
 use super::source::{Cmd, MpiRankSource, Shared};
 use super::wire::decode_results;
-use crate::metrics::{Probe, Span};
+use crate::core::metrics::{Probe, Span};
 use crate::sched::wire::encode_item;
 use crate::source::{Completer, ComputeSource, SourceFailure};
 use crossbeam::channel::{Receiver, TryRecvError};

@@ -5,7 +5,7 @@
 use super::comm::{tag, Comm, MpiError};
 use super::hub::{stop_ranks, Hub, HubEnd, HubReport, Peer};
 use super::wire::Ready;
-use crate::metrics::Probe;
+use crate::core::metrics::Probe;
 use crate::source::{ComputeSource, ServedSources};
 use std::cell::RefCell;
 use std::time::{Duration, Instant};

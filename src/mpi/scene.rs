@@ -3,8 +3,8 @@
 //! and checks its hash against rank 0's.
 
 use super::wire::ScenePackage;
-use crate::scene::format::ShapeSpec;
-use crate::scene::{load_scene_str, Scene, SceneError, SceneFile, SceneOverrides};
+use crate::core::scene::format::ShapeSpec;
+use crate::core::scene::{load_scene_str, Scene, SceneError, SceneFile, SceneOverrides};
 use std::path::{Component, Path, PathBuf};
 
 /// Why a scene could not be packaged on rank 0 or rebuilt on another rank.
@@ -57,9 +57,10 @@ pub fn package(
         if let ShapeSpec::Gltf { .. } = shape {
             // A .gltf's buffers travel too, at their place beside it.
             let dir = Path::new(rel).parent().unwrap_or(Path::new(""));
-            let uris = crate::scene::gltf::external_buffers(&base.join(rel)).map_err(|e| {
-                PackError::Refused(format!("{display}: shapes[{i}].path: '{rel}': {e}"))
-            })?;
+            let uris =
+                crate::core::scene::gltf::external_buffers(&base.join(rel)).map_err(|e| {
+                    PackError::Refused(format!("{display}: shapes[{i}].path: '{rel}': {e}"))
+                })?;
             files.extend(
                 uris.iter()
                     .map(|u| dir.join(u).to_string_lossy().into_owned()),

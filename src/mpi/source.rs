@@ -4,7 +4,7 @@
 //! master runs on another thread; so `submit` puts (item, completer) on a channel to the
 //! [`super::hub::Hub`], which sends it, polls for results and completes the completers.
 
-use crate::render::WorkItem;
+use crate::core::render::WorkItem;
 use crate::source::{
     submit_one, Completer, ComputeSource, DelayedResult, Notifier, SourceFailure, SourceReport,
 };
@@ -29,7 +29,7 @@ impl Shared {
     /// A rank not yet heard from: its report's statistics say it is an MPI rank.
     pub(super) fn new() -> Self {
         let mut report = SourceReport::default();
-        report.stats.source = Some(crate::metrics::SourceKind::Mpi);
+        report.stats.source = Some(crate::core::metrics::SourceKind::Mpi);
         Self {
             lost: AtomicBool::new(false),
             notifier: OnceLock::new(),

@@ -1,8 +1,8 @@
 //! Decoders for the item/result layout of [`crate::sched::wire`], and the messages only the MPI
 //! protocol has: the scene package rank 0 broadcasts and the READY answer of each worker.
 
-use crate::render::{Region, TileResult, WorkItem};
-use crate::scene::SceneOverrides;
+use crate::core::render::{Region, TileResult, WorkItem};
+use crate::core::scene::SceneOverrides;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("malformed {what} message: {msg}")]
@@ -149,7 +149,7 @@ pub fn decode_result(bytes: &[u8]) -> Result<(TileResult, &[u8]), WireError> {
             msg: format!("{n} pixels announced, fewer sent"),
         });
     }
-    let mut pixels = crate::render::PixelValues::with_capacity(n);
+    let mut pixels = crate::core::render::PixelValues::with_capacity(n);
     for _ in 0..n {
         pixels.push([r.f32()?, r.f32()?, r.f32()?]);
     }

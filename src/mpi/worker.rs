@@ -8,9 +8,9 @@
 
 use super::comm::{backoff, tag, Comm, MpiError, Pending};
 use super::wire::{decode_items, Ready, ScenePackage};
-use crate::render::{render_item, TileResult, WorkItem};
+use crate::core::render::{render_item, TileResult, WorkItem};
+use crate::core::tracer::{AnyTracer, TracerKind};
 use crate::sched::wire::encode_result;
-use crate::tracer::{AnyTracer, TracerKind};
 use crossbeam::channel::{Receiver, Sender};
 use std::time::{Duration, Instant};
 
@@ -45,10 +45,10 @@ enum BuildError {
     Pack(#[from] super::scene::PackError),
     /// The tracer did not build.
     #[error(transparent)]
-    Tracer(#[from] crate::tracer::TracerError),
+    Tracer(#[from] crate::core::tracer::TracerError),
 }
 
-fn build(rank: i32, bytes: &[u8]) -> Result<(crate::scene::Scene, AnyTracer), BuildError> {
+fn build(rank: i32, bytes: &[u8]) -> Result<(crate::core::scene::Scene, AnyTracer), BuildError> {
     let mut pkg = ScenePackage::decode(bytes)?;
     if std::env::var(ENV_CORRUPT_RANK)
         .ok()
@@ -92,7 +92,7 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
         .ok()
         .and_then(|v| v.parse::<f64>().ok())
         .filter(|v| *v > 0.0);
-    let mut built: Result<(crate::scene::Scene, AnyTracer), BuildError> =
+    let mut built: Result<(crate::core::scene::Scene, AnyTracer), BuildError> =
         Err(BuildError::Failed("no scene received yet".into()));
     let mut served = 0u64;
     for job in jobs {
@@ -134,7 +134,10 @@ fn render_thread(rank: i32, jobs: Receiver<Job>, out: Sender<(i32, Vec<u8>)>) {
                     }
                     TileResult {
                         item: item.id,
-                        pixels: crate::render::PixelValues::from_elem([0.0; 3], item.pixel_count()),
+                        pixels: crate::core::render::PixelValues::from_elem(
+                            [0.0; 3],
+                            item.pixel_count(),
+                        ),
                         rays: 0,
                         nonfinite: 0,
                     }

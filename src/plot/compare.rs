@@ -1,8 +1,8 @@
 //! Wall times of two configurations compared for the reports: their ratio paired by round,
 //! its text, and the fastest configuration with those statistically tied with it.
 
-use crate::experiment::stats::Ratio;
-use crate::experiment::summary::{ratio_by_round, seed_of, Summary};
+use crate::studies::experiment::stats::Ratio;
+use crate::studies::experiment::summary::{ratio_by_round, seed_of, Summary};
 
 /// The configuration of `v` with the smallest median wall time.
 pub fn best_by<'a>(v: impl Iterator<Item = &'a Summary>) -> Option<&'a Summary> {

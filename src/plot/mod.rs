@@ -19,8 +19,8 @@ pub(crate) use charts::{line_chart, scatter_vs, Lines, ScatterGroup, Series};
 pub use charts::{mpi_line, palette, throughput, Figure};
 pub use font::register_font;
 
-use crate::experiment::summary::{self, Summary};
-use crate::experiment::{convergence, meta, results};
+use crate::studies::experiment::summary::{self, Summary};
+use crate::studies::experiment::{convergence, meta, results};
 use std::path::{Path, PathBuf};
 
 /// Draw every figure the data supports into `dir/plots/`; returns them for `report.md`.
@@ -115,7 +115,7 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     };
     if !runs.exists() && convergence.exists() {
         // A convergence experiment: its plots are drawn from its CSV alone too.
-        let rows = crate::converge::read_csv(&convergence)
+        let rows = crate::studies::converge::read_csv(&convergence)
             .map_err(|e| format!("{}: {e}", convergence.display()))?;
         for p in convergence::PLOTS
             .iter()
@@ -125,7 +125,7 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
             if let Some(d) = staged.parent() {
                 std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
             }
-            crate::converge::plot(&staged, &rows)
+            crate::studies::converge::plot(&staged, &rows)
                 .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
         }
         for p in convergence::PLOTS
@@ -167,8 +167,8 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     let plots = staging
         .dir("plots")
         .map_err(|e| format!("{}: {e}", real_plots.display()))?;
-    let json =
-        crate::experiment::export::write_json(dir, &rows, &sums).map_err(|e| e.to_string())?;
+    let json = crate::studies::experiment::export::write_json(dir, &rows, &sums)
+        .map_err(|e| e.to_string())?;
     let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
     let rescaled = if bitmap { &[][..] } else { &figs[..] };
     for f in rescaled {

@@ -3,7 +3,7 @@
 //! against the measured best, and the parts the model splits a prediction into.
 
 use super::compare::{tied_with_best, wall_ratio, with_ci};
-use crate::experiment::summary::Summary;
+use crate::studies::experiment::summary::Summary;
 use std::fmt::Write;
 
 /// Predicted / measured − 1 of a configuration's median, when it has a prediction.
@@ -113,7 +113,7 @@ pub struct ChunkCheck {
     pub measured_px: u64,
     /// Each neighbour of the measured best (one at an end of the sweep, else two):
     /// wall(neighbour) / wall(best) with its 95 % interval.
-    pub neighbours: Vec<(u64, crate::experiment::stats::Ratio)>,
+    pub neighbours: Vec<(u64, crate::studies::experiment::stats::Ratio)>,
     /// Pixels per item of the fastest prediction on the curve.
     pub predicted_px: u64,
 }
@@ -347,8 +347,8 @@ pub fn section(group: &str, at: &[&Summary], serial: Option<f64>) -> Option<Stri
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::experiment::results::RunRow;
-    use crate::experiment::summary::summarize;
+    use crate::studies::experiment::results::RunRow;
+    use crate::studies::experiment::summary::summarize;
 
     /// Eight repetitions of a self-scheduling chunk of `side`² at `wall` seconds (±1 %),
     /// predicted at `predicted`.

@@ -3,9 +3,9 @@
 
 use super::compare::{best_by, efficiency_text, speedup_text, tied_with_best, wall_ratio, with_ci};
 use super::Figure;
-use crate::experiment::meta::Meta;
-use crate::experiment::stats::Ratio;
-use crate::experiment::summary::Summary;
+use crate::studies::experiment::meta::Meta;
+use crate::studies::experiment::stats::Ratio;
+use crate::studies::experiment::summary::Summary;
 use std::fmt::Write;
 
 /// How the model's inputs were measured, for the report.
@@ -468,7 +468,7 @@ fn model_section(sums: &[Summary], groups: &[String]) -> String {
     }
     if !model.is_empty() {
         let _ = writeln!(md, "## Cost model: predicted against measured\n");
-        let _ = writeln!(md, "Each configuration's wall time as the cost model predicted it before the first round (`raysched::model`: work / P + hand-out cost + refill waiting + imbalance, from a {PROBE_NOTE}) beside its measured median; error = predicted / measured − 1.\n");
+        let _ = writeln!(md, "Each configuration's wall time as the cost model predicted it before the first round (`raysched::studies::model`: work / P + hand-out cost + refill waiting + imbalance, from a {PROBE_NOTE}) beside its measured median; error = predicted / measured − 1.\n");
         md += &model;
     }
     md
@@ -818,7 +818,7 @@ pub fn full_table(sums: &[&Summary]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use crate::experiment::results::RunRow;
+    use crate::studies::experiment::results::RunRow;
 
     /// `reps` rows of one configuration; round r scales every wall time by the same drift.
     fn rows(kind: &str, chunk: &str, px: u64, wall: f64) -> Vec<RunRow> {

@@ -10,9 +10,9 @@
 //! picked on half of the rounds and judged on the other half ([`held_out_ratio`]).
 
 use super::compare::{busy_ratio, wall_ratio, with_ci};
-use crate::experiment::stats::{median, paired_ratio, Ratio};
-use crate::experiment::summary::{seed_of, Summary, MIN_PAIRS};
 use crate::sched::{Order, SchedulerKind};
+use crate::studies::experiment::stats::{median, paired_ratio, Ratio};
+use crate::studies::experiment::summary::{seed_of, Summary, MIN_PAIRS};
 use std::collections::HashMap;
 use std::fmt::Write;
 
@@ -75,7 +75,7 @@ pub struct Check<'a> {
     /// The fastest fixed chunk of the same workers and `slow` setting.
     pub best_fixed: &'a Summary,
     /// wall(rule) / wall(best fixed) ([`wall_ratio`]: paired by round from
-    /// [`MIN_PAIRS`](crate::experiment::summary::MIN_PAIRS) shared rounds, else unpaired).
+    /// [`MIN_PAIRS`](crate::studies::experiment::summary::MIN_PAIRS) shared rounds, else unpaired).
     pub ratio: Ratio,
     /// `ratio` against the tolerance.
     pub verdict: Verdict,
@@ -265,8 +265,8 @@ pub const PREAMBLE: &str = "Each configuration of a rule that sizes its own chun
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::experiment::results::RunRow;
-    use crate::experiment::summary::summarize;
+    use crate::studies::experiment::results::RunRow;
+    use crate::studies::experiment::summary::summarize;
 
     fn ratio(value: f64, lo: f64, hi: f64) -> Ratio {
         Ratio {

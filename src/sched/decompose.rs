@@ -10,7 +10,7 @@
 //! the coarsest item there is.
 
 use super::param::{Chunk, Order};
-use crate::render::WorkItem;
+use crate::core::render::WorkItem;
 
 /// The side in pixels of the smallest block `scatter_blocks` keeps together: a run of 16
 /// one-pixel items then shares its caches the way a 4² tile does (over single pixels `scatter`
@@ -350,7 +350,7 @@ mod tests {
         let items = decompose(8, 8, Chunk::Tile { w: 1, h: 1 }, Order::Hilbert);
         for pair in items.windows(2) {
             let p = |it: &WorkItem| match it.region {
-                crate::render::Region::Rect { x, y, .. } => (x as i32, y as i32),
+                crate::core::render::Region::Rect { x, y, .. } => (x as i32, y as i32),
                 _ => unreachable!(),
             };
             let ((x0, y0), (x1, y1)) = (p(&pair[0]), p(&pair[1]));
@@ -360,7 +360,7 @@ mod tests {
             .iter()
             .map(|it| it.region.clone())
             .collect();
-        use crate::render::Region::Rect;
+        use crate::core::render::Region::Rect;
         assert_eq!(
             z,
             vec![
@@ -454,7 +454,7 @@ mod tests {
         // one per 2×2 block, so a hot 2×2 block is shared by every run of 16.
         let items = decompose(8, 8, Chunk::Tile { w: 1, h: 1 }, Order::Scatter);
         let at = |it: &WorkItem| match it.region {
-            crate::render::Region::Rect { x, y, .. } => (x, y),
+            crate::core::render::Region::Rect { x, y, .. } => (x, y),
             _ => unreachable!(),
         };
         for (run, side) in [(4, 4), (16, 2)] {
@@ -485,7 +485,7 @@ mod tests {
     #[test]
     fn scatter_blocks_keep_each_block_together_and_stratify_the_blocks() {
         let at = |it: &WorkItem| match it.region {
-            crate::render::Region::Rect { x, y, .. } => (x, y),
+            crate::core::render::Region::Rect { x, y, .. } => (x, y),
             _ => unreachable!(),
         };
         // 16×16 pixels = 4×4 blocks of 4² pixels: each aligned run of 16 one-pixel items is

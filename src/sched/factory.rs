@@ -3,9 +3,9 @@
 //! researcher's own source needs no entry here: it is built by its caller and handed to
 //! [`super::run`] in [`super::Sources::Boxed`] beside these (`examples/custom_source.rs`).
 
-use super::master::Hetero;
+use super::exec::master::Hetero;
 use super::{worker_jobs, SourceKind, SourceSet, SourceSetup, SpecError};
-use crate::metrics::Probe;
+use crate::core::metrics::Probe;
 use crate::source::faulty::faulty_source;
 use crate::source::{ComputeSource, FaultPlan, Job, LocalThreadSource, ServedSources};
 #[cfg(feature = "gpu")]
@@ -25,7 +25,7 @@ pub struct SourceContext<'a> {
     pub probe: Probe,
     /// The GPU renderer, when the set has `gpu` (the scene uploaded once, shared).
     #[cfg(feature = "gpu")]
-    pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    pub gpu: Option<Arc<crate::core::gpu::GpuRenderer>>,
     /// The MPI launch's ranks, when the set has `mpi` (`mpi::MpiRanks`).
     pub ranks: Option<&'a dyn ServedSources>,
 }

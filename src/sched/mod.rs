@@ -8,24 +8,21 @@
 
 pub mod decompose;
 pub mod dls;
+pub mod exec;
 pub mod factory;
 pub mod kinds;
-mod locked_master;
-pub mod master;
 pub mod param;
-mod pull;
 pub mod refusal;
 mod results;
 pub mod rule;
 mod run;
 mod scanline;
-mod shared;
 pub mod sources;
 pub mod spec;
 pub mod wire;
 
 pub use decompose::{decompose, decompose_frames};
-pub use master::Hetero;
+pub use exec::master::{self, Hetero};
 pub use param::{
     Chunk, Order, ParamInfo, ParamValue, Params, Passes, Requeue, Returns, Slow, SpecError, Wait,
     Weights,
@@ -44,12 +41,12 @@ pub use spec::{
     WeightedFactoringParams, WorkStealingDequeParams, WorkStealingParams,
 };
 
-use crate::metrics::RunStats;
-use crate::render::{render_item, Image, RenderCounters, WorkItem};
-use crate::scene::Scene;
+use crate::core::metrics::RunStats;
+use crate::core::render::{render_item, Image, RenderCounters, WorkItem};
+use crate::core::scene::Scene;
+use crate::core::tracer::Tracer;
 use crate::source::local::panic_message;
 use crate::source::{slowed_job, FaultPlan, Job, ServedSources};
-use crate::tracer::Tracer;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -137,7 +134,7 @@ pub struct RenderOn<'a> {
     pub setup: &'a SourceSetup,
     /// The GPU renderer, when the setup has a GPU.
     #[cfg(feature = "gpu")]
-    pub gpu: Option<Arc<crate::gpu::GpuRenderer>>,
+    pub gpu: Option<Arc<crate::core::gpu::GpuRenderer>>,
 }
 
 impl RenderOn<'static> {

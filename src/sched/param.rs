@@ -25,8 +25,8 @@ pub(crate) fn err(field: &str, msg: impl Into<String>) -> SpecError {
     }
 }
 
-pub use crate::limits::MAX_COUNT;
-use crate::limits::MAX_IMAGE_SIDE;
+pub use crate::util::limits::MAX_COUNT;
+use crate::util::limits::MAX_IMAGE_SIDE;
 
 /// A value a scheduler parameter can hold, with its one text form.
 pub trait ParamValue: Sized {
@@ -335,7 +335,7 @@ id_enum! {
         /// compute source.
         Thread = "thread",
         /// The local worker threads, each for itself under one lock whenever it reports
-        /// (`sched::locked_master`): no hand-out crosses threads. Local threads only.
+        /// (`sched::exec::locked_master`): no hand-out crosses threads. Local threads only.
         Workers = "workers",
     }
 }

@@ -6,8 +6,8 @@
 //! [`Results`] keeps the lists and builds a 4-byte index per item instead.
 
 use super::wire;
-use crate::metrics::{MasterStats, Probe, RunStats, Span};
-use crate::render::TileResult;
+use crate::core::metrics::{MasterStats, Probe, RunStats, Span};
+use crate::core::render::TileResult;
 use crate::source::ComputeSource;
 
 /// No result for this item (yet).

@@ -7,14 +7,15 @@
 //! | master, passes `workers`    | the workers-run master          | refused (needs threads)     |
 //! | worker rules                | the workers take their own      | this thread hands out       |
 
-use super::master::{self, Hetero};
+use super::exec::master::{self, Hetero};
+use super::exec::{locked_master, pull, shared};
 use super::rule::{HandOut, Scheduler};
 use super::{
-    factory, locked_master, pull, shared, worker_jobs, Passes, Results, RunOptions, Runner,
-    SchedError, SchedulerSpec, Slow, SpecError,
+    factory, worker_jobs, Passes, Results, RunOptions, Runner, SchedError, SchedulerSpec, Slow,
+    SpecError,
 };
-use crate::metrics::{Probe, RunStats};
-use crate::render::WorkItem;
+use crate::core::metrics::{Probe, RunStats};
+use crate::core::render::WorkItem;
 use crate::source::{ComputeSource, Job};
 
 /// What a run hands its items to.

@@ -8,7 +8,7 @@
 //! each worker ranks its own hand-out's items on their grid and walks a bitmap of the ranks:
 //! linear in the hand-out plus one word per 64 cells of the span it covers.
 
-use crate::render::{Region, WorkItem};
+use crate::core::render::{Region, WorkItem};
 use std::ops::Range;
 
 /// Hand-outs of fewer items run as handed out: too few to share caches.

@@ -6,11 +6,11 @@
 //! kinds: `threads`, `gpu`, `threads+gpu`, `mpi`.
 
 use super::param::{err, id_enum, one_of, Chunk, ParamValue, SpecError};
-use crate::metrics::RunStats;
+use crate::core::metrics::RunStats;
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
-pub use crate::metrics::SourceKind;
+pub use crate::core::metrics::SourceKind;
 
 /// The `sources` column's value for threads alone ([`SourceSet::column`]), also accepted
 /// for `threads` wherever a set is parsed.
@@ -387,7 +387,7 @@ pub struct Share {
 }
 
 impl Share {
-    /// The per-kind sums of `stats.workers` (by [`crate::metrics::WorkerStats::source`]; a
+    /// The per-kind sums of `stats.workers` (by [`crate::core::metrics::WorkerStats::source`]; a
     /// worker that recorded no kind counts as threads), `None` for kinds with no worker.
     pub fn of(stats: &RunStats) -> [Option<Share>; SourceKind::ALL.len()] {
         let mut out = [None; SourceKind::ALL.len()];
@@ -531,7 +531,7 @@ mod tests {
 
     #[test]
     fn shares_sum_workers_by_kind_and_round_trip_through_their_cells() {
-        use crate::metrics::WorkerStats;
+        use crate::core::metrics::WorkerStats;
         let w = |source, items, busy_s| WorkerStats {
             items,
             pixels: 4 * items,

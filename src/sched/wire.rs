@@ -8,7 +8,7 @@
 //! TileResult:       item u32 | n u32 | n × [f32; 3] | rays u64 | nonfinite u64   = 24 + 12n
 //! ```
 
-use crate::render::{Region, TileResult, WorkItem};
+use crate::core::render::{Region, TileResult, WorkItem};
 
 /// Encoded size of `item` in bytes (what [`encode_item`] writes).
 pub fn item_bytes(item: &WorkItem) -> u64 {

@@ -5,8 +5,8 @@
 use super::{
     submit_one, ComputeSource, DelayedResult, Job, LocalThreadSource, Notifier, SourceReport,
 };
-use crate::metrics::Probe;
-use crate::render::WorkItem;
+use crate::core::metrics::Probe;
+use crate::core::render::WorkItem;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -40,7 +40,7 @@ impl Default for FaultPlan {
 
 /// splitmix64 finaliser → uniform in [0, 1).
 fn unit(seed: u64, a: u64, b: u64, c: u64) -> f64 {
-    let z = crate::hash::mix64(
+    let z = crate::util::hash::mix64(
         seed ^ a.wrapping_mul(0x9e37_79b9_7f4a_7c15)
             ^ b.wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
             ^ c.wrapping_mul(0x1656_67b1_9e37_79f9),

@@ -10,9 +10,9 @@
 
 use super::thread::{Flags, SourceThread};
 use super::{Completer, ComputeSource, DelayedResult, Notifier, SourceFailure, SourceReport};
-use crate::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer, PixelOut};
-use crate::metrics::{Probe, Span};
-use crate::render::WorkItem;
+use crate::core::gpu::{Dispatch, Entry, GpuInfo, GpuRenderer, PixelOut};
+use crate::core::metrics::{Probe, Span};
+use crate::core::render::WorkItem;
 use crossbeam::channel::{Receiver, TryRecvError};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -72,7 +72,7 @@ impl GpuClock {
 
 fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = Some(crate::metrics::SourceKind::Gpu);
+    report.stats.source = Some(crate::core::metrics::SourceKind::Gpu);
     let mut inflight: VecDeque<InFlight> = VecDeque::new();
     let mut clock = GpuClock {
         busy: Duration::ZERO,

@@ -7,8 +7,8 @@ use super::{
     Completer, ComputeSource, DelayedResult, HandOutCompleter, Job, Notifier, Outcome,
     SourceFailure, SourceReport,
 };
-use crate::metrics::{BusyClock, Probe};
-use crate::render::WorkItem;
+use crate::core::metrics::{BusyClock, Probe};
+use crate::core::render::WorkItem;
 use crossbeam::channel::Receiver;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -112,7 +112,7 @@ impl Serving<'_> {
 /// job panics (then this item and everything still queued fail as lost).
 fn serve(id: u32, job: &Job, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
-    report.stats.source = Some(crate::metrics::SourceKind::Threads);
+    report.stats.source = Some(crate::core::metrics::SourceKind::Threads);
     let mut s = Serving {
         id,
         job,

@@ -31,8 +31,8 @@ pub use served::ServedSources;
 pub use slow::slowed_job;
 pub use thread::SourceThread;
 
-use crate::metrics::{Span, WorkerStats};
-use crate::render::{TileResult, WorkItem};
+use crate::core::metrics::{Span, WorkerStats};
+use crate::core::render::{TileResult, WorkItem};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Duration;

@@ -5,7 +5,7 @@
 //! thread of its own while the calling thread serves them.
 
 use super::ComputeSource;
-use crate::metrics::Probe;
+use crate::core::metrics::Probe;
 
 /// Remote sources and the serving loop that carries their messages.
 pub trait ServedSources {

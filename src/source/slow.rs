@@ -4,7 +4,7 @@
 //! so the slowed worker holds its core as a slower processor would.
 
 use super::Job;
-use crate::render::WorkItem;
+use crate::core::render::WorkItem;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -27,7 +27,7 @@ pub fn slowed_job(job: Job, factor: f64) -> Job {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::TileResult;
+    use crate::core::render::TileResult;
     use std::time::Duration;
 
     #[test]

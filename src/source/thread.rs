@@ -46,10 +46,10 @@ impl Flags {
 /// One pending result per item of `items` (drained), pushed to `out` in order, each with its
 /// completer: the message a source that serves hand-outs from its own thread sends it.
 pub fn pending_batch(
-    items: &mut Vec<crate::render::WorkItem>,
+    items: &mut Vec<crate::core::render::WorkItem>,
     source: u32,
     out: &mut Vec<super::DelayedResult>,
-) -> Vec<(crate::render::WorkItem, super::Completer)> {
+) -> Vec<(crate::core::render::WorkItem, super::Completer)> {
     items
         .drain(..)
         .map(|item| {

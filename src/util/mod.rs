@@ -6,8 +6,12 @@ pub mod csv_out;
 #[cfg(any(feature = "embree4", feature = "simgrid"))]
 pub mod dl;
 pub mod fs;
+pub mod hash;
 pub mod host;
+pub mod limits;
 pub mod one_line;
+pub mod provenance;
+pub mod rng;
 pub mod staging;
 pub mod suggest;
 pub mod text;

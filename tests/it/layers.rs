@@ -627,7 +627,7 @@ fn no_two_files_import_each_other() {
     assert!(files.len() > 100, "read only {} files of src/", files.len());
     let edges = import_graph(&files);
     // The graph is read at all: the run path reaches the schedulers.
-    assert!(edges["experiment/run.rs"]
+    assert!(edges["studies/experiment/run.rs"]
         .keys()
         .any(|f| f.starts_with("sched/")));
     let found = circles(&edges);
@@ -711,14 +711,20 @@ fn layers_without_a_circle_pass() {
 const LAYERS: &[(&str, &[&str])] = &[
     (
         "base",
-        &["util/", "hash.rs", "rng.rs", "limits.rs", "provenance.rs"],
+        &[
+            "util/",
+            "util/hash.rs",
+            "util/rng.rs",
+            "util/limits.rs",
+            "util/provenance.rs",
+        ],
     ),
-    ("geometry", &["geometry.rs"]),
-    ("scene", &["scene/"]),
-    ("tracer", &["tracer/"]),
-    ("render", &["render/"]),
-    ("gpu", &["gpu/"]),
-    ("metrics", &["metrics/"]),
+    ("geometry", &["core/mod.rs", "core/geometry.rs"]),
+    ("scene", &["core/scene/"]),
+    ("tracer", &["core/tracer/"]),
+    ("render", &["core/render/"]),
+    ("gpu", &["core/gpu/"]),
+    ("metrics", &["core/metrics/"]),
     ("source", &["source/"]),
     ("sched", &["sched/"]),
     // The drawing kit: axes, fonts, styles and raster output, read by every study's charts.
@@ -731,12 +737,15 @@ const LAYERS: &[(&str, &[&str])] = &[
             "plot/raster.rs",
         ],
     ),
-    ("profile", &["profile/"]),
-    ("model", &["model/"]),
-    ("convergence", &["converge/", "stability/"]),
-    ("experiment", &["experiment/"]),
+    ("profile", &["studies/mod.rs", "studies/profile/"]),
+    ("model", &["studies/model/"]),
+    ("convergence", &["studies/converge/", "studies/stability/"]),
+    ("experiment", &["studies/experiment/"]),
     ("plot", &["plot/"]),
-    ("simulation", &["simulate/", "simgrid/"]),
+    (
+        "simulation",
+        &["studies/simulate/", "studies/simulate/simgrid/"],
+    ),
     ("launch", &["mpi/"]),
     ("reference", &["reference.rs"]),
     ("app", &["app/"]),

@@ -1,10 +1,10 @@
 //! Every chart kind rendered with many series, long names and wide ranges on an audit
 //! canvas: no two labels may overlap and none may leave the canvas.
 use super::*;
-use crate::experiment::results::RunRow;
-use crate::experiment::summary::summarize;
 use crate::plot::audit::check;
 use crate::sched::SchedulerKind;
+use crate::studies::experiment::results::RunRow;
+use crate::studies::experiment::summary::summarize;
 
 const SCENE: &str = "a_scene_whose_name_goes_on_and_on_and_on";
 
@@ -63,7 +63,7 @@ fn sums() -> Vec<Summary> {
 #[test]
 fn no_label_of_any_chart_kind_overlaps_another_or_leaves_the_canvas() {
     let sums = sums();
-    let g = crate::experiment::summary::group_of(&sums[0].row);
+    let g = crate::studies::experiment::summary::group_of(&sums[0].row);
     let gr = Group::of(&g, &sums).expect("thread rows");
     let unit = ChunkUnit::of(&gr.at_max);
     assert_eq!(unit, ChunkUnit::Side);

@@ -3,9 +3,9 @@
 
 use super::axes::{self, AxisSpec, Key, Scale};
 use super::style::{self, Dash};
-use crate::experiment::results::timeline_path;
-use crate::experiment::summary::Summary;
-use crate::metrics::MASTER_LANE;
+use crate::core::metrics::MASTER_LANE;
+use crate::studies::experiment::results::timeline_path;
+use crate::studies::experiment::summary::Summary;
 use crate::util::text::slug;
 use plotters::coord::Shift;
 use plotters::prelude::*;

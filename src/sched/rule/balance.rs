@@ -2,7 +2,7 @@
 //! source gets in its next hand-out, and whether it may have one now, from facts that the
 //! executor measured and passes in ([`Facts`]: pixels done, busy time, hand-outs done and
 //! held, what is queued). It reads no clock and does no I/O; the thread master
-//! (`sched::master`) and the deterministic simulation (`simulate::hetero`) play it alike.
+//! (`sched::exec::master`) and the deterministic simulation (`simulate::hetero`) play it alike.
 //!
 //! The policy (issue 52, item 4), per source:
 //! - A source that runs each hand-out as one dispatch of fixed cost ([`Shape::Dispatch`], a

@@ -7,7 +7,7 @@
 //! count of its fresh slots; what is fresh differs between a thread's slots and a simulated
 //! worker's, the queue's rule does not.
 //!
-//! The thread master (`sched::master`), the workers-run master (`sched::locked_master`) and
+//! The thread master (`sched::exec::master`), the workers-run master (`sched::exec::locked_master`) and
 //! the simulated master (`simgrid::protocols`) all take their items from this queue. Times
 //! are durations since the run's start, whatever clock the executor reads.
 
