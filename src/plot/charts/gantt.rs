@@ -147,15 +147,17 @@ impl DurScale {
 }
 
 /// One lane's spans (start, end ns, colour bin) drawn on `cols` pixel columns over
-/// `0..end_ns`: runs of columns (first, last, bin) where the spans cover at least half a
-/// column (any part of it where `any`), each the bin covering most of it. A per-ray run's
-/// 65 536 sub-pixel bars become a few hundred rectangles (an SVG of kB, not MB).
+/// `0..end_ns`: runs of columns (first, last, bin, shade) where shade ∈ 1..=4 is the share of
+/// the column the spans cover, in quarters (under an eighth: no run; any part shows in full
+/// where `any`), and bin the one covering most of it. A per-ray run's 65 536 sub-pixel bars
+/// become a few hundred rectangles (an SVG of kB, not MB), and a worker that is busy a quarter
+/// of the time shows as a quarter shade, not as an empty lane.
 pub(super) fn downsample(
     spans: &[(u64, u64, usize)],
     end_ns: u64,
     cols: usize,
     any: bool,
-) -> Vec<(usize, usize, usize)> {
+) -> Vec<(usize, usize, usize, u8)> {
     let cols = cols.max(1);
     let w = end_ns.max(1) as f64 / cols as f64;
     let mut cover = vec![[0.0f64; 5]; cols];
@@ -167,18 +169,23 @@ pub(super) fn downsample(
             cell[b] += (t.min(z) - s.max(a)).max(0.0);
         }
     }
-    let mut runs: Vec<(usize, usize, usize)> = Vec::new();
+    let mut runs: Vec<(usize, usize, usize, u8)> = Vec::new();
     for (c, cell) in cover.iter().enumerate() {
         let total: f64 = cell.iter().sum();
-        if total <= 0.0 || (!any && total < 0.5 * w) {
+        let shade = if any && total > 0.0 {
+            4
+        } else {
+            (4.0 * (total / w).min(1.0)).round() as u8
+        };
+        if shade == 0 {
             continue;
         }
         let b = (0..5)
             .max_by(|&x, &y| cell[x].total_cmp(&cell[y]))
             .unwrap_or(0);
         match runs.last_mut() {
-            Some(r) if r.1 + 1 == c && r.2 == b => r.1 = c,
-            _ => runs.push((c, c, b)),
+            Some(r) if r.1 + 1 == c && r.2 == b && r.3 == shade => r.1 = c,
+            _ => runs.push((c, c, b, shade)),
         }
     }
     runs
@@ -292,13 +299,13 @@ pub(super) fn gantt_chart<DB: DrawingBackend>(
         let runs = downsample(&mine, end_ns, cols, *w == MASTER_LANE);
         let y = i as f64;
         chart
-            .draw_series(runs.into_iter().map(|(a, z, b)| {
+            .draw_series(runs.into_iter().map(|(a, z, b, shade)| {
                 Rectangle::new(
                     [
                         (a as f64 * col_ms, y - 0.38),
                         ((z + 1) as f64 * col_ms, y + 0.38),
                     ],
-                    BINS[b].filled(),
+                    BINS[b].mix(f64::from(shade) / 4.0).filled(),
                 )
             }))
             .map_err(e)?;
@@ -385,7 +392,7 @@ pub(super) fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R 
             out.missing.skipped += 1;
             continue;
         }
-        out.push(&stem, title, "One lane per worker, grouped by kind of source (threads, GPU, MPI ranks; a line between groups) with the master's passes on its own lane on top; drawn at the chart's pixel width: a column is filled where items cover at least half of it (any pass of the master), coloured by the duration of the items covering most of it, on one scale for every timeline of the experiment (legend); white gaps are idle time.");
+        out.push(&stem, title, "One lane per worker, grouped by kind of source (threads, GPU, MPI ranks; a line between groups) with the master's passes on its own lane on top; drawn at the chart's pixel width: a column's shade is the share of it that items cover, in quarters (under an eighth: white; any pass of the master in full), its colour the duration of the items covering most of it, on one scale for every timeline of the experiment (legend); white gaps are idle time.");
     }
     Ok(())
 }
