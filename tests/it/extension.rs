@@ -96,17 +96,16 @@ fn a_custom_source_joins_the_master_and_a_worker_rule() {
     assert_eq!(image.hash(), reference.hash());
 }
 
-/// SimGrid runs once per process: the parent test runs this one in a child of the test binary.
+/// SimGrid runs once per process: each parent test runs its rule in a child of the test
+/// binary, which prints `SIMULATED wall_s=… issued=…`.
 #[cfg(feature = "simgrid")]
-#[test]
-#[ignore = "run by the_simulation_plays_a_custom_rule in a process of its own"]
-fn simulation_child() {
+fn simulate_in_this_process(rule: &dyn Scheduler, id: String) {
     use raysched::simulate::job::{Network, SimJob};
     let platform = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("platforms/smp2.xml");
     let n = 256;
     let job = SimJob {
         platform,
-        scheduler: QUARTER.id(),
+        scheduler: id,
         params: Default::default(),
         workers: 2,
         cost_s: vec![1e-4; n],
@@ -120,20 +119,16 @@ fn simulation_child() {
         seed: 1,
         network: Network::Fine,
     };
-    let out = raysched::simgrid::simulate_with(job, &QUARTER).unwrap();
+    let out = raysched::simgrid::simulate_with(job, rule).unwrap();
     println!("SIMULATED wall_s={} issued={}", out.wall_s, out.issued);
 }
 
+/// Runs the ignored test `child` in a child process and reads its `SIMULATED` line:
+/// (wall_s, issued, the line).
 #[cfg(feature = "simgrid")]
-#[test]
-fn the_simulation_plays_a_custom_rule() {
+fn simulated_in_a_child(child: &str) -> (f64, f64, String) {
     let out = std::process::Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--exact",
-            "extension::simulation_child",
-            "--ignored",
-            "--nocapture",
-        ])
+        .args(["--exact", child, "--ignored", "--nocapture"])
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
@@ -148,10 +143,23 @@ fn the_simulation_plays_a_custom_rule() {
             .parse()
             .unwrap()
     };
-    assert_eq!(field("issued"), 256.0, "{line}");
+    (field("wall_s"), field("issued"), line.to_string())
+}
+
+#[cfg(feature = "simgrid")]
+#[test]
+#[ignore = "run by the_simulation_plays_a_custom_rule in a process of its own"]
+fn simulation_child() {
+    simulate_in_this_process(&QUARTER, QUARTER.id());
+}
+
+#[cfg(feature = "simgrid")]
+#[test]
+fn the_simulation_plays_a_custom_rule() {
+    let (wall, issued, line) = simulated_in_a_child("extension::simulation_child");
+    assert_eq!(issued, 256.0, "{line}");
     // 12.8 ms of work per worker on smp2's cores, the last hand-outs 2 items (0.2 ms) apart,
     // and the messages' time on top.
-    let wall = field("wall_s");
     assert!((12.8e-3..14e-3).contains(&wall), "{line}");
 }
 
@@ -232,55 +240,14 @@ fn the_cost_model_plays_a_two_level_pool() {
 #[test]
 #[ignore = "run by the_simulation_plays_a_two_level_pool in a process of its own"]
 fn simulation_child_two_level() {
-    use raysched::simulate::job::{Network, SimJob};
-    let platform = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("platforms/smp2.xml");
-    let n = 256;
-    let job = SimJob {
-        platform,
-        scheduler: PAIRS.id(),
-        params: Default::default(),
-        workers: 2,
-        cost_s: vec![1e-4; n],
-        item_bytes: vec![25; n],
-        result_bytes: vec![44; n],
-        master_h_s: 0.0,
-        counter_s: 0.0,
-        start_s: 0.0,
-        refill_s: 0.0,
-        lost: Vec::new(),
-        seed: 1,
-        network: Network::Fine,
-    };
-    let out = raysched::simgrid::simulate_with(job, &PAIRS).unwrap();
-    println!("SIMULATED wall_s={} issued={}", out.wall_s, out.issued);
+    simulate_in_this_process(&PAIRS, PAIRS.id());
 }
 
 #[cfg(feature = "simgrid")]
 #[test]
 fn the_simulation_plays_a_two_level_pool() {
-    let out = std::process::Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--exact",
-            "extension::simulation_child_two_level",
-            "--ignored",
-            "--nocapture",
-        ])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .find_map(|l| l.strip_prefix("SIMULATED "))
-        .unwrap_or_else(|| panic!("no answer: {text} {}", String::from_utf8_lossy(&out.stderr)));
-    let field = |k: &str| -> f64 {
-        line.split_whitespace()
-            .find_map(|f| f.strip_prefix(k)?.strip_prefix('='))
-            .unwrap()
-            .parse()
-            .unwrap()
-    };
-    assert_eq!(field("issued"), 256.0, "{line}");
+    let (wall, issued, line) = simulated_in_a_child("extension::simulation_child_two_level");
+    assert_eq!(issued, 256.0, "{line}");
     // One group of both workers on smp2: 12.8 ms of work each, the last hand-outs one item.
-    let wall = field("wall_s");
     assert!((12.8e-3..14e-3).contains(&wall), "{line}");
 }

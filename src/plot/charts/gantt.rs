@@ -148,10 +148,11 @@ impl DurScale {
 
 /// One lane's spans (start, end ns, colour bin) drawn on `cols` pixel columns over
 /// `0..end_ns`: runs of columns (first, last, bin, shade) where shade ∈ 1..=4 is the share of
-/// the column the spans cover, in quarters (under an eighth: no run; any part shows in full
-/// where `any`), and bin the one covering most of it. A per-ray run's 65 536 sub-pixel bars
-/// become a few hundred rectangles (an SVG of kB, not MB), and a worker that is busy a quarter
-/// of the time shows as a quarter shade, not as an empty lane.
+/// the column the spans cover, rounded up to quarters (in full where `any`), and bin the one
+/// covering most of it; a column no span touches has no run. A per-ray run's 65 536 sub-pixel
+/// bars become a few hundred rectangles (an SVG of kB, not MB), and a worker busy 5 % of the
+/// time (a per-ray master's, waiting on its hand-outs) shows as a light shade where it ran and
+/// white only where it ran nothing.
 pub(super) fn downsample(
     spans: &[(u64, u64, usize)],
     end_ns: u64,
@@ -175,7 +176,7 @@ pub(super) fn downsample(
         let shade = if any && total > 0.0 {
             4
         } else {
-            (4.0 * (total / w).min(1.0)).round() as u8
+            (4.0 * (total / w).min(1.0)).ceil() as u8
         };
         if shade == 0 {
             continue;
@@ -392,7 +393,7 @@ pub(super) fn gantt_charts(out: &mut Drawn, gr: &Group, best: &[&Summary]) -> R 
             out.missing.skipped += 1;
             continue;
         }
-        out.push(&stem, title, "One lane per worker, grouped by kind of source (threads, GPU, MPI ranks; a line between groups) with the master's passes on its own lane on top; drawn at the chart's pixel width: a column's shade is the share of it that items cover, in quarters (under an eighth: white; any pass of the master in full), its colour the duration of the items covering most of it, on one scale for every timeline of the experiment (legend); white gaps are idle time.");
+        out.push(&stem, title, "One lane per worker, grouped by kind of source (threads, GPU, MPI ranks; a line between groups) with the master's passes on its own lane on top; drawn at the chart's pixel width: a column's shade is the share of it that items cover, rounded up to quarters (any pass of the master in full; white: nothing ran), its colour the duration of the items covering most of it, on one scale for every timeline of the experiment (legend); white gaps are idle time.");
     }
     Ok(())
 }

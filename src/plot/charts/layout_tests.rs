@@ -290,15 +290,22 @@ fn a_gantt_of_many_tiny_items_is_downsampled_to_the_pixel_width() {
         .matches("<rect")
         .count();
     assert!(rects < 5_000, "{rects} rectangles");
-    // Downsampling itself: a lane busy throughout is one run in full shade; one busy a
-    // quarter of each column (a per-ray worker waiting on its master) a quarter shade, not
-    // white; the master's passes, each far under a column, are kept where `any` says so and
-    // dropped otherwise.
+    // Downsampling itself: a lane busy throughout is one run in full shade; one busy a fifth
+    // of each column (a per-ray worker waiting on its master) a quarter shade, not white; the
+    // master's passes, each far under a column, in full where `any` says so and in the
+    // lightest shade otherwise; an untouched column stays white.
     let busy: Vec<(u64, u64, usize)> = (0..1000u64).map(|i| (i * 10, i * 10 + 10, 2)).collect();
     assert_eq!(downsample(&busy, 10_000, 100, false), [(0, 99, 2, 4)]);
     let quarter: Vec<(u64, u64, usize)> = (0..1000u64).map(|i| (i * 10, i * 10 + 2, 1)).collect();
     assert_eq!(downsample(&quarter, 10_000, 100, false), [(0, 99, 1, 1)]);
     let passes: Vec<(u64, u64, usize)> = (0..10u64).map(|i| (i * 1000, i * 1000 + 1, 0)).collect();
-    assert_eq!(downsample(&passes, 10_000, 100, true).len(), 10);
-    assert!(downsample(&passes, 10_000, 100, false).is_empty());
+    let full = downsample(&passes, 10_000, 100, true);
+    assert_eq!(full.len(), 10);
+    assert!(full.iter().all(|r| r.0 == r.1 && r.3 == 4), "{full:?}");
+    let light = downsample(&passes, 10_000, 100, false);
+    assert!(light.iter().all(|r| r.3 == 1), "{light:?}");
+    assert_eq!(
+        light.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [0, 10, 20, 30, 40, 50, 60, 70, 80, 90]
+    );
 }
