@@ -83,7 +83,8 @@ pub(crate) struct AdviseArgs {
     /// Tracer id (bvh, brute, embree, …).
     #[arg(long, default_value_t = TracerKind::Bvh, value_parser = |s: &str| TracerKind::from_id(s).map_err(|e| e.to_string()))]
     tracer: TracerKind,
-    /// Configurations within this many per cent of the fastest count as tied with it.
+    /// Configurations predicted within this many per cent of the fastest are listed beside it
+    /// (a flat optimum).
     #[arg(long, default_value_t = 3.0, value_parser = super::real::<f64>())]
     tolerance_pct: f64,
 }

@@ -2,7 +2,7 @@
 //! each configuration's predicted and measured wall time and the error, the model's pick
 //! against the measured best, and the parts the model splits a prediction into.
 
-use super::compare::{tied_with_best, wall_ratio, with_ci};
+use super::compare::{near_best, reading, wall_ratio, with_ci, Reading};
 use crate::studies::experiment::summary::Summary;
 use std::fmt::Write;
 
@@ -142,7 +142,7 @@ impl ChunkCheck {
             .map(|(px, r)| format!("{px} px {}", with_ci(r)))
             .collect();
         let verdict = if !self.clear() {
-            "no clear optimum (a neighbour is tied with it), so the ×2 check does not apply"
+            "no clear optimum (a neighbour is not shown slower than it), so the ×2 check does not apply"
                 .to_string()
         } else if self.within_x2() {
             format!(
@@ -215,10 +215,59 @@ pub fn chunk_checks(with: &[&Summary]) -> Vec<ChunkCheck> {
         .collect()
 }
 
+/// How the model's pick `pick` fared against the measured best `best`: "is the measured best",
+/// or its wall-time ratio with the interval, read as equivalent within ±`margin`, not shown
+/// slower or shown slower ([`reading`]), and within or outside the 3 % goal.
+fn pick_verdict(pick: &Summary, best: &Summary, margin: f64) -> String {
+    if pick.row.config == best.row.config {
+        return "is the measured best".to_string();
+    }
+    let r = wall_ratio(pick, best);
+    let reads = match reading(pick, best, margin) {
+        Some(Reading::Equivalent) => format!("equivalent within ±{:.1} %", margin * 100.0),
+        Some(Reading::NotShownSlower(_)) => "not shown slower".to_string(),
+        None => "shown slower".to_string(),
+    };
+    format!(
+        "took {} the wall time of the measured best `{}` ({}; {} the 3 % goal)",
+        with_ci(&r),
+        best.row.label,
+        reads,
+        if r.value <= 1.03 { "within" } else { "outside" }
+    )
+}
+
+/// The probe's level paragraph: the errors again with the prediction's work scaled by `k` to
+/// the serial median `s` (empty where no configuration has an error at that level).
+fn level_paragraph(with: &[&Summary], best: &Summary, k: f64, s: f64) -> String {
+    let mut md = String::new();
+    let mut errs: Vec<f64> = with
+        .iter()
+        .filter_map(|s| error_at_level(s, k))
+        .map(f64::abs)
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    if let (Some(&largest), Some(at_best)) = (errs.last(), error_at_level(best, k)) {
+        let _ = writeln!(
+            md,
+            "The probe's level: it put the image's work at {:.3} ms, {:+.1} % off the serial baseline's median in the rounds ({:.3} ms). With the prediction's work and imbalance scaled to the serial level, the error at the measured best is {:+.1} %, median |error| {:.1} %, largest {:.1} %: what remains is the model's shape rather than the machine's speed while it probed (the serial render ran on one core and the runs on {}, so where busy cores slow each other the runs sit above the serial level by that much too).\n",
+            s / k * 1e3,
+            (1.0 / k - 1.0) * 100.0,
+            s * 1e3,
+            at_best * 100.0,
+            errs[errs.len() / 2] * 100.0,
+            largest * 100.0,
+            best.row.workers
+        );
+    }
+    md
+}
+
 /// The "Cost model" section of `report.md` for one group's rows at its most workers (only
 /// the configurations with a prediction), or `None` when none has one. `serial` is the
-/// group's serial median, for the level check ([`level`]).
-pub fn section(group: &str, at: &[&Summary], serial: Option<f64>) -> Option<String> {
+/// group's serial median, for the level check ([`level`]); `margin` the equivalence margin the
+/// pick is tested at ([`reading`]).
+pub fn section(group: &str, at: &[&Summary], serial: Option<f64>, margin: f64) -> Option<String> {
     let with: Vec<&Summary> = at
         .iter()
         .copied()
@@ -254,30 +303,14 @@ pub fn section(group: &str, at: &[&Summary], serial: Option<f64>) -> Option<Stri
             s.row.predicted_imbalance_s.unwrap_or(0.0) * 1e3
         );
     }
-    let (best, tied) = tied_with_best(&with)?;
+    let (best, _) = near_best(&with, margin)?;
     let pick = with.iter().copied().min_by(|a, b| {
         a.row
             .predicted_wall_s
             .unwrap_or(f64::INFINITY)
             .total_cmp(&b.row.predicted_wall_s.unwrap_or(f64::INFINITY))
     })?;
-    let verdict = if pick.row.config == best.row.config {
-        "is the measured best".to_string()
-    } else {
-        let r = wall_ratio(pick, best);
-        let tie = if tied.iter().any(|t| t.row.config == pick.row.config) {
-            "statistically tied with it"
-        } else {
-            "not tied with it"
-        };
-        format!(
-            "took {} the wall time of the measured best `{}` ({}; {} the 3 % goal)",
-            with_ci(&r),
-            best.row.label,
-            tie,
-            if r.value <= 1.03 { "within" } else { "outside" }
-        )
-    };
+    let verdict = pick_verdict(pick, best, margin);
     let mut errs: Vec<(f64, &Summary)> = with
         .iter()
         .filter_map(|s| Some((error(s)?.abs(), *s)))
@@ -305,25 +338,7 @@ pub fn section(group: &str, at: &[&Summary], serial: Option<f64>) -> Option<Stri
         if flat.len() > 1 { " (a flat optimum)" } else { "" }
     );
     if let (Some(k), Some(s)) = (k, serial) {
-        let mut errs: Vec<f64> = with
-            .iter()
-            .filter_map(|s| error_at_level(s, k))
-            .map(f64::abs)
-            .collect();
-        errs.sort_by(f64::total_cmp);
-        if let (Some(&largest), Some(at_best)) = (errs.last(), error_at_level(best, k)) {
-            let _ = writeln!(
-                md,
-                "The probe's level: it put the image's work at {:.3} ms, {:+.1} % off the serial baseline's median in the rounds ({:.3} ms). With the prediction's work and imbalance scaled to the serial level, the error at the measured best is {:+.1} %, median |error| {:.1} %, largest {:.1} %: what remains is the model's shape rather than the machine's speed while it probed (the serial render ran on one core and the runs on {}, so where busy cores slow each other the runs sit above the serial level by that much too).\n",
-                s / k * 1e3,
-                (1.0 / k - 1.0) * 100.0,
-                s * 1e3,
-                at_best * 100.0,
-                errs[errs.len() / 2] * 100.0,
-                largest * 100.0,
-                best.row.workers
-            );
-        }
+        md += &level_paragraph(&with, best, k, s);
     }
     let checks = chunk_checks(&with);
     if !checks.is_empty() {

@@ -2,7 +2,9 @@
 //! `summary.csv`, the overhead bars add up to workers × wall, and a damaged runs.csv is a
 //! one-line error. On a real (small) experiment of every thread-scheduler shape: a shared
 //! pool (self_scheduling), owned slices (static), stealing (work_stealing), the master on its
-//! own thread and the master whose passes the workers run.
+//! own thread and the master whose passes the workers run. The last shape, a GPU lane beside
+//! threads, runs in the deterministic simulation and is checked beside it
+//! (`studies::simulate::hetero`'s tests: the same `RunStats` → runs.csv columns → `Lanes`).
 
 use crate::support::assert_ok;
 use raysched::experiment::results::read_runs;

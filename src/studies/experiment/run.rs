@@ -734,12 +734,7 @@ impl Session<'_, '_> {
         let hash = hex(image.hash());
         let mut row = RunRow::for_config(plan, c);
         row.repetition = rep;
-        fill_stats(&mut row, stats);
-        let skip = crate::sched::source_params().len();
-        let shares = crate::sched::Share::cells(&crate::sched::Share::of(stats));
-        for (cell, v) in row.sourcing[skip..].iter_mut().zip(shares) {
-            *cell = v;
-        }
+        row.set_stats(stats);
         row.image_hash = hash.clone();
         row.inner = sample.inner;
         row.timestamp = sample.timestamp.clone();
@@ -994,25 +989,6 @@ fn measure_gpu(
         "{}: a GPU configuration in a build without feature `gpu`",
         c.id
     )))
-}
-
-fn fill_stats(row: &mut RunRow, s: &RunStats) {
-    row.wall_s = s.wall_s;
-    row.work_s = s.busy_s();
-    row.dispatch_s = s.dispatch_s();
-    row.idle_s = s.idle_s();
-    row.imbalance = s.imbalance();
-    let max_busy = s.workers.iter().map(|w| w.busy_s).fold(0.0, f64::max);
-    row.imbalance_s = s.workers.iter().map(|w| max_busy - w.busy_s).sum();
-    row.items = s.items;
-    row.issued = s.issued;
-    row.reissued = s.reissued;
-    row.duplicates = s.duplicates;
-    row.bytes = s.bytes;
-    row.rays = s.rays;
-    row.nonfinite = s.nonfinite;
-    row.features_used = s.features_used.join("+");
-    row.features_left_out = s.features_left_out.join("+");
 }
 
 /// A round's process's line after each sample: the prefix, then the configuration's label

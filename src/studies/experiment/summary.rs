@@ -154,6 +154,36 @@ impl Lanes {
     }
 }
 
+impl RunRow {
+    /// Fill the columns a run's statistics give (wall, busy, idle, the master's dispatch,
+    /// imbalance and who rendered what): the ones [`Lanes`] splits a configuration's lanes
+    /// from, written by a measured run and by a simulated one
+    /// (`studies::simulate::hetero::Outcome::stats`) alike.
+    pub fn set_stats(&mut self, s: &crate::core::metrics::RunStats) {
+        self.wall_s = s.wall_s;
+        self.work_s = s.busy_s();
+        self.dispatch_s = s.dispatch_s();
+        self.idle_s = s.idle_s();
+        self.imbalance = s.imbalance();
+        let max_busy = s.workers.iter().map(|w| w.busy_s).fold(0.0, f64::max);
+        self.imbalance_s = s.workers.iter().map(|w| max_busy - w.busy_s).sum();
+        self.items = s.items;
+        self.issued = s.issued;
+        self.reissued = s.reissued;
+        self.duplicates = s.duplicates;
+        self.bytes = s.bytes;
+        self.rays = s.rays;
+        self.nonfinite = s.nonfinite;
+        self.features_used = s.features_used.join("+");
+        self.features_left_out = s.features_left_out.join("+");
+        let skip = crate::sched::source_params().len();
+        let shares = crate::sched::Share::cells(&crate::sched::Share::of(s));
+        for (cell, v) in self.sourcing[skip..].iter_mut().zip(shares) {
+            *cell = v;
+        }
+    }
+}
+
 /// What one kind of source did over a configuration's repetitions (medians).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShareSummary {

@@ -15,7 +15,9 @@
 //!
 //! A verdict is never both: the report's former "tied with the best" (an interval reaching 1,
 //! that is "not shown slower") becomes "equivalent within ±X %" where TOST shows it and "not
-//! shown slower" where it does not ([`Decision::relative_phrase`]).
+//! shown slower" where it does not: `plot::compare::reading` for the report (its "not shown
+//! slower" is the paired interval every ratio of the report states), and
+//! [`Decision::relative_phrase`] on this rank test alone.
 
 use super::stats::{mann_whitney_p, mann_whitney_z, median, normal_cdf};
 use serde::Serialize;
@@ -106,9 +108,8 @@ impl Decision {
         }
     }
 
-    /// The phrase for B set beside a reference A it is not shown slower than (the report's
-    /// "tied with the best"): "equivalent within ±X %" or "not shown slower"; `None` where B
-    /// is slower.
+    /// The phrase for B set beside a reference A it is not shown slower than, on the rank
+    /// tests alone: "equivalent within ±X %" or "not shown slower"; `None` where B is slower.
     pub fn relative_phrase(&self) -> Option<String> {
         match self.verdict {
             Verdict::Slower => None,

@@ -9,7 +9,16 @@
 //! time itself. A thread renders its items one by one and returns each; the GPU renders each
 //! hand-out as one dispatch ([`GpuModel::dispatch_s`]) and returns it whole. Busy time, as
 //! in the master, is the time a source holds work.
+//!
+//! Each run also reports its lanes in the terms of a measured run ([`Outcome::stats`], a
+//! [`RunStats`]): per source (the threads and the GPU lane) its busy and idle seconds, items
+//! and pixels, and the master's dispatch seconds, so the summary's overhead breakdown
+//! (`Lanes`: busy, imbalance, other idle, dispatch) and its chart read a simulated run as they
+//! read a measured one. Idle time is summed from the spans a source holds nothing, not taken
+//! as wall less busy, so busy + idle = wall per lane is a check of the event loop. The master
+//! costs no time here, so its dispatch part is 0.
 
+use crate::core::metrics::{MasterStats, RunStats, SourceKind, WorkerStats};
 use crate::sched::rule::{Balance, Facts, MasterQueue, Shape, Take, GPU_DISPATCH};
 use crate::sched::{decompose, Chunk, Order, Requeue};
 use std::collections::VecDeque;
@@ -155,6 +164,10 @@ pub struct Outcome {
     pub thread_idle_end_s: f64,
     /// Items rendered, each counted once per rendering.
     pub rendered: Vec<u32>,
+    /// The run's lanes as a measured run records them: one [`WorkerStats`] per source (the
+    /// threads in order, then the GPU), busy and idle seconds each, and the master's
+    /// [`MasterStats`] (dispatch 0: the simulated master costs no time).
+    pub stats: RunStats,
 }
 
 impl std::fmt::Debug for Outcome {
@@ -195,6 +208,11 @@ struct Src {
     done_hand_outs: u64,
     busy_s: f64,
     busy_since: Option<f64>,
+    /// Seconds it held nothing, summed span by span.
+    idle_s: f64,
+    /// When it last ran out of work (`Some(0)` at the start: nothing held yet).
+    idle_since: Option<f64>,
+    items: u64,
     last_result: f64,
 }
 
@@ -218,6 +236,22 @@ impl Src {
     fn held_items(&self) -> usize {
         self.held.iter().map(|(_, items)| items.len()).sum()
     }
+
+    /// Its lane at the end of a run of `wall` seconds: busy, idle (the last idle span closed
+    /// at the wall), items and pixels, its kind.
+    fn lane(&self, wall: f64) -> WorkerStats {
+        WorkerStats {
+            busy_s: self.busy_s,
+            idle_s: self.idle_s + self.idle_since.map_or(0.0, |s| wall - s),
+            items: self.items,
+            pixels: self.done_px,
+            rays: 0,
+            source: Some(match self.gpu {
+                Some(_) => SourceKind::Gpu,
+                None => SourceKind::Threads,
+            }),
+        }
+    }
 }
 
 /// Simulate `platform` cut into `chunk`² tiles (scanline order) under `handing`.
@@ -225,11 +259,13 @@ pub fn simulate(platform: &Platform, chunk: u32, handing: Handing) -> Outcome {
     let mut sim = Sim::new(platform, chunk, handing);
     while sim.rendered.len() < sim.px.len() {
         // The master's pass: every source, hand-out by hand-out.
+        let issued = sim.issued;
         for i in 0..sim.srcs.len() {
             while let Some(n) = sim.want(i).filter(|_| !sim.queue.is_empty()) {
                 sim.hand_out(i, n);
             }
         }
+        sim.passes += u64::from(sim.issued > issued);
         sim.start_idle();
         if !sim.next_event() {
             break; // nothing held, nothing queued: cannot happen while items are left
@@ -253,6 +289,9 @@ struct Sim<'p> {
     unissued: u64,
     rendered: Vec<u32>,
     dispatches: u64,
+    /// Hand-outs and the master's passes that handed something out.
+    issued: u64,
+    passes: u64,
     t: f64,
 }
 
@@ -298,6 +337,9 @@ impl<'p> Sim<'p> {
                 done_hand_outs: 0,
                 busy_s: 0.0,
                 busy_since: None,
+                idle_s: 0.0,
+                idle_since: Some(0.0),
+                items: 0,
                 last_result: 0.0,
             })
             .collect();
@@ -328,6 +370,8 @@ impl<'p> Sim<'p> {
             unissued: total_px,
             rendered: Vec::new(),
             dispatches: 0,
+            issued: 0,
+            passes: 0,
             t: 0.0,
         }
     }
@@ -378,9 +422,13 @@ impl<'p> Sim<'p> {
             got.push_back(k);
         }
         let t = self.t;
+        self.issued += 1;
         let s = &mut self.srcs[i];
         if s.held.is_empty() {
             s.busy_since = Some(t);
+            if let Some(since) = s.idle_since.take() {
+                s.idle_s += t - since;
+            }
         }
         s.held.push_back((s.groups, got));
         s.groups += 1;
@@ -431,6 +479,7 @@ impl<'p> Sim<'p> {
             };
             for k in finished {
                 s.done_px += self.px[k as usize];
+                s.items += 1;
                 self.rendered.push(k);
             }
             s.last_result = t;
@@ -443,6 +492,7 @@ impl<'p> Sim<'p> {
                 if let Some(since) = s.busy_since.take() {
                     s.busy_s += t - since;
                 }
+                s.idle_since = Some(t);
             }
         }
         true
@@ -462,7 +512,21 @@ impl<'p> Sim<'p> {
             .filter(|s| s.gpu.is_none())
             .map(|s| t - s.last_result)
             .fold(0.0, f64::max);
+        let stats = RunStats {
+            wall_s: t,
+            workers: self.srcs.iter().map(|s| s.lane(t)).collect(),
+            master: Some(MasterStats {
+                dispatch_s: 0.0,
+                wait_s: 0.0,
+                iterations: self.passes,
+                rebalances: 0,
+            }),
+            items: self.px.len() as u64,
+            issued: self.issued,
+            ..RunStats::default()
+        };
         Outcome {
+            stats,
             wall_s: t,
             ideal_s: self.total_px as f64 / self.platform.summed_px_s(),
             gpu_px,
@@ -480,6 +544,82 @@ mod tests {
 
     /// The default run of `--sources threads,gpu`: the master's chunk (16²) and B (2).
     const DEFAULT: Handing = Handing::Balanced { buffer: 2 };
+
+    /// Within 1 %: `a` against `b`.
+    fn near(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 0.01 * b.abs().max(1e-12)
+    }
+
+    #[test]
+    fn a_gpu_lane_busy_idle_and_dispatch_add_up_to_lanes_times_wall_in_the_summary() {
+        use crate::core::metrics::SourceKind;
+        use crate::studies::experiment::results::RunRow;
+        use crate::studies::experiment::summary::summarize;
+        let p = Platform::h200_cornell();
+        let fixed = |buffer, gpu_grain, gpu_buffer| Handing::Fixed {
+            buffer,
+            gpu_grain,
+            gpu_buffer,
+        };
+        // The balancer, the master before it (the GPU starved: threads wait at the end) and
+        // hand-picked grains.
+        for (chunk, handing) in [
+            (16, DEFAULT),
+            (32, fixed(4, 0, 256)),
+            (8, fixed(2, 1 << 18, 2)),
+        ] {
+            let o = simulate(&p, chunk, handing);
+            let st = &o.stats;
+            assert_eq!(st.workers.len(), 17, "16 threads and the GPU lane");
+            let gpu = &st.workers[16];
+            assert_eq!(gpu.source, Some(SourceKind::Gpu));
+            assert_eq!(gpu.pixels, o.gpu_px);
+            assert!(gpu.busy_s > 0.0 && gpu.items > 0, "{gpu:?}");
+            let items: u64 = st.workers.iter().map(|w| w.items).sum();
+            assert_eq!(items, st.items, "every item on one lane");
+            // Each lane, the GPU's among them: busy + idle (summed span by span) = wall.
+            for (k, w) in st.workers.iter().enumerate() {
+                assert!(w.busy_s > 0.0 && w.idle_s >= 0.0, "lane {k}: {w:?}");
+                assert!(
+                    (w.busy_s + w.idle_s - o.wall_s).abs() <= 1e-9 * o.wall_s,
+                    "lane {k}: busy {} + idle {} against wall {}",
+                    w.busy_s,
+                    w.idle_s,
+                    o.wall_s
+                );
+            }
+            // As a row of runs.csv and its summary: the columns a measured run fills, and the
+            // overhead breakdown (busy, imbalance, other idle, dispatch) read from them.
+            let mut row = RunRow::example();
+            row.config = format!("sim {chunk} {handing:?}");
+            row.scheduler = "master".into();
+            row.workers = st.workers.len();
+            row.set_stats(st);
+            let lanes = row.workers as f64 * o.wall_s;
+            assert!(
+                near(row.work_s + row.idle_s + row.dispatch_s, lanes),
+                "Σ busy {} + idle {} + dispatch {} against workers × wall {lanes}",
+                row.work_s,
+                row.idle_s,
+                row.dispatch_s
+            );
+            let sums = summarize(std::slice::from_ref(&row));
+            let l = sums[0].lanes;
+            assert!(near(l.total(), lanes), "{l:?} against {lanes}");
+            assert!(near(l.busy_s, row.work_s), "{l:?} against {row:?}");
+            assert!(near(l.imbalance_s, row.imbalance_s), "{l:?}");
+            assert!(near(l.other_idle_s, row.idle_s - row.imbalance_s), "{l:?}");
+            assert_eq!(l.dispatch_s, 0.0, "the simulated master costs no time");
+            // The GPU lane's part of the busy time, as the summary's shares report it.
+            let at = SourceKind::ALL
+                .iter()
+                .position(|k| *k == SourceKind::Gpu)
+                .unwrap();
+            let share = sums[0].shares[at].expect("the GPU's share");
+            assert!(near(share.busy_s, gpu.busy_s), "{share:?}");
+            assert!(near(share.pixel_share, o.gpu_px as f64 / (1024.0 * 1024.0)));
+        }
+    }
 
     #[test]
     fn the_fit_reproduces_the_measured_gpu_curve() {

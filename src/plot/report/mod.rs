@@ -1,80 +1,19 @@
 //! `report.md`: what ran, on what machine, the plots, the best configuration per scheduler, and
 //! one plain sentence comparing the per-ray master with the best scheduler.
 
-use super::compare::{best_by, efficiency_text, speedup_text, tied_with_best, wall_ratio, with_ci};
+mod answer;
+
+pub use answer::{answer, chunk_curves, chunk_words_pub, per_ray_sentence};
+
+use super::compare::{best_by, efficiency_text, margin_of, speedup_text};
 use super::Figure;
 use crate::studies::experiment::meta::Meta;
-use crate::studies::experiment::stats::Ratio;
 use crate::studies::experiment::summary::Summary;
+use answer::{answer_section, chunk_words};
 use std::fmt::Write;
 
 /// How the model's inputs were measured, for the report.
 const PROBE_NOTE: &str = "probe of per-pixel costs at ≤ 4 spp on the run's workers and zero-work hand-outs per scheduler";
-
-/// The parallel configurations at the group's largest worker count (`None`: only serial rows).
-fn at_most_workers<'a>(sums: &[&'a Summary]) -> Option<Vec<&'a Summary>> {
-    let max_w = sums
-        .iter()
-        .filter(|s| !s.row.is_serial())
-        .map(|s| s.row.workers)
-        .max()?;
-    Some(
-        sums.iter()
-            .copied()
-            .filter(|s| s.row.workers == max_w && !s.row.is_serial())
-            .collect(),
-    )
-}
-
-/// The comparison sentence for one group at its largest worker count, if it has a per-ray
-/// master (master with 1-pixel items) and some other configuration: the fastest one, those
-/// statistically tied with it, and the ratio to the per-ray master with its interval.
-pub fn per_ray_sentence(group: &str, sums: &[&Summary]) -> Option<String> {
-    let at = at_most_workers(sums)?;
-    let max_w = at.first()?.row.workers;
-    let per_ray = best_by(at.iter().copied().filter(|s| {
-        let hand_out_thread = crate::sched::SchedulerKind::from_id(&s.row.scheduler)
-            .is_ok_and(|k| crate::sched::Policy::defaults(k).needs().hand_out_thread);
-        hand_out_thread && s.row.chunk_px == Some(1)
-    }))?;
-    let others: Vec<&Summary> = at
-        .iter()
-        .copied()
-        .filter(|s| s.row.config != per_ray.row.config)
-        .collect();
-    let (best, tied) = tied_with_best(&others)?;
-    let r = wall_ratio(per_ray, best);
-    let verdict = if r.value >= 1.0 {
-        format!("{} faster than", with_ci(&r))
-    } else {
-        let inv = Ratio {
-            value: 1.0 / r.value,
-            lo: 1.0 / r.hi,
-            hi: 1.0 / r.lo,
-            n: r.n,
-        };
-        format!("{} slower than", with_ci(&inv))
-    };
-    let ties = if tied.is_empty() {
-        "no other configuration is statistically tied with it".to_string()
-    } else {
-        format!(
-            "statistically tied with it (not shown slower at 95 %): {}",
-            tied.iter()
-                .map(|s| format!("`{}` ({})", s.row.label, speedup_text(s)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    };
-    Some(format!(
-        "On {group} with {max_w} workers, the fastest configuration (`{}`, speedup {}) was {verdict} the per-ray master (`{}`, speedup {}); {ties}.{}",
-        best.row.label,
-        speedup_text(best),
-        per_ray.row.label,
-        speedup_text(per_ray),
-        super::prediction::gap_clause(per_ray, best).unwrap_or_default()
-    ))
-}
 
 /// What a reader must know before trusting the numbers: efficiency above 100 % beyond noise,
 /// a fastest configuration slower than serial, medians less precise than the target (their
@@ -255,9 +194,10 @@ pub fn render(meta: Option<&Meta>, sums: &[Summary], figs: &[Figure], runs: usiz
         md += &machine_section(m, sums);
     }
     md += &shares_section(sums);
-    md += &answer_section(sums, &groups);
+    let margin = margin_of(meta);
+    md += &answer_section(sums, &groups, margin);
     md += &mpi_section(&groups, sums);
-    md += &model_section(sums, &groups);
+    md += &model_section(sums, &groups, margin);
     md += &tuning_section(sums, &groups);
     md += &best_section(sums, &groups);
     md += &every_section(sums, &groups);
@@ -414,36 +354,8 @@ fn machine_section(m: &Meta, sums: &[Summary]) -> String {
 }
 
 /// Per scene: the answer, the chunk curves in words and the per-ray master's sentence.
-fn answer_section(sums: &[Summary], groups: &[String]) -> String {
-    let mut md = String::new();
-    let _ = writeln!(md, "## Answer\n");
-    for g in groups {
-        // Thread schedulers only: MPI rows have their own section.
-        let in_g: Vec<&Summary> = sums
-            .iter()
-            .filter(|s| &s.group() == g && !s.row.on_mpi())
-            .collect();
-        if let Some(a) = answer(g, &in_g) {
-            let _ = writeln!(md, "{a}\n");
-        }
-        let curves = chunk_curves(&in_g);
-        if !curves.is_empty() {
-            let _ = writeln!(md, "Wall time against chunk size, per scheduler (its fastest configuration at each chunk; flat = tied with its best at 95 %):\n");
-            for c in curves {
-                let _ = writeln!(md, "{c}");
-            }
-            let _ = writeln!(md);
-        }
-        // Only where a per-ray master ran.
-        if let Some(sentence) = per_ray_sentence(g, &in_g) {
-            let _ = writeln!(md, "{sentence}\n");
-        }
-    }
-    md
-}
-
 /// The cost model's predictions against the measured medians.
-fn model_section(sums: &[Summary], groups: &[String]) -> String {
+fn model_section(sums: &[Summary], groups: &[String], margin: f64) -> String {
     let mut md = String::new();
     let mut model = String::new();
     for g in groups {
@@ -462,7 +374,7 @@ fn model_section(sums: &[Summary], groups: &[String]) -> String {
             .iter()
             .find(|s| &s.group() == g && s.row.is_serial())
             .map(|s| s.wall_median);
-        if let Some(sec) = super::prediction::section(g, &at, serial) {
+        if let Some(sec) = super::prediction::section(g, &at, serial, margin) {
             model += &sec;
         }
     }
@@ -647,145 +559,6 @@ pub fn mpi_section(groups: &[String], sums: &[Summary]) -> String {
     md
 }
 
-/// "chunk 4 (16 px)", "frame (65536 px)": a configuration's chunk as its file wrote it.
-pub fn chunk_words_pub(s: &Summary) -> String {
-    chunk_words(s)
-}
-
-fn chunk_words(s: &Summary) -> String {
-    match (&s.row.chunk, s.row.chunk_px) {
-        (Some(c), Some(px)) if c.parse::<u64>().is_ok() => format!("chunk {c} ({px} px)"),
-        (Some(c), Some(px)) => format!("{c} ({px} px)"),
-        (Some(c), None) => c.clone(),
-        _ => "—".into(),
-    }
-}
-
-/// Per scene: the fastest configuration at the most workers and every one not shown slower.
-pub fn answer(group: &str, sums: &[&Summary]) -> Option<String> {
-    let at = at_most_workers(sums)?;
-    let max_w = at.first()?.row.workers;
-    let (best, tied) = tied_with_best(&at)?;
-    let mut md = format!(
-        "**{group}, {max_w} workers:** fastest `{}` ({}), median {:.4} s (95 % CI {:.4}–{:.4}), speedup {}.",
-        best.row.label,
-        chunk_words(best),
-        best.wall_median,
-        best.wall_median_ci.0,
-        best.wall_median_ci.1,
-        speedup_text(best)
-    );
-    if tied.is_empty() {
-        md += " No other configuration is statistically tied with it.";
-    } else {
-        let _ = write!(
-            md,
-            " Tied with it (not shown slower at 95 %), {} of {}: {}.",
-            tied.len(),
-            at.len() - 1,
-            tied.iter()
-                .map(|s| format!("`{}` ({:.4} s)", s.row.label, s.wall_median))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-    }
-    Some(md)
-}
-
-/// Each scheduler's wall time against its chunk in words, at the most workers: where its
-/// optimum lies and over which chunks it is flat (tied with its own best), from its fastest
-/// configuration at each chunk. Schedulers with one chunk are left out.
-pub fn chunk_curves(sums: &[&Summary]) -> Vec<String> {
-    let Some(max_w) = sums
-        .iter()
-        .filter(|s| !s.row.is_serial())
-        .map(|s| s.row.workers)
-        .max()
-    else {
-        return vec![];
-    };
-    let at: Vec<&Summary> = sums
-        .iter()
-        .copied()
-        .filter(|s| s.row.workers == max_w && !s.row.is_serial() && s.row.chunk_px.is_some())
-        .collect();
-    let mut kinds: Vec<&str> = Vec::new();
-    for s in &at {
-        if !kinds.contains(&s.row.scheduler.as_str()) {
-            kinds.push(&s.row.scheduler);
-        }
-    }
-    let mut out = Vec::new();
-    for k in kinds {
-        // The fastest configuration of `k` at each chunk, smallest chunk first.
-        let mut curve: Vec<&Summary> = Vec::new();
-        for s in at.iter().copied().filter(|s| s.row.scheduler == k) {
-            match curve.iter_mut().find(|c| c.row.chunk_px == s.row.chunk_px) {
-                Some(c) if s.wall_median < c.wall_median => *c = s,
-                Some(_) => {}
-                None => curve.push(s),
-            }
-        }
-        if curve.len() < 2 {
-            continue;
-        }
-        curve.sort_by_key(|s| s.row.chunk_px);
-        let Some(bi) =
-            (0..curve.len()).min_by(|&a, &b| curve[a].wall_median.total_cmp(&curve[b].wall_median))
-        else {
-            continue;
-        };
-        let best = curve[bi];
-        let tied = |s: &Summary| s.row.config == best.row.config || wall_ratio(s, best).lo <= 1.0;
-        // The run of chunks around the optimum tied with it.
-        let (mut lo, mut hi) = (bi, bi);
-        while lo > 0 && tied(curve[lo - 1]) {
-            lo -= 1;
-        }
-        while hi + 1 < curve.len() && tied(curve[hi + 1]) {
-            hi += 1;
-        }
-        let shape = if lo == hi {
-            format!("optimum at {}", chunk_words(best))
-        } else if lo == 0 && hi == curve.len() - 1 {
-            format!(
-                "flat: every chunk from {} to {} is tied with its best, {}",
-                chunk_words(curve[lo]),
-                chunk_words(curve[hi]),
-                chunk_words(best)
-            )
-        } else {
-            format!(
-                "flat from {} to {} (fastest at {})",
-                chunk_words(curve[lo]),
-                chunk_words(curve[hi]),
-                chunk_words(best)
-            )
-        };
-        let ends: Vec<String> = [0, curve.len() - 1]
-            .into_iter()
-            .filter(|&i| i < lo || i > hi)
-            .map(|i| {
-                format!(
-                    "{:.1}× slower at {}",
-                    curve[i].wall_median / best.wall_median,
-                    chunk_words(curve[i])
-                )
-            })
-            .collect();
-        let ends = if ends.is_empty() {
-            String::new()
-        } else {
-            format!("; {}", ends.join(", "))
-        };
-        out.push(format!(
-            "- **{k}**: {shape}, median {:.4} s{ends}.",
-            best.wall_median
-        ));
-    }
-    out
-}
-
 /// Every configuration of a group: median wall time with its interval, speedup, efficiency,
 /// runs; sorted by workers, then wall time.
 pub fn full_table(sums: &[&Summary]) -> String {
@@ -817,114 +590,4 @@ pub fn full_table(sums: &[&Summary]) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use crate::studies::experiment::results::RunRow;
-
-    /// `reps` rows of one configuration; round r scales every wall time by the same drift.
-    fn rows(kind: &str, chunk: &str, px: u64, wall: f64) -> Vec<RunRow> {
-        (0..12u32)
-            .map(|rep| {
-                let mut r = RunRow::example();
-                r.experiment = "synthetic".into();
-                r.scene = "box".into();
-                r.width = 64;
-                r.height = 64;
-                r.spp = 1;
-                r.tracer = "bvh".into();
-                r.config = format!("{kind}-{chunk}");
-                r.scheduler = kind.into();
-                r.label = if kind == "serial" {
-                    "serial".into()
-                } else {
-                    format!("{kind} chunk={chunk}")
-                };
-                r.chunk = (kind != "serial").then(|| chunk.into());
-                r.chunk_px = (kind != "serial").then_some(px);
-                r.workers = if kind == "serial" { 1 } else { 4 };
-                r.repetition = rep;
-                let drift = 1.0 + 0.05 * ((rep * 7 % 5) as f64 - 2.0);
-                r.wall_s = wall * drift;
-                r.serial_s = 1.0;
-                r.rays = 4096;
-                r.items = 4096 / px.max(1);
-                r
-            })
-            .collect()
-    }
-
-    /// Writes `rows` as runs.csv in a fresh folder and redraws it; returns report.md.
-    fn report_of(rows: &[RunRow]) -> (tempfile::TempDir, String) {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let mut csv = RunRow::header().join(",").into_bytes();
-        csv.push(b'\n');
-        for r in rows {
-            csv.extend(r.to_line());
-        }
-        std::fs::write(dir.path().join("runs.csv"), csv).expect("written");
-        crate::plot::redraw(dir.path()).expect("redrawn");
-        let md = std::fs::read_to_string(dir.path().join("report.md")).expect("report.md");
-        (dir, md)
-    }
-
-    #[test]
-    fn report_answers_without_a_per_ray_master() {
-        let mut all = rows("serial", "", 0, 1.0);
-        // self_scheduling: a clear optimum at chunk 4; static: flat from 4 to 16, slower at 1.
-        for (c, px, w) in [("1", 1, 0.9), ("4", 16, 0.30), ("16", 256, 0.6)] {
-            all.extend(rows("self_scheduling", c, px, w));
-        }
-        for (c, px, w) in [("1", 1, 0.8), ("4", 16, 0.40), ("16", 256, 0.40)] {
-            all.extend(rows("static", c, px, w));
-        }
-        let (dir, md) = report_of(&all);
-        assert!(
-            !md.contains("the per-ray master"),
-            "no per-ray master ran:\n{md}"
-        );
-        assert!(
-            md.contains("fastest `self_scheduling chunk=4` (chunk 4 (16 px))"),
-            "{md}"
-        );
-        assert!(
-            md.contains("- **self_scheduling**: optimum at chunk 4 (16 px)"),
-            "{md}"
-        );
-        assert!(
-            md.contains("- **static**: flat from chunk 4 (16 px) to chunk 16 (256 px)"),
-            "{md}"
-        );
-        assert!(md.contains("2.0× slower at chunk 1 (1 px)"), "{md}");
-        // The full table: every configuration with its median and interval.
-        let table = &md[md.find("## Every configuration").expect("full table")..];
-        for label in [
-            "self_scheduling chunk=1",
-            "static chunk=16",
-            "static chunk=1",
-        ] {
-            assert!(
-                table.contains(&format!("| `{label}` |")),
-                "{label}: {table}"
-            );
-        }
-        assert!(dir.path().join("report.html").exists());
-    }
-
-    #[test]
-    fn warnings_come_first_and_the_per_ray_master_is_compared_where_it_ran() {
-        let mut all = rows("serial", "", 0, 1.0);
-        // Every configuration slower than serial: a warning.
-        all.extend(rows("master", "1", 1, 3.0));
-        for r in all.iter_mut().filter(|r| r.scheduler == "master") {
-            r.params = crate::sched::param_columns()
-                .iter()
-                .map(|p| (p.name == "buffer").then(|| "2".to_string()))
-                .collect();
-        }
-        all.extend(rows("self_scheduling", "4", 16, 1.5));
-        let (_dir, md) = report_of(&all);
-        let warn = md.find("## Warnings").expect("a warning");
-        let answer = md.find("## Answer").expect("an answer");
-        assert!(warn < answer, "{md}");
-        assert!(md.contains("the per-ray master"), "{md}");
-    }
-}
+mod tests;
