@@ -21,14 +21,43 @@ pub use font::register_font;
 
 use crate::studies::experiment::summary::{self, Summary};
 use crate::studies::experiment::{convergence, meta, results};
+use crate::util::staging::Staging;
 use std::path::{Path, PathBuf};
 
+/// Why a results folder's summary, charts or report were not drawn, in one line.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// A file or folder could not be read, written or understood.
+    #[error("{}: {msg}", path.display())]
+    File {
+        /// The file or folder.
+        path: PathBuf,
+        /// What went wrong with it.
+        msg: String,
+    },
+    /// A chart could not be drawn (the message names the chart).
+    #[error("{0}")]
+    Chart(String),
+    /// `runs.csv` could not be read (the message names it).
+    #[error(transparent)]
+    Runs(#[from] results::ResultsError),
+}
+
+impl PlotError {
+    fn at(path: &Path, e: impl std::fmt::Display) -> Self {
+        PlotError::File {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        }
+    }
+}
+
 /// Draw every figure the data supports into `dir/plots/`; returns them for `report.md`.
-pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, String> {
+pub fn draw_all(dir: &Path, sums: &[Summary]) -> Result<Vec<Figure>, PlotError> {
     register_font();
     let plots = dir.join("plots");
-    std::fs::create_dir_all(&plots).map_err(|e| format!("{}: {e}", plots.display()))?;
-    charts::draw_all(dir, &plots, &plots, true, sums)
+    std::fs::create_dir_all(&plots).map_err(|e| PlotError::at(&plots, e))?;
+    charts::draw_all(dir, &plots, &plots, true, sums).map_err(PlotError::Chart)
 }
 
 /// The largest magnitude a plotted value may have: plotters computes its tick marks in loops
@@ -92,64 +121,105 @@ pub fn warnings_of(dir: &Path) -> Vec<String> {
 /// Rows holding an infinite, NaN or absurd value are left out (and counted in the report and
 /// on stderr). Everything is written to a staging folder and moved into place at the end, so a
 /// failure leaves the previous files.
-pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn redraw(dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
     redraw_scaled(dir, raster::PngScale::ONE)
 }
 
 /// [`redraw`], with every PNG rasterised from its SVG at `png_scale` when that is not 1:
 /// print-quality figures.
-pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, String> {
-    // At scale 1 every PNG is drawn as a bitmap; otherwise it is rasterised from its SVG only.
-    let bitmap = png_scale == raster::PngScale::ONE;
-    let rescale = |svg: &Path, staged_png: &Path| {
-        raster::svg_to_png(svg, staged_png, png_scale).map_err(|e| e.to_string())
-    };
+pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<PathBuf>, PlotError> {
     let runs = dir.join("runs.csv");
     let convergence = dir.join("convergence.csv");
-    let staging =
-        crate::util::staging::Staging::new(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let commit = |staging: crate::util::staging::Staging| {
-        staging
-            .commit()
-            .map_err(|e| format!("{}: {e}", dir.display()))
-    };
+    let staging = Staging::new(dir).map_err(|e| PlotError::at(dir, e))?;
     if !runs.exists() && convergence.exists() {
         // A convergence experiment: its plots are drawn from its CSV alone too.
-        let rows = crate::studies::converge::read_csv(&convergence)
-            .map_err(|e| format!("{}: {e}", convergence.display()))?;
-        for p in convergence::PLOTS
-            .iter()
-            .filter(|p| bitmap || !p.ends_with(".png"))
-        {
-            let staged = staging.path(p);
-            if let Some(d) = staged.parent() {
-                std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
-            }
-            crate::studies::converge::plot(&staged, &rows)
-                .map_err(|e| format!("{}: {e}", dir.join(p).display()))?;
-        }
-        for p in convergence::PLOTS
-            .iter()
-            .filter(|p| !bitmap && p.ends_with(".png"))
-        {
-            let png = staging.path(p);
-            rescale(&png.with_extension("svg"), &png)?;
-        }
-        commit(staging)?;
-        return Ok(convergence::PLOTS.map(|p| dir.join(p)).to_vec());
+        return redraw_convergence(dir, &convergence, staging, png_scale);
     }
     if !runs.exists() {
-        return Err(format!(
-            "{}: not found (is {} an experiment results folder?)",
-            runs.display(),
+        let msg = format!(
+            "not found (is {} an experiment results folder?)",
             dir.display()
-        ));
+        );
+        return Err(PlotError::at(&runs, msg));
     }
-    let (all, _) = results::read_runs(&runs).map_err(|e| e.to_string())?;
+    let rows = plottable_rows(dir, &runs)?;
+    let sums = summary::summarize(&rows.rows);
+    summary::write_summary(&staging.path("summary.csv"), &sums)
+        .map_err(|e| PlotError::at(&dir.join("summary.csv"), e))?;
+    register_font();
+    let real_plots = dir.join("plots");
+    let plots = staging
+        .dir("plots")
+        .map_err(|e| PlotError::at(&real_plots, e))?;
+    let json = crate::studies::experiment::export::write_json(dir, &rows.rows, &sums)
+        .map_err(|e| PlotError::at(dir, e))?;
+    let bitmap = png_scale == raster::PngScale::ONE;
+    let figs =
+        charts::draw_all(dir, &plots, &real_plots, bitmap, &sums).map_err(PlotError::Chart)?;
+    if !bitmap {
+        rasterise_figures(dir, &plots, &figs, png_scale)?;
+    }
+    write_reports(dir, &staging, &plots, &rows, &sums, &figs)?;
+    staging.commit().map_err(|e| PlotError::at(dir, e))?;
+    let mut out = vec![
+        dir.join("summary.csv"),
+        dir.join("report.md"),
+        dir.join("report.html"),
+    ];
+    out.extend(json);
+    out.extend(figs.iter().map(|f| dir.join(&f.file)));
+    Ok(out)
+}
+
+/// A convergence experiment's plots, from its `convergence.csv` alone; at a PNG scale other
+/// than 1, every PNG rasterised from its SVG.
+fn redraw_convergence(
+    dir: &Path,
+    csv: &Path,
+    staging: Staging,
+    png_scale: raster::PngScale,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let bitmap = png_scale == raster::PngScale::ONE;
+    let rows = crate::studies::converge::read_csv(csv).map_err(|e| PlotError::at(csv, e))?;
+    for p in convergence::PLOTS
+        .iter()
+        .filter(|p| bitmap || !p.ends_with(".png"))
+    {
+        let staged = staging.path(p);
+        if let Some(d) = staged.parent() {
+            std::fs::create_dir_all(d).map_err(|e| PlotError::at(d, e))?;
+        }
+        crate::studies::converge::plot(&staged, &rows)
+            .map_err(|e| PlotError::at(&dir.join(p), e))?;
+    }
+    for p in convergence::PLOTS
+        .iter()
+        .filter(|p| !bitmap && p.ends_with(".png"))
+    {
+        let png = staging.path(p);
+        raster::svg_to_png(&png.with_extension("svg"), &png, png_scale)
+            .map_err(|e| PlotError::at(&png, e))?;
+    }
+    staging.commit().map_err(|e| PlotError::at(dir, e))?;
+    Ok(convergence::PLOTS.map(|p| dir.join(p)).to_vec())
+}
+
+/// The rows of `runs.csv` that the summary, plots and report read, and what was left out.
+struct Plottable {
+    rows: Vec<results::RunRow>,
+    /// Rows holding an infinite, NaN or absurd value.
+    bad: usize,
+    /// Rows of configurations the experiment file no longer names.
+    retired: usize,
+}
+
+/// Reads `runs`: a negative time is an error; rows of retired configurations stay in
+/// runs.csv only, and rows with a value no chart can hold are counted and left out.
+fn plottable_rows(dir: &Path, runs: &Path) -> Result<Plottable, PlotError> {
+    let (all, _) = results::read_runs(runs)?;
     if let Some(msg) = negative_time(&all) {
-        return Err(format!("{}: {msg}", runs.display()));
+        return Err(PlotError::at(runs, msg));
     }
-    // Rows of configurations the experiment file no longer names stay in runs.csv only.
     let (all, retired) = meta::current_rows_in(dir, all);
     let (rows, bad): (Vec<_>, Vec<_>) = all.into_iter().partition(plottable);
     if !bad.is_empty() {
@@ -159,19 +229,21 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
             bad.len()
         );
     }
-    let sums = summary::summarize(&rows);
-    summary::write_summary(&staging.path("summary.csv"), &sums)
-        .map_err(|e| format!("{}: {e}", dir.join("summary.csv").display()))?;
-    register_font();
-    let real_plots = dir.join("plots");
-    let plots = staging
-        .dir("plots")
-        .map_err(|e| format!("{}: {e}", real_plots.display()))?;
-    let json = crate::studies::experiment::export::write_json(dir, &rows, &sums)
-        .map_err(|e| e.to_string())?;
-    let figs = charts::draw_all(dir, &plots, &real_plots, bitmap, &sums)?;
-    let rescaled = if bitmap { &[][..] } else { &figs[..] };
-    for f in rescaled {
+    Ok(Plottable {
+        rows,
+        bad: bad.len(),
+        retired,
+    })
+}
+
+/// Every figure's PNG rasterised from its SVG at `png_scale` (print quality).
+fn rasterise_figures(
+    dir: &Path,
+    plots: &Path,
+    figs: &[Figure],
+    png_scale: raster::PngScale,
+) -> Result<(), PlotError> {
+    for f in figs {
         let rel = Path::new(&f.file);
         let png = plots.join(rel.strip_prefix("plots").unwrap_or(rel));
         // A Gantt chart kept from an earlier drawing (its timeline is gone) was not staged:
@@ -183,38 +255,42 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
         .into_iter()
         .find(|p| p.exists());
         if let Some(svg) = svg {
-            rescale(&svg, &png)?;
+            raster::svg_to_png(&svg, &png, png_scale).map_err(|e| PlotError::at(&png, e))?;
         }
     }
+    Ok(())
+}
+
+/// `report.md` and `report.html` into the staging folder, saying what was left out.
+fn write_reports(
+    dir: &Path,
+    staging: &Staging,
+    plots: &Path,
+    rows: &Plottable,
+    sums: &[Summary],
+    figs: &[Figure],
+) -> Result<(), PlotError> {
     let meta: Option<meta::Meta> = std::fs::read_to_string(dir.join("meta.toml"))
         .ok()
         .and_then(|t| toml::from_str(&t).ok());
-    let mut report = report::render(meta.as_ref(), &sums, &figs, rows.len());
-    if !bad.is_empty() {
+    let mut report = report::render(meta.as_ref(), sums, figs, rows.rows.len());
+    if rows.bad > 0 {
         report += &format!(
             "\n{} row(s) of runs.csv hold an infinite, NaN or out-of-range value and are left \
              out of this report.\n",
-            bad.len()
+            rows.bad
         );
     }
-    if retired > 0 {
+    if rows.retired > 0 {
         report += &format!(
-            "\n{retired} row(s) of runs.csv belong to configurations the experiment file no \
-             longer names and are left out of this report, its summary and plots.\n"
+            "\n{} row(s) of runs.csv belong to configurations the experiment file no \
+             longer names and are left out of this report, its summary and plots.\n",
+            rows.retired
         );
     }
     std::fs::write(staging.path("report.md"), &report)
-        .map_err(|e| format!("{}: {e}", dir.join("report.md").display()))?;
-    let html = html::render(dir, &plots, &report);
+        .map_err(|e| PlotError::at(&dir.join("report.md"), e))?;
+    let html = html::render(dir, plots, &report);
     std::fs::write(staging.path("report.html"), html)
-        .map_err(|e| format!("{}: {e}", dir.join("report.html").display()))?;
-    commit(staging)?;
-    let mut out = vec![
-        dir.join("summary.csv"),
-        dir.join("report.md"),
-        dir.join("report.html"),
-    ];
-    out.extend(json);
-    out.extend(figs.iter().map(|f| dir.join(&f.file)));
-    Ok(out)
+        .map_err(|e| PlotError::at(&dir.join("report.html"), e))
 }

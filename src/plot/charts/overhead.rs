@@ -62,12 +62,36 @@ pub(super) fn overhead_chart<DB: DrawingBackend>(
     let (labels_area, chart_area) =
         plot.split_horizontally(label_w.min(plot.dim_in_pixel().0 as i32 / 3));
     let mut chart = axes::chart_without_y_ticks(&chart_area, &xs, &ys)?;
+    bar_labels(&labels_area, &chart, &names)?;
+    for (p, &c) in cols.iter().enumerate() {
+        chart
+            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
+                let x0: f64 = v[..p].iter().sum();
+                Rectangle::new(
+                    [(x0, i as f64 - 0.35), (x0 + v[p], i as f64 + 0.35)],
+                    c.filled(),
+                )
+            }))
+            .map_err(e)?;
+    }
+    if let Some(serial_s) = serial_s {
+        dashed_vertical(&chart, serial_s, n)?;
+    }
+    axes::legend(&legend_area, &keys)
+}
+
+/// The bars' names right-aligned beside the chart, every k-th where rows are thinner than a
+/// line of text.
+fn bar_labels<DB: DrawingBackend>(
+    labels_area: &DrawingArea<DB, Shift>,
+    chart: &axes::Chart<'_, DB>,
+    names: &[String],
+) -> R {
     let row_h = {
         let a = chart.backend_coord(&(0.0, 0.0)).1;
         let b = chart.backend_coord(&(0.0, 1.0)).1;
         (a - b).abs()
     };
-    // Every k-th name where rows are thinner than a line of text.
     let need = axes::text_size("Ag", axes::TICK_FONT).1 + 2;
     let every = ((need + row_h - 1) / row_h.max(1)).max(1) as usize;
     let base = labels_area.get_base_pixel();
@@ -85,33 +109,25 @@ pub(super) fn overhead_chart<DB: DrawingBackend>(
             ))
             .map_err(e)?;
     }
-    for (p, &c) in cols.iter().enumerate() {
-        chart
-            .draw_series(bars.iter().enumerate().map(|(i, (_, v))| {
-                let x0: f64 = v[..p].iter().sum();
-                Rectangle::new(
-                    [(x0, i as f64 - 0.35), (x0 + v[p], i as f64 + 0.35)],
-                    c.filled(),
-                )
-            }))
+    Ok(())
+}
+
+/// A dashed vertical line at `x` across all `n` bars (the serial median).
+fn dashed_vertical<DB: DrawingBackend>(chart: &axes::Chart<'_, DB>, x: f64, n: usize) -> R {
+    let (a, b) = (
+        chart.backend_coord(&(x, -0.5)),
+        chart.backend_coord(&(x, n as f64 - 0.5)),
+    );
+    let pa = chart.plotting_area().strip_coord_spec();
+    let o = pa.get_base_pixel();
+    for piece in axes::dashed(
+        &[(a.0 - o.0, a.1 - o.1), (b.0 - o.0, b.1 - o.1)],
+        Dash::Dashed,
+    ) {
+        pa.draw(&PathElement::new(piece, BLACK.stroke_width(2)))
             .map_err(e)?;
     }
-    if let Some(serial_s) = serial_s {
-        let (a, b) = (
-            chart.backend_coord(&(serial_s, -0.5)),
-            chart.backend_coord(&(serial_s, n as f64 - 0.5)),
-        );
-        let pa = chart.plotting_area().strip_coord_spec();
-        let o = pa.get_base_pixel();
-        for piece in axes::dashed(
-            &[(a.0 - o.0, a.1 - o.1), (b.0 - o.0, b.1 - o.1)],
-            Dash::Dashed,
-        ) {
-            pa.draw(&PathElement::new(piece, BLACK.stroke_width(2)))
-                .map_err(e)?;
-        }
-    }
-    axes::legend(&legend_area, &keys)
+    Ok(())
 }
 
 /// Each scheduler kind's fastest configuration (median wall time), in the registry's order.

@@ -15,32 +15,8 @@ pub(crate) fn scatter_vs<DB: DrawingBackend>(
     // (name, [(x, x_lo, x_hi, y)]) per scheduler or group
     groups: &[ScatterGroup],
 ) -> R {
-    let all = groups.iter().flat_map(|g| g.1.iter());
-    let vals: Vec<f64> = all
-        .flat_map(|p| [p.0, p.1, p.2, p.3])
-        .filter(|v| v.is_finite())
-        .collect();
-    let scale = axes::auto_scale(vals.iter().copied());
+    let (scale, c0, c1) = square_range(groups);
     let t = |v: f64| scale.to(v);
-    let (lo, hi) = vals
-        .iter()
-        .filter(|v| scale != Scale::Log10 || **v > 0.0)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(*v), b.max(*v))
-        });
-    let (lo, hi) = if lo.is_finite() && hi > lo {
-        (lo, hi)
-    } else {
-        (0.0, 1.0)
-    };
-    let (c0, c1) = match scale {
-        Scale::Log10 => {
-            let (a, b) = (lo.log10(), hi.log10());
-            let pad = (b - a) * 0.06;
-            (a - pad, b + pad)
-        }
-        _ => (0.0, hi * 1.08),
-    };
     let styles = style::for_names(&groups.iter().map(|g| g.0.clone()).collect::<Vec<_>>());
     let mut keys: Vec<(String, Key)> = groups
         .iter()
@@ -71,34 +47,9 @@ pub(crate) fn scatter_vs<DB: DrawingBackend>(
         scale,
     };
     let mut chart = axes::chart(&plot, &xs, &ys)?;
+    ratio_lines(&chart, scale, (c0, c1))?;
     let pa = chart.plotting_area().strip_coord_spec();
     let o = pa.get_base_pixel();
-    for (k, col, dash) in [
-        (1.0, BLACK, Dash::Solid),
-        (1.25, RGBColor(110, 110, 110), Dash::Dashed),
-        (0.8, RGBColor(110, 110, 110), Dash::Dashed),
-    ] {
-        // y = k·x sampled, so it is straight on either scale.
-        let pts: Vec<(i32, i32)> = (0..=40)
-            .map(|i| {
-                let c = c0 + (c1 - c0) * i as f64 / 40.0;
-                let v = match scale {
-                    Scale::Log10 => 10f64.powf(c),
-                    _ => c,
-                };
-                (c, t(v * k))
-            })
-            .filter(|p| p.1.is_finite() && p.1 >= c0 && p.1 <= c1)
-            .map(|p| {
-                let b = chart.backend_coord(&p);
-                (b.0 - o.0, b.1 - o.1)
-            })
-            .collect();
-        for piece in axes::dashed(&pts, dash) {
-            pa.draw(&PathElement::new(piece, col.stroke_width(1)))
-                .map_err(e)?;
-        }
-    }
     for ((_, pts), st) in groups.iter().zip(&styles) {
         for &(x, xlo, xhi, y) in pts {
             let (cx, cy) = (t(x), t(y));
@@ -124,6 +75,75 @@ pub(crate) fn scatter_vs<DB: DrawingBackend>(
         }
     }
     axes::legend(&legend_area, &keys)
+}
+
+/// The scale both axes share (log when the values span more than 5×) and the range, in axis
+/// coordinates, that holds every finite value of `groups` with a margin.
+fn square_range(groups: &[ScatterGroup]) -> (Scale, f64, f64) {
+    let vals: Vec<f64> = groups
+        .iter()
+        .flat_map(|g| g.1.iter())
+        .flat_map(|p| [p.0, p.1, p.2, p.3])
+        .filter(|v| v.is_finite())
+        .collect();
+    let scale = axes::auto_scale(vals.iter().copied());
+    let (lo, hi) = vals
+        .iter()
+        .filter(|v| scale != Scale::Log10 || **v > 0.0)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo, hi)
+    } else {
+        (0.0, 1.0)
+    };
+    let (c0, c1) = match scale {
+        Scale::Log10 => {
+            let (a, b) = (lo.log10(), hi.log10());
+            let pad = (b - a) * 0.06;
+            (a - pad, b + pad)
+        }
+        _ => (0.0, hi * 1.08),
+    };
+    (scale, c0, c1)
+}
+
+/// The lines y = x (solid) and y = 1.25·x, y = 0.8·x (dashed), sampled so they are straight
+/// on either scale and clipped to the range.
+fn ratio_lines<DB: DrawingBackend>(
+    chart: &axes::Chart<'_, DB>,
+    scale: Scale,
+    (c0, c1): (f64, f64),
+) -> R {
+    let pa = chart.plotting_area().strip_coord_spec();
+    let o = pa.get_base_pixel();
+    for (k, col, dash) in [
+        (1.0, BLACK, Dash::Solid),
+        (1.25, RGBColor(110, 110, 110), Dash::Dashed),
+        (0.8, RGBColor(110, 110, 110), Dash::Dashed),
+    ] {
+        let pts: Vec<(i32, i32)> = (0..=40)
+            .map(|i| {
+                let c = c0 + (c1 - c0) * i as f64 / 40.0;
+                let v = match scale {
+                    Scale::Log10 => 10f64.powf(c),
+                    _ => c,
+                };
+                (c, scale.to(v * k))
+            })
+            .filter(|p| p.1.is_finite() && p.1 >= c0 && p.1 <= c1)
+            .map(|p| {
+                let b = chart.backend_coord(&p);
+                (b.0 - o.0, b.1 - o.1)
+            })
+            .collect();
+        for piece in axes::dashed(&pts, dash) {
+            pa.draw(&PathElement::new(piece, col.stroke_width(1)))
+                .map_err(e)?;
+        }
+    }
+    Ok(())
 }
 
 pub(super) fn predicted_vs_measured(out: &mut Drawn, gr: &Group) -> R {
