@@ -3,10 +3,10 @@
 //! the fastest, or the set within a few per cent of it when the curve is flat.
 
 use super::error::CliError;
-use raysched::core::scene::{load_scene, SceneOverrides};
+use raysched::core::scene::{load_scene, Scene, SceneOverrides};
 use raysched::core::tracer::{AnyTracer, TracerKind};
 use raysched::sched::{Chunk, MasterParams, Passes, Policy, SchedulerKind, SchedulerSpec, Slow};
-use raysched::studies::model::advise::{advise, Probed};
+use raysched::studies::model::advise::{advise, Advice, Probed};
 use raysched::studies::model::probe;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -125,6 +125,18 @@ fn ms(s: f64) -> String {
 }
 
 pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
+    let specs = checked_specs(&args)?;
+    let (scene, probed, spp, probe_spp) = probe_scene(&args, &specs)?;
+    let advice = advise(&probed, &specs, spp, args.tolerance_pct / 100.0);
+    print_probe(&args, &scene, &probed, spp, probe_spp);
+    print_overheads(&probed);
+    print_candidates(&advice, &scene);
+    print_verdict(&args, &advice, &scene)
+}
+
+/// The candidates, each checked as a run would check it (e.g. more slowed workers than
+/// workers), and the flags no candidate covers, all before the scene is loaded.
+fn checked_specs(args: &AdviseArgs) -> Result<Vec<SchedulerSpec>, CliError> {
     if args.sources == AdviseSources::Mpi {
         return Err(CliError::message(
             "--sources mpi: the cost model covers local threads only",
@@ -136,14 +148,21 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
             args.tolerance_pct
         )));
     }
-    // Every candidate checked as a run would check it (e.g. more slowed workers than workers),
-    // before the scene is loaded.
-    let specs = specs(&args);
+    let specs = specs(args);
     for s in &specs {
         s.validate().map_err(|e| {
             CliError::message(format!("--{}: {}", e.field.replace('_', "-"), e.msg))
         })?;
     }
+    Ok(specs)
+}
+
+/// Load the scene at the probe's spp and probe it with every candidate's policy; also the spp
+/// the prediction is for and the probe's spp.
+fn probe_scene(
+    args: &AdviseArgs,
+    specs: &[SchedulerSpec],
+) -> Result<(Arc<Scene>, Probed, u32, u32), CliError> {
     let kind = args.tracer.available().map_err(CliError::input)?;
     super::out_path::check_input("SCENE", &args.scene)?;
     let full = load_scene(&args.scene, &SceneOverrides::default()).map_err(CliError::input)?;
@@ -165,7 +184,11 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
     let policies: Vec<Policy> = specs.iter().map(|s| s.policy).collect();
     let probed =
         Probed::measure(&scene, &tracer, args.workers, &policies).map_err(CliError::runtime)?;
-    let advice = advise(&probed, &specs, spp, args.tolerance_pct / 100.0);
+    Ok((scene, probed, spp, probe_spp))
+}
+
+/// The scene, the settings and what the probe measured.
+fn print_probe(args: &AdviseArgs, scene: &Scene, probed: &Probed, spp: u32, probe_spp: u32) {
     let px = probed.pixels.profile.pixels();
     let work_s: f64 = (probed.pixels.profile.pixel_s.iter())
         .map(|&t| probe::scaled_pixel(t, probed.pixels.fixed_pixel_s, probe_spp, spp))
@@ -198,6 +221,10 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
         probed.pixels.fixed_pixel_s * 1e9,
         probed.pixels.per_item_s * 1e9
     );
+}
+
+/// Each policy's measured hand-out overheads.
+fn print_overheads(probed: &Probed) {
     for (p, o) in &probed.overheads {
         // The master's line always carries its r (a noisy probe can measure 0).
         let refill = if p.needs().outstanding.is_some() {
@@ -212,6 +239,10 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
             o.fixed_s * 1e6
         );
     }
+}
+
+/// The prediction of every candidate, one line each.
+fn print_candidates(advice: &Advice, scene: &Scene) {
     out!(
         "{:<20} {:>8} {:>8} {:>11} {:>9} {:>9} {:>9} {:>11}",
         "scheduler",
@@ -225,7 +256,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
     );
     for c in &advice.candidates {
         let p = &c.prediction;
-        let chunk = chunk_text(&c.spec, &scene);
+        let chunk = chunk_text(&c.spec, scene);
         out!(
             "{:<20} {:>8} {:>8} {:>8} ms {:>9} {:>9} {:>9} {:>11}",
             c.spec.kind().id(),
@@ -238,6 +269,10 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
             ms(p.imbalance_s)
         );
     }
+}
+
+/// The best candidate and those tied with it.
+fn print_verdict(args: &AdviseArgs, advice: &Advice, scene: &Scene) -> Result<(), CliError> {
     let Some(&best) = advice.near_best.first() else {
         return Err(CliError::message("no candidate to advise on"));
     };
@@ -245,7 +280,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
     out!(
         "best: {} chunk={} at {} ms predicted",
         b.spec.kind().id(),
-        chunk_text(&b.spec, &scene),
+        chunk_text(&b.spec, scene),
         ms(b.prediction.wall_s)
     );
     if advice.near_best.len() > 1 {
@@ -256,7 +291,7 @@ pub(crate) fn advise_cmd(args: AdviseArgs) -> Result<(), CliError> {
                 format!(
                     "{} chunk={}",
                     c.spec.kind().id(),
-                    chunk_text(&c.spec, &scene)
+                    chunk_text(&c.spec, scene)
                 )
             })
             .collect();

@@ -40,8 +40,7 @@ fn auto_verdict(args: SimulateArgs) -> Result<(), CliError> {
     use raysched::studies::simulate::auto_judge;
     super::out_path::check("--out", &args.out, super::out_path::Kind::Folder)?;
     super::out_path::check_input("EXPERIMENT", &args.experiment)?;
-    let (plan, maps) =
-        auto_judge::load(&args.experiment).map_err(|m| CliError::input(anyhow::anyhow!(m)))?;
+    let (plan, maps) = auto_judge::load(&args.experiment).map_err(CliError::input)?;
     let name = args
         .experiment
         .file_stem()

@@ -24,8 +24,8 @@ pub mod wire;
 pub use decompose::{decompose, decompose_frames};
 pub use exec::master::{self, Hetero};
 pub use param::{
-    Chunk, Order, ParamInfo, ParamValue, Params, Passes, Requeue, Returns, Slow, SpecError, Wait,
-    Weights,
+    Chunk, Order, ParamInfo, ParamValue, Params, Passes, Requeue, Returns, Slow, SpecError,
+    ValueError, Wait, Weights,
 };
 pub use refusal::{Refusal, Runner};
 pub use results::Results;

@@ -18,6 +18,22 @@ pub struct SpecError {
     pub msg: String,
 }
 
+/// A parameter's text that does not parse: what was expected, with the value given. The
+/// caller names the field ([`Params::set`] turns it into a [`SpecError`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{msg}")]
+pub struct ValueError {
+    /// What is wrong, with the value that was given.
+    pub msg: String,
+}
+
+impl ValueError {
+    /// The error `msg`.
+    pub fn new(msg: impl Into<String>) -> Self {
+        Self { msg: msg.into() }
+    }
+}
+
 pub(crate) fn err(field: &str, msg: impl Into<String>) -> SpecError {
     SpecError {
         field: field.to_string(),
@@ -31,22 +47,24 @@ use crate::util::limits::MAX_IMAGE_SIDE;
 /// A value a scheduler parameter can hold, with its one text form.
 pub trait ParamValue: Sized {
     /// Parse the text form; the message says what was expected.
-    fn parse_value(text: &str) -> Result<Self, String>;
+    fn parse_value(text: &str) -> Result<Self, ValueError>;
     /// The text form, as CSV files and config keys hold it.
     fn show(&self) -> String;
 }
 
 /// Counts (buffer sizes, grabs, divisors): 1 ≤ n ≤ [`MAX_COUNT`].
 impl ParamValue for usize {
-    fn parse_value(text: &str) -> Result<Self, String> {
+    fn parse_value(text: &str) -> Result<Self, ValueError> {
         let v: i64 = text
             .trim()
             .parse()
-            .map_err(|_| format!("'{text}': expected a whole number"))?;
+            .map_err(|_| ValueError::new(format!("'{text}': expected a whole number")))?;
         if (1..=MAX_COUNT as i64).contains(&v) {
             Ok(v as usize)
         } else {
-            Err(format!("must be between 1 and {MAX_COUNT} (got {v})"))
+            Err(ValueError::new(format!(
+                "must be between 1 and {MAX_COUNT} (got {v})"
+            )))
         }
     }
     fn show(&self) -> String {
@@ -78,7 +96,10 @@ pub trait Params {
     /// Every parameter, in column order.
     fn info(&self) -> &'static [ParamInfo];
     /// Set `name` from its text form. `Ok(false)`: this kind has no such parameter.
-    fn set(&mut self, name: &str, text: &str) -> Result<bool, String>;
+    ///
+    /// # Errors
+    /// The text does not parse: a [`SpecError`] naming `name`.
+    fn set(&mut self, name: &str, text: &str) -> Result<bool, SpecError>;
     /// The text form of `name`, or `None` when this kind has no such parameter.
     fn get(&self, name: &str) -> Option<String>;
 }
@@ -121,13 +142,18 @@ macro_rules! scheduler_params {
                 INFO
             }
             #[allow(clippy::match_single_binding)] // a kind without parameters
-            fn set(&mut self, name: &str, text: &str) -> Result<bool, String> {
+            fn set(
+                &mut self,
+                name: &str,
+                text: &str,
+            ) -> Result<bool, $crate::sched::param::SpecError> {
                 #[allow(unused_imports)]
                 use $crate::sched::param::ParamValue;
                 let _ = text;
                 match name {
                     $( stringify!($field) => {
-                        self.$field = <$ty>::parse_value(text)?;
+                        self.$field = <$ty>::parse_value(text)
+                            .map_err(|e| $crate::sched::param::err(name, e.msg))?;
                         Ok(true)
                     } )*
                     _ => Ok(false),
@@ -268,8 +294,8 @@ macro_rules! id_enum {
         }
 
         impl ParamValue for $name {
-            fn parse_value(text: &str) -> Result<Self, String> {
-                Self::from_id(text.trim()).map_err(|e| e.msg)
+            fn parse_value(text: &str) -> Result<Self, $crate::sched::param::ValueError> {
+                Self::from_id(text.trim()).map_err(|e| $crate::sched::param::ValueError::new(e.msg))
             }
             fn show(&self) -> String {
                 self.id().to_string()
@@ -478,8 +504,8 @@ impl fmt::Display for Requeue {
 }
 
 impl ParamValue for Requeue {
-    fn parse_value(text: &str) -> Result<Self, String> {
-        Self::parse(text).map_err(|e| e.msg)
+    fn parse_value(text: &str) -> Result<Self, ValueError> {
+        Self::parse(text).map_err(|e| ValueError::new(e.msg))
     }
     fn show(&self) -> String {
         self.to_string()
@@ -554,10 +580,11 @@ mod tests {
     #[test]
     fn counts_are_bounded() {
         assert_eq!(usize::parse_value("3"), Ok(3));
-        assert!(usize::parse_value("0").unwrap_err().contains("got 0"));
+        assert!(usize::parse_value("0").unwrap_err().msg.contains("got 0"));
         assert!(usize::parse_value("1048577").is_err());
         assert!(usize::parse_value("two")
             .unwrap_err()
+            .msg
             .contains("whole number"));
     }
 }

@@ -144,8 +144,8 @@ impl Default for SourceSet {
 }
 
 impl ParamValue for SourceSet {
-    fn parse_value(text: &str) -> Result<Self, String> {
-        Self::parse(text).map_err(|e| e.msg)
+    fn parse_value(text: &str) -> Result<Self, crate::sched::param::ValueError> {
+        Self::parse(text).map_err(|e| crate::sched::param::ValueError::new(e.msg))
     }
     fn show(&self) -> String {
         self.id()
@@ -288,7 +288,7 @@ impl SourceSetup {
                 self.own[pos(k)].chunk = Some(Chunk::parse(text).map_err(|e| bad(e.msg))?)
             }
             SourceField::Buffer(k) => {
-                self.own[pos(k)].buffer = Some(usize::parse_value(text).map_err(bad)?)
+                self.own[pos(k)].buffer = Some(usize::parse_value(text).map_err(|e| bad(e.msg))?)
             }
             SourceField::Balance => {
                 self.balance = match text.trim() {

@@ -164,7 +164,7 @@ impl SchedulerSpec {
     pub fn set(&mut self, name: &str, text: &str) -> Result<(), SpecError> {
         self.check_name(name)?;
         if let Some(p) = self.policy.params_mut() {
-            p.set(name, text).map_err(|m| err(name, m))?;
+            p.set(name, text)?;
         }
         Ok(())
     }
@@ -196,7 +196,7 @@ impl SchedulerSpec {
             let text = self.get(p.name).unwrap_or_default();
             let mut copy = self.policy;
             if let Some(params) = copy.params_mut() {
-                params.set(p.name, &text).map_err(|m| err(p.name, m))?;
+                params.set(p.name, &text)?;
             }
         }
         Ok(())

@@ -73,114 +73,143 @@ impl GpuClock {
 fn serve(id: u32, r: &GpuRenderer, probe: Probe, fl: &Flags, rx: &Receiver<Batch>) -> SourceReport {
     let mut report = SourceReport::default();
     report.stats.source = Some(crate::core::metrics::SourceKind::Gpu);
-    let mut inflight: VecDeque<InFlight> = VecDeque::new();
-    let mut clock = GpuClock {
-        busy: Duration::ZERO,
-        since: None,
-        last_end: None,
+    let mut lane = Lane {
+        id,
+        r,
+        fl,
+        failure: None,
+        clock: GpuClock {
+            busy: Duration::ZERO,
+            since: None,
+            last_end: None,
+        },
+        inflight: VecDeque::new(),
     };
     let mut open = true;
-    let mut failure: Option<SourceFailure> = None;
     loop {
         // Take every hand-out waiting; block only when nothing is in flight.
-        let mut next = if !open {
-            None
-        } else if inflight.is_empty() {
-            rx.recv().map_err(|_| open = false).ok()
-        } else {
-            match rx.try_recv() {
-                Ok(b) => Some(b),
-                Err(TryRecvError::Empty) => None,
-                Err(TryRecvError::Disconnected) => {
-                    open = false;
-                    None
-                }
-            }
-        };
+        let mut next = next_batch(rx, &mut open, lane.inflight.is_empty());
         while let Some(batch) = next.take() {
-            if let Some(f) = &failure {
-                batch
-                    .into_iter()
-                    .for_each(|(_, c)| c.complete(Err(f.clone())));
-            } else if fl.cancelled() {
-                for (item, c) in batch {
-                    c.complete(Err(SourceFailure::Cancelled { item: item.id }));
-                }
-            } else {
-                for group in dispatch_groups(batch, r.max_tasks as usize) {
-                    let items: Vec<WorkItem> = group.iter().map(|(i, _)| i.clone()).collect();
-                    match r.submit(&r.tasks_of(&items), Entry::Render) {
-                        Ok(dispatch) => {
-                            let now = quanta::Instant::now();
-                            clock.started(now);
-                            inflight.push_back(InFlight {
-                                dispatch,
-                                items: group,
-                                submitted: now,
-                            });
-                        }
-                        Err(e) => {
-                            let f = lose(fl, id, e.to_string());
-                            group
-                                .into_iter()
-                                .for_each(|(_, c)| c.complete(Err(f.clone())));
-                            failure = Some(f);
-                        }
-                    }
-                }
-            }
+            lane.submit(batch);
             fl.ring();
             if open {
                 next = rx.try_recv().ok();
             }
         }
-        let Some(job) = inflight.pop_front() else {
+        let Some(job) = lane.inflight.pop_front() else {
             if open {
                 continue;
             }
             break;
         };
+        lane.finish(job, probe, &mut report);
+        fl.ring();
+    }
+    lane.clock.idle(quanta::Instant::now());
+    if probe.stats {
+        report.stats.busy_s = lane.clock.busy.as_secs_f64();
+    }
+    report
+}
+
+/// The next hand-out from `rx`: waits for one when `block` (nothing in flight), else takes
+/// one only if it is there. Clears `open` when the channel is closed.
+fn next_batch(rx: &Receiver<Batch>, open: &mut bool, block: bool) -> Option<Batch> {
+    if !*open {
+        None
+    } else if block {
+        rx.recv().map_err(|_| *open = false).ok()
+    } else {
+        match rx.try_recv() {
+            Ok(b) => Some(b),
+            Err(TryRecvError::Empty) => None,
+            Err(TryRecvError::Disconnected) => {
+                *open = false;
+                None
+            }
+        }
+    }
+}
+
+/// The GPU lane's state while it serves: its dispatches in flight, its clock and its failure
+/// (after which every hand-out fails with it).
+struct Lane<'a> {
+    id: u32,
+    r: &'a GpuRenderer,
+    fl: &'a Flags,
+    failure: Option<SourceFailure>,
+    clock: GpuClock,
+    inflight: VecDeque<InFlight>,
+}
+
+impl Lane<'_> {
+    /// Submit `batch` in dispatch groups; or fail it with the lane's failure, or as cancelled.
+    fn submit(&mut self, batch: Batch) {
+        if let Some(f) = &self.failure {
+            batch
+                .into_iter()
+                .for_each(|(_, c)| c.complete(Err(f.clone())));
+        } else if self.fl.cancelled() {
+            for (item, c) in batch {
+                c.complete(Err(SourceFailure::Cancelled { item: item.id }));
+            }
+        } else {
+            let r = self.r;
+            for group in dispatch_groups(batch, r.max_tasks as usize) {
+                let items: Vec<WorkItem> = group.iter().map(|(i, _)| i.clone()).collect();
+                match r.submit(&r.tasks_of(&items), Entry::Render) {
+                    Ok(dispatch) => {
+                        let now = quanta::Instant::now();
+                        self.clock.started(now);
+                        self.inflight.push_back(InFlight {
+                            dispatch,
+                            items: group,
+                            submitted: now,
+                        });
+                    }
+                    Err(e) => {
+                        let f = lose(self.fl, self.id, e.to_string());
+                        group
+                            .into_iter()
+                            .for_each(|(_, c)| c.complete(Err(f.clone())));
+                        self.failure = Some(f);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Wait for `job` (the oldest dispatch) and deliver its items; if it failed, fail them and
+    /// every other dispatch in flight.
+    fn finish(&mut self, job: InFlight, probe: Probe, report: &mut SourceReport) {
         let InFlight {
             dispatch,
             items,
             submitted,
         } = job;
-        match r.wait(dispatch) {
+        match self.r.wait(dispatch) {
             Ok(px) => {
-                let now = deliver(
-                    id,
-                    r,
-                    probe,
-                    (items, submitted),
-                    &px,
-                    &mut clock,
-                    &mut report,
-                );
-                if inflight.is_empty() {
-                    clock.idle(now);
+                let job = (items, submitted);
+                let now = deliver(self.id, self.r, probe, job, &px, &mut self.clock, report);
+                if self.inflight.is_empty() {
+                    self.clock.idle(now);
                 }
             }
             Err(e) => {
-                let f = lose(fl, id, e.to_string());
+                let f = lose(self.fl, self.id, e.to_string());
                 items
                     .into_iter()
                     .for_each(|(_, c)| c.complete(Err(f.clone())));
-                for j in inflight.drain(..) {
+                for j in self.inflight.drain(..) {
                     j.items
                         .into_iter()
                         .for_each(|(_, c)| c.complete(Err(f.clone())));
                 }
-                failure = Some(f);
-                clock.idle(quanta::Instant::now());
+                self.failure = Some(f);
+                self.clock.idle(quanta::Instant::now());
             }
         }
-        fl.ring();
     }
-    clock.idle(quanta::Instant::now());
-    if probe.stats {
-        report.stats.busy_s = clock.busy.as_secs_f64();
-    }
-    report
 }
 
 /// Complete a finished dispatch's items (submitted at `submitted`) with their results (`px`,

@@ -106,7 +106,17 @@ impl PropertyAccess for Skip {
 /// One line naming the element (and its index where one is at fault): unreadable file, bad
 /// header, vertex coordinates missing or not float/double, no faces, a truncated or malformed
 /// payload, an index out of range, a non-finite coordinate, or no triangle at all.
-pub fn read_ply(path: &Path, hash: &mut Fnv64) -> Result<Vec<[DVec3; 3]>, String> {
+pub fn read_ply(path: &Path, hash: &mut Fnv64) -> Result<Vec<[DVec3; 3]>, PlyError> {
+    read_triangles(path, hash).map_err(PlyError)
+}
+
+/// A PLY file that does not read as a triangle mesh: one line naming the element (and its
+/// index where one is at fault).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct PlyError(pub String);
+
+fn read_triangles(path: &Path, hash: &mut Fnv64) -> Result<Vec<[DVec3; 3]>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
     hash.write(&bytes);
     let bytes = tolerant_header(bytes);
@@ -263,7 +273,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.ply");
         std::fs::write(&p, text).unwrap();
-        read_ply(&p, &mut Fnv64::default())
+        read_ply(&p, &mut Fnv64::default()).map_err(|e| e.0)
     }
 
     const QUAD: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n\

@@ -13,8 +13,8 @@
 //! chunk = "1"
 //! ```
 
-use super::plan::ExperimentPlan;
-use crate::studies::converge::{self, reference};
+use super::plan::{ConvergenceSettings, ExperimentPlan};
+use crate::studies::converge::{self, reference, ConvergenceRow};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -68,6 +68,26 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
     let dir = out.join(&plan.name);
     std::fs::create_dir_all(&dir)?;
     let load_start = load_average();
+    let (rows, refs) = render_all(plan, &settings, out)?;
+    let load_end = load_average();
+    let csv = dir.join("convergence.csv");
+    converge::write_csv(&csv, &rows)?;
+    let from_csv = converge::read_csv(&csv)?;
+    for p in PLOTS {
+        converge::plot(&dir.join(p), &from_csv)?;
+    }
+    let md = report_text(plan, &settings, &refs, &from_csv, (load_start, load_end));
+    std::fs::write(dir.join("report.md"), md)?;
+    Ok(dir)
+}
+
+/// Every baseline's progressive renders under each of its configurations, and one line per
+/// distinct reference (`scene: kind`).
+fn render_all(
+    plan: &ExperimentPlan,
+    settings: &ConvergenceSettings,
+    out: &Path,
+) -> Result<(Vec<ConvergenceRow>, Vec<String>), ConvergenceError> {
     let mut rows = Vec::new();
     let mut refs: Vec<String> = Vec::new();
     for (bi, b) in plan.baselines.iter().enumerate() {
@@ -108,13 +128,18 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
             );
         }
     }
-    let load_end = load_average();
-    let csv = dir.join("convergence.csv");
-    converge::write_csv(&csv, &rows)?;
-    let from_csv = converge::read_csv(&csv)?;
-    for p in PLOTS {
-        converge::plot(&dir.join(p), &from_csv)?;
-    }
+    Ok((rows, refs))
+}
+
+/// `report.md`: the references, the lowest error per time budget and the fitted slopes, with
+/// the load average at the start and end of the renders.
+fn report_text(
+    plan: &ExperimentPlan,
+    settings: &ConvergenceSettings,
+    refs: &[String],
+    from_csv: &[ConvergenceRow],
+    (load_start, load_end): (String, String),
+) -> String {
     let machine = super::meta::machine();
     let mut md = format!(
         "# Experiment `{}` (convergence)\n\n{}\n\nProgressive render 1, 2, 4 … {} spp; error against \
@@ -133,11 +158,11 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
         load_start,
         load_end,
     );
-    for r in &refs {
+    for r in refs {
         let _ = writeln!(md, "- {r}");
     }
     let _ = writeln!(md, "\n## Same time budget: lowest error\n");
-    for line in converge::budget_winners(&from_csv) {
+    for line in converge::budget_winners(from_csv) {
         let _ = writeln!(md, "- {line}.");
     }
     let _ = writeln!(
@@ -150,7 +175,7 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
          milliseconds (the furnace) the slope is mostly that overhead and the machine's noise.\n\n\
          | scene | configuration | slope | time budget (s) | RMSE at budget |\n|---|---|---|---|---|"
     );
-    for s in converge::summarise(&from_csv) {
+    for s in converge::summarise(from_csv) {
         let _ = writeln!(
             md,
             "| {} | {} | {} | {:.4} | {} |",
@@ -162,8 +187,7 @@ pub fn run(plan: &ExperimentPlan, out: &Path) -> Result<PathBuf, ConvergenceErro
         );
     }
     let _ = writeln!(md, "\n![error vs time](convergence.png)");
-    std::fs::write(dir.join("report.md"), md)?;
-    Ok(dir)
+    md
 }
 
 /// The scheduler configurations of baseline `bi` (a scene and tracer); none: `rows_rayon`.

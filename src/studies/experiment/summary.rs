@@ -459,72 +459,76 @@ fn ratio4(x: f64) -> String {
     }
 }
 
+/// The configuration columns of `summary.csv`, before the parameter columns.
+const HEAD_COLUMNS: [&str; 14] = [
+    "experiment",
+    "config",
+    "scene",
+    "width",
+    "height",
+    "spp",
+    "max_depth",
+    "generator_count",
+    "tracer",
+    "scheduler",
+    "label",
+    "chunk",
+    "chunk_px",
+    "order",
+];
+
+/// The statistics columns of `summary.csv`, after the parameter columns.
+const TAIL_COLUMNS: [&str; 44] = [
+    "workers",
+    "n",
+    "wall_median_s",
+    "wall_min_s",
+    "wall_max_s",
+    "wall_mean_s",
+    "wall_ci95_lo_s",
+    "wall_ci95_hi_s",
+    "speedup_median",
+    "speedup_min",
+    "speedup_max",
+    "efficiency_median",
+    "overhead_s_median",
+    "work_s_median",
+    "dispatch_s_median",
+    "idle_s_median",
+    "imbalance_s_median",
+    "imbalance_median",
+    "identical",
+    "sources",
+    "ranks",
+    "transport",
+    "wall_sd_s",
+    "wall_median_ci_lo_s",
+    "wall_median_ci_hi_s",
+    "ci_half_rel",
+    "outliers",
+    "speedup",
+    "speedup_ci_lo",
+    "speedup_ci_hi",
+    "inner",
+    "load_max",
+    "agrees",
+    "efficiency",
+    "efficiency_ci_lo",
+    "efficiency_ci_hi",
+    "lanes_busy_s",
+    "lanes_imbalance_s",
+    "lanes_other_idle_s",
+    "lanes_dispatch_s",
+    "predicted_wall_s",
+    "predicted_handout_s",
+    "predicted_refill_s",
+    "predicted_imbalance_s",
+];
+
 /// Write `summary.csv` to `path`: one row per summary, config and parameter columns first,
 /// then the statistics (seconds with 6 decimals).
 pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
     let mut w = csv::Writer::from_path(path)?;
-    let head = [
-        "experiment",
-        "config",
-        "scene",
-        "width",
-        "height",
-        "spp",
-        "max_depth",
-        "generator_count",
-        "tracer",
-        "scheduler",
-        "label",
-        "chunk",
-        "chunk_px",
-        "order",
-    ];
-    let tail = [
-        "workers",
-        "n",
-        "wall_median_s",
-        "wall_min_s",
-        "wall_max_s",
-        "wall_mean_s",
-        "wall_ci95_lo_s",
-        "wall_ci95_hi_s",
-        "speedup_median",
-        "speedup_min",
-        "speedup_max",
-        "efficiency_median",
-        "overhead_s_median",
-        "work_s_median",
-        "dispatch_s_median",
-        "idle_s_median",
-        "imbalance_s_median",
-        "imbalance_median",
-        "identical",
-        "sources",
-        "ranks",
-        "transport",
-        "wall_sd_s",
-        "wall_median_ci_lo_s",
-        "wall_median_ci_hi_s",
-        "ci_half_rel",
-        "outliers",
-        "speedup",
-        "speedup_ci_lo",
-        "speedup_ci_hi",
-        "inner",
-        "load_max",
-        "agrees",
-        "efficiency",
-        "efficiency_ci_lo",
-        "efficiency_ci_hi",
-        "lanes_busy_s",
-        "lanes_imbalance_s",
-        "lanes_other_idle_s",
-        "lanes_dispatch_s",
-        "predicted_wall_s",
-        "predicted_handout_s",
-        "predicted_refill_s",
-        "predicted_imbalance_s",
-    ];
     let kinds = crate::sched::SourceKind::ALL;
     let share_names: Vec<String> = kinds
         .iter()
@@ -534,93 +538,118 @@ pub fn write_summary(path: &Path, sums: &[Summary]) -> Result<(), csv::Error> {
         .collect();
     let params = param_columns().iter().map(|p| p.name);
     w.write_record(
-        head.into_iter()
+        HEAD_COLUMNS
+            .into_iter()
             .chain(params)
-            .chain(tail)
+            .chain(TAIL_COLUMNS)
             .chain(share_names.iter().map(String::as_str)),
     )?;
-    let o = |v: &Option<String>| v.clone().unwrap_or_default();
-    let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
     for s in sums {
         let r = &s.row;
-        // Shortest round-trip text: the report and charts, which format the in-memory value, then
-        // agree digit for digit with a figure read back from this file (no double rounding).
-        let f = |x: f64| format!("{x}");
-        let head = [
-            r.experiment.clone(),
-            r.config.clone(),
-            r.scene.clone(),
-            r.width.to_string(),
-            r.height.to_string(),
-            r.spp.to_string(),
-            r.max_depth.to_string(),
-            r.generator_count.map(|g| g.to_string()).unwrap_or_default(),
-            r.tracer.clone(),
-            r.scheduler.clone(),
-            r.label.clone(),
-            o(&r.chunk),
-            r.chunk_px.map(|c| c.to_string()).unwrap_or_default(),
-            o(&r.order),
-        ];
-        let tail = [
-            r.workers.to_string(),
-            s.n.to_string(),
-            f(s.wall_median),
-            f(s.wall_min),
-            f(s.wall_max),
-            f(s.wall_mean),
-            f(s.wall_ci95.0),
-            f(s.wall_ci95.1),
-            f(s.speedup_median),
-            f(s.speedup_min),
-            f(s.speedup_max),
-            f(s.efficiency_median),
-            f(s.overhead_s_median),
-            f(s.work_s_median),
-            f(s.dispatch_s_median),
-            f(s.idle_s_median),
-            f(s.imbalance_s_median),
-            f(s.imbalance_median),
-            s.identical.to_string(),
-            r.sources.clone(),
-            n(r.ranks),
-            o(&r.transport),
-            f(s.wall_sd),
-            f(s.wall_median_ci.0),
-            f(s.wall_median_ci.1),
-            format!("{:.5}", s.ci_half_rel),
-            s.outliers.to_string(),
-            ratio4(s.speedup_ci().value),
-            ratio4(s.speedup_ci().lo),
-            ratio4(s.speedup_ci().hi),
-            s.inner.to_string(),
-            s.load_max.map(|l| format!("{l:.2}")).unwrap_or_default(),
-            s.agrees.map(|a| a.to_string()).unwrap_or_default(),
-            ratio4(s.efficiency_ci().value),
-            ratio4(s.efficiency_ci().lo),
-            ratio4(s.efficiency_ci().hi),
-            f(s.lanes.busy_s),
-            f(s.lanes.imbalance_s),
-            f(s.lanes.other_idle_s),
-            f(s.lanes.dispatch_s),
-            r.predicted_wall_s.map(f).unwrap_or_default(),
-            r.predicted_handout_s.map(f).unwrap_or_default(),
-            r.predicted_refill_s.map(f).unwrap_or_default(),
-            r.predicted_imbalance_s.map(f).unwrap_or_default(),
-        ];
         let shares = s.shares.iter().flat_map(|sh| match sh {
             Some(x) => [
                 format!("{:.4}", x.pixel_share),
                 format!("{}", x.items),
-                f(x.busy_s),
+                shortest(x.busy_s),
             ],
             None => Default::default(),
         });
-        let params = r.params.iter().map(o);
-        w.write_record(head.into_iter().chain(params).chain(tail).chain(shares))?;
+        let params = r.params.iter().map(opt_text);
+        w.write_record(
+            head_cells(r)
+                .into_iter()
+                .chain(params)
+                .chain(tail_cells(s))
+                .chain(shares),
+        )?;
     }
     w.flush()?;
     Ok(())
+}
+
+/// An optional text cell: empty when absent.
+fn opt_text(v: &Option<String>) -> String {
+    v.clone().unwrap_or_default()
+}
+
+/// Shortest round-trip text: the report and charts, which format the in-memory value, then
+/// agree digit for digit with a figure read back from `summary.csv` (no double rounding).
+fn shortest(x: f64) -> String {
+    format!("{x}")
+}
+
+/// The configuration cells of one summary row, in [`HEAD_COLUMNS`] order.
+fn head_cells(r: &RunRow) -> [String; 14] {
+    let o = opt_text;
+    [
+        r.experiment.clone(),
+        r.config.clone(),
+        r.scene.clone(),
+        r.width.to_string(),
+        r.height.to_string(),
+        r.spp.to_string(),
+        r.max_depth.to_string(),
+        r.generator_count.map(|g| g.to_string()).unwrap_or_default(),
+        r.tracer.clone(),
+        r.scheduler.clone(),
+        r.label.clone(),
+        o(&r.chunk),
+        r.chunk_px.map(|c| c.to_string()).unwrap_or_default(),
+        o(&r.order),
+    ]
+}
+
+/// The statistics cells of one summary row, in [`TAIL_COLUMNS`] order.
+fn tail_cells(s: &Summary) -> [String; 44] {
+    let r = &s.row;
+    let (f, o) = (shortest, opt_text);
+    let n = |v: Option<usize>| v.map(|x| x.to_string()).unwrap_or_default();
+    [
+        r.workers.to_string(),
+        s.n.to_string(),
+        f(s.wall_median),
+        f(s.wall_min),
+        f(s.wall_max),
+        f(s.wall_mean),
+        f(s.wall_ci95.0),
+        f(s.wall_ci95.1),
+        f(s.speedup_median),
+        f(s.speedup_min),
+        f(s.speedup_max),
+        f(s.efficiency_median),
+        f(s.overhead_s_median),
+        f(s.work_s_median),
+        f(s.dispatch_s_median),
+        f(s.idle_s_median),
+        f(s.imbalance_s_median),
+        f(s.imbalance_median),
+        s.identical.to_string(),
+        r.sources.clone(),
+        n(r.ranks),
+        o(&r.transport),
+        f(s.wall_sd),
+        f(s.wall_median_ci.0),
+        f(s.wall_median_ci.1),
+        format!("{:.5}", s.ci_half_rel),
+        s.outliers.to_string(),
+        ratio4(s.speedup_ci().value),
+        ratio4(s.speedup_ci().lo),
+        ratio4(s.speedup_ci().hi),
+        s.inner.to_string(),
+        s.load_max.map(|l| format!("{l:.2}")).unwrap_or_default(),
+        s.agrees.map(|a| a.to_string()).unwrap_or_default(),
+        ratio4(s.efficiency_ci().value),
+        ratio4(s.efficiency_ci().lo),
+        ratio4(s.efficiency_ci().hi),
+        f(s.lanes.busy_s),
+        f(s.lanes.imbalance_s),
+        f(s.lanes.other_idle_s),
+        f(s.lanes.dispatch_s),
+        r.predicted_wall_s.map(f).unwrap_or_default(),
+        r.predicted_handout_s.map(f).unwrap_or_default(),
+        r.predicted_refill_s.map(f).unwrap_or_default(),
+        r.predicted_imbalance_s.map(f).unwrap_or_default(),
+    ]
 }
 
 #[cfg(test)]

@@ -16,6 +16,9 @@ pub enum SimError {
     /// Writing a result file.
     #[error(transparent)]
     Write(#[from] crate::util::fs::WriteError),
+    /// A probe's scheduler setting was refused.
+    #[error(transparent)]
+    Spec(#[from] crate::sched::SpecError),
     /// A probe's scheduler run failed.
     #[error(transparent)]
     Sched(#[from] crate::sched::SchedError),

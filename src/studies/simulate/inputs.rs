@@ -8,6 +8,7 @@ use crate::core::scene::Scene;
 use crate::core::tracer::AnyTracer;
 use crate::sched::{decompose, wire, Chunk, Order, Policy, SchedulerKind};
 use crate::studies::model::probe;
+use crate::studies::simulate::error::SimError;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -49,12 +50,13 @@ impl PixelCosts {
         reps: u32,
         level_reps: u32,
         threads: usize,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, SimError> {
         if scene.frames() > 1 {
-            return Err("animations are not simulated (the probe times one frame)".into());
+            return Err(SimError::Failed(
+                "animations are not simulated (the probe times one frame)".into(),
+            ));
         }
-        let p = probe::pixels_with(scene, tracer, threads.max(1), reps, level_reps)
-            .map_err(|e| e.to_string())?;
+        let p = probe::pixels_with(scene, tracer, threads.max(1), reps, level_reps)?;
         Ok(Self {
             width: p.profile.width,
             height: p.profile.height,
@@ -133,25 +135,28 @@ pub fn master_zero_work(
     items: u32,
     workers: usize,
     reps: u32,
-) -> Result<ZeroWork, String> {
+) -> Result<ZeroWork, SimError> {
     let mut spec = crate::sched::SchedulerSpec::new(kind, Chunk::Frame, workers);
-    spec.set("buffer", &buffer.to_string())
-        .map_err(|e| e.to_string())?;
-    probe::zero_work_for(spec.policy, items, workers, reps, ZERO_WORK_RUN_S)
-        .map_err(|e| e.to_string())
+    spec.set("buffer", &buffer.to_string())?;
+    Ok(probe::zero_work_for(
+        spec.policy,
+        items,
+        workers,
+        reps,
+        ZERO_WORK_RUN_S,
+    )?)
 }
 
 /// The shared counter's cost per grab (zero-work self-scheduling at grab 1, per item) and the
 /// threaded schedulers' fixed cost per run.
-pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWork, String> {
-    probe::zero_work_for(
+pub fn counter_zero_work(items: u32, workers: usize, reps: u32) -> Result<ZeroWork, SimError> {
+    Ok(probe::zero_work_for(
         Policy::defaults(SchedulerKind::SelfScheduling),
         items,
         workers,
         reps,
         ZERO_WORK_RUN_S,
-    )
-    .map_err(|e| e.to_string())
+    )?)
 }
 
 #[cfg(test)]

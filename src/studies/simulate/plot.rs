@@ -1,6 +1,7 @@
 //! Plots of a simulation: speedup against simulated workers, efficiency against chunk size per
 //! worker count, the master's saturation against its analytic limit 1/h, and the validation.
 
+use super::error::SimError;
 use super::rows::{Inputs, SimRow};
 use super::validate::Validation;
 use crate::plot::axes::Scale;
@@ -107,7 +108,14 @@ pub fn analytic_master_speedup(serial_s: f64, items: usize, h: f64) -> f64 {
 }
 
 /// Every simulation plot into `dir`; returns their file names.
-pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>, String> {
+///
+/// # Errors
+/// A chart that could not be drawn or written ([`SimError::Failed`], its message).
+pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>, SimError> {
+    draw_charts(dir, rows, inputs).map_err(SimError::Failed)
+}
+
+fn draw_charts(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>, String> {
     let mut files = Vec::new();
     let ok: Vec<&SimRow> = rows.iter().filter(|r| r.out.error.is_none()).collect();
     let platforms: Vec<String> = {
@@ -207,7 +215,14 @@ pub fn draw(dir: &Path, rows: &[SimRow], inputs: &Inputs) -> Result<Vec<String>,
 }
 
 /// Simulated against measured wall time, one point per configuration, with y = x.
-pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
+///
+/// # Errors
+/// The chart could not be drawn or written ([`SimError::Failed`], its message).
+pub fn validation(dir: &Path, v: &Validation) -> Result<Vec<String>, SimError> {
+    validation_chart(dir, v).map_err(SimError::Failed)
+}
+
+fn validation_chart(dir: &Path, v: &Validation) -> Result<Vec<String>, String> {
     let group =
         |c: &crate::studies::simulate::validate::Comparison| (c.sources.clone(), c.spec.workers);
     let mut by_workers: BTreeMap<(String, usize), Vec<(f64, f64)>> = BTreeMap::new();

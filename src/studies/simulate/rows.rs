@@ -87,8 +87,7 @@ impl Inputs {
             1,
         )?);
         let reps = (plan.probe_repetitions, plan.probe_level_repetitions);
-        let pixels =
-            PixelCosts::probe(&scene, &tracer, reps.0, reps.1, 1).map_err(SimError::Failed)?;
+        let pixels = PixelCosts::probe(&scene, &tracer, reps.0, reps.1, 1)?;
         if !quiet {
             println!(
                 "probe: Σ pixels timed one by one {:.4} s, bulk render in rows {:.4} s ({:+.1} %; {} bulk passes {:.4}–{:.4} s): the costs sum to the bulk render",
@@ -102,8 +101,7 @@ impl Inputs {
         }
         let mut concurrent = BTreeMap::new();
         for &t in concurrency.iter().filter(|&&t| t > 1) {
-            let px =
-                PixelCosts::probe(&scene, &tracer, reps.0, reps.1, t).map_err(SimError::Failed)?;
+            let px = PixelCosts::probe(&scene, &tracer, reps.0, reps.1, t)?;
             if !quiet {
                 println!(
                     "probe on {t} threads at once: Σ pixels {:.4} s ({:+.1} % against one thread; bulk passes {:.4}–{:.4} s)",
@@ -121,14 +119,13 @@ impl Inputs {
         for s in specs {
             if let Some(b) = s.policy.needs().outstanding {
                 if let std::collections::btree_map::Entry::Vacant(e) = master_h_s.entry(b) {
-                    let z = inputs::master_zero_work(s.kind(), b, n, workers, reps)
-                        .map_err(SimError::Failed)?;
+                    let z = inputs::master_zero_work(s.kind(), b, n, workers, reps)?;
                     e.insert(z.per_item_s);
                     master_fixed_s.insert(b, z.fixed_s);
                 }
             }
         }
-        let counter = inputs::counter_zero_work(n, workers, reps).map_err(SimError::Failed)?;
+        let counter = inputs::counter_zero_work(n, workers, reps)?;
         let counter_s = counter.per_item_s;
         if !quiet {
             println!(

@@ -171,14 +171,14 @@ fn write_report(
     inputs: &Inputs,
     validation: Option<&validate::Validation>,
 ) -> Result<(), SimError> {
-    let mut figures = plot::draw(&dir.join("plots"), rows, inputs).map_err(SimError::Failed)?;
+    let mut figures = plot::draw(&dir.join("plots"), rows, inputs)?;
     let mut report = format!(
         "# {} (simulated with SimGrid)\n\n{}\n\n",
         plan.name, plan.description
     );
     if let Some(v) = validation {
         validate::write(dir, v)?;
-        figures.extend(plot::validation(&dir.join("plots"), v).map_err(SimError::Failed)?);
+        figures.extend(plot::validation(&dir.join("plots"), v)?);
         report += &validate::markdown(v);
     }
     report += &plot::saturation_markdown(rows, inputs);

@@ -54,6 +54,47 @@ pub(crate) fn tfar_for(t_max: f32) -> Option<f32> {
     })
 }
 
+/// An Embree `RTCRay`: Embree 3's (the hand-written `v3::ffi`) or Embree 4's (`embree4-sys`),
+/// the same fields under the same names in both.
+pub(crate) trait RtcRay: Sized {
+    /// The ray from `o` along `d` over `tnear < t ≤ tfar` at time 0, every mask bit set.
+    fn with(o: [f32; 3], d: [f32; 3], tnear: f32, tfar: f32) -> Self;
+}
+
+/// [`RtcRay`] for a binding's `RTCRay` type: a macro, because the two bindings' types share
+/// their field names but no trait a generic function could construct them through.
+macro_rules! impl_rtc_ray {
+    ($ty:ty) => {
+        impl $crate::core::tracer::embree::common::RtcRay for $ty {
+            #[inline(always)]
+            fn with(o: [f32; 3], d: [f32; 3], tnear: f32, tfar: f32) -> Self {
+                Self {
+                    org_x: o[0],
+                    org_y: o[1],
+                    org_z: o[2],
+                    tnear,
+                    dir_x: d[0],
+                    dir_y: d[1],
+                    dir_z: d[2],
+                    time: 0.0,
+                    tfar,
+                    mask: u32::MAX,
+                    id: 0,
+                    flags: 0,
+                }
+            }
+        }
+    };
+}
+pub(crate) use impl_rtc_ray;
+
+/// An Embree ray for raysched's `0 < t < t_max` contract (`None` when that interval is empty).
+#[inline(always)]
+pub(crate) fn rtc_ray<R: RtcRay>(ray: &Ray, t_max: f32) -> Option<R> {
+    let (o, d) = ([ray.o.x, ray.o.y, ray.o.z], [ray.d.x, ray.d.y, ray.d.z]);
+    Some(R::with(o, d, TNEAR, tfar_for(t_max)?))
+}
+
 /// Map Embree's (geomID, primID) to a raysched primitive id: spheres first, then triangles.
 #[inline(always)]
 pub(crate) fn primitive_id(n_spheres: u32, geom: u32, prim: u32) -> u32 {

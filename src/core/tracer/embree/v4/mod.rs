@@ -36,8 +36,8 @@ pub mod ffi;
 use crate::core::geometry::{Hit, Ray};
 use crate::core::scene::Geometry;
 use crate::core::tracer::embree::common::{
-    on_error, padded_bounds, primitive_counts, primitive_id, tfar_for, Builder, EmbreeError,
-    ErrorSink, SphereData, TNEAR,
+    impl_rtc_ray, on_error, padded_bounds, primitive_counts, primitive_id, rtc_ray, Builder,
+    EmbreeError, ErrorSink, SphereData,
 };
 use std::ffi::{c_int, c_void, CString};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -225,24 +225,7 @@ impl Embree4Tracer {
     }
 }
 
-/// An Embree ray for raysched's `0 < t < t_max` contract (`None` when that interval is empty).
-#[inline(always)]
-fn rtc_ray(ray: &Ray, t_max: f32) -> Option<ffi::RTCRay> {
-    Some(ffi::RTCRay {
-        org_x: ray.o.x,
-        org_y: ray.o.y,
-        org_z: ray.o.z,
-        tnear: TNEAR,
-        dir_x: ray.d.x,
-        dir_y: ray.d.y,
-        dir_z: ray.d.z,
-        time: 0.0,
-        tfar: tfar_for(t_max)?,
-        mask: u32::MAX,
-        id: 0,
-        flags: 0,
-    })
-}
+impl_rtc_ray!(ffi::RTCRay);
 
 impl Builder for Embree4Tracer {
     type Geometry = ffi::RTCGeometry;
@@ -367,7 +350,7 @@ impl Embree4Tracer {
     /// Whether anything is hit with `0 < t < t_max`, as [`crate::core::tracer::Tracer::occluded`].
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        let Some(mut r) = rtc_ray(ray, t_max) else {
+        let Some(mut r) = rtc_ray::<ffi::RTCRay>(ray, t_max) else {
             return false;
         };
         // SAFETY: as in `intersect`; `rtcOccluded1` writes only the `RTCRay` (its `tfar`).
