@@ -248,6 +248,20 @@ def pls(n, p, swr=0.5):
     return play(n, p, nxt)
 
 
+def tap(n, p, cv, alpha):
+    # kmp_dispatch.cpp:1995-2005: v = alpha sigma / mu (profiled mu, sigma; KMP_ALPHA's alpha,
+    # kmp_global.cpp:574 default 1.0), dbl_parm2 = 1/P, dbl_parm3 = v^2/2, dbl_parm4 = v^2/4.
+    # kmp_dispatch.cpp:4117-4121: t = remaining/P, chunk = ceil(t + v^2/2 - v sqrt(2t + v^2/4)),
+    # at least the minimum chunk (1 here).
+    v = alpha * cv
+
+    def nxt(w, r):
+        t = r * (1.0 / p)
+        return max(1, math.ceil(t + v * v / 2.0 - v * math.sqrt(2 * t + v * v / 4.0)))
+
+    return play(n, p, nxt)
+
+
 def splitmix64(state):
     # Steele, Lea & Flood 2014 (the constants of java.util.SplittableRandom).
     m = (1 << 64) - 1
@@ -287,6 +301,7 @@ KINDS = {
     "viss": viss,
     "pls": pls,
     "rnd": rnd,
+    "tap": lambda n, p: tap(n, p, 1.0, 1.0),
 }
 
 if __name__ == "__main__":

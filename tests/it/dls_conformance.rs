@@ -135,6 +135,7 @@ fn published_kinds_match_the_independent_reference_within_one_item_a_chunk() {
         "viss",
         "pls",
         "rnd",
+        "tap",
     ] {
         assert!(kinds.contains(want), "{want} missing from the table");
     }

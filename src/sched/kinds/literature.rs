@@ -55,12 +55,7 @@ pub const TECHNIQUES: [Technique; 30] = [
         "FAC's chunks with LB4OMP's cheaper synchronisation: the same sequence as `fac`",
     ),
     t("FAC2", "LB4OMP", "Flynn Hummel, Schonberg & Flynn, CACM 35(8), 1992"),
-    missing(
-        "TAP",
-        "LB4OMP",
-        "Lucco, PLDI 1992",
-        "not built: needs profiled μ, σ and a scaling factor α (left for a later issue)",
-    ),
+    t("TAP", "LB4OMP", "Lucco, PLDI 1992"),
     t("WF2", "LB4OMP", "Flynn Hummel, Schmidt, Uma & Wein, SPAA 1996"),
     missing(
         "BOLD",
