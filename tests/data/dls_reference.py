@@ -9,8 +9,9 @@ named in DEPARTURES; tests/it/dls_conformance.rs lists the same names with their
 checks the two lists agree.
 
 Workers ask in turn (0, 1, ..., P-1, 0, ...). Before asking again a worker reports its previous
-chunk: n items in n * (1 + w % 3) s of work (workers of speeds 1, 1/2, 1/3), its hand-out
-taking 0.5 s. Output: tests/data/dls_reference.txt, one line per (kind, N, P):
+chunk: n items in n * (1 + w % 3) * (1 + j % 2) s of work, j the chunks it reported before
+(workers of speeds 1, 1/2, 1/3, each at half speed every other chunk, so that a mean weighted
+by the chunk index differs from the plain mean), its hand-out taking 0.5 s. Output: tests/data/dls_reference.txt, one line per (kind, N, P):
 `kind N P c1 c2 ...`. Run: python3 tests/data/dls_reference.py > tests/data/dls_reference.txt
 """
 import math
@@ -32,16 +33,17 @@ DEPARTURES = [
 ]
 
 
-def item_secs(w):
-    return 1.0 + w % 3
+def item_secs(w, j):
+    return (1.0 + w % 3) * (1.0 + j % 2)
 
 
 def play(n, p, next_chunk, report=None):
     """Workers in turn; each chunk clamped to 1..=remaining, as every raysched executor does."""
-    out, handed, last, w = [], 0, [0] * p, 0
+    out, handed, last, reported, w = [], 0, [0] * p, [0] * p, 0
     while handed < n:
         if report and last[w] > 0:
-            report(w, last[w], last[w] * item_secs(w), GRAB_SECS)
+            report(w, last[w], last[w] * item_secs(w, reported[w]), GRAB_SECS)
+            reported[w] += 1
         c = max(1, min(next_chunk(w, n - handed), n - handed))
         out.append(c)
         last[w] = c

@@ -61,7 +61,7 @@ pub const TECHNIQUES: [Technique; 30] = [
         "BOLD",
         "LB4OMP",
         "Hagerup, J. Parallel Distrib. Comput. 47, 1997",
-        "not built: its chunk needs the expected work left per worker (left for a later issue)",
+        "not built: LB4OMP's BOLD (`kmp_dispatch.cpp` 2369–2443, 5003–5093 at bd45b1e) sizes each chunk from its estimate of the items not yet executed, lowered at every request by the wall time since the previous request of any worker × the workers' summed speed; a raysched rule reads no clock and a report carries only its own worker's chunk and hand-out times, not the time line of all workers that this estimate needs",
     ),
     missing(
         "AWF",
