@@ -263,7 +263,9 @@ mod tests {
                 "fsc_warm",
                 "fac_cv",
                 "pls_swr",
-                "sel_phases"
+                "sel_phases",
+                "tap_cv",
+                "tap_alpha"
             ]
         );
         // Kinds appended to the registry may take `grab` too: the first ones stay in order.

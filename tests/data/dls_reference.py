@@ -9,8 +9,9 @@ named in DEPARTURES; tests/it/dls_conformance.rs lists the same names with their
 checks the two lists agree.
 
 Workers ask in turn (0, 1, ..., P-1, 0, ...). Before asking again a worker reports its previous
-chunk: n items in n * (1 + w % 3) s of work (workers of speeds 1, 1/2, 1/3), its hand-out
-taking 0.5 s. Output: tests/data/dls_reference.txt, one line per (kind, N, P):
+chunk: n items in n * (1 + w % 3) * (1 + j % 2) s of work, j the chunks it reported before
+(workers of speeds 1, 1/2, 1/3, each at half speed every other chunk, so that a mean weighted
+by the chunk index differs from the plain mean), its hand-out taking 0.5 s. Output: tests/data/dls_reference.txt, one line per (kind, N, P):
 `kind N P c1 c2 ...`. Run: python3 tests/data/dls_reference.py > tests/data/dls_reference.txt
 """
 import math
@@ -32,16 +33,17 @@ DEPARTURES = [
 ]
 
 
-def item_secs(w):
-    return 1.0 + w % 3
+def item_secs(w, j):
+    return (1.0 + w % 3) * (1.0 + j % 2)
 
 
 def play(n, p, next_chunk, report=None):
     """Workers in turn; each chunk clamped to 1..=remaining, as every raysched executor does."""
-    out, handed, last, w = [], 0, [0] * p, 0
+    out, handed, last, reported, w = [], 0, [0] * p, [0] * p, 0
     while handed < n:
         if report and last[w] > 0:
-            report(w, last[w], last[w] * item_secs(w), GRAB_SECS)
+            report(w, last[w], last[w] * item_secs(w, reported[w]), GRAB_SECS)
+            reported[w] += 1
         c = max(1, min(next_chunk(w, n - handed), n - handed))
         out.append(c)
         last[w] = c
@@ -248,6 +250,20 @@ def pls(n, p, swr=0.5):
     return play(n, p, nxt)
 
 
+def tap(n, p, cv, alpha):
+    # kmp_dispatch.cpp:1995-2005: v = alpha sigma / mu (profiled mu, sigma; KMP_ALPHA's alpha,
+    # kmp_global.cpp:574 default 1.0), dbl_parm2 = 1/P, dbl_parm3 = v^2/2, dbl_parm4 = v^2/4.
+    # kmp_dispatch.cpp:4117-4121: t = remaining/P, chunk = ceil(t + v^2/2 - v sqrt(2t + v^2/4)),
+    # at least the minimum chunk (1 here).
+    v = alpha * cv
+
+    def nxt(w, r):
+        t = r * (1.0 / p)
+        return max(1, math.ceil(t + v * v / 2.0 - v * math.sqrt(2 * t + v * v / 4.0)))
+
+    return play(n, p, nxt)
+
+
 def splitmix64(state):
     # Steele, Lea & Flood 2014 (the constants of java.util.SplittableRandom).
     m = (1 << 64) - 1
@@ -287,6 +303,7 @@ KINDS = {
     "viss": viss,
     "pls": pls,
     "rnd": rnd,
+    "tap": lambda n, p: tap(n, p, 1.0, 1.0),
 }
 
 if __name__ == "__main__":

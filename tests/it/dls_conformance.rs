@@ -2,7 +2,8 @@
 //! written from LB4OMP's and DLS4LB's code (each formula cites the peer's file:line), generated
 //! once into `tests/data/dls_reference.txt`. For every kind, N ∈ {1000, 4096, 65536, 100003}
 //! and P ∈ {2, 4, 16, 64}, workers asking in turn and reporting their previous chunk (worker w
-//! takes 1 + w mod 3 s an item, 0.5 s a hand-out), raysched's chunk sequence must match the
+//! takes (1 + w mod 3)·(1 + j mod 2) s an item in its chunk after j reported ones, 0.5 s a
+//! hand-out), raysched's chunk sequence must match the
 //! reference's within ±1 item a chunk and end within one chunk of it.
 
 use raysched::sched::kinds::fixed_size::FixedSize;
@@ -67,15 +68,19 @@ fn rule_of(kind: &str, n: usize, p: usize) -> Box<dyn ChunkRule> {
 /// Workers in turn, each reporting its previous chunk before asking again.
 fn play(rule: &mut dyn ChunkRule, n: usize, p: usize) -> Vec<usize> {
     let (mut handed, mut out, mut last, mut w) = (0, Vec::new(), vec![0usize; p], 0);
+    let mut reported = vec![0usize; p];
     while handed < n {
         if last[w] > 0 {
+            // Half speed every other chunk: a chunk-index-weighted mean (AWF's π) then differs
+            // from the plain one, so dropping the weighting fails the test.
             let r = Report {
                 items: last[w],
-                secs: last[w] as f64 * (1.0 + (w % 3) as f64),
+                secs: last[w] as f64 * (1.0 + (w % 3) as f64) * (1.0 + (reported[w] % 2) as f64),
                 grab_secs: 0.5,
                 ..Default::default()
             };
             rule.report(w, &r);
+            reported[w] += 1;
         }
         let c = rule.next(w, n - handed).clamp(1, n - handed);
         out.push(c);
@@ -135,6 +140,7 @@ fn published_kinds_match_the_independent_reference_within_one_item_a_chunk() {
         "viss",
         "pls",
         "rnd",
+        "tap",
     ] {
         assert!(kinds.contains(want), "{want} missing from the table");
     }

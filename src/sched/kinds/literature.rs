@@ -55,18 +55,13 @@ pub const TECHNIQUES: [Technique; 30] = [
         "FAC's chunks with LB4OMP's cheaper synchronisation: the same sequence as `fac`",
     ),
     t("FAC2", "LB4OMP", "Flynn Hummel, Schonberg & Flynn, CACM 35(8), 1992"),
-    missing(
-        "TAP",
-        "LB4OMP",
-        "Lucco, PLDI 1992",
-        "not built: needs profiled μ, σ and a scaling factor α (left for a later issue)",
-    ),
+    t("TAP", "LB4OMP", "Lucco, PLDI 1992"),
     t("WF2", "LB4OMP", "Flynn Hummel, Schmidt, Uma & Wein, SPAA 1996"),
     missing(
         "BOLD",
         "LB4OMP",
         "Hagerup, J. Parallel Distrib. Comput. 47, 1997",
-        "not built: its chunk needs the expected work left per worker (left for a later issue)",
+        "not built: LB4OMP's BOLD (`kmp_dispatch.cpp` 2369–2443, 5003–5093 at bd45b1e) sizes each chunk from its estimate of the items not yet executed, lowered at every request by the wall time since the previous request of any worker × the workers' summed speed; a raysched rule reads no clock and a report carries only its own worker's chunk and hand-out times, not the time line of all workers that this estimate needs",
     ),
     missing(
         "AWF",

@@ -202,6 +202,7 @@ builtin_schedulers! {
     ExhaustiveSel = "exhaustive_sel" in exhaustive_sel::ExhaustiveSelParams,
     BinarySel = "binary_sel" in binary_sel::BinarySelParams,
     Auto = "auto" in auto::AutoParams,
+    Tap = "tap" in tap::TapParams,
 }
 
 impl SchedulerKind {
