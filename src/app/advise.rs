@@ -271,7 +271,7 @@ fn print_candidates(advice: &Advice, scene: &Scene) {
     }
 }
 
-/// The best candidate and those tied with it.
+/// The best candidate and those predicted within the tolerance of it.
 fn print_verdict(args: &AdviseArgs, advice: &Advice, scene: &Scene) -> Result<(), CliError> {
     let Some(&best) = advice.near_best.first() else {
         return Err(CliError::message("no candidate to advise on"));
@@ -284,7 +284,7 @@ fn print_verdict(args: &AdviseArgs, advice: &Advice, scene: &Scene) -> Result<()
         ms(b.prediction.wall_s)
     );
     if advice.near_best.len() > 1 {
-        let tied: Vec<String> = advice.near_best[1..]
+        let near: Vec<String> = advice.near_best[1..]
             .iter()
             .map(|&i| {
                 let c = &advice.candidates[i];
@@ -299,7 +299,7 @@ fn print_verdict(args: &AdviseArgs, advice: &Advice, scene: &Scene) -> Result<()
             "flat: {} configurations within {} % of the best: {}",
             advice.near_best.len(),
             args.tolerance_pct,
-            tied.join(", ")
+            near.join(", ")
         );
     } else {
         out!(
