@@ -21,6 +21,7 @@ pub use font::register_font;
 
 use crate::studies::experiment::summary::{self, Summary};
 use crate::studies::experiment::{convergence, meta, results};
+use crate::util::one_line::escape_controls;
 use crate::util::staging::Staging;
 use std::path::{Path, PathBuf};
 
@@ -28,7 +29,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
     /// A file or folder could not be read, written or understood.
-    #[error("{}: {msg}", path.display())]
+    #[error("{}: {msg}", escape_controls(&path.to_string_lossy()))]
     File {
         /// The file or folder.
         path: PathBuf,
@@ -138,7 +139,7 @@ pub fn redraw_scaled(dir: &Path, png_scale: raster::PngScale) -> Result<Vec<Path
     if !runs.exists() {
         let msg = format!(
             "not found (is {} an experiment results folder?)",
-            dir.display()
+            escape_controls(&dir.to_string_lossy())
         );
         return Err(PlotError::at(&runs, msg));
     }

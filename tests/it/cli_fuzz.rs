@@ -445,10 +445,16 @@ fn judge(case: &Case, o: &Outcome, base_err: Option<&str>) -> Option<String> {
             let named = case.names.iter().any(|n| {
                 let n: String = n.chars().take(40).collect();
                 let escaped: String = n.chars().flat_map(char::escape_default).collect();
-                !n.trim().is_empty()
-                    && (line.contains(&n)
-                        || line.contains(&escaped)
-                        || line.to_lowercase().contains(&n.to_lowercase()))
+                if n.trim().is_empty() {
+                    // A blank value (" ", "\t") is named escaped or quoted, never bare.
+                    return (!escaped.trim().is_empty() && line.contains(&escaped))
+                        || [format!("'{n}'"), format!("`{n}`"), format!("\"{n}\"")]
+                            .iter()
+                            .any(|q| line.contains(q.as_str()));
+                }
+                line.contains(&n)
+                    || line.contains(&escaped)
+                    || line.to_lowercase().contains(&n.to_lowercase())
             });
             (!named).then(|| "the error does not name the argument".into())
         }

@@ -29,6 +29,7 @@ use super::stats::{median, paired_ratio_change, unpaired_ratio, Ratio};
 use super::summary::{pair_by_rep, seed_of, summarize, Summary};
 pub use super::verdict::Verdict;
 use super::verdict::{decide, Rule};
+use crate::util::one_line::escape_controls;
 use serde::Serialize;
 use std::collections::BTreeSet;
 use std::fmt::Write;
@@ -232,10 +233,12 @@ fn why_disjoint(a: &[RunRow], b: &[RunRow]) -> String {
 fn load(dir: &Path) -> Result<(Loaded, Vec<RunRow>), CompareError> {
     let runs = dir.join("runs.csv");
     if !runs.exists() {
+        // A folder name may hold a tab or a newline: the error stays one line and names it.
+        let shown = |p: &Path| escape_controls(&p.to_string_lossy()).into_owned();
         return Err(CompareError::Folder(format!(
             "{}: not found (is {} a results folder?)",
-            runs.display(),
-            dir.display()
+            shown(&runs),
+            shown(dir)
         )));
     }
     let (rows, _) = read_runs(&runs).map_err(|e| CompareError::Folder(e.to_string()))?;
