@@ -99,13 +99,13 @@ fn a_custom_source_joins_the_master_and_a_worker_rule() {
 /// SimGrid runs once per process: each parent test runs its rule in a child of the test
 /// binary, which prints `SIMULATED wall_s=… issued=…`.
 #[cfg(feature = "simgrid")]
-fn simulate_in_this_process(rule: &dyn Scheduler, id: String) {
+fn simulate_in_this_process(rule: &dyn Scheduler) {
     use raysched::simulate::job::{Network, SimJob};
     let platform = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("platforms/smp2.xml");
     let n = 256;
     let job = SimJob {
         platform,
-        scheduler: id,
+        scheduler: rule.id(),
         params: Default::default(),
         workers: 2,
         cost_s: vec![1e-4; n],
@@ -150,7 +150,7 @@ fn simulated_in_a_child(child: &str) -> (f64, f64, String) {
 #[test]
 #[ignore = "run by the_simulation_plays_a_custom_rule in a process of its own"]
 fn simulation_child() {
-    simulate_in_this_process(&QUARTER, QUARTER.id());
+    simulate_in_this_process(&QUARTER);
 }
 
 #[cfg(feature = "simgrid")]
@@ -240,7 +240,7 @@ fn the_cost_model_plays_a_two_level_pool() {
 #[test]
 #[ignore = "run by the_simulation_plays_a_two_level_pool in a process of its own"]
 fn simulation_child_two_level() {
-    simulate_in_this_process(&PAIRS, PAIRS.id());
+    simulate_in_this_process(&PAIRS);
 }
 
 #[cfg(feature = "simgrid")]
